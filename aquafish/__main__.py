@@ -1,0 +1,3 @@
+from aquafish.cli import main
+
+main()

@@ -1,0 +1,84 @@
+"""Physical parameters of the robot, its servos and the water (DESIGN.md section 3).
+
+Units: length in simulator units (1 unit = body diameter = 8 cm), mass in units of
+(water density x unit volume) so that water has density 1, time in seconds. Gravity is
+therefore 9.81 m/s^2 / 0.08 m = 122.6 units/s^2.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+DT_S = 0.01  #: physics step (s), paper section 4.
+DRAG_LAWS = ("quadratic", "linear")
+
+
+@dataclasses.dataclass(frozen=True)
+class SimParams:
+    """Fluid, body and servo parameters; every field is also an ``AquaFish-v0`` kwarg.
+
+    Attributes:
+        drag_coefficient: c_d of every face (dimensionless), default 1.0.
+        fluid_density: rho (mass units / unit^3), default 1.0 (water).
+        drag_law: ``"quadratic"`` g(v) = rho v^2 / 2 (default) or ``"linear"`` g(v) = v,
+            the lab's ODE model (Moore, Clark & McKinley, GECCO 2013, Algorithm 1).
+        water_current: uniform water velocity (units/s, world frame), shape ``(3,)``.
+        gravity: units/s^2 (default 122.6 = 9.81 m/s^2 at 1 unit = 8 cm).
+        ballast_offset: distance (units) of the body's centre of mass below its centre of
+            buoyancy; gives the righting moment. Default 0.05 (4 mm).
+        pectoral_max_torque: servo torque limit of each pectoral motor.
+        caudal_max_torque: servo torque limit of the caudal motor.
+        caudal_amplitude_deg: half sweep of the caudal fin (degrees), paper: 30.
+        caudal_position_gain, caudal_velocity_gain: PyBullet position-control gains.
+        imu_noise_deg: standard deviation of Gaussian noise added to the IMU angles (deg).
+
+    Raises:
+        ValueError: a field out of its allowed range (named in the message).
+    """
+
+    drag_coefficient: float = 1.0
+    fluid_density: float = 1.0
+    drag_law: str = "quadratic"
+    water_current: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    gravity: float = 122.6
+    ballast_offset: float = 0.05
+    pectoral_max_torque: float = 50.0
+    caudal_max_torque: float = 50.0
+    caudal_amplitude_deg: float = 30.0
+    caudal_position_gain: float = 0.3
+    caudal_velocity_gain: float = 1.0
+    imu_noise_deg: float = 0.0
+
+    def __post_init__(self) -> None:
+        nonneg = ("drag_coefficient", "fluid_density", "gravity", "ballast_offset", "imu_noise_deg")
+        positive = ("pectoral_max_torque", "caudal_max_torque", "caudal_position_gain", "caudal_velocity_gain")
+        for name in nonneg + positive:
+            value = getattr(self, name)
+            if not isinstance(value, (int, float, np.floating, np.integer)) or not math.isfinite(value):
+                raise ValueError(f"SimParams.{name} must be a finite number, got {value!r}")
+            if value < 0 or (name in positive and value == 0):
+                kind = "> 0" if name in positive else ">= 0"
+                raise ValueError(f"SimParams.{name} must be {kind}, got {value!r}")
+            object.__setattr__(self, name, float(value))
+        if self.ballast_offset >= 0.5:
+            raise ValueError(f"SimParams.ballast_offset must be < 0.5 (the body radius), got {self.ballast_offset}")
+        if not 0 < self.caudal_amplitude_deg <= 90:
+            raise ValueError(f"SimParams.caudal_amplitude_deg must be in (0, 90], got {self.caudal_amplitude_deg}")
+        if self.drag_law not in DRAG_LAWS:
+            raise ValueError(f"SimParams.drag_law must be one of {DRAG_LAWS}, got {self.drag_law!r}")
+        current = np.asarray(self.water_current, dtype=np.float64)
+        if current.shape != (3,) or not np.all(np.isfinite(current)):
+            raise ValueError(f"SimParams.water_current must be 3 finite numbers (units/s), got {self.water_current!r}")
+        object.__setattr__(self, "water_current", tuple(current.tolist()))
+
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        """Names of all parameters (usable as env kwargs)."""
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    @property
+    def caudal_amplitude_rad(self) -> float:
+        return math.radians(self.caudal_amplitude_deg)

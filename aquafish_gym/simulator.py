@@ -1,0 +1,302 @@
+"""Batched simulator: many robots in one PyBullet world, stepped together.
+
+This is the boundary between ``aquafish_gym`` and the rest of the project
+(DESIGN.md section 4): the EEA calls :func:`simulate_batch`; the Gymnasium env drives a
+:class:`BatchWorld` of one robot. The fluid forces of all robots are computed in one NumPy
+pass per step (:mod:`aquafish_gym.fluid`), then applied with one force and one torque call
+per link.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pybullet as p
+
+from aquafish_gym.damage import faults_array
+from aquafish_gym.fluid import box_drag, quat_to_matrix, righting_torque
+from aquafish_gym.imu import roll_pitch_yaw_deg, unwrap_yaw_deg
+from aquafish_gym.morphology import validate_morphologies
+from aquafish_gym.params import DT_S, SimParams
+from aquafish_gym.robot import JOINTS, LINK_CAUDAL, N_LINKS, create_robot, robot_spec
+
+#: Servo command ranges: left/right pectoral speed (rev/s), caudal frequency (Hz). Paper 3.1.
+ACTION_BOUNDS = np.array([[-0.5, 0.5], [-0.5, 0.5], [0.0, 1.0]])
+ACTION_BOUNDS.setflags(write=False)
+_LINKS = (-1, *JOINTS)
+#: Robots of a batch sit on a grid this far apart (units) so that PyBullet's broadphase
+#: never pairs them (collisions are masked off anyway; overlapping bounding boxes at one
+#: point made stepping O(N^2)). Only the body's orientation is logged, so a robot's IMU
+#: log does not depend on where it sits.
+ROBOT_SPACING = 20.0
+_GRID_COLUMNS = 10
+
+
+def validate_actions(actions, n: int) -> np.ndarray:
+    """Check servo commands ``(n, 3)`` (rev/s, rev/s, Hz) and return them as float64.
+
+    Raises:
+        ValueError: wrong shape, NaN, or a command outside :data:`ACTION_BOUNDS`.
+    """
+    arr = np.asarray(actions, dtype=np.float64)
+    if arr.ndim == 1:
+        arr = arr[None]
+    if arr.shape != (n, 3):
+        raise ValueError(f"actions must have shape ({n}, 3) (left rev/s, right rev/s, caudal Hz), got {np.shape(actions)}")
+    names = ("left pectoral speed (rev/s)", "right pectoral speed (rev/s)", "caudal frequency (Hz)")
+    bad = ~np.isfinite(arr) | (arr < ACTION_BOUNDS[:, 0]) | (arr > ACTION_BOUNDS[:, 1])
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        raise ValueError(f"actions[{i}] {names[j]} must be in {ACTION_BOUNDS[j].tolist()}, got {arr[i, j]!r}")
+    return arr
+
+
+def validate_initial_angles(angles, n: int, caudal_amplitude_rad: float) -> np.ndarray:
+    """Check initial flipper angles ``(n, 3)`` in radians and return them as float64.
+
+    Pectoral angles may be any finite value (they are taken modulo 2 pi); the caudal angle
+    must lie within the sweep [-amplitude, amplitude].
+
+    Raises:
+        ValueError: wrong shape, NaN, or a caudal angle outside the sweep.
+    """
+    arr = np.asarray(angles, dtype=np.float64)
+    if arr.ndim == 1:
+        arr = arr[None]
+    if arr.shape != (n, 3):
+        raise ValueError(f"initial_angles must have shape ({n}, 3) (left, right, caudal; rad), got {np.shape(angles)}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("initial_angles must be finite (radians)")
+    if np.any(np.abs(arr[:, 2]) > caudal_amplitude_rad + 1e-12):
+        raise ValueError(f"initial caudal angles must be in [-{caudal_amplitude_rad:.4f}, {caudal_amplitude_rad:.4f}] rad, got {arr[:, 2].tolist()}")
+    return arr
+
+
+class BatchWorld:
+    """N robots in one PyBullet world (collisions masked off), stepped together.
+
+    Args:
+        morphologies: ``(N, 9)`` flipper dimensions (see :class:`~aquafish_gym.Morphology`).
+        params: :class:`SimParams` (default: the defaults).
+        faults: ``None``, one :class:`~aquafish_gym.ServoFaults`, or ``N`` of them.
+        visual: create visual shapes (for rendering).
+        client: an existing PyBullet client to use (it is reset); default: a new
+            ``DIRECT`` client owned by this object.
+
+    Raises:
+        ValueError: invalid morphologies or faults.
+    """
+
+    def __init__(self, morphologies, params: SimParams | None = None, faults=None, *, visual: bool = False, client: int | None = None):
+        self.params = params if params is not None else SimParams()
+        self.morphologies = validate_morphologies(morphologies)
+        self.n = self.morphologies.shape[0]
+        self.seized, self.speed_scale = faults_array(faults, self.n)
+        self.spec = robot_spec(self.morphologies, self.params)
+        self._owns_client = client is None
+        self.client = p.connect(p.DIRECT) if client is None else client
+        p.resetSimulation(physicsClientId=self.client)
+        p.setGravity(0, 0, 0, physicsClientId=self.client)  # gravity and buoyancy enter as their couple
+        p.setTimeStep(DT_S, physicsClientId=self.client)
+        self.home = np.array([[ROBOT_SPACING * (i % _GRID_COLUMNS), ROBOT_SPACING * (i // _GRID_COLUMNS), 0.0] for i in range(self.n)])
+        self.bodies = [create_robot(self.client, self.spec, i, position=self.home[i], visual=visual) for i in range(self.n)]
+        # links that feel drag: the body always, flippers only when they have area
+        self._active = [[0] + [k + 1 for k in range(3) if self.spec.face_areas[i, k + 1].any()] for i in range(self.n)]
+        self.time_s = 0.0
+        self.actions = np.zeros((self.n, 3))
+        self.initial_angles = np.zeros((self.n, 3))
+        self._caudal_phase = np.zeros(self.n)
+        self._read_state()
+
+    # -- lifecycle -------------------------------------------------------------------
+    def close(self) -> None:
+        """Disconnect the PyBullet client if this world created it."""
+        if self._owns_client and self.client is not None and p.isConnected(self.client):
+            p.disconnect(self.client)
+        self.client = None
+
+    def __enter__(self) -> "BatchWorld":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def reset(self, initial_angles, actions=None) -> None:
+        """Put every robot at its home position, level, at rest, flippers at ``initial_angles`` ``(N, 3)`` rad."""
+        self.initial_angles = validate_initial_angles(initial_angles, self.n, self.params.caudal_amplitude_rad)
+        for body, home, angles in zip(self.bodies, self.home.tolist(), self.initial_angles):
+            p.resetBasePositionAndOrientation(body, home, (0, 0, 0, 1), physicsClientId=self.client)
+            p.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=self.client)
+            for j, a in zip(JOINTS, angles):
+                p.resetJointState(body, j, float(a), 0.0, physicsClientId=self.client)
+        self.time_s = 0.0
+        amp = self.params.caudal_amplitude_rad
+        self._caudal_phase = np.arcsin(np.clip(self.initial_angles[:, 2] / amp, -1.0, 1.0))
+        self.actions = np.zeros((self.n, 3))
+        self.set_actions(np.zeros((self.n, 3)) if actions is None else actions)
+        self._read_state()
+
+    def set_actions(self, actions) -> None:
+        """Command the servos: ``(N, 3)`` left/right pectoral rev/s, caudal Hz.
+
+        Pectoral motors are velocity-controlled; a seized servo holds its angle. The caudal
+        fin follows ``A sin(2 pi f t + phi0)`` from its current phase (``phi0`` chosen so
+        that the sweep starts at the initial angle).
+        """
+        actions = validate_actions(actions, self.n)
+        self.actions = actions
+        target = 2 * math.pi * actions[:, :2] * self.speed_scale[:, :2]
+        target[self.seized[:, :2]] = 0.0
+        for i, body in enumerate(self.bodies):
+            p.setJointMotorControlArray(body, JOINTS[:2], p.VELOCITY_CONTROL, targetVelocities=target[i].tolist(),
+                                        forces=[self.params.pectoral_max_torque] * 2, physicsClientId=self.client)
+        self._caudal_omega = 2 * math.pi * np.where(self.seized[:, 2], 0.0, actions[:, 2] * self.speed_scale[:, 2])
+        self._oscillating = np.flatnonzero(self._caudal_omega > 0)
+        amp = self.params.caudal_amplitude_rad
+        for i in np.flatnonzero(self._caudal_omega == 0):  # hold the current angle
+            self._command_caudal(int(i), float(amp * np.sin(self._caudal_phase[i])), 0.0)
+
+    def _command_caudal(self, i: int, angle: float, velocity: float) -> None:
+        prm = self.params
+        p.setJointMotorControl2(self.bodies[i], LINK_CAUDAL, p.POSITION_CONTROL, targetPosition=angle,
+                                targetVelocity=velocity, force=prm.caudal_max_torque, positionGain=prm.caudal_position_gain,
+                                velocityGain=prm.caudal_velocity_gain, physicsClientId=self.client)
+
+    # -- physics ---------------------------------------------------------------------
+    def _read_state(self) -> None:
+        """Read every link's pose and velocity into ``(N, 4, ...)`` arrays (one conversion)."""
+        c = self.client
+        rows = []
+        for body in self.bodies:
+            bp, bo = p.getBasePositionAndOrientation(body, physicsClientId=c)
+            bl, ba = p.getBaseVelocity(body, physicsClientId=c)
+            s0, s1, s2 = p.getLinkStates(body, JOINTS, computeLinkVelocity=1, physicsClientId=c)
+            rows.append(bp + s0[0] + s1[0] + s2[0] + bo + s0[1] + s1[1] + s2[1]
+                        + bl + s0[6] + s1[6] + s2[6] + ba + s0[7] + s1[7] + s2[7])
+        state = np.array(rows)
+        n = self.n
+        self.position = state[:, :12].reshape(n, N_LINKS, 3)
+        self.orientation = state[:, 12:28].reshape(n, N_LINKS, 4)
+        self.linear_velocity = state[:, 28:40].reshape(n, N_LINKS, 3)
+        self.angular_velocity = state[:, 40:52].reshape(n, N_LINKS, 3)
+        self.rotation = quat_to_matrix(self.orientation)
+
+    def fluid_wrench(self) -> tuple[np.ndarray, np.ndarray]:
+        """Fluid force and torque on every link, ``(N, 4, 3)`` each, in each link's own frame.
+
+        Drag on every face of every link (:func:`~aquafish_gym.fluid.box_drag`), plus the
+        gravity-buoyancy couple on the body. Torques are about each link's centre of mass.
+        """
+        prm = self.params
+        force, torque = box_drag(
+            self.rotation, self.linear_velocity, self.angular_velocity, self.spec.box_offsets, self.spec.axis_areas,
+            drag_coefficient=prm.drag_coefficient, fluid_density=prm.fluid_density,
+            drag_law=prm.drag_law, water_current=prm.water_current,
+        )
+        body_rot = self.rotation[:, 0]
+        righting = righting_torque(body_rot, self.spec.masses[:, 0], prm.gravity, prm.ballast_offset)
+        torque[:, 0] += (body_rot * righting[:, :, None]).sum(axis=-2)  # world -> body frame
+        return force, torque
+
+    def step(self) -> None:
+        """Advance all robots by one physics step of :data:`DT_S` seconds.
+
+        One force call per link that has drag (link frame, at its centre of mass) and one
+        torque call for the body; a flipper's drag box is centred on its centre of mass,
+        so its drag torque is identically zero (see :mod:`aquafish_gym.fluid`).
+        """
+        c = self.client
+        force, torque = self.fluid_wrench()
+        force_l, torque_l = force.tolist(), torque[:, 0].tolist()
+        origin = (0.0, 0.0, 0.0)
+        for i, body in enumerate(self.bodies):
+            fi = force_l[i]
+            for k in self._active[i]:
+                p.applyExternalForce(body, _LINKS[k], fi[k], origin, p.LINK_FRAME, physicsClientId=c)
+            p.applyExternalTorque(body, -1, torque_l[i], p.LINK_FRAME, physicsClientId=c)
+        if self._oscillating.size:
+            # caudal sweep A sin(phase); the phase advances by 2 pi f dt per step
+            idx = self._oscillating
+            amp, w = self.params.caudal_amplitude_rad, self._caudal_omega[idx]
+            phase = self._caudal_phase[idx] + w * DT_S
+            self._caudal_phase[idx] = phase
+            angle, velocity = (amp * np.sin(phase)).tolist(), (amp * w * np.cos(phase)).tolist()
+            for i, a, v in zip(idx.tolist(), angle, velocity):
+                self._command_caudal(i, a, v)
+        p.stepSimulation(physicsClientId=c)
+        self.time_s += DT_S
+        self._read_state()
+
+    # -- sensing ---------------------------------------------------------------------
+    def imu_rpy_deg(self) -> np.ndarray:
+        """``(N, 3)`` roll, pitch, yaw (degrees, wrapped) of every robot's body."""
+        return roll_pitch_yaw_deg(self.rotation[:, 0])
+
+    def joint_angles(self) -> np.ndarray:
+        """``(N, 3)`` current flipper angles (rad): left, right pectoral, caudal."""
+        return np.array([[s[0] for s in p.getJointStates(b, JOINTS, physicsClientId=self.client)] for b in self.bodies])
+
+    def run(self, steps: int, rng: np.random.Generator | None = None) -> np.ndarray:
+        """Step ``steps`` times and return the IMU log ``(N, steps, 3)`` (deg, yaw unwrapped)."""
+        log = np.empty((self.n, steps, 3))
+        for k in range(steps):
+            self.step()
+            log[:, k] = self.imu_rpy_deg()
+        log = unwrap_yaw_deg(log)
+        if self.params.imu_noise_deg > 0:
+            rng = rng if rng is not None else np.random.default_rng()
+            log += rng.normal(0.0, self.params.imu_noise_deg, size=log.shape)
+        return log
+
+
+_SHARED_CLIENT: dict[int, int] = {}
+
+
+def _shared_client() -> int:
+    """One DIRECT client per process, reused across :func:`simulate_batch` calls."""
+    import os
+
+    pid = os.getpid()
+    client = _SHARED_CLIENT.get(pid)
+    if client is None or not p.isConnected(client):
+        client = _SHARED_CLIENT[pid] = p.connect(p.DIRECT)
+    return client
+
+
+def simulate_batch(morphologies, actions, initial_angles, steps: int, *, faults=None, params: SimParams | None = None,
+                   rng: np.random.Generator | None = None) -> np.ndarray:
+    """Simulate N robots performing one action each; return their IMU logs.
+
+    All N robots live in one PyBullet world with collisions masked off and are stepped
+    together; robot i's result does not depend on N or on its neighbours (DESIGN.md
+    section 4). ``dt`` = 0.01 s.
+
+    Args:
+        morphologies: ``(N, 9)`` flipper dimensions (simulator units), or ``(9,)``.
+        actions: ``(N, 3)`` servo commands: left and right pectoral speed (rev/s, in
+            [-0.5, 0.5]) and caudal frequency (Hz, in [0, 1]).
+        initial_angles: ``(N, 3)`` initial flipper angles (rad): left and right pectoral
+            (any value, 0 = arms back), caudal (within the +-30 degree sweep).
+        steps: number of 0.01 s steps (the paper uses powers of two, 128 ... 1024).
+        faults: ``None``, one :class:`~aquafish_gym.ServoFaults` or ``N`` of them.
+        params: :class:`~aquafish_gym.SimParams`; default: the defaults.
+        rng: source of IMU noise (used only if ``params.imu_noise_deg > 0``).
+
+    Returns:
+        ``(N, steps, 3)`` float64: roll, pitch, yaw of each robot's body after each step,
+        in degrees, yaw unwrapped.
+
+    Raises:
+        ValueError: bad shapes, out-of-range values, NaN, or ``steps < 1``.
+    """
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+        raise ValueError(f"steps must be a positive integer (0.01 s each), got {steps!r}")
+    morph = validate_morphologies(morphologies)
+    n = morph.shape[0]
+    prm = params if params is not None else SimParams()
+    acts = validate_actions(actions, n)
+    angles = validate_initial_angles(initial_angles, n, prm.caudal_amplitude_rad)
+    world = BatchWorld(morph, prm, faults, client=_shared_client())
+    world.reset(angles, acts)
+    return world.run(int(steps), rng)

@@ -1,0 +1,78 @@
+"""Simulator throughput: microseconds per robot-step of ``simulate_batch`` versus raw PyBullet.
+
+For batches of 1, 25 and 100 robots of 128 steps, measures in the same run
+
+* ``simulate_batch`` (world creation, fluid model, servos, IMU log), and
+* PyBullet stepping the same bodies with no fluid model and no per-step Python work
+  (``stepSimulation`` only, after the same world is built),
+
+and prints microseconds per robot-step and their ratio (median of ``--repeats`` runs).
+
+    python -m benchmarks.sim_throughput [--steps 128] [--repeats 5] [--sizes 1,25,100]
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import statistics
+import time
+
+import numpy as np
+import pybullet as p
+
+from aquafish_gym import BatchWorld, Morphology, simulate_batch
+from aquafish_gym.morphology import MORPHOLOGY_BOUNDS
+
+
+def _inputs(n: int, rng: np.random.Generator):
+    lo, hi = MORPHOLOGY_BOUNDS[:, 0], MORPHOLOGY_BOUNDS[:, 1]
+    morph = rng.uniform(lo, hi, size=(n, 9))
+    morph[0] = Morphology.healthy().to_array()
+    actions = np.column_stack([rng.uniform(-0.5, 0.5, n), rng.uniform(-0.5, 0.5, n), rng.uniform(0, 1, n)])
+    angles = np.column_stack([rng.uniform(0, 2 * np.pi, n), rng.uniform(0, 2 * np.pi, n), rng.uniform(-0.5, 0.5, n)])
+    return morph, actions, angles
+
+
+def time_simulate_batch(n: int, steps: int, rng) -> float:
+    morph, actions, angles = _inputs(n, rng)
+    t0 = time.perf_counter()
+    simulate_batch(morph, actions, angles, steps)
+    return time.perf_counter() - t0
+
+
+def time_raw_pybullet(n: int, steps: int, rng) -> float:
+    """The same robots, motors set once, then ``stepSimulation`` only."""
+    morph, actions, angles = _inputs(n, rng)
+    client = p.connect(p.DIRECT)
+    try:
+        world = BatchWorld(morph, client=client)
+        world.reset(angles, actions)
+        t0 = time.perf_counter()
+        for _ in range(steps):
+            p.stepSimulation(physicsClientId=client)
+        return time.perf_counter() - t0
+    finally:
+        p.disconnect(client)
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=128)
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--sizes", default="1,25,100")
+    args = parser.parse_args(argv)
+    rng = np.random.default_rng(0)
+    sizes = [int(s) for s in args.sizes.split(",")]
+    print(f"machine: {platform.processor() or platform.machine()}, {platform.python_implementation()} {platform.python_version()}, pybullet API {p.getAPIVersion()}")
+    print(f"{'robots':>6} {'steps':>5} {'sim us/robot-step':>18} {'raw us/robot-step':>18} {'ratio':>6}")
+    for n in sizes:
+        time_simulate_batch(n, 8, rng)  # warm-up
+        sim = statistics.median(time_simulate_batch(n, args.steps, rng) for _ in range(args.repeats))
+        raw = statistics.median(time_raw_pybullet(n, args.steps, rng) for _ in range(args.repeats))
+        us = 1e6 / (n * args.steps)
+        print(f"{n:>6} {args.steps:>5} {sim * us:>18.1f} {raw * us:>18.1f} {sim / raw:>6.2f}")
+
+
+if __name__ == "__main__":
+    main()

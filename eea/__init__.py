@@ -1,0 +1,22 @@
+"""Estimation-Exploration Algorithm (EEA) for the self-modeling aquatic robot.
+
+Reproduces Rose, Clark, Moore & McKinley, "Just Keep Swimming: Accounting for Uncertainty
+in Self-Modeling Aquatic Robots" (ERLARS 2013), sections 3.2-3.4 and 4. The modules here
+are pure NumPy and know nothing of the simulator:
+
+* ``eea.encoding``  -- 45-bit model and 18-bit action genomes (section 3.2, Figure 4).
+* ``eea.ga``        -- generational bit-string GA with ask/tell (section 4).
+* ``eea.behaviour`` -- DFT behaviour summaries and their similarity (equation 2).
+* ``eea.fitness``   -- action, model and objective fitness (equations 1, 3, 4).
+* ``eea.arc``       -- smallest inclusive arcs of initial angles (section 3.3).
+"""
+
+from eea.arc import in_arc, sample_arc, smallest_inclusive_arc, smallest_inclusive_interval
+from eea.arc import widen_arc
+from eea.behaviour import CHANNELS, MAX_COEFFICIENT, behaviour_summary, similarity
+from eea.encoding import ACTION_BITS, ACTION_BOUNDS, ACTION_FIELD_BITS, ACTION_NAMES
+from eea.encoding import MODEL_BITS, MODEL_BOUNDS, MODEL_FIELD_BITS, MODEL_NAMES
+from eea.encoding import decode_actions, decode_fields, decode_models
+from eea.encoding import encode_actions, encode_fields, encode_models
+from eea.fitness import action_fitness, model_fitness, objective_fitness
+from eea.ga import BitGA

@@ -1,0 +1,108 @@
+"""Behaviour summaries and their similarity (paper section 3.1 and equation 2).
+
+A *behaviour summary* is the magnitude of the discrete Fourier transform of each IMU
+orientation series (roll, pitch, yaw in degrees, sampled every 0.01 s) of one experiment.
+Two summaries are compared coefficient by coefficient with equation 2::
+
+    sim(B, B') = 1/f * sum_k clip(1 - |c_k(B) - c_k(B')| / MAX, 0, 1),   MAX = 100
+
+Scaling (DESIGN section 6): the coefficients are the *unnormalised* ``|numpy.fft.rfft|``
+(a sum over samples, not divided by their number), so a sinusoid of amplitude A degrees
+over N samples gives a peak of about A * N / 2. Normalised coefficients are so small next
+to MAX = 100 that sim is about 0.999 for a healthy versus a damaged robot and the search is
+blind; unnormalised ones keep differences of a few degrees visible (sim 0.87-0.94 in the
+design prototype at 256 steps). The coefficients therefore grow with the number of steps,
+and MAX must be read as "per N samples": compare only summaries of equal length.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["CHANNELS", "MAX_COEFFICIENT", "behaviour_summary", "similarity"]
+
+#: Channel order of IMU logs and of behaviour summaries (kept as the simulator logs them).
+CHANNELS: tuple[str, ...] = ("roll", "pitch", "yaw")
+#: MAX of equation 2 (the paper's value).
+MAX_COEFFICIENT: float = 100.0
+
+
+def behaviour_summary(imu_log) -> np.ndarray:
+    """DFT magnitudes of roll, pitch and yaw series: the paper's behaviour summary.
+
+    Every frequency bin is kept, the zero-frequency (sum) term included.
+
+    Args:
+        imu_log: ``(N, steps, 3)`` or ``(steps, 3)`` orientation in degrees, channels
+            ``CHANNELS`` = (roll, pitch, yaw), one row per 0.01 s simulation step
+            (steps >= 1, normally a power of two).
+
+    Returns:
+        ``(N, 3, steps // 2 + 1)`` (or ``(3, steps // 2 + 1)``) float64
+        ``|rfft(series)|`` along time, unnormalised (degree-samples), channel order
+        ``CHANNELS``.
+
+    Raises:
+        ValueError: if ``imu_log`` is not 2-D or 3-D with 3 channels last, has no steps,
+            or contains NaN or infinity.
+    """
+    log = np.asarray(imu_log, dtype=np.float64)
+    if log.ndim not in (2, 3) or log.shape[-1] != len(CHANNELS):
+        raise ValueError(
+            f"imu_log must have shape (N, steps, 3) or (steps, 3) with channels {CHANNELS}, "
+            f"got {log.shape}"
+        )
+    if log.shape[-2] == 0:
+        raise ValueError("imu_log must have at least one step")
+    if not np.all(np.isfinite(log)):
+        raise ValueError("imu_log contains NaN or infinity")
+    return np.abs(np.fft.rfft(np.swapaxes(log, -1, -2), axis=-1))
+
+
+def similarity(a, b, max_coefficient: float = MAX_COEFFICIENT) -> np.ndarray:
+    """Similarity of behaviour summaries, paper equation 2 (1 = identical, 0 = far apart).
+
+    The mean over all f = 3 * F coefficients (every channel and frequency) of
+    ``clip(1 - |c_k(a) - c_k(b)| / max_coefficient, 0, 1)``: a coefficient that differs
+    by ``max_coefficient`` or more contributes 0, never a negative amount.
+
+    Args:
+        a: ``(..., 3, F)`` behaviour summaries (see :func:`behaviour_summary`).
+        b: ``(..., 3, F)`` behaviour summaries; leading dimensions broadcast with ``a``'s,
+            e.g. ``(P, 3, F)`` against ``(3, F)`` gives ``(P,)``.
+        max_coefficient: MAX of equation 2, > 0 (paper: 100).
+
+    Returns:
+        ``(...)`` float64 similarities in [0, 1] (a 0-d ``numpy.float64`` for two single
+        summaries).
+
+    Raises:
+        ValueError: if either input is not ``(..., 3, F)``, their last two dimensions
+            differ, their leading dimensions do not broadcast, an input contains NaN or
+            infinity, or ``max_coefficient`` is not a finite number > 0.
+    """
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    for name, x in (("a", a), ("b", b)):
+        if x.ndim < 2 or x.shape[-2] != len(CHANNELS) or x.shape[-1] == 0:
+            raise ValueError(f"{name} must have shape (..., 3, F) with F >= 1, got {x.shape}")
+        if not np.all(np.isfinite(x)):
+            raise ValueError(f"{name} contains NaN or infinity")
+    if a.shape[-2:] != b.shape[-2:]:
+        raise ValueError(
+            f"a and b must have the same (3, F) summary shape, got {a.shape} and {b.shape}"
+        )
+    try:
+        np.broadcast_shapes(a.shape, b.shape)
+    except ValueError:
+        raise ValueError(
+            f"leading dimensions of a {a.shape} and b {b.shape} do not broadcast"
+        ) from None
+    try:
+        valid = bool(np.isfinite(max_coefficient) and max_coefficient > 0)
+    except TypeError:
+        valid = False
+    if not valid:
+        raise ValueError(f"max_coefficient must be a finite number > 0, got {max_coefficient!r}")
+    terms = np.clip(1.0 - np.abs(a - b) / max_coefficient, 0.0, 1.0)
+    return terms.mean(axis=(-2, -1))

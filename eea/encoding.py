@@ -1,0 +1,230 @@
+"""Binary genomes of the EEA: model (morphology) and action encodings (paper section 3.2).
+
+Both genomes are bit strings made of consecutive unsigned-integer *fields*, each stored
+most-significant bit first and decoded linearly onto a closed range::
+
+    value = lo + (hi - lo) * int(bits) / (2**nbits - 1)
+
+so the all-zeros field decodes to ``lo`` and the all-ones field to ``hi``.
+
+* Model genome, 45 bits: 15 per flipper in the order left pectoral, right pectoral,
+  caudal; per flipper x (5 bits), y (6 bits), z (4 bits). Pectoral ranges x in [0, 1],
+  y in [0, 2], z in [0, 0.5]; caudal x in [0, 0.5], y in [0, 2], z in [0, 1] (section 3.1,
+  Figure 4). The decoded order is ``MODEL_NAMES`` and matches
+  ``aquafish_gym.MORPHOLOGY_BOUNDS``.
+* Action genome, 18 bits: 6 per servo; left pectoral speed in [-0.5, 0.5] rev/s, right
+  pectoral speed in [-0.5, 0.5] rev/s, caudal frequency in [0, 1] Hz (section 3.2).
+
+Genomes may be given as bool, integer or float arrays whose entries are exactly 0 or 1;
+encoders return ``uint8``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "ACTION_BITS",
+    "ACTION_BOUNDS",
+    "ACTION_FIELD_BITS",
+    "ACTION_NAMES",
+    "MODEL_BITS",
+    "MODEL_BOUNDS",
+    "MODEL_FIELD_BITS",
+    "MODEL_NAMES",
+    "decode_actions",
+    "decode_fields",
+    "decode_models",
+    "encode_actions",
+    "encode_fields",
+    "encode_models",
+]
+
+MODEL_FIELD_BITS: tuple[int, ...] = (5, 6, 4) * 3
+MODEL_BITS: int = sum(MODEL_FIELD_BITS)  # 45
+MODEL_NAMES: tuple[str, ...] = (
+    "lp_x", "lp_y", "lp_z", "rp_x", "rp_y", "rp_z", "c_x", "c_y", "c_z",
+)
+#: (9, 2) [low, high] of each morphology dimension, simulator units, order ``MODEL_NAMES``.
+MODEL_BOUNDS: np.ndarray = np.array(
+    [[0.0, 1.0], [0.0, 2.0], [0.0, 0.5]] * 2 + [[0.0, 0.5], [0.0, 2.0], [0.0, 1.0]]
+)
+
+ACTION_FIELD_BITS: tuple[int, ...] = (6, 6, 6)
+ACTION_BITS: int = sum(ACTION_FIELD_BITS)  # 18
+ACTION_NAMES: tuple[str, ...] = ("left_pectoral_rev_s", "right_pectoral_rev_s", "caudal_hz")
+#: (3, 2) [low, high] of each servo command: rev/s, rev/s, Hz.
+ACTION_BOUNDS: np.ndarray = np.array([[-0.5, 0.5], [-0.5, 0.5], [0.0, 1.0]])
+
+MODEL_BOUNDS.flags.writeable = False
+ACTION_BOUNDS.flags.writeable = False
+
+# Values may lie outside [lo, hi] by this fraction of the range (floating-point round-off)
+# and still be encoded onto the nearest end; anything further out raises.
+_RANGE_TOLERANCE = 1e-9
+
+
+def _check_layout(field_bits, bounds) -> tuple[np.ndarray, np.ndarray]:
+    """Validate a field layout; return field widths (n_fields,) and bounds (n_fields, 2)."""
+    widths = np.asarray(field_bits)
+    if widths.ndim != 1 or widths.size == 0 or not np.issubdtype(widths.dtype, np.integer):
+        raise ValueError(f"field_bits must be a non-empty sequence of ints, got {field_bits!r}")
+    if np.any(widths < 1) or np.any(widths > 62):
+        raise ValueError(f"field_bits entries must be in [1, 62], got {field_bits!r}")
+    bounds = np.asarray(bounds, dtype=np.float64)
+    if bounds.shape != (widths.size, 2):
+        raise ValueError(
+            f"bounds must have shape ({widths.size}, 2) to match field_bits, got {bounds.shape}"
+        )
+    if not np.all(np.isfinite(bounds)) or np.any(bounds[:, 1] <= bounds[:, 0]):
+        raise ValueError("bounds rows must be finite [low, high] with low < high")
+    return widths.astype(np.int64), bounds
+
+
+def _as_2d(x: np.ndarray, width: int, name: str, what: str) -> tuple[np.ndarray, bool]:
+    """Return x as (P, width) and whether the input was a single 1-D row."""
+    if x.ndim not in (1, 2) or x.shape[-1] != width:
+        raise ValueError(
+            f"{name} must have shape ({width},) or (P, {width}) ({what}), got {x.shape}"
+        )
+    return x.reshape(-1, width), x.ndim == 1
+
+
+def decode_fields(genomes, field_bits, bounds) -> np.ndarray:
+    """Decode bit-string genomes into real values field by field.
+
+    Args:
+        genomes: ``(P, n_bits)`` or ``(n_bits,)`` array of 0/1 (bool, int or float),
+            ``n_bits = sum(field_bits)``; each field most-significant bit first.
+        field_bits: ``(n_fields,)`` number of bits of each field, in genome order.
+        bounds: ``(n_fields, 2)`` [low, high] of each field's decoded value.
+
+    Returns:
+        ``(P, n_fields)`` (or ``(n_fields,)`` for a 1-D genome) float64 values,
+        ``low + (high - low) * int / (2**nbits - 1)``.
+
+    Raises:
+        ValueError: if the layout is invalid, the genome width is not ``sum(field_bits)``,
+            or an entry is not exactly 0 or 1 (NaN included).
+    """
+    widths, bounds = _check_layout(field_bits, bounds)
+    n_bits = int(widths.sum())
+    g = np.asarray(genomes)
+    if not (np.issubdtype(g.dtype, np.number) or g.dtype == np.bool_):
+        raise ValueError(f"genomes must be a numeric or bool array, got dtype {g.dtype}")
+    g2, single = _as_2d(g, n_bits, "genomes", f"{len(widths)} fields of {widths.tolist()} bits")
+    if g2.dtype != np.bool_ and not np.all((g2 == 0) | (g2 == 1)):
+        bad = g2[~((g2 == 0) | (g2 == 1))].flat[0]
+        raise ValueError(f"genomes must contain only 0 and 1, found {bad!r}")
+    # Weight matrix (n_bits, n_fields): 2**k for bit k (from the right) of its own field.
+    field_of_bit = np.repeat(np.arange(widths.size), widths)
+    ends = np.cumsum(widths)
+    shift_of_bit = ends[field_of_bit] - 1 - np.arange(n_bits)
+    weights = np.zeros((n_bits, widths.size), dtype=np.int64)
+    weights[np.arange(n_bits), field_of_bit] = np.left_shift(1, shift_of_bit)
+    ints = g2.astype(np.int64) @ weights
+    frac = ints / (np.left_shift(1, widths) - 1).astype(np.float64)
+    values = bounds[:, 0] + (bounds[:, 1] - bounds[:, 0]) * frac
+    return values[0] if single else values
+
+
+def encode_fields(values, field_bits, bounds) -> np.ndarray:
+    """Encode real values onto the nearest grid point of each field (inverse of decode).
+
+    Args:
+        values: ``(P, n_fields)`` or ``(n_fields,)`` values inside ``bounds``.
+        field_bits: ``(n_fields,)`` number of bits of each field, in genome order.
+        bounds: ``(n_fields, 2)`` [low, high] of each field.
+
+    Returns:
+        ``(P, n_bits)`` (or ``(n_bits,)``) uint8 genomes, most-significant bit first.
+        Exact halfway values round to the even integer (``numpy.rint``).
+
+    Raises:
+        ValueError: if the layout is invalid, the width is not ``n_fields``, a value is
+            NaN or infinite, or a value lies outside [low, high] (by more than 1e-9 of the
+            range, which absorbs floating-point round-off).
+    """
+    widths, bounds = _check_layout(field_bits, bounds)
+    v = np.asarray(values, dtype=np.float64)
+    v2, single = _as_2d(v, widths.size, "values", "one value per field")
+    if not np.all(np.isfinite(v2)):
+        raise ValueError("values must be finite (found NaN or infinity)")
+    lo, hi = bounds[:, 0], bounds[:, 1]
+    frac = (v2 - lo) / (hi - lo)
+    outside = (frac < -_RANGE_TOLERANCE) | (frac > 1 + _RANGE_TOLERANCE)
+    if np.any(outside):
+        row, col = np.argwhere(outside)[0]
+        raise ValueError(
+            f"values[{row}, {col}] = {v2[row, col]!r} is outside its range "
+            f"[{lo[col]}, {hi[col]}]"
+        )
+    levels = np.left_shift(1, widths) - 1
+    ints = np.clip(np.rint(frac * levels), 0, levels).astype(np.int64)  # clip: round-off only
+    field_of_bit = np.repeat(np.arange(widths.size), widths)
+    shift_of_bit = np.cumsum(widths)[field_of_bit] - 1 - np.arange(field_of_bit.size)
+    bits = (np.right_shift(ints[:, field_of_bit], shift_of_bit) & 1).astype(np.uint8)
+    return bits[0] if single else bits
+
+
+def decode_models(genomes) -> np.ndarray:
+    """Decode model genomes (paper section 3.2, Figure 4) into flipper dimensions.
+
+    Args:
+        genomes: ``(P, 45)`` or ``(45,)`` array of 0/1 (uint8, bool, ...).
+
+    Returns:
+        ``(P, 9)`` or ``(9,)`` float64 dimensions in simulator units, order
+        ``MODEL_NAMES`` (lp_x, lp_y, lp_z, rp_x, rp_y, rp_z, c_x, c_y, c_z).
+
+    Raises:
+        ValueError: if the width is not 45 or an entry is not 0 or 1.
+    """
+    return decode_fields(genomes, MODEL_FIELD_BITS, MODEL_BOUNDS)
+
+
+def encode_models(dims) -> np.ndarray:
+    """Encode flipper dimensions onto the nearest model genome (inverse of ``decode_models``).
+
+    Args:
+        dims: ``(P, 9)`` or ``(9,)`` dimensions in simulator units, order ``MODEL_NAMES``,
+            each inside its ``MODEL_BOUNDS`` row.
+
+    Returns:
+        ``(P, 45)`` or ``(45,)`` uint8 genomes.
+
+    Raises:
+        ValueError: if the width is not 9, a value is NaN or outside its range.
+    """
+    return encode_fields(dims, MODEL_FIELD_BITS, MODEL_BOUNDS)
+
+
+def decode_actions(genomes) -> np.ndarray:
+    """Decode action genomes (paper section 3.2) into servo commands.
+
+    Args:
+        genomes: ``(P, 18)`` or ``(18,)`` array of 0/1.
+
+    Returns:
+        ``(P, 3)`` or ``(3,)`` float64 commands: left and right pectoral speed (rev/s, in
+        [-0.5, 0.5]) and caudal frequency (Hz, in [0, 1]).
+
+    Raises:
+        ValueError: if the width is not 18 or an entry is not 0 or 1.
+    """
+    return decode_fields(genomes, ACTION_FIELD_BITS, ACTION_BOUNDS)
+
+
+def encode_actions(actions) -> np.ndarray:
+    """Encode servo commands onto the nearest action genome (inverse of ``decode_actions``).
+
+    Args:
+        actions: ``(P, 3)`` or ``(3,)`` commands (rev/s, rev/s, Hz) inside ``ACTION_BOUNDS``.
+
+    Returns:
+        ``(P, 18)`` or ``(18,)`` uint8 genomes.
+
+    Raises:
+        ValueError: if the width is not 3, a value is NaN or outside its range.
+    """
+    return encode_fields(actions, ACTION_FIELD_BITS, ACTION_BOUNDS)

@@ -1,0 +1,133 @@
+"""Fitness functions of the EEA: equations 1, 3 and 4 of the paper.
+
+* :func:`action_fitness` (eq. 1, exploration): how much an action makes the candidate
+  models disagree.
+* :func:`model_fitness` (eq. 3, estimation): how well a candidate model reproduces the
+  target's recorded experiments.
+* :func:`objective_fitness` (eq. 4, section 4): an oracle distance between a model's and
+  the target's dimensions; recorded, never used by the search.
+
+Behaviour summaries are ``(3, F)`` arrays from :func:`eea.behaviour.behaviour_summary`
+and similarity is :func:`eea.behaviour.similarity` (eq. 2).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from eea.behaviour import MAX_COEFFICIENT, similarity
+from eea.encoding import MODEL_BOUNDS
+
+__all__ = ["action_fitness", "model_fitness", "objective_fitness"]
+
+
+def action_fitness(summaries, max_coefficient: float = MAX_COEFFICIENT):
+    """Disagreement among candidate models under one action, paper equation 1.
+
+    ``ACT_FIT(a) = sum_{i<j} [1 - sim(B_ia, B_ja)] / C(M, 2)``: the mean dissimilarity
+    over the M(M-1)/2 unordered pairs of models.
+
+    Args:
+        summaries: ``(M, 3, F)`` behaviour summaries of the M candidate models under one
+            action, or ``(A, M, 3, F)`` (any leading dimensions) for A actions at once.
+        max_coefficient: MAX of equation 2.
+
+    Returns:
+        A float in [0, 1] for ``(M, 3, F)``; ``(A,)`` float64 for ``(A, M, 3, F)``.
+
+    Raises:
+        ValueError: if ``summaries`` is not ``(..., M, 3, F)`` with M >= 2, or as
+            :func:`eea.behaviour.similarity` raises.
+    """
+    s = np.asarray(summaries, dtype=np.float64)
+    if s.ndim < 3:
+        raise ValueError(f"summaries must have shape (..., M, 3, F), got {s.shape}")
+    m = s.shape[-3]
+    if m < 2:
+        raise ValueError(f"action fitness needs M >= 2 models to compare, got M = {m}")
+    total = np.zeros(s.shape[:-3])
+    for i in range(m - 1):  # pairs (i, j > i); memory stays O(M) summaries per action
+        total = total + (1.0 - similarity(s[..., i : i + 1, :, :], s[..., i + 1 :, :, :],
+                                          max_coefficient)).sum(axis=-1)
+    result = total / (m * (m - 1) / 2)
+    return float(result) if result.ndim == 0 else result
+
+
+def model_fitness(model_summaries, target_summaries, max_coefficient: float = MAX_COEFFICIENT):
+    """How well candidate models reproduce the target, paper equation 3.
+
+    ``MOD_FIT(M_i) = 1/E * sum_e sim(B_{i,a_e}, T_{a_e})``: the mean similarity over the E
+    recorded experiments between model i's response and the target's.
+
+    Args:
+        model_summaries: ``(P, E, 3, F)`` summaries of P models under each experiment's
+            action (any leading dimensions; ``(E, 3, F)`` for one model).
+        target_summaries: ``(E, 3, F)`` recorded target summaries, experiment for
+            experiment.
+        max_coefficient: MAX of equation 2.
+
+    Returns:
+        ``(P,)`` float64 in [0, 1] (0-d for a single model).
+
+    Raises:
+        ValueError: if ``target_summaries`` is not ``(E, 3, F)`` with E >= 1, the
+            trailing ``(E, 3, F)`` of ``model_summaries`` differs from it, or as
+            :func:`eea.behaviour.similarity` raises.
+    """
+    models = np.asarray(model_summaries, dtype=np.float64)
+    target = np.asarray(target_summaries, dtype=np.float64)
+    if target.ndim != 3 or target.shape[0] < 1:
+        raise ValueError(
+            f"target_summaries must have shape (E, 3, F) with E >= 1, got {target.shape}"
+        )
+    if models.ndim < 3 or models.shape[-3:] != target.shape:
+        raise ValueError(
+            f"model_summaries must have shape (P, {', '.join(map(str, target.shape))}) to "
+            f"match target_summaries, got {models.shape}"
+        )
+    return similarity(models, target, max_coefficient).mean(axis=-1)
+
+
+def objective_fitness(model_dims, target_dims, bounds=MODEL_BOUNDS):
+    """Oracle model quality, paper equation 4 (1 = exact, 0 = every dimension maximally off).
+
+    ``OBJ_FIT = 1 - 1/n * sum_i |model_i - target_i| / (max_i - min_i)``, n = 9.
+
+    Args:
+        model_dims: ``(..., n)`` model dimensions in simulator units (decoded genomes).
+        target_dims: ``(n,)`` the target's true dimensions.
+        bounds: ``(n, 2)`` [min, max] of each dimension; default the model genome's
+            ranges, ``eea.encoding.MODEL_BOUNDS`` (= ``aquafish_gym.MORPHOLOGY_BOUNDS``).
+
+    Returns:
+        ``(...)`` float64 in [0, 1] (a float for a single ``(n,)`` model).
+
+    Raises:
+        ValueError: if shapes disagree, bounds rows are not finite with min < max, or a
+            model or target dimension is NaN or outside its bounds (by more than 1e-9
+            of the range).
+    """
+    bounds = np.asarray(bounds, dtype=np.float64)
+    if bounds.ndim != 2 or bounds.shape[1] != 2 or bounds.shape[0] < 1:
+        raise ValueError(f"bounds must have shape (n, 2), got {bounds.shape}")
+    if not np.all(np.isfinite(bounds)) or np.any(bounds[:, 1] <= bounds[:, 0]):
+        raise ValueError("bounds rows must be finite [min, max] with min < max")
+    n = bounds.shape[0]
+    model = np.asarray(model_dims, dtype=np.float64)
+    target = np.asarray(target_dims, dtype=np.float64)
+    if target.shape != (n,):
+        raise ValueError(f"target_dims must have shape ({n},), got {target.shape}")
+    if model.ndim < 1 or model.shape[-1] != n:
+        raise ValueError(f"model_dims must have shape (..., {n}), got {model.shape}")
+    lo, hi = bounds[:, 0], bounds[:, 1]
+    tol = 1e-9 * (hi - lo)  # floating-point round-off only
+    for name, x in (("model_dims", model), ("target_dims", target)):
+        inside = (x >= lo - tol) & (x <= hi + tol)  # False for NaN
+        if not np.all(inside):
+            idx = tuple(int(i) for i in np.argwhere(~inside)[0])
+            raise ValueError(
+                f"{name}{list(idx)} = {x[idx]!r} is NaN or outside its bounds "
+                f"[{lo[idx[-1]]}, {hi[idx[-1]]}]"
+            )
+    result = 1.0 - (np.abs(model - target) / (hi - lo)).mean(axis=-1)
+    return float(result) if result.ndim == 0 else result
