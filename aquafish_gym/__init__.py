@@ -11,6 +11,11 @@ from aquafish_gym.morphology import MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morpho
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.simulator import ACTION_BOUNDS, BatchWorld, simulate_batch
 
+import gymnasium as _gym
+
+if "AquaFish-v0" not in _gym.registry:
+    _gym.register(id="AquaFish-v0", entry_point="aquafish_gym.env:AquaFishEnv", kwargs={})
+
 __all__ = [
     "ACTION_BOUNDS", "DAMAGES", "DT_S", "MORPHOLOGY_BOUNDS", "MORPHOLOGY_FIELDS",
     "BatchWorld", "Damage", "Morphology", "ServoFaults", "SimParams",

@@ -1,0 +1,252 @@
+"""The Gymnasium env ``AquaFish-v0``: the robot learning to swim forward.
+
+A thin layer over :class:`~aquafish_gym.simulator.BatchWorld` (a world of one robot), in
+the manner of Gymnasium's MuJoCo ``swimmer_v5``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pybullet as p
+from gymnasium import spaces
+
+from aquafish_gym.damage import NO_FAULTS, ServoFaults, get_damage
+from aquafish_gym.morphology import Morphology
+from aquafish_gym.params import DT_S, SimParams
+from aquafish_gym.simulator import ACTION_BOUNDS, BatchWorld
+
+OBS_VELOCITY_LIMIT = 100.0  #: bound of the velocity entries of the observation (rad/s, units/s)
+
+
+def _as_morphology(morphology) -> Morphology:
+    if morphology is None:
+        return Morphology.healthy()
+    if isinstance(morphology, Morphology):
+        return morphology
+    return Morphology.from_array(morphology)
+
+
+class AquaFishEnv(gym.Env):
+    """Swim forward with a capsule robot, two pectoral flippers and a caudal fin.
+
+    ## Description
+    The aquatic robot of Rose et al. (ERLARS 2013, section 3.1) in PyBullet with a
+    per-face fluid-drag model (DESIGN.md section 3). Two pectoral flippers on
+    continuous-rotation servos (no position feedback) and a caudal fin oscillating over
+    a +-30 degree sweep. The goal is to swim as far as possible along the initial heading.
+    Morphology (nine flipper dimensions) and damage are parameters, so the same env is
+    the damaged *target* and every *candidate model* of the self-modeling algorithm.
+
+    ## Action Space
+    ``Box(-1, 1, (3,), float32)``, mapped linearly onto the servo ranges:
+
+    | Num | Action                              | Min | Max | Servo range      | Unit  |
+    |-----|-------------------------------------|-----|-----|------------------|-------|
+    | 0   | left pectoral angular velocity      | -1  | 1   | [-0.5, 0.5]      | rev/s |
+    | 1   | right pectoral angular velocity     | -1  | 1   | [-0.5, 0.5]      | rev/s |
+    | 2   | caudal fin oscillation frequency    | -1  | 1   | [0, 1]           | Hz    |
+
+    ## Observation Space
+    ``Box(12,), float64``: the IMU.
+
+    | Num | Observation                                   | Min  | Max | Unit    |
+    |-----|-----------------------------------------------|------|-----|---------|
+    | 0-2 | sin of roll, pitch, yaw                       | -1   | 1   | -       |
+    | 3-5 | cos of roll, pitch, yaw                       | -1   | 1   | -       |
+    | 6-8 | angular velocity (body frame x, y, z)         | -100 | 100 | rad/s   |
+    | 9-11| linear velocity (body frame x, y, z)          | -100 | 100 | units/s |
+
+    Roll is about the longitudinal (y) axis, pitch about the lateral (x) axis, yaw about
+    z (see :mod:`aquafish_gym.imu`). 1 unit = 8 cm (the body diameter). Velocities are
+    clipped to +-100 (never reached by the robot).
+
+    ## Rewards
+    ``reward = forward_reward - ctrl_cost``: ``forward_reward`` is the displacement
+    (units) of the body's centre of mass along the initial heading during the step;
+    ``ctrl_cost = ctrl_cost_weight * sum(action**2)``. Both terms are in ``info``. The
+    episode's summed ``forward_reward`` is the gait fitness (forward distance).
+
+    ## Starting State
+    The body at the origin, level, heading +y, at rest. Initial flipper angles: uniform
+    on [0, 2 pi) (pectorals) and [-30, 30] degrees (caudal) from ``reset(seed=...)``'s
+    generator, unless given by ``initial_angles`` or ``options={"initial_angles": ...}``.
+
+    ## Episode End
+    Never terminated; truncated after ``episode_duration_s`` of simulated time.
+
+    ## Arguments
+    | Parameter            | Default             | Description                                   |
+    |----------------------|---------------------|-----------------------------------------------|
+    | `morphology`         | healthy             | `Morphology`, or 9 numbers (simulator units)  |
+    | `damage`             | `"none"`            | name in `aquafish_gym.DAMAGES`, applied to the morphology |
+    | `faults`             | from `damage`       | `ServoFaults` overriding the damage's faults  |
+    | `initial_angles`     | random              | (3,) left, right pectoral, caudal (rad)       |
+    | `frame_skip`         | 10                  | 0.01 s physics steps per control step         |
+    | `episode_duration_s` | 20.0                | simulated seconds per episode                 |
+    | `ctrl_cost_weight`   | 0.0                 | weight of the control cost                    |
+    | `render_mode`        | None                | `"rgb_array"` (headless TinyRenderer)         |
+    | `width`, `height`    | 320, 240            | frame size (pixels)                           |
+    | every `SimParams` field | see `SimParams`  | fluid, body and servo parameters              |
+
+    Raises:
+        ValueError: an unknown keyword, or a value out of range (named in the message).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(
+        self,
+        morphology=None,
+        damage: str = "none",
+        faults: ServoFaults | None = None,
+        initial_angles=None,
+        frame_skip: int = 10,
+        episode_duration_s: float = 20.0,
+        ctrl_cost_weight: float = 0.0,
+        render_mode: str | None = None,
+        width: int = 320,
+        height: int = 240,
+        **sim_params: Any,
+    ):
+        unknown = set(sim_params) - set(SimParams.field_names())
+        if unknown:
+            raise ValueError(f"unknown AquaFish-v0 argument(s) {sorted(unknown)}; simulator parameters are {list(SimParams.field_names())}")
+        self.params = SimParams(**sim_params)
+        self.damage = get_damage(damage)
+        self.morphology = self.damage.apply(_as_morphology(morphology))
+        self.faults = faults if faults is not None else self.damage.faults
+        if not isinstance(self.faults, ServoFaults):
+            raise ValueError(f"faults must be a ServoFaults, got {type(self.faults).__name__}")
+        if isinstance(frame_skip, bool) or not isinstance(frame_skip, (int, np.integer)) or frame_skip < 1:
+            raise ValueError(f"frame_skip must be a positive integer (physics steps of {DT_S} s), got {frame_skip!r}")
+        if not (isinstance(episode_duration_s, (int, float)) and math.isfinite(episode_duration_s) and episode_duration_s > 0):
+            raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
+        if not (isinstance(ctrl_cost_weight, (int, float)) and math.isfinite(ctrl_cost_weight) and ctrl_cost_weight >= 0):
+            raise ValueError(f"ctrl_cost_weight must be >= 0, got {ctrl_cost_weight!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}")
+        self.fixed_initial_angles = None if initial_angles is None else self._check_angles(initial_angles)
+        self.frame_skip = int(frame_skip)
+        self.episode_duration_s = float(episode_duration_s)
+        self.max_control_steps = int(round(self.episode_duration_s / (DT_S * self.frame_skip)))
+        self.ctrl_cost_weight = float(ctrl_cost_weight)
+        self.render_mode = render_mode
+        self.width, self.height = int(width), int(height)
+
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
+        high = np.concatenate([np.ones(6), np.full(6, OBS_VELOCITY_LIMIT)])
+        self.observation_space = spaces.Box(-high, high, dtype=np.float64)
+        self._world: BatchWorld | None = None
+        self._steps = 0
+        self._distance = 0.0
+        self._heading = np.array([0.0, 1.0, 0.0])
+
+    # -- helpers ---------------------------------------------------------------------
+    def _check_angles(self, angles) -> np.ndarray:
+        arr = np.asarray(angles, dtype=np.float64)
+        amp = self.params.caudal_amplitude_rad
+        if arr.shape != (3,) or not np.all(np.isfinite(arr)) or abs(arr[2]) > amp + 1e-12:
+            raise ValueError(f"initial_angles must be 3 finite angles (rad) with |caudal| <= {amp:.4f}, got {angles!r}")
+        return arr
+
+    @staticmethod
+    def servo_command(action) -> np.ndarray:
+        """Map an env action in [-1, 1]^3 to servo units ``(3,)``: rev/s, rev/s, Hz."""
+        a = np.asarray(action, dtype=np.float64)
+        lo, hi = ACTION_BOUNDS[:, 0], ACTION_BOUNDS[:, 1]
+        return lo + (a + 1.0) * 0.5 * (hi - lo)
+
+    @property
+    def world(self) -> BatchWorld:
+        if self._world is None:
+            raise RuntimeError("call reset() before step()")
+        return self._world
+
+    def _get_obs(self) -> np.ndarray:
+        w = self.world
+        rpy = np.radians(w.imu_rpy_deg()[0])
+        rot = w.rotation[0, 0]
+        ang = rot.T @ w.angular_velocity[0, 0]
+        lin = rot.T @ w.linear_velocity[0, 0]
+        vel = np.clip(np.concatenate([ang, lin]), -OBS_VELOCITY_LIMIT, OBS_VELOCITY_LIMIT)
+        return np.concatenate([np.sin(rpy), np.cos(rpy), vel])
+
+    def _position(self) -> np.ndarray:
+        return self.world.position[0, 0].copy()
+
+    def _get_info(self) -> dict[str, Any]:
+        pos = self._position()
+        return {
+            "x_position": float(pos[0]),
+            "y_position": float(pos[1]),
+            "z_position": float(pos[2]),
+            "distance": float(self._distance),
+            "time_s": float(self._steps * self.frame_skip * DT_S),
+            "initial_angles": self._initial_angles.copy(),
+        }
+
+    def _get_rew(self, displacement: np.ndarray, action: np.ndarray) -> tuple[float, dict[str, float]]:
+        forward = float(displacement @ self._heading)
+        ctrl = self.ctrl_cost_weight * float(np.sum(np.square(action)))
+        return forward - ctrl, {"reward_forward": forward, "reward_ctrl": -ctrl}
+
+    # -- gymnasium API ---------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        if options and "initial_angles" in options:
+            angles = self._check_angles(options["initial_angles"])
+        elif self.fixed_initial_angles is not None:
+            angles = self.fixed_initial_angles
+        else:
+            amp = self.params.caudal_amplitude_rad
+            angles = np.array([self.np_random.uniform(0, 2 * np.pi), self.np_random.uniform(0, 2 * np.pi), self.np_random.uniform(-amp, amp)])
+        self._initial_angles = np.asarray(angles, dtype=np.float64)
+        if self._world is None:
+            self._world = BatchWorld(self.morphology.to_array()[None], self.params, self.faults, visual=self.render_mode is not None)
+        else:  # rebuild: a fresh world makes every episode bit-for-bit reproducible
+            self._world = BatchWorld(self.morphology.to_array()[None], self.params, self.faults,
+                                     visual=self.render_mode is not None, client=self._world.client)
+            self._world._owns_client = True
+        self._world.reset(self._initial_angles[None])
+        self._steps = 0
+        self._distance = 0.0
+        return self._get_obs(), self._get_info()
+
+    def step(self, action):
+        action = np.asarray(action, dtype=np.float64)
+        if action.shape != (3,):
+            raise ValueError(f"action must have shape (3,), got {action.shape}")
+        if not np.all(np.isfinite(action)) or np.any(np.abs(action) > 1.0 + 1e-6):
+            raise ValueError(f"action entries must be finite and in [-1, 1], got {action.tolist()}")
+        action = np.clip(action, -1.0, 1.0)  # only float32 round-off beyond +-1 reaches here
+        w = self.world
+        w.set_actions(self.servo_command(action)[None])
+        before = self._position()
+        for _ in range(self.frame_skip):
+            w.step()
+        displacement = self._position() - before
+        reward, reward_info = self._get_rew(displacement, action)
+        self._distance += reward_info["reward_forward"]
+        self._steps += 1
+        truncated = self._steps >= self.max_control_steps
+        info = self._get_info() | reward_info
+        return self._get_obs(), reward, False, bool(truncated), info
+
+    def render(self):
+        if self.render_mode != "rgb_array":
+            return None
+        c = self.world.client
+        target = self._position()
+        view = p.computeViewMatrixFromYawPitchRoll(target.tolist(), 4.0, 210.0, -30.0, 0.0, 2, physicsClientId=c)
+        proj = p.computeProjectionMatrixFOV(60.0, self.width / self.height, 0.05, 50.0, physicsClientId=c)
+        _, _, rgba, _, _ = p.getCameraImage(self.width, self.height, view, proj, renderer=p.ER_TINY_RENDERER, physicsClientId=c)
+        return np.asarray(rgba, dtype=np.uint8).reshape(self.height, self.width, 4)[:, :, :3].copy()
+
+    def close(self):
+        if self._world is not None:
+            self._world.close()
+            self._world = None

@@ -1,0 +1,112 @@
+"""The Gymnasium env AquaFish-v0 (DESIGN.md section 5)."""
+
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import aquafish_gym  # noqa: F401  (registers AquaFish-v0)
+from aquafish_gym import DAMAGES, Morphology
+
+
+def test_check_env_passes_with_warnings_as_errors():
+    env = gym.make("AquaFish-v0", render_mode="rgb_array", episode_duration_s=2.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(env.unwrapped)
+    env.close()
+
+
+def test_reset_with_seed_is_deterministic():
+    def rollout():
+        env = gym.make("AquaFish-v0", episode_duration_s=1.0)
+        obs0, info = env.reset(seed=7)
+        obs = [obs0]
+        for k in range(10):
+            obs.append(env.step(np.array([0.5, -0.2, 0.8 - 0.1 * k], dtype=np.float32))[0])
+        env.close()
+        return np.array(obs), info["initial_angles"]
+
+    (a, angles_a), (b, angles_b) = rollout(), rollout()
+    np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(angles_a, angles_b)
+
+
+def test_reward_terms_add_up_and_distance_is_their_sum():
+    env = gym.make("AquaFish-v0", ctrl_cost_weight=0.1, episode_duration_s=2.0)
+    env.reset(seed=0)
+    total_forward, truncated, steps = 0.0, False, 0
+    while not truncated:
+        _, reward, terminated, truncated, info = env.step(np.array([-1.0, -1.0, 1.0], dtype=np.float32))
+        assert reward == pytest.approx(info["reward_forward"] + info["reward_ctrl"])
+        assert info["reward_ctrl"] == pytest.approx(-0.1 * 3.0)
+        assert not terminated
+        total_forward += info["reward_forward"]
+        steps += 1
+    assert steps == 20  # 2 s of 0.1 s control steps
+    assert info["distance"] == pytest.approx(total_forward)
+    assert info["y_position"] == pytest.approx(info["distance"], abs=1e-9)  # initial heading is +y
+    env.close()
+
+
+def test_render_returns_rgb_frame_headless():
+    env = gym.make("AquaFish-v0", render_mode="rgb_array", width=64, height=48)
+    env.reset(seed=0)
+    frame = env.render()
+    assert frame.shape == (48, 64, 3) and frame.dtype == np.uint8
+    assert frame.min() < 200  # the robot is in view, not a blank frame
+    env.close()
+
+
+def test_vector_env_async():
+    envs = gym.make_vec("AquaFish-v0", num_envs=2, vectorization_mode="async", episode_duration_s=0.5)
+    obs, _ = envs.reset(seed=0)
+    assert obs.shape == (2, 12)
+    obs, rewards, *_ = envs.step(np.zeros((2, 3), dtype=np.float32))
+    assert rewards.shape == (2,)
+    envs.close()
+
+
+@pytest.mark.parametrize("damage", sorted(DAMAGES))
+def test_every_damage_preset_makes_an_env(damage):
+    env = gym.make("AquaFish-v0", damage=damage, episode_duration_s=0.2)
+    env.reset(seed=0)
+    obs, *_ = env.step(env.action_space.sample())
+    assert np.all(np.isfinite(obs))
+    expected = DAMAGES[damage].apply(Morphology.healthy())
+    assert env.unwrapped.morphology == expected
+    env.close()
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"damage": "broken"}, "valid names"),
+        ({"drag_coefficient": -1.0}, "drag_coefficient"),
+        ({"drag_law": "cubic"}, "drag_law"),
+        ({"frame_skip": 0}, "frame_skip"),
+        ({"morphology": [1.0] * 8}, "shape"),
+        ({"no_such_option": 1}, "unknown"),
+        ({"initial_angles": [0, 0, 2.0]}, "initial_angles"),
+        ({"render_mode": "ansi"}, "render_mode"),
+    ],
+)
+def test_bad_kwargs_raise_value_error(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        gym.make("AquaFish-v0", **kwargs)
+
+
+def test_out_of_range_action_raises():
+    env = gym.make("AquaFish-v0", episode_duration_s=0.2)
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"\[-1, 1\]"):
+        env.step(np.array([2.0, 0.0, 0.0], dtype=np.float32))
+    env.close()
+
+
+def test_action_maps_to_servo_ranges():
+    env = gym.make("AquaFish-v0").unwrapped
+    np.testing.assert_allclose(env.servo_command([-1, 1, -1]), [-0.5, 0.5, 0.0])
+    np.testing.assert_allclose(env.servo_command([0, 0, 1]), [0.0, 0.0, 1.0])

@@ -1,0 +1,89 @@
+"""The fluid model against hand-computed values (DESIGN.md section 3)."""
+
+import numpy as np
+import pytest
+
+from aquafish_gym.fluid import box_drag, box_faces, drag_wrench, quat_to_matrix, righting_torque
+
+I3 = np.eye(3)
+
+
+def one_face(normal, centre, area):
+    return np.array([centre], float), np.array([normal], float), np.array([area], float)
+
+
+def test_quadratic_force_on_one_face_matches_hand_value():
+    c, n, a = one_face([1, 0, 0], [0, 0, 0], 2.0)
+    f, t = drag_wrench(I3, np.array([3.0, 0, 0]), np.zeros(3), c, n, a, drag_coefficient=0.8, fluid_density=1.5)
+    # F = -c_d A (rho v^2 / 2) n = -0.8 * 2 * 0.75 * 9 = -10.8
+    np.testing.assert_allclose(f, [-10.8, 0, 0])
+    np.testing.assert_allclose(t, 0, atol=1e-15)
+
+
+def test_linear_law_force_on_one_face():
+    c, n, a = one_face([1, 0, 0], [0, 0, 0], 2.0)
+    f, _ = drag_wrench(I3, np.array([3.0, 0, 0]), np.zeros(3), c, n, a, drag_coefficient=0.8, fluid_density=1.5, drag_law="linear")
+    np.testing.assert_allclose(f, [-4.8, 0, 0])  # -c_d A v
+
+
+def test_face_moving_out_of_the_water_feels_nothing():
+    c, n, a = one_face([1, 0, 0], [0, 0, 0], 2.0)
+    f, t = drag_wrench(I3, np.array([-3.0, 0, 0]), np.zeros(3), c, n, a, drag_coefficient=1.0, fluid_density=1.0)
+    assert np.all(f == 0) and np.all(t == 0)
+
+
+def test_rotation_makes_face_velocity_and_torque_at_face_centre():
+    # face at r = (0, 1, 0) with normal +x; w = (0, 0, -2) gives w x r = (2, 0, 0)
+    c, n, a = one_face([1, 0, 0], [0, 1, 0], 1.0)
+    f, t = drag_wrench(I3, np.zeros(3), np.array([0, 0, -2.0]), c, n, a, drag_coefficient=1.0, fluid_density=1.0)
+    np.testing.assert_allclose(f, [-2.0, 0, 0])  # 1 * 1 * 0.5 * 2^2
+    np.testing.assert_allclose(t, [0, 0, 2.0])  # r x F = (0,1,0) x (-2,0,0)
+
+
+def test_water_current_is_relative_velocity():
+    c, n, a = one_face([1, 0, 0], [0, 0, 0], 1.0)
+    # body at rest, water flowing towards -x: the +x face moves into the water at 1
+    f, _ = drag_wrench(I3, np.zeros(3), np.zeros(3), c, n, a, drag_coefficient=1.0, fluid_density=1.0, water_current=(-1.0, 0, 0))
+    np.testing.assert_allclose(f, [-0.5, 0, 0])
+
+
+def test_force_is_rotated_with_the_link():
+    rot = quat_to_matrix(np.array([0, 0, np.sin(np.pi / 4), np.cos(np.pi / 4)]))  # 90 deg about z: x -> y
+    c, n, a = one_face([1, 0, 0], [0, 0, 0], 1.0)
+    f, _ = drag_wrench(rot, np.array([0, 2.0, 0]), np.zeros(3), c, n, a, drag_coefficient=1.0, fluid_density=1.0)
+    np.testing.assert_allclose(f, [0, -2.0, 0], atol=1e-12)
+
+
+@pytest.mark.parametrize("law", ["quadratic", "linear"])
+def test_box_closed_form_equals_per_face_reference(law):
+    rng = np.random.default_rng(3)
+    q = rng.normal(size=(5, 4))
+    rot = quat_to_matrix(q / np.linalg.norm(q, axis=1, keepdims=True))
+    size = rng.uniform(0, 2, size=(5, 3))
+    offset = rng.normal(size=(5, 3))
+    v, w = rng.normal(size=(5, 3)), rng.normal(size=(5, 3))
+    c, n, a = box_faces(size)
+    f_ref, t_ref = drag_wrench(rot, v, w, c + offset[:, None], n, a, drag_coefficient=0.9, fluid_density=1.2, drag_law=law, water_current=(0.1, 0.2, 0.3))
+    f_loc, t_loc = box_drag(rot, v, w, offset, a[:, ::2], drag_coefficient=0.9, fluid_density=1.2, drag_law=law, water_current=(0.1, 0.2, 0.3))
+    np.testing.assert_allclose(np.einsum("nij,nj->ni", rot, f_loc), f_ref, atol=1e-12)
+    np.testing.assert_allclose(np.einsum("nij,nj->ni", rot, t_loc), t_ref, atol=1e-12)
+
+
+def test_zero_size_box_has_no_drag_and_no_nan():
+    c, n, a = box_faces(np.zeros((1, 3)))
+    f, t = drag_wrench(I3[None], np.ones((1, 3)), np.ones((1, 3)), c, n, a, drag_coefficient=1.0, fluid_density=1.0)
+    assert np.all(f == 0) and np.all(t == 0)
+
+
+def test_righting_torque_of_rolled_body():
+    # rolled by 30 deg about +y (right side down): the couple m g h sin(30) turns it back (about -y)
+    th = np.radians(30)
+    rot = np.array([[np.cos(th), 0, np.sin(th)], [0, 1, 0], [-np.sin(th), 0, np.cos(th)]])
+    t = righting_torque(rot, np.array(2.0), gravity=10.0, ballast_offset=0.1)
+    np.testing.assert_allclose(t, [0, -2.0 * 10.0 * 0.1 * np.sin(th), 0], atol=1e-12)
+
+
+def test_unknown_drag_law_raises():
+    c, n, a = one_face([1, 0, 0], [0, 0, 0], 1.0)
+    with pytest.raises(ValueError, match="drag_law"):
+        drag_wrench(I3, np.ones(3), np.zeros(3), c, n, a, drag_coefficient=1.0, fluid_density=1.0, drag_law="cubic")

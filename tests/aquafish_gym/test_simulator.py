@@ -1,0 +1,91 @@
+"""simulate_batch: shapes, validation, batch independence, IMU conventions (DESIGN.md section 4)."""
+
+import math
+
+import numpy as np
+import pybullet as p
+import pytest
+
+from aquafish_gym import BatchWorld, Morphology, SimParams, simulate_batch
+from aquafish_gym.imu import roll_pitch_yaw_deg, unwrap_yaw_deg
+from aquafish_gym.morphology import MORPHOLOGY_BOUNDS
+
+
+def random_inputs(n, seed=0):
+    rng = np.random.default_rng(seed)
+    morph = rng.uniform(MORPHOLOGY_BOUNDS[:, 0], MORPHOLOGY_BOUNDS[:, 1], size=(n, 9))
+    actions = np.column_stack([rng.uniform(-0.5, 0.5, n), rng.uniform(-0.5, 0.5, n), rng.uniform(0, 1, n)])
+    angles = np.column_stack([rng.uniform(0, 2 * np.pi, (n, 2)), rng.uniform(-0.5, 0.5, n)])
+    return morph, actions, angles
+
+
+def test_batch_equals_members_run_one_at_a_time():
+    morph, actions, angles = random_inputs(4)
+    batch = simulate_batch(morph, actions, angles, 128)
+    assert batch.shape == (4, 128, 3)
+    for i in range(4):
+        single = simulate_batch(morph[i : i + 1], actions[i : i + 1], angles[i : i + 1], 128)
+        np.testing.assert_allclose(batch[i], single[0], atol=1e-9, rtol=0)
+
+
+def test_same_inputs_give_identical_logs():
+    morph, actions, angles = random_inputs(3, seed=1)
+    np.testing.assert_array_equal(simulate_batch(morph, actions, angles, 64), simulate_batch(morph, actions, angles, 64))
+
+
+def test_imu_noise_is_gaussian_with_given_std():
+    morph, actions, angles = random_inputs(1)
+    clean = simulate_batch(morph, actions, angles, 200)
+    noisy = simulate_batch(morph, actions, angles, 200, params=SimParams(imu_noise_deg=0.5), rng=np.random.default_rng(0))
+    assert np.std(noisy - clean) == pytest.approx(0.5, rel=0.1)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"morphologies": np.zeros((2, 8))}, r"\(N, 9\)"),
+        ({"morphologies": np.full((2, 9), np.nan)}, "left_pectoral_x"),
+        ({"morphologies": np.full((2, 9), 0.1) + np.eye(9)[1] * 5}, "left_pectoral_y"),
+        ({"actions": [[0.6, 0, 0], [0, 0, 0]]}, "left pectoral"),
+        ({"actions": [[0, 0, -0.1], [0, 0, 0]]}, "caudal frequency"),
+        ({"actions": np.zeros((3, 3))}, r"\(2, 3\)"),
+        ({"initial_angles": [[0, 0, 1.0], [0, 0, 0]]}, "caudal"),
+        ({"initial_angles": [[np.nan, 0, 0], [0, 0, 0]]}, "finite"),
+        ({"steps": 0}, "steps"),
+    ],
+)
+def test_bad_input_raises_value_error(kwargs, match):
+    args = {"morphologies": np.full((2, 9), 0.1), "actions": np.zeros((2, 3)), "initial_angles": np.zeros((2, 3)), "steps": 4}
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=match):
+        simulate_batch(args["morphologies"], args["actions"], args["initial_angles"], args["steps"])
+
+
+def rot_x(deg):
+    t = math.radians(deg)
+    return np.array([[1, 0, 0], [0, math.cos(t), -math.sin(t)], [0, math.sin(t), math.cos(t)]])
+
+
+def test_imu_angle_conventions():
+    np.testing.assert_allclose(roll_pitch_yaw_deg(rot_x(20)), [0, 20, 0], atol=1e-12)  # nose up = pitch
+    t = math.radians(15)
+    rot_y = np.array([[math.cos(t), 0, math.sin(t)], [0, 1, 0], [-math.sin(t), 0, math.cos(t)]])
+    np.testing.assert_allclose(roll_pitch_yaw_deg(rot_y), [15, 0, 0], atol=1e-12)
+    t = math.radians(40)
+    rot_z = np.array([[math.cos(t), -math.sin(t), 0], [math.sin(t), math.cos(t), 0], [0, 0, 1]])
+    np.testing.assert_allclose(roll_pitch_yaw_deg(rot_z), [0, 0, 40], atol=1e-12)
+
+
+def test_nose_up_rotation_in_pybullet_shows_as_pitch():
+    with BatchWorld(Morphology.healthy().to_array()[None]) as world:
+        world.reset(np.zeros((1, 3)))
+        q = p.getQuaternionFromAxisAngle((1, 0, 0), math.radians(25))
+        p.resetBasePositionAndOrientation(world.bodies[0], (0, 0, 0), q, physicsClientId=world.client)
+        world._read_state()
+        np.testing.assert_allclose(world.imu_rpy_deg()[0], [0, 25, 0], atol=1e-6)
+
+
+def test_yaw_is_unwrapped():
+    log = np.zeros((1, 4, 3))
+    log[0, :, 2] = [170.0, 179.0, -172.0, -160.0]
+    np.testing.assert_allclose(unwrap_yaw_deg(log)[0, :, 2], [170, 179, 188, 200])
