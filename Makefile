@@ -17,7 +17,7 @@ $(STAMP): $(BIN)/python pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/aquafish demo --out demo_out
+	$(BIN)/aquafish swim --out demo_out
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -n 2 -q

@@ -1,0 +1,46 @@
+"""``aquafish`` sub-commands of the simulator package: ``swim`` and ``bench``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def _swim(args: argparse.Namespace) -> int:
+    from aquafish_gym.swim import plot_trajectories, swim_trajectories
+
+    damages = args.damages.split(",")
+    action = [float(v) for v in args.action.split(",")]
+    traj = swim_trajectories(damages, action, args.duration)
+    labels = ["healthy" if d == "none" else d for d in damages]
+    path = plot_trajectories(traj, labels, Path(args.out) / "trajectories.png",
+                             title=f"fixed gait {tuple(action)} (rev/s, rev/s, Hz), {args.duration:g} s")
+    for label, t in zip(labels, traj):
+        print(f"{label:>24}: end at x={t[-1, 0]:+.2f}, y={t[-1, 1]:+.2f} units")
+    print(f"wrote {path}")
+    return 0
+
+
+def _bench(args: argparse.Namespace) -> int:
+    if args.what == "sim":
+        from benchmarks.sim_throughput import main as bench_main
+    else:
+        import importlib
+
+        bench_main = importlib.import_module(f"benchmarks.{args.what}").main
+    bench_main(args.rest)
+    return 0
+
+
+def add_commands(sub) -> None:
+    p = sub.add_parser("swim", help="swim the healthy and damaged robots with a fixed gait; plot trajectories")
+    p.add_argument("--damages", default="none,left_pectoral_half", help="comma-separated damage names")
+    p.add_argument("--action", default="0.25,0.25,1.0", help="servo command: left rev/s, right rev/s, caudal Hz")
+    p.add_argument("--duration", type=float, default=20.0, help="seconds of simulated swimming")
+    p.add_argument("--out", default="demo_out", help="output directory")
+    p.set_defaults(func=_swim)
+
+    b = sub.add_parser("bench", help="run a benchmark script (sim = simulator throughput)")
+    b.add_argument("what", help="benchmark name: sim, or a module in benchmarks/ (e.g. eea_round)")
+    b.add_argument("rest", nargs=argparse.REMAINDER, help="arguments passed to the benchmark")
+    b.set_defaults(func=_bench)
