@@ -1,0 +1,85 @@
+"""``aquafish case-study``, ``aquafish study`` and ``aquafish plot``."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+
+from eea.config import EEAConfig
+
+#: EEA settings a study may override from the command line (the rest keep their defaults).
+STUDY_OVERRIDES = ("damage", "rounds", "exploration_population", "exploration_generations", "exploration_models",
+                   "estimation_population", "estimation_generations", "k_best", "oob_period", "oob_sample",
+                   "oob_population", "oob_generations")
+
+
+def _csv(kind):
+    def parse(text: str):
+        try:
+            return tuple(kind(v) for v in text.split(",") if v.strip())
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected comma-separated {kind.__name__} values, got {text!r}") from None
+
+    return parse
+
+
+def _case_study(args: argparse.Namespace) -> int:
+    from aquafish.case_study import run_case_study
+
+    report = run_case_study(args.preset, args.damage, args.seed, args.out, workers=args.workers)
+    print((Path(args.out) / "report.md").read_text())
+    print(f"wrote {Path(args.out) / 'report.md'} and report.json ({report['wall_seconds'] / 60:.1f} min)")
+    return 0
+
+
+def _study(args: argparse.Namespace) -> int:
+    from aquafish.study import StudySpec, run_study
+
+    defaults = EEAConfig(workers=1)
+    overrides = {name: getattr(args, name) for name in STUDY_OVERRIDES if getattr(args, name) is not None}
+    spec = StudySpec(args.conditions, args.durations, args.replicates, defaults.replace(**overrides))
+    dirs = run_study(spec, args.out, backend=args.backend, address=args.address, processes=args.processes)
+    print(f"{len(dirs)} runs under {args.out}; plot them with: aquafish plot {args.out}")
+    return 0
+
+
+def _plot(args: argparse.Namespace) -> int:
+    from aquafish.study import final_round_table, find_runs, plot_study, summarise
+
+    summary = summarise(find_runs(args.dirs))
+    out = Path(args.output) if args.output else Path(args.dirs[0]) / "objective_fitness.png"
+    plot_study(summary, out)
+    print(final_round_table(summary))
+    print(f"wrote {out}")
+    return 0
+
+
+def add_commands(sub) -> None:
+    c = sub.add_parser("case-study", help="damage-recovery case study (paper section 5): self-model, evolve gaits, transfer")
+    c.add_argument("--preset", default="quick", choices=["quick", "paper"], help="quick (~15 min on 2 cores) or the paper's settings")
+    c.add_argument("--damage", default="left_pectoral_half", help="damage of the target robot")
+    c.add_argument("--seed", type=int, default=0)
+    c.add_argument("--out", default="case_study_out", help="output directory (finished steps are reused)")
+    c.add_argument("--workers", type=int, default=None, help="processes for evaluation (default: all cores)")
+    c.set_defaults(func=_case_study)
+
+    s = sub.add_parser("study", help="many resumable EEA runs: conditions x durations x replicates (Figures 5-10)")
+    s.add_argument("--conditions", type=_csv(str), default=("known", "none", "in_band", "out_of_band"), help="inference strategies")
+    s.add_argument("--durations", type=_csv(float), default=(1.28, 2.56, 5.12, 10.24), help="experiment durations (s)")
+    s.add_argument("--replicates", type=int, default=25, help="seeds 0..N-1 per (condition, duration)")
+    s.add_argument("--out", required=True, help="study directory")
+    s.add_argument("--backend", choices=["local", "ray"], default="local", help="local process pool or Ray tasks")
+    s.add_argument("--address", default=None, help="Ray cluster address (ray.init); default: start a local Ray")
+    s.add_argument("--processes", type=int, default=None, help="local pool size (default: all cores)")
+    fields = {f.name: f for f in dataclasses.fields(EEAConfig)}
+    for name in STUDY_OVERRIDES:
+        kind = str if name == "damage" else int
+        s.add_argument("--" + name.replace("_", "-"), dest=name, type=kind, default=None,
+                       help=f"EEA setting (default {fields[name].default})")
+    s.set_defaults(func=_study)
+
+    p = sub.add_parser("plot", help="plot mean objective fitness vs round per condition and duration (Figures 5-10)")
+    p.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
+    p.add_argument("--output", "-o", default=None, help="PNG path (default: FIRST_DIR/objective_fitness.png)")
+    p.set_defaults(func=_plot)
