@@ -209,21 +209,25 @@ class BatchWorld:
         c = self.client
         force, torque = self.fluid_wrench()
         force_l, torque_l = force.tolist(), torque[:, 0].tolist()
-        origin = (0.0, 0.0, 0.0)
-        for i, body in enumerate(self.bodies):
-            fi = force_l[i]
-            for k in self._active[i]:
-                p.applyExternalForce(body, _LINKS[k], fi[k], origin, p.LINK_FRAME, physicsClientId=c)
-            p.applyExternalTorque(body, -1, torque_l[i], p.LINK_FRAME, physicsClientId=c)
+        origin, frame = (0.0, 0.0, 0.0), p.LINK_FRAME
+        apply_force, apply_torque = p.applyExternalForce, p.applyExternalTorque
+        for body, active, fi, ti in zip(self.bodies, self._active, force_l, torque_l):
+            for k in active:
+                apply_force(body, _LINKS[k], fi[k], origin, frame, physicsClientId=c)
+            apply_torque(body, -1, ti, frame, physicsClientId=c)
         if self._oscillating.size:
             # caudal sweep A sin(phase); the phase advances by 2 pi f dt per step
             idx = self._oscillating
-            amp, w = self.params.caudal_amplitude_rad, self._caudal_omega[idx]
+            prm = self.params
+            amp, w = prm.caudal_amplitude_rad, self._caudal_omega[idx]
             phase = self._caudal_phase[idx] + w * DT_S
             self._caudal_phase[idx] = phase
             angle, velocity = (amp * np.sin(phase)).tolist(), (amp * w * np.cos(phase)).tolist()
+            motor, bodies = p.setJointMotorControl2, self.bodies
+            torque_max, kp, kd = prm.caudal_max_torque, prm.caudal_position_gain, prm.caudal_velocity_gain
             for i, a, v in zip(idx.tolist(), angle, velocity):
-                self._command_caudal(i, a, v)
+                motor(bodies[i], LINK_CAUDAL, p.POSITION_CONTROL, targetPosition=a, targetVelocity=v, force=torque_max,
+                      positionGain=kp, velocityGain=kd, physicsClientId=c)
         p.stepSimulation(physicsClientId=c)
         self.time_s += DT_S
         self._read_state()

@@ -1,0 +1,93 @@
+"""Studies: independent resumable runs, skipping finished ones, local and Ray backends, plots."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from aquafish.study import RunCurve, StudySpec, find_runs, final_round_table, plot_study, rounds_done, run_study, summarise
+from eea.config import EEAConfig
+
+TINY = EEAConfig(rounds=2, exploration_population=3, exploration_generations=1, exploration_models=2,
+                 estimation_population=4, estimation_generations=2, k_best=2, oob_period=1, oob_sample=2,
+                 oob_population=2, oob_generations=1, workers=1)
+
+
+def tiny_spec(**kw):
+    args = dict(conditions=("known", "none"), durations_s=(0.16,), replicates=2, base=TINY)
+    args.update(kw)
+    return StudySpec(**args)
+
+
+def test_spec_lists_every_run_with_its_seed(tmp_path):
+    runs = tiny_spec(durations_s=(0.16, 0.32)).runs(tmp_path)
+    assert len(runs) == 2 * 2 * 2
+    config, path = runs[-1]
+    assert (config.inference, config.duration_s, config.seed) == ("none", 0.32, 1)
+    assert path == tmp_path / "none" / "0.32s" / "seed1"
+
+
+@pytest.mark.parametrize("kw, match", [({"conditions": ("telepathy",)}, "inference"), ({"replicates": 0}, "replicates"),
+                                       ({"durations_s": ()}, "durations"), ({"conditions": ("none", "none")}, "repeats")])
+def test_bad_spec_raises(kw, match):
+    with pytest.raises(ValueError, match=match):
+        tiny_spec(**kw)
+
+
+def test_local_study_runs_skips_finished_and_plots(tmp_path):
+    spec = tiny_spec()
+    dirs = run_study(spec, tmp_path, processes=2, progress=False)
+    assert len(dirs) == 4 and all(rounds_done(d) == TINY.rounds for d in dirs)
+    stamps = [(d / "rounds.csv").stat().st_mtime_ns for d in dirs]
+    run_study(spec, tmp_path, processes=2, progress=False)  # everything finished: nothing re-run
+    assert [(d / "rounds.csv").stat().st_mtime_ns for d in dirs] == stamps
+    with pytest.raises(ValueError, match="different study"):
+        run_study(tiny_spec(replicates=3), tmp_path, progress=False)
+
+    curves = find_runs([tmp_path])
+    assert sorted((c.inference, c.seed) for c in curves) == [("known", 0), ("known", 1), ("none", 0), ("none", 1)]
+    summary = summarise(curves)
+    for (inference, duration), s in summary.items():
+        runs = [d for d in dirs if d.parts[-3] == inference]
+        values = np.array([[float(r["objective_fitness"]) for r in csv.DictReader((d / "rounds.csv").open())] for d in runs])
+        np.testing.assert_allclose(s["mean"], values.mean(axis=0))
+        np.testing.assert_allclose(s["std"], values.std(axis=0))
+    png = plot_study(summary, tmp_path / "fig.png")
+    assert png.stat().st_size > 1000
+    assert json.loads((tmp_path / "study.json").read_text())["replicates"] == 2
+
+
+def test_summary_statistics_on_hand_made_curves():
+    curves = [RunCurve("none", 1.28, 0, np.array([0.5, 0.7, 0.9])), RunCurve("none", 1.28, 1, np.array([0.7, 0.9])),
+              RunCurve("known", 1.28, 0, np.array([1.0]))]
+    s = summarise(curves)
+    np.testing.assert_allclose(s[("none", 1.28)]["mean"], [0.6, 0.8])  # truncated to the shortest run
+    np.testing.assert_allclose(s[("none", 1.28)]["std"], [0.1, 0.1])
+    table = final_round_table(s)
+    assert table.splitlines()[1].split()[:2] == ["known", "1.28"]  # paper order: known before none
+    assert "0.800" in table
+
+
+def test_find_runs_reports_missing_directory(tmp_path):
+    with pytest.raises(ValueError, match="no EEA runs"):
+        find_runs([tmp_path])
+    with pytest.raises(ValueError, match="does not exist"):
+        find_runs([tmp_path / "nope"])
+
+
+@pytest.mark.cluster
+def test_ray_backend_gives_the_same_results_as_local(tmp_path):
+    ray = pytest.importorskip("ray")
+    spec = tiny_spec(conditions=("none",), replicates=2)
+    run_study(spec, tmp_path / "local", processes=1, progress=False)
+    try:
+        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+        run_study(spec, tmp_path / "ray", backend="ray", progress=False)
+    finally:
+        ray.shutdown()
+    for seed in range(2):
+        rows = [list(csv.DictReader((tmp_path / b / "none" / "0.16s" / f"seed{seed}" / "rounds.csv").open())) for b in ("local", "ray")]
+        for a, b in zip(*rows):
+            a.pop("wall_seconds"), b.pop("wall_seconds")
+            assert a == b
