@@ -9,6 +9,17 @@ are pure NumPy and know nothing of the simulator:
 * ``eea.behaviour`` -- DFT behaviour summaries and their similarity (equation 2).
 * ``eea.fitness``   -- action, model and objective fitness (equations 1, 3, 4).
 * ``eea.arc``       -- smallest inclusive arcs of initial angles (section 3.3).
+
+On top of ``aquafish_gym.simulate_batch``:
+
+* ``eea.experiment`` -- experiments on the target and their context (angle ranges).
+* ``eea.target``     -- the simulated damaged robot, random initial angles per experiment.
+* ``eea.evaluation`` -- batched, cached, parallel simulation of candidate models.
+* ``eea.inference``  -- context inference strategies: known, none, in_band, out_of_band.
+* ``eea.exploration``, ``eea.estimation`` -- the two phases of a round (section 3.2).
+* ``eea.config``     -- ``EEAConfig``, the paper's defaults (section 4).
+* ``eea.run``        -- ``run(config, out_dir)``: a resumable run; ``eea.record`` reads it
+  back (``load_result``), ``eea.checkpoint`` saves its state, ``eea.plot`` draws studies.
 """
 
 from eea.arc import in_arc, sample_arc, smallest_inclusive_arc, smallest_inclusive_interval
@@ -20,3 +31,12 @@ from eea.encoding import decode_actions, decode_fields, decode_models
 from eea.encoding import encode_actions, encode_fields, encode_models
 from eea.fitness import action_fitness, model_fitness, objective_fitness
 from eea.ga import BitGA
+from eea.config import EEAConfig
+from eea.estimation import Estimation
+from eea.evaluation import Evaluator
+from eea.experiment import Context, Experiment
+from eea.exploration import Exploration
+from eea.inference import INFERENCE_NAMES, INFERENCE_STRATEGIES, InferenceStrategy, make_inference
+from eea.record import ROUND_COLUMNS, RunResult, load_result
+from eea.run import run
+from eea.target import Target

@@ -40,7 +40,7 @@ def behaviour_summary(imu_log) -> np.ndarray:
     Returns:
         ``(N, 3, steps // 2 + 1)`` (or ``(3, steps // 2 + 1)``) float64
         ``|rfft(series)|`` along time, unnormalised (degree-samples), channel order
-        ``CHANNELS``.
+        ``CHANNELS``; C-contiguous.
 
     Raises:
         ValueError: if ``imu_log`` is not 2-D or 3-D with 3 channels last, has no steps,
@@ -56,7 +56,9 @@ def behaviour_summary(imu_log) -> np.ndarray:
         raise ValueError("imu_log must have at least one step")
     if not np.all(np.isfinite(log)):
         raise ValueError("imu_log contains NaN or infinity")
-    return np.abs(np.fft.rfft(np.swapaxes(log, -1, -2), axis=-1))
+    # C order: reductions over a summary (eq. 2) then add in the same order whatever the
+    # batch it came from, so results are bit-for-bit independent of batching and workers.
+    return np.ascontiguousarray(np.abs(np.fft.rfft(np.swapaxes(log, -1, -2), axis=-1)))
 
 
 def similarity(a, b, max_coefficient: float = MAX_COEFFICIENT) -> np.ndarray:

@@ -1,0 +1,92 @@
+"""Wall time of one paper-setting EEA round, serial and on a process pool.
+
+One round as in the paper (section 4): exploration (population 25, 25 generations, ACT_FIT
+over up to 25 distinct models), one target experiment, estimation (population 25, 100
+generations, MOD_FIT over all experiments), with 10 experiments already recorded and
+1.28 s (128-step) experiments. The estimation population is random and the evaluator's
+cache starts empty (a cold start: in a real run the carried-over models' results on old
+experiments are mostly cached, so this is an upper bound). For each worker count, prints
+wall seconds per phase, model simulations and simulations per second::
+
+    python -m benchmarks.eea_round [--workers 1,2] [--inference out_of_band] [--experiments 10]
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+
+import numpy as np
+
+from eea.behaviour import behaviour_summary
+from eea.config import EEAConfig
+from eea.encoding import ACTION_BITS, decode_actions
+from eea.estimation import Estimation
+from eea.evaluation import Evaluator
+from eea.experiment import Experiment
+from eea.exploration import Exploration
+from eea.inference import make_inference
+from eea.target import Target
+
+
+def recorded_experiments(config: EEAConfig, n: int, rng: np.random.Generator) -> tuple[Target, list[Experiment]]:
+    """``n`` experiments with random actions on the target, contexts locked as after their rounds."""
+    target = Target(config.damage, config.steps, rng)
+    strategy = make_inference(config.inference, config)
+    experiments = []
+    for i in range(n):
+        action = decode_actions(rng.integers(0, 2, ACTION_BITS, dtype=np.uint8))
+        log, true = target.perform(action)
+        ctx = strategy.new_context(true).with_confidence(1.0)
+        experiments.append(Experiment(i, action, log, behaviour_summary(log), true, ctx))
+    return target, experiments
+
+
+def time_round(config: EEAConfig, n_experiments: int, seed: int = 0) -> dict:
+    """Run one round; return wall seconds per phase and the simulation count."""
+    rng = np.random.default_rng(seed)
+    target, experiments = recorded_experiments(config, n_experiments, rng)
+    strategy = make_inference(config.inference, config)
+    estimation = Estimation.from_config(config, rng)
+    with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots) as evaluator:
+        evaluator.simulate(np.full((config.workers, 9), 0.25), np.zeros((config.workers, 3)),
+                           np.zeros((config.workers, 3)))  # start the pool outside the timing
+        evaluator.simulations = 0
+        t0 = time.perf_counter()
+        models = estimation.ranked_models(config.exploration_models)
+        _, action, _ = Exploration.from_config(config).run(models, evaluator, rng)
+        t1 = time.perf_counter()
+        explore_sims = evaluator.simulations
+        log, true = target.perform(action)
+        experiments.append(Experiment(len(experiments), action, log, behaviour_summary(log), true,
+                                      strategy.new_context(true)))
+        t2 = time.perf_counter()
+        estimation.run(experiments, strategy, evaluator, rng, config.estimation_generations)
+        t3 = time.perf_counter()
+    return {"exploration_s": t1 - t0, "target_s": t2 - t1, "estimation_s": t3 - t2, "wall_s": t3 - t0,
+            "exploration_sims": explore_sims, "simulations": evaluator.simulations}
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--workers", default="1,2", help="comma-separated worker counts")
+    parser.add_argument("--inference", default="out_of_band")
+    parser.add_argument("--experiments", type=int, default=10, help="experiments recorded before the round")
+    parser.add_argument("--duration", type=float, default=1.28, help="experiment length (s)")
+    args = parser.parse_args(argv)
+    print(f"machine: {platform.processor() or platform.machine()}, {platform.python_implementation()} "
+          f"{platform.python_version()}; one round, {args.experiments} experiments recorded, "
+          f"{args.duration} s, inference {args.inference}, paper settings (25 x 25 exploration, 25 x 100 estimation)")
+    print(f"{'workers':>7} {'wall s':>8} {'explore s':>9} {'estimate s':>10} {'simulations':>11} {'sims/s':>8} "
+          f"{'robot-steps/s':>13}")
+    for workers in (int(w) for w in args.workers.split(",")):
+        config = EEAConfig(inference=args.inference, duration_s=args.duration, workers=workers)
+        r = time_round(config, args.experiments)
+        rate = r["simulations"] / r["wall_s"]
+        print(f"{workers:>7} {r['wall_s']:>8.1f} {r['exploration_s']:>9.1f} {r['estimation_s']:>10.1f} "
+              f"{r['simulations']:>11} {rate:>8.0f} {rate * config.steps:>13.0f}", flush=True)
+
+
+if __name__ == "__main__":
+    main()

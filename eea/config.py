@@ -1,0 +1,169 @@
+"""Settings of one EEA run: :class:`EEAConfig`, with the paper's defaults (section 4).
+
+Every field is also a command-line flag of ``aquafish eea`` (``--estimation-population``
+for ``estimation_population``); :data:`FIELD_HELP` gives each one's help text. The config
+is frozen and validated on construction, so a typo or an out-of-range value fails before
+any simulation runs::
+
+    config = EEAConfig(inference="in_band", rounds=10, seed=3)
+    config.steps          # 128 (= duration_s / 0.01 s)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+
+from aquafish_gym import DT_S, get_damage
+from eea.inference import INFERENCE_NAMES
+
+__all__ = ["EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS"]
+
+#: Fields that never change a run's results (resuming with other values is allowed):
+#: the number of worker processes and the chunk size of simulator calls, and ``rounds``,
+#: the stopping criterion (a finished run can be extended to more rounds).
+RESULT_NEUTRAL_FIELDS: tuple[str, ...] = ("workers", "max_batch_robots", "rounds")
+
+#: One help line per field (command-line ``--help`` and documentation).
+FIELD_HELP: dict[str, str] = {
+    "inference": f"context inference strategy, one of {', '.join(INFERENCE_NAMES)} (paper 3.3, 3.4, 4)",
+    "damage": "named damage of the target robot (aquafish_gym.DAMAGES), paper section 5",
+    "duration_s": "length of every experiment in seconds, a multiple of 0.01 s (paper: 1.28 ... 10.24)",
+    "rounds": "EEA rounds (one exploration, one target experiment and one estimation each)",
+    "seed": "seed of the run's only random generator (target angles, GAs, inference)",
+    "exploration_population": "actions per exploration GA generation (paper: 25)",
+    "exploration_generations": "exploration GA generations per round (paper: 25)",
+    "exploration_models": "at most this many distinct candidate models, best first, whose "
+                          "disagreement scores an action (eq. 1)",
+    "estimation_population": "models per estimation GA generation (paper: 25)",
+    "estimation_generations": "estimation GA generations per round (paper: 100)",
+    "crossover_rate": "probability that a parent pair is recombined (paper: 0.75)",
+    "tournament_size": "entrants per tournament (paper: 2)",
+    "mutation_bits": "mean number of flipped bits per genome of every GA (paper: 1); at most 18",
+    "elitism": "best genomes copied unchanged into the next generation",
+    "k_best": "in_band: models whose initial angles define the inferred arc (paper: K = 3)",
+    "in_band_confidence": "in_band: confidence of the newest experiment during its round (paper: 0.5)",
+    "in_band_widen": "in_band: widen the arc by this fraction of its width on each side "
+                     "(paper 4.3 tried 0.2; default 0 = off)",
+    "oob_period": "out_of_band: infer angles every this many estimation generations (paper: 35)",
+    "oob_sample": "out_of_band: best distinct models that score candidate angles (paper: 5)",
+    "oob_population": "out_of_band: candidate angle sets per inner GA generation",
+    "oob_generations": "out_of_band: inner GA generations per inference",
+    "oob_bits": "out_of_band: bits per angle in the inner GA genome (3 angles)",
+    "workers": "worker processes for simulations (1 = serial); never changes results",
+    "max_batch_robots": "at most this many robots per simulate_batch call (chunking); never changes results",
+}
+
+
+def _default_workers() -> int:
+    return os.cpu_count() or 1
+
+
+@dataclasses.dataclass(frozen=True)
+class EEAConfig:
+    """Frozen, validated settings of one EEA run; defaults are the paper's (section 4).
+
+    See :data:`FIELD_HELP` for each field. ``steps`` (derived) is the number of 0.01 s
+    simulation steps of every experiment.
+
+    Raises:
+        ValueError: on an unknown inference strategy or damage (the message lists the valid
+            names), a duration that is not a positive multiple of 0.01 s (at least 2 steps),
+            a non-integer or out-of-range count, or a rate outside [0, 1].
+    """
+
+    inference: str = "out_of_band"
+    damage: str = "left_pectoral_half"
+    duration_s: float = 1.28
+    rounds: int = 25
+    seed: int = 0
+    exploration_population: int = 25
+    exploration_generations: int = 25
+    exploration_models: int = 25
+    estimation_population: int = 25
+    estimation_generations: int = 100
+    crossover_rate: float = 0.75
+    tournament_size: int = 2
+    mutation_bits: float = 1.0
+    elitism: int = 1
+    k_best: int = 3
+    in_band_confidence: float = 0.5
+    in_band_widen: float = 0.0
+    oob_period: int = 35
+    oob_sample: int = 5
+    oob_population: int = 10
+    oob_generations: int = 10
+    oob_bits: int = 8
+    workers: int = dataclasses.field(default_factory=_default_workers)
+    max_batch_robots: int = 2048
+
+    def __post_init__(self) -> None:
+        if self.inference not in INFERENCE_NAMES:
+            raise ValueError(f"unknown inference {self.inference!r}; valid names: {', '.join(INFERENCE_NAMES)}")
+        get_damage(self.damage)  # raises ValueError listing the valid names
+        minimum = {
+            "rounds": 1, "seed": 0, "exploration_population": 1, "exploration_generations": 1,
+            "exploration_models": 2, "estimation_population": 2, "estimation_generations": 1,
+            "tournament_size": 1, "elitism": 0, "k_best": 1, "oob_period": 1, "oob_sample": 1,
+            "oob_population": 1, "oob_generations": 1, "oob_bits": 2, "workers": 1,
+            "max_batch_robots": 1,
+        }
+        for name, low in minimum.items():
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < low:
+                raise ValueError(f"EEAConfig.{name} must be an int >= {low}, got {value!r}")
+        if self.oob_bits > 30:
+            raise ValueError(f"EEAConfig.oob_bits must be <= 30, got {self.oob_bits}")
+        for name, population in (("elitism", "exploration_population"), ("elitism", "estimation_population"),
+                                 ("k_best", "estimation_population"), ("oob_sample", "estimation_population")):
+            if getattr(self, name) > getattr(self, population):
+                raise ValueError(f"EEAConfig.{name} ({getattr(self, name)}) must be <= {population} ({getattr(self, population)})")
+        if self.elitism > self.oob_population:
+            raise ValueError(f"EEAConfig.elitism ({self.elitism}) must be <= oob_population ({self.oob_population})")
+        for name in ("crossover_rate", "in_band_confidence"):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:  # NaN fails
+                raise ValueError(f"EEAConfig.{name} must be in [0, 1], got {value!r}")
+            object.__setattr__(self, name, float(value))
+        for name, high in (("mutation_bits", float(min(18, 3 * self.oob_bits))), ("in_band_widen", math.inf)):
+            value = getattr(self, name)
+            if not isinstance(value, (int, float)) or not 0.0 <= value <= high:
+                raise ValueError(f"EEAConfig.{name} must be in [0, {high}], got {value!r}")
+            object.__setattr__(self, name, float(value))
+        duration = self.duration_s
+        steps = round(duration / DT_S) if isinstance(duration, (int, float)) and math.isfinite(duration) else 0
+        if isinstance(duration, bool) or steps < 2 or abs(duration / DT_S - steps) > 1e-6:
+            raise ValueError(f"EEAConfig.duration_s must be a multiple of {DT_S} s of at least 2 steps, got {duration!r}")
+        object.__setattr__(self, "duration_s", float(duration))
+
+    @property
+    def steps(self) -> int:
+        """Simulation steps of every experiment: ``round(duration_s / 0.01)``."""
+        return round(self.duration_s / DT_S)
+
+    def to_dict(self) -> dict:
+        """All fields as a JSON-ready dict (the content of ``config.json``)."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "EEAConfig":
+        """Inverse of :meth:`to_dict`.
+
+        Raises:
+            ValueError: on an unknown key (typos fail fast) or an invalid value.
+        """
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ValueError(f"unknown EEAConfig keys {unknown}; valid keys: {', '.join(sorted(names))}")
+        return cls(**data)
+
+    def replace(self, **changes) -> "EEAConfig":
+        """A validated copy with some fields changed."""
+        return dataclasses.replace(self, **changes)
+
+    def same_results_as(self, other: "EEAConfig") -> bool:
+        """Whether two configs give the same rounds (fields other than RESULT_NEUTRAL_FIELDS agree)."""
+        mine, theirs = self.to_dict(), other.to_dict()
+        return all(mine[k] == theirs[k] for k in mine if k not in RESULT_NEUTRAL_FIELDS)

@@ -1,0 +1,218 @@
+"""Batched, cached, parallel simulation of candidate models (paper section 3.2; DESIGN 6).
+
+Every fitness evaluation of a population goes through :class:`Evaluator`: the missing
+(model, action, initial angles) simulations of the whole request are gathered into ONE
+batch, split into contiguous chunks (at most ``max_batch_robots`` robots each, and at least
+one per worker) and passed to :func:`aquafish_gym.simulate_batch`, serially with
+``workers=1`` or on a ``concurrent.futures.ProcessPoolExecutor`` (one PyBullet client per
+worker process). A robot's result does not depend on which batch it is in, so results are
+identical for any number of workers.
+
+Two caches keep a result from being simulated twice:
+
+* estimation: the similarity (eq. 2) of model *genome* under experiment *index* from
+  initial angles *levels* (:func:`eea.experiment.quantise_angles`) to that experiment's
+  target summary; kept for the whole run and checkpointed with it;
+* exploration: the behaviour summary of a model genome under an action genome from the
+  zero state; cleared by :meth:`Evaluator.clear_summaries` at the start of every
+  exploration phase (summaries are large; actions rarely repeat across rounds).
+
+Initial angles are snapped to a 1e-6 rad grid before simulating, so a cached value and a
+fresh simulation of the same key are bit-for-bit equal.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
+from typing import Sequence
+
+import numpy as np
+
+from aquafish_gym import SimParams, simulate_batch
+from eea.behaviour import behaviour_summary, similarity
+from eea.encoding import decode_models
+from eea.experiment import Experiment, quantise_angles
+
+__all__ = ["Evaluator"]
+
+
+def _simulate_chunk(morphologies, actions, angles, steps, params) -> np.ndarray:
+    """Worker: behaviour summaries ``(n, 3, F)`` of one contiguous chunk of robots."""
+    return behaviour_summary(simulate_batch(morphologies, actions, angles, steps, params=params))
+
+
+def _genome_keys(genomes: np.ndarray) -> list[bytes]:
+    """One compact bytes key per ``(P, n_bits)`` genome row."""
+    packed = np.packbits(genomes.astype(np.uint8), axis=1)
+    return [row.tobytes() for row in packed]
+
+
+class Evaluator:
+    """Turns batches of (model genome, action, initial angles) into behaviour results.
+
+    Args:
+        steps: simulation steps (0.01 s each) of every simulation.
+        workers: worker processes; 1 simulates in this process. The pool is created on
+            first use and lives until :meth:`close` (use the evaluator as a context manager).
+        max_batch_robots: at most this many robots per ``simulate_batch`` call.
+        params: simulator parameters of the models (default: the defaults).
+
+    Attributes:
+        simulations: number of robot simulations run so far (cache hits excluded).
+
+    Raises:
+        ValueError: if ``steps``, ``workers`` or ``max_batch_robots`` is < 1.
+    """
+
+    def __init__(self, steps: int, *, workers: int = 1, max_batch_robots: int = 2048,
+                 params: SimParams | None = None) -> None:
+        for name, value in (("steps", steps), ("workers", workers), ("max_batch_robots", max_batch_robots)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f"{name} must be an int >= 1, got {value!r}")
+        self.steps, self.workers, self.max_batch_robots = int(steps), int(workers), int(max_batch_robots)
+        self.params = params
+        self.simulations = 0
+        self._similarity: dict[bytes, float] = {}
+        self._summaries: dict[bytes, np.ndarray] = {}
+        self._pool: ProcessPoolExecutor | None = None
+
+    # -- lifecycle --------------------------------------------------------------------
+    def close(self) -> None:
+        """Shut the worker pool down (if one was started)."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def __enter__(self) -> "Evaluator":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # -- the one batched simulator call -----------------------------------------------
+    def simulate(self, morphologies, actions, angles) -> np.ndarray:
+        """Simulate N robots in one batch (chunked over workers) and summarise them.
+
+        Args:
+            morphologies: ``(N, 9)`` flipper dimensions (simulator units).
+            actions: ``(N, 3)`` servo commands (rev/s, rev/s, Hz).
+            angles: ``(N, 3)`` initial angles (rad), already on the quantisation grid.
+
+        Returns:
+            ``(N, 3, steps // 2 + 1)`` behaviour summaries (eq. 2's coefficients).
+
+        Raises:
+            ValueError: as :func:`aquafish_gym.simulate_batch` raises.
+        """
+        morphologies, actions, angles = (np.asarray(x, dtype=np.float64) for x in (morphologies, actions, angles))
+        n = len(morphologies)
+        if n == 0:
+            return np.zeros((0, 3, self.steps // 2 + 1))
+        n_chunks = min(n, max(self.workers, -(-n // self.max_batch_robots)))
+        bounds = np.linspace(0, n, n_chunks + 1).astype(int)
+        chunks = [(morphologies[a:b], actions[a:b], angles[a:b], self.steps, self.params)
+                  for a, b in zip(bounds[:-1], bounds[1:])]
+        if self.workers == 1:
+            parts = [_simulate_chunk(*chunk) for chunk in chunks]
+        else:
+            if self._pool is None:
+                self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"))
+            parts = list(self._pool.map(_simulate_chunk, *zip(*chunks)))
+        self.simulations += n
+        return np.concatenate(parts)
+
+    # -- estimation: similarity to the target, cached for the run ----------------------
+    def similarities(self, genomes, experiments: Sequence[Experiment], angles) -> np.ndarray:
+        """Similarity (eq. 2) of every model's response to every experiment's target.
+
+        Args:
+            genomes: ``(P, 45)`` model genomes.
+            experiments: E experiments (their ``index``, ``action`` and ``summary`` are used).
+            angles: ``(P, E, 3)`` initial angles (rad) of model p in experiment e.
+
+        Returns:
+            ``(P, E)`` float64 in [0, 1]; MOD_FIT (eq. 3) is its mean over E.
+
+        Raises:
+            ValueError: on shape mismatches or an invalid genome or angle.
+        """
+        genomes = np.asarray(genomes)
+        p, e = len(genomes), len(experiments)
+        angles = np.asarray(angles, dtype=np.float64)
+        if genomes.ndim != 2 or angles.shape != (p, e, 3):
+            raise ValueError(f"genomes must be (P, 45) and angles (P, E, 3) = ({p}, {e}, 3), "
+                             f"got {genomes.shape} and {angles.shape}")
+        levels, values = quantise_angles(angles.reshape(-1, 3))
+        gkeys = _genome_keys(genomes)
+        level_bytes = [row.tobytes() for row in levels]
+        keys = [gkeys[i // e] + experiments[i % e].index.to_bytes(4, "little") + level_bytes[i]
+                for i in range(p * e)]
+        result = np.empty(p * e)
+        missing: dict[bytes, list[int]] = {}
+        for i, key in enumerate(keys):
+            cached = self._similarity.get(key)
+            if cached is None:
+                missing.setdefault(key, []).append(i)
+            else:
+                result[i] = cached
+        if missing:
+            first = np.array([rows[0] for rows in missing.values()])
+            models = decode_models(genomes[first // e])
+            actions = np.stack([experiments[j].action for j in first % e])
+            summaries = self.simulate(models, actions, values[first])
+            targets = np.stack([experiments[j].summary for j in first % e])
+            sims = similarity(summaries, targets)
+            for (key, rows), s in zip(missing.items(), sims.tolist()):
+                self._similarity[key] = s
+                result[rows] = s
+        return result.reshape(p, e)
+
+    # -- exploration: responses to candidate actions, cached within a phase ------------
+    def summaries(self, genomes, action_genomes, actions, angles) -> np.ndarray:
+        """Behaviour summaries of M models under A candidate actions, all from one context.
+
+        Args:
+            genomes: ``(M, 45)`` model genomes.
+            action_genomes: ``(A, 18)`` action genomes (cache keys).
+            actions: ``(A, 3)`` the decoded actions (rev/s, rev/s, Hz).
+            angles: ``(3,)`` initial angles (rad) of every simulation.
+
+        Returns:
+            ``(A, M, 3, steps // 2 + 1)`` behaviour summaries.
+        """
+        genomes, action_genomes = np.asarray(genomes), np.asarray(action_genomes)
+        actions = np.asarray(actions, dtype=np.float64)
+        levels, values = quantise_angles(np.asarray(angles, dtype=np.float64)[None])
+        m, a = len(genomes), len(action_genomes)
+        suffix = levels[0].tobytes()
+        gkeys, akeys = _genome_keys(genomes), _genome_keys(action_genomes)
+        keys = [akeys[i // m] + gkeys[i % m] + suffix for i in range(a * m)]
+        missing = list(dict.fromkeys(k for k in keys if k not in self._summaries))
+        if missing:
+            where = {k: i for i, k in reversed(list(enumerate(keys)))}
+            rows = np.array([where[k] for k in missing])
+            out = self.simulate(decode_models(genomes[rows % m]), actions[rows // m],
+                                np.repeat(values, len(rows), axis=0))
+            self._summaries.update(zip(missing, out))
+        return np.stack([self._summaries[k] for k in keys]).reshape(a, m, 3, -1)
+
+    def clear_summaries(self) -> None:
+        """Forget the exploration summaries (called at the start of every exploration)."""
+        self._summaries.clear()
+
+    # -- checkpointing ----------------------------------------------------------------
+    def state_dict(self) -> dict:
+        """Counter and estimation cache, for the run checkpoint."""
+        return {"simulations": self.simulations, "similarity_cache": dict(self._similarity)}
+
+    def load_state_dict(self, state: dict) -> None:
+        """Restore what :meth:`state_dict` saved (the exploration cache starts empty)."""
+        self.simulations = int(state["simulations"])
+        self._similarity = dict(state["similarity_cache"])
+        self._summaries.clear()
+
+    @property
+    def cache_size(self) -> int:
+        """Number of cached estimation similarities."""
+        return len(self._similarity)

@@ -1,0 +1,94 @@
+"""Exploration phase of the EEA: evolve the action the candidate models disagree on most.
+
+Paper section 3.2: a :class:`~eea.ga.BitGA` over 18-bit action genomes (population 25,
+25 generations per round); an action's fitness is ACT_FIT (eq. 1), the mean pairwise
+dissimilarity of the candidate models' responses to it. The action with the highest
+fitness in the final generation is performed on the target.
+
+Choices the paper leaves open, made here:
+
+* Candidate models: the distinct genomes of the estimation population's last evaluated
+  generation, best first, at most ``EEAConfig.exploration_models`` (default 25, i.e. the
+  whole population) - duplicates would only add zero-disagreement pairs. Before the first
+  estimation they are the distinct genomes of the random initial population.
+* Context: the next experiment's initial angles are unknown when its action is chosen, so
+  every model is simulated from the zero state (pectorals arms-back, caudal 0). A fixed
+  context keeps ACT_FIT deterministic and comparable between actions.
+* A new action GA starts every round (actions do not carry over).
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from eea.encoding import ACTION_BITS, decode_actions
+from eea.fitness import action_fitness
+from eea.ga import BitGA
+
+__all__ = ["EXPLORATION_ANGLES_RAD", "Exploration"]
+
+#: Initial angles (rad) of every model simulation during exploration: the zero state.
+EXPLORATION_ANGLES_RAD = np.zeros(3)
+
+
+class Exploration:
+    """The exploration phase: one fresh action GA per round.
+
+    Args:
+        population: actions per generation (paper: 25).
+        generations: generations per round (paper: 25).
+        ga_options: keyword arguments of :class:`~eea.ga.BitGA` (crossover_rate,
+            mutation_rate, tournament_size, elitism).
+
+    Raises:
+        ValueError: if ``population`` or ``generations`` is < 1.
+    """
+
+    def __init__(self, population: int = 25, generations: int = 25, ga_options: dict | None = None) -> None:
+        if population < 1 or generations < 1:
+            raise ValueError(f"population and generations must be >= 1, got {population}, {generations}")
+        self.population, self.generations = int(population), int(generations)
+        self.ga_options = dict(ga_options or {})
+
+    @classmethod
+    def from_config(cls, config) -> "Exploration":
+        """Sized and tuned by an :class:`eea.config.EEAConfig`."""
+        return cls(config.exploration_population, config.exploration_generations,
+                   {"crossover_rate": config.crossover_rate, "mutation_rate": config.mutation_bits / ACTION_BITS,
+                    "tournament_size": config.tournament_size, "elitism": config.elitism})
+
+    def run(self, models: np.ndarray, evaluator, rng: np.random.Generator,
+            on_generation: Callable[[int, float], None] | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+        """Evolve the most informative action for the candidate ``models``.
+
+        Each generation is one :meth:`Evaluator.summaries` call for all
+        (action, model) pairs not yet simulated in this phase.
+
+        Args:
+            models: ``(M, 45)`` distinct candidate model genomes. With M < 2 there is no
+                disagreement to measure: the first action of a random population is returned
+                with fitness 0 and nothing is simulated.
+            evaluator: an :class:`eea.evaluation.Evaluator` (its exploration cache is cleared).
+            rng: the run's generator.
+            on_generation: called with (generation, best fitness so far) after each one.
+
+        Returns:
+            ``(action_genome (18,) uint8, action (3,) rev/s, rev/s, Hz, action_fitness)``.
+        """
+        models = np.asarray(models, dtype=np.uint8)
+        ga = BitGA(ACTION_BITS, self.population, rng, **self.ga_options)
+        if len(models) < 2:
+            genome = ga.ask()[0]
+            return genome, decode_actions(genome), 0.0
+        evaluator.clear_summaries()
+        for generation in range(self.generations):
+            genomes = ga.ask()
+            actions = decode_actions(genomes)
+            summaries = evaluator.summaries(models, genomes, actions, EXPLORATION_ANGLES_RAD)  # (A, M, 3, F)
+            ga.tell(np.atleast_1d(action_fitness(summaries)))
+            if on_generation is not None:
+                on_generation(generation, ga.best_fitness)
+        evaluator.clear_summaries()
+        return ga.best_genome, decode_actions(ga.best_genome), ga.best_fitness

@@ -1,0 +1,259 @@
+"""Context inference: which initial flipper angles the models start from (paper 3.3, 3.4, 4).
+
+The target's initial angles are unknown (its servos have no position feedback). A
+strategy decides, for every (model, experiment) simulation of the estimation phase, the
+initial angles, and may refine each experiment's :class:`~eea.experiment.Context`. All
+strategies share one interface, :class:`InferenceStrategy`, and are chosen by name from
+:data:`INFERENCE_STRATEGIES` with :func:`make_inference`:
+
+==============  ======  =============================================================
+name            paper   initial angles of the models
+==============  ======  =============================================================
+``known``       4.1     the target's true angles (an oracle; the ideal baseline)
+``none``        4.2     the zero state: pectorals arms-back (0), caudal 0
+``in_band``     3.3     PERFORM(): with probability = confidence from the stored ranges,
+                        else random; after every estimation generation the angles of
+                        the K best models give the newest experiment's smallest inclusive
+                        arc per flipper; confidence 0.5 during its round, 1.0 after
+``out_of_band`` 3.4     every ``period`` generations (0, 35, 70) an inner GA over the
+                        newest experiment's angles, scored by the mean similarity of a
+                        sample of the best models to the target; confidence 1.0 at once
+==============  ======  =============================================================
+
+Hook order within one estimation phase (:class:`eea.estimation.Estimation`)::
+
+    begin_round(experiments)
+    for generation in range(G):
+        before_generation(generation, ranked_genomes, experiments, evaluator, rng)
+        angles = angles(experiments, P, rng)       # (P, E, 3), then fitness, then
+        after_generation(genomes, angles, fitness, experiments)
+    end_round(experiments)
+
+Strategies keep no state of their own: everything they infer lives in the experiments'
+contexts, which the run checkpoints.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar, Sequence
+
+import numpy as np
+
+from eea.arc import smallest_inclusive_arc, smallest_inclusive_interval, widen_arc
+from eea.encoding import decode_fields, encode_fields
+from eea.ga import BitGA
+from eea.experiment import CAUDAL_LIMIT_RAD, PERIODS, TWO_PI, Context, Experiment
+
+__all__ = ["INFERENCE_NAMES", "INFERENCE_STRATEGIES", "InBand", "InferenceStrategy", "Known", "NoInference",
+           "OutOfBand", "make_inference"]
+
+
+class InferenceStrategy:
+    """Interface of a context inference strategy; the base class is a no-op for every hook."""
+
+    name: ClassVar[str] = ""
+
+    @classmethod
+    def from_config(cls, config) -> "InferenceStrategy":
+        """Build from an :class:`eea.config.EEAConfig` (subclasses read their fields)."""
+        return cls()
+
+    def new_context(self, true_angles: np.ndarray) -> Context:
+        """Context of a freshly performed experiment whose true angles are ``(3,)`` rad."""
+        raise NotImplementedError
+
+    def begin_round(self, experiments: Sequence[Experiment]) -> None:
+        """Called once before the estimation generations of a round."""
+
+    def angles(self, experiments: Sequence[Experiment], n_models: int, rng: np.random.Generator) -> np.ndarray:
+        """Initial angles of every model in every experiment (the paper's PERFORM()).
+
+        Returns:
+            ``(n_models, E, 3)`` radians, experiment e's column drawn by
+            :meth:`Context.sample` of its context.
+        """
+        if not experiments:
+            return np.zeros((n_models, 0, 3))
+        return np.stack([exp.context.sample(rng, n_models) for exp in experiments], axis=1)
+
+    def before_generation(self, generation: int, ranked_genomes: np.ndarray, experiments: Sequence[Experiment],
+                          evaluator, rng: np.random.Generator) -> None:
+        """Called before estimation generation ``generation`` (0-based) is evaluated.
+
+        Args:
+            ranked_genomes: ``(R, 45)`` distinct model genomes, best first by their last
+                fitness (population order before any fitness is known).
+        """
+
+    def after_generation(self, genomes: np.ndarray, angles: np.ndarray, fitness: np.ndarray,
+                         experiments: Sequence[Experiment]) -> None:
+        """Called with a generation's ``(P, 45)`` genomes, ``(P, E, 3)`` angles, ``(P,)`` fitness."""
+
+    def end_round(self, experiments: Sequence[Experiment]) -> None:
+        """Called once after the estimation generations of a round."""
+
+
+class Known(InferenceStrategy):
+    """Ideal baseline (paper 4.1): models start from the target's true angles."""
+
+    name = "known"
+
+    def new_context(self, true_angles):
+        return Context.exact(true_angles)
+
+
+class NoInference(InferenceStrategy):
+    """No-inference baseline (paper 4.2): models start from the zero state."""
+
+    name = "none"
+
+    def new_context(self, true_angles):
+        return Context.exact(np.zeros(3))
+
+
+class InBand(InferenceStrategy):
+    """In-Band inference (paper 3.3): angles inferred inside the estimation GA.
+
+    The newest experiment starts with every angle possible and confidence
+    ``confidence`` (0.5: half the models start from the stored ranges, half from random
+    angles). After every generation the ``k_best`` fittest models' angles for it give the
+    smallest inclusive arc per pectoral flipper (may wrap through 0) and the smallest
+    interval for the caudal fin, optionally widened by ``widen`` of the width on each side
+    (paper 4.3 tried 0.2). At the end of the round the confidence is locked at 1.0.
+
+    Raises:
+        ValueError: if ``k_best < 1``, ``confidence`` is outside [0, 1] or ``widen < 0``.
+    """
+
+    name = "in_band"
+
+    def __init__(self, k_best: int = 3, confidence: float = 0.5, widen: float = 0.0) -> None:
+        if k_best < 1 or not 0.0 <= confidence <= 1.0 or not widen >= 0.0:
+            raise ValueError(f"InBand needs k_best >= 1, confidence in [0, 1], widen >= 0; "
+                             f"got {k_best}, {confidence}, {widen}")
+        self.k_best, self.confidence, self.widen = int(k_best), float(confidence), float(widen)
+
+    @classmethod
+    def from_config(cls, config):
+        return cls(config.k_best, config.in_band_confidence, config.in_band_widen)
+
+    def new_context(self, true_angles):
+        return Context.unknown(self.confidence)
+
+    def begin_round(self, experiments):
+        experiments[-1].context = experiments[-1].context.with_confidence(self.confidence)
+
+    def after_generation(self, genomes, angles, fitness, experiments):
+        best = np.argsort(-np.asarray(fitness), kind="stable")[: self.k_best]
+        experiments[-1].context = self.infer_context(angles[best, -1, :], experiments[-1].context.confidence)
+
+    def infer_context(self, best_angles: np.ndarray, confidence: float) -> Context:
+        """Context holding ``(K, 3)`` angles: smallestInclusive() per flipper (paper 3.3)."""
+        starts, widths = [], []
+        for column, period in zip(np.asarray(best_angles).T, PERIODS):
+            if period is None:
+                start, width = smallest_inclusive_interval(column)
+            else:
+                start, width = smallest_inclusive_arc(column, period)
+            if self.widen > 0:
+                start, width = widen_arc(start, width, self.widen, period)
+            if period is None:  # intersect with the caudal sweep
+                end = min(start + width, CAUDAL_LIMIT_RAD)
+                start = max(start, -CAUDAL_LIMIT_RAD)
+                width = max(end - start, 0.0)
+            starts.append(start)
+            widths.append(width)
+        return Context(tuple(starts), tuple(widths), confidence)
+
+    def end_round(self, experiments):
+        experiments[-1].context = experiments[-1].context.with_confidence(1.0)
+
+
+class OutOfBand(InferenceStrategy):
+    """Out-of-Band inference (paper 3.4): a separate GA over the newest experiment's angles.
+
+    Before estimation generations 0, ``period``, 2 ``period``, ... an inner
+    :class:`~eea.ga.BitGA` (``population`` x ``generations``) evolves the newest
+    experiment's three initial angles, encoded with ``bits`` bits each (pectorals on
+    [0, 2 pi) in steps of 2 pi / 2**bits, caudal on the sweep). A candidate's fitness is
+    the mean similarity (eq. 2) to the target's response of the ``sample`` best distinct
+    models when started from it; every candidate generation is one batched evaluation.
+    From the second inference of a round on, the current angles seed the inner GA, so an
+    inference never forgets a better earlier answer for the same models. The context is
+    set to the best angles with confidence 1.0 (all models use them).
+
+    Raises:
+        ValueError: if any count is < 1 (``bits`` < 2).
+    """
+
+    name = "out_of_band"
+
+    def __init__(self, period: int = 35, sample: int = 5, population: int = 10, generations: int = 10,
+                 bits: int = 8, ga_options: dict | None = None) -> None:
+        if min(period, sample, population, generations) < 1 or bits < 2:
+            raise ValueError(f"OutOfBand needs period, sample, population, generations >= 1 and bits >= 2; "
+                             f"got {period}, {sample}, {population}, {generations}, {bits}")
+        self.period, self.sample, self.population = int(period), int(sample), int(population)
+        self.generations, self.bits = int(generations), int(bits)
+        self.ga_options = dict(ga_options or {})
+        step = TWO_PI / 2 ** self.bits
+        self.field_bits = (self.bits,) * 3
+        self.bounds = np.array([[0.0, TWO_PI - step], [0.0, TWO_PI - step], [-CAUDAL_LIMIT_RAD, CAUDAL_LIMIT_RAD]])
+
+    @classmethod
+    def from_config(cls, config):
+        options = {"crossover_rate": config.crossover_rate, "tournament_size": config.tournament_size,
+                   "mutation_rate": config.mutation_bits / (3 * config.oob_bits), "elitism": config.elitism}
+        return cls(config.oob_period, config.oob_sample, config.oob_population, config.oob_generations,
+                   config.oob_bits, options)
+
+    def new_context(self, true_angles):
+        return Context.exact(np.zeros(3))  # replaced by the first inference (generation 0)
+
+    def begin_round(self, experiments):
+        experiments[-1].context = experiments[-1].context.with_confidence(1.0)
+
+    def before_generation(self, generation, ranked_genomes, experiments, evaluator, rng):
+        if generation % self.period == 0:
+            best = self.infer_angles(ranked_genomes[: self.sample], experiments[-1], evaluator, rng,
+                                     seed_current=generation > 0)
+            experiments[-1].context = Context.exact(best)
+
+    def infer_angles(self, models: np.ndarray, experiment: Experiment, evaluator, rng: np.random.Generator,
+                     seed_current: bool = False) -> np.ndarray:
+        """The paper's optAng(): best ``(3,)`` initial angles (rad) of ``experiment`` for ``(S, 45)`` models."""
+        initial = None
+        if seed_current:
+            current = experiment.context.estimate()
+            step = TWO_PI / 2 ** self.bits  # nearest pectoral level on the circle (2 pi - eps -> 0)
+            current[:2] = np.mod(np.rint(current[:2] / step), 2 ** self.bits) * step
+            current = np.clip(current, self.bounds[:, 0], self.bounds[:, 1])
+            initial = encode_fields(current, self.field_bits, self.bounds)[None]
+        ga = BitGA(3 * self.bits, self.population, rng, initial=initial, **self.ga_options)
+        s = len(models)
+        for _ in range(self.generations):
+            candidates = decode_fields(ga.ask(), self.field_bits, self.bounds)          # (Q, 3)
+            angles = np.repeat(candidates, s, axis=0)[:, None, :]                       # (Q*S, 1, 3)
+            sims = evaluator.similarities(np.tile(models, (len(candidates), 1)), [experiment], angles)
+            ga.tell(sims.reshape(len(candidates), s).mean(axis=1))
+        return decode_fields(ga.best_genome, self.field_bits, self.bounds)
+
+
+#: Registry of strategies by name (``EEAConfig.inference``).
+INFERENCE_STRATEGIES: dict[str, type[InferenceStrategy]] = {
+    cls.name: cls for cls in (Known, NoInference, InBand, OutOfBand)
+}
+INFERENCE_NAMES: tuple[str, ...] = tuple(INFERENCE_STRATEGIES)
+
+
+def make_inference(name: str, config=None) -> InferenceStrategy:
+    """Build the strategy called ``name``, with its settings from ``config`` (an EEAConfig) if given.
+
+    Raises:
+        ValueError: on an unknown name; the message lists the valid names.
+    """
+    try:
+        cls = INFERENCE_STRATEGIES[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown inference {name!r}; valid names: {', '.join(INFERENCE_NAMES)}") from None
+    return cls.from_config(config) if config is not None else cls()

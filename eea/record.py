@@ -1,0 +1,130 @@
+"""What a run leaves on disk and how to read it back (paper section 4; DESIGN 8).
+
+A run directory holds ``config.json`` (the :class:`~eea.config.EEAConfig`),
+``rounds.csv`` (one row per round, columns :data:`ROUND_COLUMNS`) and the checkpoint
+``state.pkl``. Columns of ``rounds.csv``:
+
+* ``round`` (1-based), ``objective_fitness`` (eq. 4 of the best model, an oracle),
+  ``model_fitness`` (its MOD_FIT, eq. 3), ``action_fitness`` (ACT_FIT, eq. 1, of the
+  action performed);
+* ``model_<field>``: the best model's 9 dimensions (simulator units,
+  ``aquafish_gym.MORPHOLOGY_FIELDS`` order);
+* ``action_left_pectoral_rev_s``, ``action_right_pectoral_rev_s``, ``action_caudal_hz``:
+  the action performed on the target this round;
+* ``true_<flipper>_rad`` and ``inferred_<flipper>_rad``: the newest experiment's true
+  initial angles and the inferred ones (middle of its context's ranges) at the end of the
+  round, flippers ``left`` and ``right`` pectoral and ``caudal`` (e.g. ``true_left_rad``);
+* ``target_experiments``, ``simulations`` (model simulations run, cache hits excluded) and
+  ``wall_seconds``, all cumulative.
+
+Floats are written with ``repr`` (round-trip exact), so two runs can be compared byte for
+byte (``wall_seconds`` aside).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import json
+import os
+from pathlib import Path
+
+from aquafish_gym import MORPHOLOGY_FIELDS, Morphology
+from eea.checkpoint import atomic_write
+from eea.config import EEAConfig
+
+__all__ = ["CONFIG_FILE", "ROUNDS_FILE", "ROUND_COLUMNS", "RunResult", "load_result", "read_rounds",
+           "write_config", "write_rounds"]
+
+CONFIG_FILE = "config.json"
+ROUNDS_FILE = "rounds.csv"
+FLIPPERS = ("left", "right", "caudal")  # left, right pectoral flipper; caudal fin
+MODEL_COLUMNS = tuple(f"model_{name}" for name in MORPHOLOGY_FIELDS)
+ACTION_COLUMNS = ("action_left_pectoral_rev_s", "action_right_pectoral_rev_s", "action_caudal_hz")
+ROUND_COLUMNS: tuple[str, ...] = (
+    "round", "objective_fitness", "model_fitness", "action_fitness", *MODEL_COLUMNS, *ACTION_COLUMNS,
+    *(f"true_{f}_rad" for f in FLIPPERS), *(f"inferred_{f}_rad" for f in FLIPPERS),
+    "target_experiments", "simulations", "wall_seconds",
+)
+_INT_COLUMNS = ("round", "target_experiments", "simulations")
+
+
+@dataclasses.dataclass(frozen=True)
+class RunResult:
+    """A run's config and per-round records.
+
+    Attributes:
+        out_dir: the run directory.
+        config: the run's :class:`~eea.config.EEAConfig`.
+        rounds: one dict per finished round, keys :data:`ROUND_COLUMNS` (ints and floats).
+    """
+
+    out_dir: Path
+    config: EEAConfig
+    rounds: list
+
+    @property
+    def finished(self) -> bool:
+        """Whether all ``config.rounds`` rounds are done."""
+        return len(self.rounds) >= self.config.rounds
+
+    @property
+    def best_morphology(self) -> Morphology:
+        """The final round's best model as a :class:`~aquafish_gym.Morphology`.
+
+        Raises:
+            ValueError: if no round has finished yet.
+        """
+        if not self.rounds:
+            raise ValueError(f"run {self.out_dir} has no finished round yet")
+        return Morphology.from_array([self.rounds[-1][c] for c in MODEL_COLUMNS])
+
+    @property
+    def objective_fitness(self) -> list[float]:
+        """OBJ_FIT of every finished round, in order."""
+        return [row["objective_fitness"] for row in self.rounds]
+
+
+def write_config(out_dir: str | os.PathLike, config: EEAConfig) -> None:
+    """Write ``config.json`` atomically."""
+    atomic_write(Path(out_dir) / CONFIG_FILE, (json.dumps(config.to_dict(), indent=2) + "\n").encode())
+
+
+def read_config(out_dir: str | os.PathLike) -> EEAConfig | None:
+    """The config in ``out_dir/config.json``, or None if there is none."""
+    path = Path(out_dir) / CONFIG_FILE
+    if not path.exists():
+        return None
+    return EEAConfig.from_dict(json.loads(path.read_text()))
+
+
+def write_rounds(out_dir: str | os.PathLike, rows: list) -> None:
+    """Rewrite ``rounds.csv`` with all ``rows`` atomically (floats as ``repr``)."""
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=ROUND_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    for row in rows:
+        writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in row.items()})
+    atomic_write(Path(out_dir) / ROUNDS_FILE, buffer.getvalue().encode())
+
+
+def read_rounds(out_dir: str | os.PathLike) -> list[dict]:
+    """Rows of ``out_dir/rounds.csv`` as dicts of ints and floats ([] if there is no file)."""
+    path = Path(out_dir) / ROUNDS_FILE
+    if not path.exists():
+        return []
+    with open(path, newline="") as f:
+        return [{k: int(v) if k in _INT_COLUMNS else float(v) for k, v in row.items()} for row in csv.DictReader(f)]
+
+
+def load_result(out_dir: str | os.PathLike) -> RunResult:
+    """Read a (finished or partial) run from its directory.
+
+    Raises:
+        ValueError: if ``out_dir`` holds no ``config.json``.
+    """
+    config = read_config(out_dir)
+    if config is None:
+        raise ValueError(f"{out_dir} is not an EEA run directory (no {CONFIG_FILE})")
+    return RunResult(Path(out_dir), config, read_rounds(out_dir))

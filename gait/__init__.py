@@ -1,0 +1,34 @@
+"""gait: swimming controllers for the aquatic robot and their transfer (paper section 5).
+
+NEAT (neat-python) evolves a network from the IMU and an oscillator clock to the three
+servo commands, with fitness = forward distance in 20 s of swimming in ``AquaFish-v0``;
+the best controller is then run on its native morphology and on a target (the damaged
+robot) and the trajectories are compared as in the paper's Figure 12. stable-baselines3
+PPO/SAC policies trained on the same env (the optional ``[rl]`` extra) are scored the same
+way.
+
+Public API:
+    evolve_gait(morphology, *, damage, generations, population_size, seed, out_dir, workers) -> GaitResult
+    load_controller(path) -> Controller
+    score_transfer(controller, native, target, *, seed, initial_angles) -> TransferResult
+    plot_transfer(results, path, titles=None) -> Path
+    rollout(controller, robot, *, seed, initial_angles) -> Rollout
+    train_rl(algo, morphology, timesteps, seed, out_dir) -> Path      (needs the [rl] extra)
+"""
+
+from gait.clock import CLOCK_PERIOD_S, ClockObservation, clock_features, with_clock
+from gait.controller import Controller, NEATController, SB3PolicyController, load_controller
+from gait.neat_evolution import GaitResult, evolve_gait, latest_checkpoint, load_neat_config
+from gait.plots import plot_fitness_history, plot_transfer
+from gait.robots import Robot, as_robot, parse_robot
+from gait.rollout import EPISODE_DURATION_S, Rollout, make_env, rollout
+from gait.transfer import TransferResult, save_transfer, score_transfer
+from gait.rl import train_rl  # stable-baselines3 is imported only when training (the [rl] extra)
+
+
+__all__ = [
+    "CLOCK_PERIOD_S", "EPISODE_DURATION_S", "ClockObservation", "Controller", "GaitResult", "NEATController",
+    "Robot", "Rollout", "SB3PolicyController", "TransferResult", "as_robot", "clock_features", "evolve_gait",
+    "latest_checkpoint", "load_controller", "load_neat_config", "make_env", "parse_robot", "plot_fitness_history",
+    "plot_transfer", "rollout", "save_transfer", "score_transfer", "train_rl", "with_clock",
+]

@@ -1,0 +1,125 @@
+"""``aquafish gait``, ``aquafish transfer`` and ``aquafish rl`` sub-commands."""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import json
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+ROBOT_HELP = "'healthy', a damage name (the healthy robot with that damage), 9 comma-separated numbers, or a JSON/text file"
+
+
+def add_commands(subparsers) -> None:
+    """Register the gait sub-commands on the ``aquafish`` parser's ``subparsers``."""
+    p = subparsers.add_parser("gait", help="evolve a swimming controller with NEAT (paper section 5)",
+                              description="Evolve a NEAT controller that swims forward as far as possible in 20 s.")
+    p.add_argument("--morphology", default="healthy", help=f"robot to evolve for: {ROBOT_HELP} (default healthy)")
+    p.add_argument("--damage", default="none", help="damage applied to --morphology (default none)")
+    p.add_argument("--generations", type=int, default=30, help="total generations (default 30)")
+    p.add_argument("--population-size", type=int, default=None, help="genomes per generation (default: the config's, 50)")
+    p.add_argument("--seed", type=int, default=0, help="seeds NEAT and the fitness episode's initial flipper angles (default 0)")
+    p.add_argument("--out", type=Path, default=Path("runs/gait"), help="output directory (default runs/gait)")
+    p.add_argument("--workers", type=int, default=os.cpu_count(), help="evaluation processes (default: all CPUs)")
+    p.add_argument("--config", type=Path, default=None, help="NEAT INI file (default gait/neat_config.ini)")
+    p.add_argument("--resume", default=None, help="checkpoint file to continue from, or 'latest' (in --out)")
+    p.add_argument("--episode-duration-s", type=float, default=20.0, help="simulated seconds per evaluation (default 20)")
+    p.add_argument("--episodes-per-genome", type=int, default=1,
+                   help="episodes per evaluation from different initial angles (seeds seed, seed+1, ...); fitness is their mean (default 1)")
+    p.add_argument("--checkpoint-every", type=int, default=5, help="generations between checkpoints (default 5)")
+    p.add_argument("--quiet", action="store_true", help="no per-generation report")
+    p.set_defaults(func=run_gait)
+
+    p = subparsers.add_parser("transfer", help="score controllers on their native robot and on a target (Figure 12)",
+                              description="Run each controller on its native robot and on the target from the same "
+                                          "initial flipper angles; write distances, trajectories and a Figure-12 plot.")
+    p.add_argument("--controller", nargs="+", required=True, type=Path,
+                   help="controller files (.pkl NEAT, .zip SB3) or run directories, one panel each")
+    p.add_argument("--native", nargs="+", default=["healthy"], help=f"each controller's own robot: {ROBOT_HELP}; one, or one per controller")
+    p.add_argument("--target", required=True, help=f"robot to transfer to: {ROBOT_HELP}")
+    p.add_argument("--seed", type=int, default=0, help="episode seed: draws the initial angles (default 0, as `aquafish gait`)")
+    p.add_argument("--initial-angles", default=None, help="3 comma-separated angles (rad): left, right pectoral, caudal")
+    p.add_argument("--title", nargs="+", default=None, help="one title per controller")
+    p.add_argument("--out", type=Path, default=Path("runs/transfer"), help="writes transfer.json and transfer.png (default runs/transfer)")
+    p.set_defaults(func=run_transfer)
+
+    p = subparsers.add_parser("rl", help="train a stable-baselines3 PPO/SAC baseline (needs the [rl] extra)",
+                              description="Train PPO or SAC on AquaFish-v0 (clock appended to the observation).")
+    p.add_argument("--algo", choices=("ppo", "sac"), default="ppo", help="algorithm (default ppo)")
+    p.add_argument("--morphology", default="healthy", help=f"robot: {ROBOT_HELP} (default healthy)")
+    p.add_argument("--damage", default="none", help="damage applied to --morphology (default none)")
+    p.add_argument("--timesteps", type=int, default=None, help="env steps of 0.1 s (default: the YAML's n_timesteps)")
+    p.add_argument("--seed", type=int, default=0, help="training seed (default 0)")
+    p.add_argument("--out", type=Path, default=Path("runs/rl"), help="output directory (default runs/rl)")
+    p.add_argument("--hyperparams", type=Path, default=None, help="RL-Zoo-style YAML (default gait/rl_hyperparams.yml)")
+    p.add_argument("--episode-duration-s", type=float, default=20.0, help="simulated seconds per training episode (default 20)")
+    p.add_argument("--num-threads", type=int, default=1, help="torch CPU threads (default 1)")
+    p.add_argument("--verbose", type=int, default=0, choices=(0, 1, 2), help="SB3 verbosity (default 0)")
+    p.set_defaults(func=run_rl)
+
+
+def run_gait(args: argparse.Namespace) -> int:
+    from gait.neat_evolution import latest_checkpoint, evolve_gait
+
+    resume = latest_checkpoint(args.out) if args.resume == "latest" else args.resume
+    result = evolve_gait(args.morphology, damage=args.damage, generations=args.generations,
+                         population_size=args.population_size, seed=args.seed, out_dir=args.out, workers=args.workers,
+                         config_path=args.config, resume=resume, episode_duration_s=args.episode_duration_s,
+                         episodes_per_genome=args.episodes_per_genome, checkpoint_every=args.checkpoint_every, verbose=not args.quiet)
+    print(f"best forward distance {result.best_fitness:.3f} units ({result.best_fitness * 8:.1f} cm) in "
+          f"{args.episode_duration_s:g} s on {result.robot.label}; {result.generations} generations, "
+          f"{result.wall_time_s:.0f} s wall; wrote {args.out}")
+    return 0
+
+
+def _angles(text: str | None):
+    if text is None:
+        return None
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 3:
+        raise ValueError(f"--initial-angles needs 3 comma-separated numbers (rad), got {text!r}")
+    return np.array(values)
+
+
+def run_transfer(args: argparse.Namespace) -> int:
+    from gait.controller import load_controller
+    from gait.transfer import plot_transfer, save_transfer, score_transfer
+
+    natives = args.native * len(args.controller) if len(args.native) == 1 else args.native
+    if len(natives) != len(args.controller):
+        raise ValueError(f"give one --native or one per --controller ({len(args.controller)}), got {len(args.native)}")
+    if args.title is not None and len(args.title) != len(args.controller):
+        raise ValueError(f"give one --title per --controller ({len(args.controller)}), got {len(args.title)}")
+    angles = _angles(args.initial_angles)
+    results = []
+    for path, native in zip(args.controller, natives):
+        result = score_transfer(load_controller(path), native, args.target, seed=args.seed, initial_angles=angles)
+        results.append(result)
+        print(f"{path}: native {result.native.label} {result.native_distance:.3f} units, "
+              f"target {result.target.label} {result.target_distance:.3f} units")
+    save_transfer(results, args.out / "transfer.json")
+    plot_transfer(results, args.out / "transfer.png", titles=args.title)
+    print(f"wrote {args.out / 'transfer.json'} and {args.out / 'transfer.png'}")
+    return 0
+
+
+def run_rl(args: argparse.Namespace) -> int:
+    if importlib.util.find_spec("stable_baselines3") is None:
+        print("aquafish rl: needs stable-baselines3 and torch: pip install 'aquafish[rl]'", file=sys.stderr)
+        return 2
+    from gait.rl import train_rl
+
+    path = train_rl(args.algo, args.morphology, args.timesteps, args.seed, args.out, damage=args.damage,
+                    hyperparams_path=args.hyperparams, episode_duration_s=args.episode_duration_s,
+                    num_threads=args.num_threads, verbose=args.verbose)
+    meta = json.loads(path.with_suffix(".json").read_text())
+    print(f"{args.algo.upper()} {meta['timesteps']} steps in {meta['wall_time_s']:.0f} s; forward distance "
+          f"{meta['eval_distance']:.3f} units in 20 s (seed {meta['eval_seed']}); wrote {path}")
+    return 0

@@ -1,0 +1,207 @@
+"""Gait controllers: map the IMU observation and the clock to AquaFish-v0's action.
+
+A :class:`Controller` has ``reset()`` (start of an episode) and
+``act(obs (12,), time_s) -> action (3,) in [-1, 1]``. Two kinds exist:
+
+* :class:`NEATController`: a neat-python genome decoded to ``neat.nn.FeedForwardNetwork``
+  (or ``neat.nn.RecurrentNetwork`` when the config has ``feed_forward = False``; the CTRNN
+  is not used, its ``advance()`` has a double-buffer bug in neat-python 2.0.0).
+* :class:`SB3PolicyController`: a stable-baselines3 model (PPO, SAC) trained on
+  AquaFish-v0 wrapped in :class:`~gait.clock.ClockObservation`.
+
+Both see the same 14 inputs (:func:`gait.clock.with_clock`). :func:`load_controller`
+reads either from disk.
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import neat
+import numpy as np
+
+from gait.clock import CLOCK_DIM, CLOCK_PERIOD_S, OBS_DIM, check_clock_period, with_clock
+
+#: File names inside a run directory that :func:`load_controller` looks for.
+NEAT_CONTROLLER_FILE = "best_controller.pkl"
+SB3_MODEL_FILE = "model.zip"
+#: SB3 algorithms that :func:`load_controller` and :mod:`gait.rl` know.
+SB3_ALGOS = ("ppo", "sac")
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """What the rollout needs from a controller."""
+
+    def reset(self) -> None:
+        """Clear any internal state before an episode."""
+
+    def act(self, obs: np.ndarray, time_s: float) -> np.ndarray:
+        """Return the action ``(3,)`` in [-1, 1] for observation ``obs (12,)`` at ``time_s``."""
+
+
+class NEATController:
+    """A NEAT network driving the robot from the IMU and the clock.
+
+    Args:
+        genome: a ``neat.DefaultGenome`` evolved with ``config``.
+        config: the ``neat.Config`` (14 inputs, 3 outputs).
+        clock_period_s: period of the clock input (s).
+
+    Raises:
+        ValueError: the config's inputs/outputs do not match (14, 3), or a bad period.
+    """
+
+    def __init__(self, genome, config: neat.Config, clock_period_s: float = CLOCK_PERIOD_S):
+        gc = config.genome_config
+        if gc.num_inputs != OBS_DIM + CLOCK_DIM or gc.num_outputs != 3:
+            raise ValueError(f"NEAT config must have num_inputs = {OBS_DIM + CLOCK_DIM} (observation + clock) and "
+                             f"num_outputs = 3 (servo commands), got {gc.num_inputs} and {gc.num_outputs}")
+        self.genome = genome
+        self.config = config
+        self.clock_period_s = check_clock_period(clock_period_s)
+        self._net = None
+
+    @property
+    def feed_forward(self) -> bool:
+        """True for a feed-forward network, False for a recurrent one."""
+        return bool(self.config.genome_config.feed_forward)
+
+    def reset(self) -> None:
+        """Build the network from the genome (a recurrent network starts at zero state)."""
+        if self.feed_forward:
+            self._net = neat.nn.FeedForwardNetwork.create(self.genome, self.config)
+        else:
+            self._net = neat.nn.RecurrentNetwork.create(self.genome, self.config)
+
+    def act(self, obs, time_s: float) -> np.ndarray:
+        """Return the action ``(3,)`` float64 in [-1, 1] (network outputs, clipped).
+
+        Raises:
+            ValueError: ``obs`` is not ``(12,)``.
+        """
+        if self._net is None:
+            self.reset()
+        out = self._net.activate(with_clock(obs, time_s, self.clock_period_s).tolist())
+        return np.clip(np.asarray(out, dtype=np.float64), -1.0, 1.0)
+
+    def save(self, path) -> Path:
+        """Pickle the controller (genome, config, clock period) to ``path``; return it."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with path.open("wb") as f:
+            pickle.dump(self, f, protocol=pickle.HIGHEST_PROTOCOL)
+        return path
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_net"] = None  # rebuilt from the genome on reset()
+        return state
+
+    def __repr__(self) -> str:
+        kind = "feed-forward" if self.feed_forward else "recurrent"
+        n_hidden = len(self.genome.nodes) - self.config.genome_config.num_outputs
+        n_conn = sum(c.enabled for c in self.genome.connections.values())
+        return f"NEATController(genome {self.genome.key}, {kind}, {n_hidden} hidden, {n_conn} connections, clock {self.clock_period_s} s)"
+
+
+class SB3PolicyController:
+    """A stable-baselines3 policy trained on AquaFish-v0 with the clock appended.
+
+    Args:
+        model: a loaded ``stable_baselines3`` model whose observation space is ``(14,)``.
+        clock_period_s: the clock period used in training (s).
+        deterministic: use the policy's mean action (True) or sample it.
+
+    Raises:
+        ValueError: the model's observation space is not ``(14,)``.
+    """
+
+    def __init__(self, model, clock_period_s: float = CLOCK_PERIOD_S, deterministic: bool = True):
+        shape = tuple(model.observation_space.shape)
+        if shape != (OBS_DIM + CLOCK_DIM,):
+            raise ValueError(f"the policy must observe {OBS_DIM + CLOCK_DIM} values (observation + clock), got shape {shape}")
+        self.model = model
+        self.clock_period_s = check_clock_period(clock_period_s)
+        self.deterministic = bool(deterministic)
+
+    def reset(self) -> None:
+        """Stateless (MLP policies): nothing to clear."""
+
+    def act(self, obs, time_s: float) -> np.ndarray:
+        """Return the policy's action ``(3,)`` float64, clipped to [-1, 1]."""
+        action, _ = self.model.predict(with_clock(obs, time_s, self.clock_period_s), deterministic=self.deterministic)
+        return np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
+
+    @classmethod
+    def load(cls, path, algo: str, clock_period_s: float = CLOCK_PERIOD_S, deterministic: bool = True) -> "SB3PolicyController":
+        """Load a saved SB3 model (``.zip``) of algorithm ``algo`` ("ppo" or "sac").
+
+        Raises:
+            ValueError: an unknown algorithm.
+            ImportError: stable-baselines3 is not installed (the ``[rl]`` extra).
+        """
+        algo_cls = sb3_algorithm(algo)
+        return cls(algo_cls.load(str(path), device="cpu"), clock_period_s, deterministic)
+
+    def __repr__(self) -> str:
+        return f"SB3PolicyController({type(self.model).__name__}, clock {self.clock_period_s} s)"
+
+
+def sb3_algorithm(algo: str):
+    """Return the stable-baselines3 class for ``algo`` ("ppo" or "sac"), imported lazily.
+
+    Raises:
+        ValueError: an unknown algorithm name.
+        ImportError: stable-baselines3 is missing (install the ``[rl]`` extra).
+    """
+    if algo not in SB3_ALGOS:
+        raise ValueError(f"unknown RL algorithm {algo!r}; allowed: {', '.join(SB3_ALGOS)}")
+    try:
+        import stable_baselines3
+    except ImportError as err:
+        raise ImportError("RL controllers need stable-baselines3 and torch: pip install 'aquafish[rl]'") from err
+    return {"ppo": stable_baselines3.PPO, "sac": stable_baselines3.SAC}[algo]
+
+
+def sb3_sidecar(model_path) -> Path:
+    """Path of the JSON file describing an SB3 model: ``model.zip`` -> ``model.json``."""
+    return Path(model_path).with_suffix(".json")
+
+
+def load_controller(path) -> Controller:
+    """Load a controller saved by ``aquafish gait`` or ``aquafish rl``.
+
+    Args:
+        path: a NEAT controller pickle (``.pkl``), an SB3 model (``.zip``, with the
+            ``.json`` written next to it by :func:`gait.train_rl`), or a run directory
+            containing ``best_controller.pkl`` or ``model.zip``. Pickles execute code when
+            loaded: load only files you trust.
+
+    Raises:
+        ValueError: no such file, an unknown file type, or a pickle that is not a controller.
+    """
+    path = Path(path)
+    if path.is_dir():
+        for name in (NEAT_CONTROLLER_FILE, SB3_MODEL_FILE):
+            if (path / name).is_file():
+                return load_controller(path / name)
+        raise ValueError(f"{path} holds neither {NEAT_CONTROLLER_FILE} nor {SB3_MODEL_FILE}")
+    if not path.is_file():
+        raise ValueError(f"no controller file {path}")
+    if path.suffix == ".pkl":
+        with path.open("rb") as f:
+            controller = pickle.load(f)
+        if not isinstance(controller, Controller):
+            raise ValueError(f"{path} does not hold a controller (got {type(controller).__name__})")
+        return controller
+    if path.suffix == ".zip":
+        sidecar = sb3_sidecar(path)
+        if not sidecar.is_file():
+            raise ValueError(f"{path}: missing {sidecar.name} (algo and clock period, written by train_rl)")
+        meta = json.loads(sidecar.read_text())
+        return SB3PolicyController.load(path, meta.get("algo"), meta.get("clock_period_s", CLOCK_PERIOD_S))
+    raise ValueError(f"unknown controller file {path}; expected a .pkl (NEAT), a .zip (SB3) or a run directory")

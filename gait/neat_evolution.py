@@ -1,0 +1,391 @@
+"""Evolve a swimming gait with NEAT (neat-python 2.x), paper section 5.
+
+``evolve_gait`` runs ``neat.Population`` on the config in ``gait/neat_config.ini`` with
+``StdOutReporter``, ``Checkpointer`` and a :class:`HistoryReporter` (fitness per generation,
+best controller), evaluating genomes with ``neat.ParallelEvaluator`` (or in-process for one
+worker).
+
+Fitness: :func:`gait.rollout.rollout`'s forward distance (units) in 20 s of swimming on the
+given robot. Every genome of the run is evaluated with the same initial flipper angles:
+``initial_angles`` if given, else the angles ``AquaFish-v0``'s ``reset(seed=seed)`` draws.
+Fitness is therefore a deterministic function of the genome; with elitism, the best fitness
+per generation never decreases, and serial and parallel runs with one seed agree.
+A gait evolved from one start may rely on it (the servos have no position feedback, so the
+start is unknown on the real robot): ``episodes_per_genome = K`` scores each genome as the
+mean over the starts of seeds ``seed ... seed + K - 1`` instead, at K times the cost.
+
+Seeding: ``seed`` seeds Python's ``random`` (all of NEAT's randomness, in the main
+process) and NumPy's global generator; the simulator needs no seed beyond the angles.
+A run resumed from a checkpoint continues the checkpoint's ``random`` state.
+"""
+
+from __future__ import annotations
+
+import configparser
+import dataclasses
+import functools
+import json
+import os
+import random
+import re
+import time
+from pathlib import Path
+from typing import Any
+
+import neat
+import numpy as np
+
+from gait.clock import CLOCK_PERIOD_S, check_clock_period
+from gait.controller import NEAT_CONTROLLER_FILE, NEATController
+from gait.plots import plot_fitness_history
+from gait.robots import Robot, as_robot
+from gait.rollout import EPISODE_DURATION_S, Rollout, rollout
+
+#: The documented NEAT config kept next to this module.
+DEFAULT_CONFIG = Path(__file__).with_name("neat_config.ini")
+HISTORY_FILE = "fitness_history.json"
+HISTORY_PLOT = "fitness_history.png"
+CHECKPOINT_DIR = "checkpoints"
+CHECKPOINT_PREFIX = "neat-checkpoint-"
+SETTINGS_FILE = "fitness_settings.json"
+
+
+def load_neat_config(path=None, *, population_size: int | None = None) -> neat.Config:
+    """Load a NEAT config (default :data:`DEFAULT_CONFIG`).
+
+    Args:
+        path: INI file in neat-python's format.
+        population_size: overrides ``[NEAT] pop_size`` (>= 2).
+
+    Raises:
+        ValueError: missing file, unknown or missing keys (also in ``[DefaultGenome]``,
+            which neat-python does not check), or a bad population size.
+    """
+    path = Path(path) if path is not None else DEFAULT_CONFIG
+    if not path.is_file():
+        raise ValueError(f"no NEAT config file {path}")
+    try:
+        config = neat.Config(neat.DefaultGenome, neat.DefaultReproduction, neat.DefaultSpeciesSet,
+                             neat.DefaultStagnation, str(path))
+    except (NameError, RuntimeError, KeyError, ValueError, configparser.Error) as err:
+        raise ValueError(f"NEAT config {path}: {err}") from None
+    parser = configparser.ConfigParser()
+    parser.read(path)
+    known = {p.name for p in config.genome_config._params}
+    unknown = sorted(set(parser["DefaultGenome"]) - known)
+    if unknown:
+        raise ValueError(f"NEAT config {path}: unknown [DefaultGenome] key(s) {unknown}")
+    if population_size is not None:
+        if isinstance(population_size, bool) or not isinstance(population_size, int) or population_size < 2:
+            raise ValueError(f"population_size must be an integer >= 2, got {population_size!r}")
+        config.pop_size = population_size
+    return config
+
+
+@dataclasses.dataclass(frozen=True)
+class FitnessTask:
+    """Everything a worker needs to score a genome (picklable).
+
+    Attributes:
+        robot: the robot the gait is evolved for.
+        seed: episode seed (draws the initial angles unless ``initial_angles``).
+        initial_angles: ``(3,)`` rad as a tuple, or None.
+        episode_duration_s: simulated seconds per evaluation.
+        clock_period_s: the controller's clock period (s).
+        episodes: episodes per genome, with seeds ``seed, seed + 1, ...`` (different initial
+            angles); the fitness is their mean distance. 1 (the default) is the paper's
+            single 20 s trial; more episodes favour gaits that work from any start.
+
+    Raises:
+        ValueError: ``episodes`` < 1, or > 1 with fixed ``initial_angles``.
+    """
+
+    robot: Robot
+    seed: int
+    initial_angles: tuple[float, float, float] | None = None
+    episode_duration_s: float = EPISODE_DURATION_S
+    clock_period_s: float = CLOCK_PERIOD_S
+    episodes: int = 1
+
+    def __post_init__(self) -> None:
+        if self.episodes < 1 or (self.episodes > 1 and self.initial_angles is not None):
+            raise ValueError(f"episodes must be >= 1, and 1 when initial_angles are fixed; got {self.episodes}")
+
+    def controller(self, genome, config) -> NEATController:
+        return NEATController(genome, config, self.clock_period_s)
+
+    def run(self, controller, episode: int = 0) -> Rollout:
+        """Episode ``episode`` (seed ``seed + episode``) of ``controller``."""
+        return rollout(controller, self.robot, seed=self.seed + episode, initial_angles=self.initial_angles,
+                       episode_duration_s=self.episode_duration_s)
+
+    def fitness(self, controller) -> float:
+        """Mean forward distance (units) over the task's episodes."""
+        return float(np.mean([self.run(controller, k).distance for k in range(self.episodes)]))
+
+
+def evaluate_genome(genome, config, *, task: FitnessTask) -> float:
+    """Fitness of one genome: forward distance (units). Top level, so workers can unpickle it."""
+    return task.fitness(task.controller(genome, config))
+
+
+class HistoryReporter(neat.reporting.BaseReporter):
+    """Records fitness per generation and keeps the best controller, saving both as it goes.
+
+    Args:
+        task: the fitness task (to build controllers).
+        out_dir: directory for ``fitness_history.json`` and ``best_controller.pkl``, or None.
+        history: entries of earlier generations (when resuming).
+        best: best controller of earlier generations (when resuming), or None.
+    """
+
+    def __init__(self, task: FitnessTask, out_dir: Path | None, history: list[dict] | None = None,
+                 best: NEATController | None = None, best_fitness: float = -np.inf):
+        self.task = task
+        self.out_dir = out_dir
+        self.history = list(history or [])
+        self.best_controller = best
+        self.best_fitness = best_fitness
+        self._generation = 0
+        self._start = time.perf_counter()
+        self._elapsed_before = self.history[-1]["wall_time_s"] if self.history else 0.0
+        self._evaluations = self.history[-1]["evaluations"] if self.history else 0
+
+    def start_generation(self, generation: int) -> None:
+        self._generation = generation
+
+    def post_evaluate(self, config, population, species, best_genome) -> None:
+        fitness = np.array([g.fitness for g in population.values()])
+        if best_genome.fitness > self.best_fitness:
+            self.best_fitness = float(best_genome.fitness)
+            self.best_controller = self.task.controller(best_genome, config)
+            if self.out_dir is not None:
+                self.best_controller.save(self.out_dir / NEAT_CONTROLLER_FILE)
+        self._evaluations += len(fitness)
+        self.history.append({
+            "generation": int(self._generation),
+            "best_fitness": float(best_genome.fitness),
+            "mean_fitness": float(fitness.mean()),
+            "std_fitness": float(fitness.std()),
+            "best_so_far": self.best_fitness,
+            "n_species": len(species.species),
+            "best_nodes": len(best_genome.nodes),
+            "best_connections": sum(c.enabled for c in best_genome.connections.values()),
+            "evaluations": self._evaluations,
+            "wall_time_s": self._elapsed_before + time.perf_counter() - self._start,
+        })
+        if self.out_dir is not None:
+            (self.out_dir / HISTORY_FILE).write_text(json.dumps(self.history, indent=1))
+
+
+@dataclasses.dataclass
+class GaitResult:
+    """Outcome of :func:`evolve_gait`.
+
+    Attributes:
+        best_controller: the best controller found (over all generations).
+        best_fitness: its forward distance (units) under the run's fitness episode.
+        history: one dict per generation (see :class:`HistoryReporter`).
+        best_rollout: the best controller's first fitness episode (seed ``seed``; trajectory
+            ``(T + 1, 2)``); its distance is ``best_fitness`` when ``episodes_per_genome`` is 1.
+        robot: the robot evolved for.
+        seed: the run seed (also the episode seed unless ``initial_angles``).
+        initial_angles: ``(3,)`` rad used for every evaluation.
+        generations: generations evaluated in total (including before a resume).
+        wall_time_s: wall time of the run (including before a resume).
+        out_dir: where files were written, or None.
+    """
+
+    best_controller: NEATController
+    best_fitness: float
+    history: list[dict]
+    best_rollout: Rollout
+    robot: Robot
+    seed: int
+    initial_angles: np.ndarray
+    generations: int
+    wall_time_s: float
+    out_dir: Path | None
+
+
+def latest_checkpoint(out_dir) -> Path:
+    """The checkpoint of ``out_dir`` with the highest generation.
+
+    Raises:
+        ValueError: no checkpoint there.
+    """
+    found = sorted((Path(out_dir) / CHECKPOINT_DIR).glob(CHECKPOINT_PREFIX + "*"),
+                   key=lambda p: int(re.sub(r"\D", "", p.name) or -1))
+    if not found:
+        raise ValueError(f"no NEAT checkpoint in {Path(out_dir) / CHECKPOINT_DIR}")
+    return found[-1]
+
+
+def _check_int(name: str, value, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _restore(resume, population_size: int | None) -> neat.Population:
+    path = Path(resume)
+    if not path.is_file():
+        raise ValueError(f"no NEAT checkpoint {path}")
+    population = neat.Checkpointer.restore_checkpoint(str(path))
+    if population_size is not None and population_size != population.config.pop_size:
+        raise ValueError(f"population_size {population_size} differs from the checkpoint's {population.config.pop_size}")
+    return population
+
+
+def _previous_run(out_dir: Path | None, generation: int) -> tuple[list[dict], NEATController | None, float]:
+    """History before ``generation`` and the best controller saved in ``out_dir``."""
+    if out_dir is None or not (out_dir / HISTORY_FILE).is_file():
+        return [], None, -np.inf
+    history = [h for h in json.loads((out_dir / HISTORY_FILE).read_text()) if h["generation"] < generation]
+    if not history or not (out_dir / NEAT_CONTROLLER_FILE).is_file():
+        return history, None, -np.inf
+    from gait.controller import load_controller
+
+    return history, load_controller(out_dir / NEAT_CONTROLLER_FILE), history[-1]["best_so_far"]
+
+
+def _settings(task: FitnessTask) -> dict[str, Any]:
+    """What defines a run's fitness (a resumed run must not change it)."""
+    return {"robot": task.robot.to_dict(), "seed": task.seed, "initial_angles": task.initial_angles,
+            "episode_duration_s": task.episode_duration_s, "clock_period_s": task.clock_period_s,
+            "episodes": task.episodes}
+
+
+def _attach_reporters(population: neat.Population, task: FitnessTask, out_dir: Path | None, resuming: bool,
+                      verbose: bool, checkpoint_every: int) -> tuple[HistoryReporter, neat.Checkpointer | None]:
+    """Add StdOutReporter (if verbose), the HistoryReporter and a Checkpointer (if out_dir).
+
+    Raises:
+        ValueError: resuming into an ``out_dir`` whose run had other fitness settings.
+    """
+    history, best, best_fitness = _previous_run(out_dir, population.generation) if resuming else ([], None, -np.inf)
+    if out_dir is not None:
+        settings_file = out_dir / SETTINGS_FILE
+        if resuming and settings_file.is_file():
+            before = json.loads(settings_file.read_text())
+            if before != json.loads(json.dumps(_settings(task))):
+                raise ValueError(f"cannot resume: {settings_file} has fitness settings {before}, this run has {_settings(task)}")
+        (out_dir / CHECKPOINT_DIR).mkdir(parents=True, exist_ok=True)
+        settings_file.write_text(json.dumps(_settings(task), indent=1))
+    recorder = HistoryReporter(task, out_dir, history, best, best_fitness)
+    if verbose:
+        population.add_reporter(neat.StdOutReporter(show_species_detail=False))
+    population.add_reporter(recorder)
+    if out_dir is None:
+        return recorder, None
+    checkpointer = neat.Checkpointer(checkpoint_every, None, str(out_dir / CHECKPOINT_DIR / CHECKPOINT_PREFIX))
+    checkpointer.last_generation_checkpoint = population.generation
+    population.add_reporter(checkpointer)
+    return recorder, checkpointer
+
+
+def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30, population_size: int | None = None,
+                seed: int = 0, out_dir=None, workers: int | None = None, config_path=None, resume=None,
+                initial_angles=None, episode_duration_s: float = EPISODE_DURATION_S,
+                clock_period_s: float = CLOCK_PERIOD_S, episodes_per_genome: int = 1, checkpoint_every: int = 5,
+                verbose: bool = True) -> GaitResult:
+    """Evolve a NEAT controller that swims forward on a robot.
+
+    Args:
+        morphology: the robot (``Morphology``, 9 numbers, a ``Robot`` or a robot string;
+            default healthy).
+        damage: damage name applied to ``morphology``.
+        generations: total generations; when resuming, the run continues up to this count.
+        population_size: genomes per generation (default: the config's ``pop_size``, 50).
+        seed: seeds NEAT (Python ``random``), NumPy, and the fitness episode's initial angles.
+        out_dir: writes ``best_controller.pkl``, ``best_genome.txt``, ``fitness_history.json``
+            and ``.png``, ``run.json``, ``fitness_settings.json``, ``neat_config.ini`` and
+            ``checkpoints/``; None: no files.
+        workers: evaluation processes (default ``os.cpu_count()``); 1 evaluates in-process.
+        config_path: NEAT INI file (default ``gait/neat_config.ini``).
+        resume: a checkpoint file to continue from (see :func:`latest_checkpoint`).
+        initial_angles: ``(3,)`` rad for every evaluation (default: drawn from ``seed``).
+        episode_duration_s: simulated seconds per evaluation (paper: 20).
+        clock_period_s: period of the controller's clock input (s).
+        episodes_per_genome: episodes per evaluation, seeds ``seed, seed + 1, ...``; fitness is
+            the mean distance (see :class:`FitnessTask`).
+        checkpoint_every: generations between checkpoints (needs ``out_dir``); the final
+            generation is always checkpointed, so ``resume=latest_checkpoint(out_dir)`` extends a run.
+        verbose: print NEAT's per-generation report.
+
+    Returns:
+        :class:`GaitResult`.
+
+    Raises:
+        ValueError: invalid robot, counts, config, checkpoint, or a checkpoint already at or
+            beyond ``generations``.
+    """
+    robot = as_robot(morphology if morphology is not None else "healthy", damage=damage)
+    generations = _check_int("generations", generations, 1)
+    seed = _check_int("seed", seed, 0)
+    workers = _check_int("workers", workers if workers is not None else (os.cpu_count() or 1), 1)
+    checkpoint_every = _check_int("checkpoint_every", checkpoint_every, 1)
+    angles = None if initial_angles is None else tuple(float(a) for a in np.asarray(initial_angles, dtype=float).reshape(3))
+    task = FitnessTask(robot, seed, angles, float(episode_duration_s), check_clock_period(clock_period_s),
+                       _check_int("episodes_per_genome", episodes_per_genome, 1))
+    out_dir = Path(out_dir) if out_dir is not None else None
+
+    random.seed(seed)
+    np.random.seed(seed)
+    if resume is not None:
+        population = _restore(resume, population_size)
+        config_text = None
+    else:
+        config = load_neat_config(config_path, population_size=population_size)
+        config_text = Path(config_path or DEFAULT_CONFIG).read_text()
+        population = neat.Population(config, seed=seed)
+    remaining = generations - population.generation
+    if remaining < 1:
+        raise ValueError(f"the checkpoint is at generation {population.generation}; generations must exceed it, got {generations}")
+
+    recorder, checkpointer = _attach_reporters(population, task, out_dir, resume is not None, verbose, checkpoint_every)
+    if out_dir is not None and config_text is not None:
+        (out_dir / "neat_config.ini").write_text(config_text)
+
+    evaluate = functools.partial(evaluate_genome, task=task)
+    if workers == 1:
+        def serial(genomes, config):
+            for _, genome in genomes:
+                genome.fitness = evaluate(genome, config)
+
+        population.run(serial, remaining)
+    else:
+        with neat.ParallelEvaluator(workers, evaluate, seed=seed) as evaluator:
+            population.run(evaluator.evaluate, remaining)
+
+    if checkpointer is not None and checkpointer.last_generation_checkpoint != population.generation:
+        # always leave a checkpoint of the final state, so a finished run can be extended
+        checkpointer.save_checkpoint(population.config, population.population, population.species, population.generation)
+    best_rollout = task.run(recorder.best_controller)
+    result = GaitResult(recorder.best_controller, recorder.best_fitness, recorder.history, best_rollout, robot, seed,
+                        best_rollout.initial_angles, population.generation, recorder.history[-1]["wall_time_s"], out_dir)
+    if out_dir is not None:
+        _write_outputs(result, task, population.config)
+    return result
+
+
+def _write_outputs(result: GaitResult, task: FitnessTask, config: neat.Config) -> None:
+    out = result.out_dir
+    (out / "best_genome.txt").write_text(f"{result.best_controller!r}\nfitness {result.best_fitness}\n\n{result.best_controller.genome}\n")
+    plot_fitness_history(result.history, out / HISTORY_PLOT, title=f"NEAT gait: {result.robot.label}, seed {result.seed}")
+    summary: dict[str, Any] = {
+        "robot": result.robot.to_dict(),
+        "seed": result.seed,
+        "population_size": config.pop_size,
+        "generations": result.generations,
+        "episode_duration_s": task.episode_duration_s,
+        "clock_period_s": task.clock_period_s,
+        "initial_angles_rad": result.initial_angles.tolist(),
+        "best_fitness": result.best_fitness,
+        "episodes_per_genome": task.episodes,
+        "best_rollout_distance": result.best_rollout.distance,
+        "evaluations": result.history[-1]["evaluations"],
+        "wall_time_s": result.wall_time_s,
+        "controller": NEAT_CONTROLLER_FILE,
+    }
+    (out / "run.json").write_text(json.dumps(summary, indent=1))

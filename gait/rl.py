@@ -1,0 +1,181 @@
+"""Reinforcement-learning baselines (stable-baselines3 PPO and SAC) on AquaFish-v0.
+
+Optional: needs the ``[rl]`` extra (stable-baselines3, torch on CPU); imported lazily so
+the rest of :mod:`gait` works without it. The policy observes AquaFish-v0's observation with
+the clock appended (:class:`gait.clock.ClockObservation`), exactly what a NEAT controller
+sees, and the trained model is scored with the same rollout and transfer protocol.
+Hyperparameters come from ``gait/rl_hyperparams.yml`` (RL Zoo conventions).
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import json
+import time
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+import yaml
+
+from gait.clock import CLOCK_PERIOD_S, ClockObservation, check_clock_period
+from gait.controller import SB3_ALGOS, SB3_MODEL_FILE, SB3PolicyController, sb3_algorithm, sb3_sidecar
+from gait.plots import plot_learning_curve
+from gait.robots import Robot, as_robot
+from gait.rollout import EPISODE_DURATION_S, make_env, rollout
+
+#: The hyperparameter file kept next to this module.
+HYPERPARAMS_FILE = Path(__file__).with_name("rl_hyperparams.yml")
+ENV_ID = "AquaFish-v0"
+#: Zoo keys interpreted here; every other key goes to the algorithm's constructor.
+_ZOO_KEYS = ("n_timesteps", "policy", "n_envs", "normalize", "policy_kwargs")
+#: Zoo keys this loader does not implement (rejected rather than silently ignored).
+_UNSUPPORTED = ("frame_stack", "env_wrapper", "vec_env_wrapper", "callback", "normalize_kwargs", "monitor_kwargs")
+
+
+def read_hyperparams_section(algo: str, path=None) -> dict[str, Any]:
+    """The raw ``algo -> AquaFish-v0`` mapping of an RL-Zoo-style YAML file (a fresh copy).
+
+    Raises:
+        ValueError: unknown algorithm, missing file or section.
+    """
+    if algo not in SB3_ALGOS:
+        raise ValueError(f"unknown RL algorithm {algo!r}; allowed: {', '.join(SB3_ALGOS)}")
+    path = Path(path) if path is not None else HYPERPARAMS_FILE
+    if not path.is_file():
+        raise ValueError(f"no hyperparameter file {path}")
+    data = yaml.safe_load(path.read_text()) or {}
+    try:
+        section = data[algo][ENV_ID]
+    except (KeyError, TypeError):
+        raise ValueError(f"{path}: no section {algo} -> {ENV_ID}") from None
+    if not isinstance(section, dict):
+        raise ValueError(f"{path}: {algo} -> {ENV_ID} must be a mapping")
+    return copy.deepcopy(section)
+
+
+def load_hyperparams(algo: str, path=None) -> dict[str, Any]:
+    """Read and check the settings of ``algo`` for AquaFish-v0 (RL Zoo conventions).
+
+    Returns:
+        A fresh dict with ``n_timesteps`` (int), ``policy``, ``n_envs`` (int),
+        ``policy_kwargs`` (dict) and the algorithm's own keyword arguments (``lin_``
+        schedules turned into callables).
+
+    Raises:
+        ValueError: unknown algorithm, missing file/section/keys, or an unsupported key.
+    """
+    hp = read_hyperparams_section(algo, path)
+    where = f"{path or HYPERPARAMS_FILE}: {algo}"
+    bad = sorted(set(hp) & set(_UNSUPPORTED))
+    if bad:
+        raise ValueError(f"{where}: Zoo key(s) {bad} are not supported by gait.rl")
+    if hp.pop("normalize", False):
+        raise ValueError(f"{where}: normalize must be false (VecNormalize is not supported)")
+    if "policy" not in hp or "n_timesteps" not in hp:
+        raise ValueError(f"{where}: 'policy' and 'n_timesteps' are required")
+    if not isinstance(hp.setdefault("policy_kwargs", {}), dict):
+        raise ValueError(f"{where}: policy_kwargs must be a mapping, got {hp['policy_kwargs']!r}")
+    hp["n_timesteps"] = int(float(hp["n_timesteps"]))
+    hp["n_envs"] = int(hp.get("n_envs", 1))
+    for key, value in hp.items():
+        if key not in _ZOO_KEYS and isinstance(value, str) and value.startswith("lin_"):
+            hp[key] = _linear_schedule(float(value[4:]))
+    return hp
+
+
+def _linear_schedule(initial: float) -> Callable[[float], float]:
+    def schedule(progress_remaining: float) -> float:
+        return progress_remaining * initial
+
+    return schedule
+
+
+def make_rl_env(robot: Robot, *, episode_duration_s: float = EPISODE_DURATION_S, clock_period_s: float = CLOCK_PERIOD_S):
+    """AquaFish-v0 for ``robot`` with the clock appended: observation ``(14,)``."""
+    return ClockObservation(make_env(robot, episode_duration_s=episode_duration_s), clock_period_s)
+
+
+def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int = 0, out_dir="runs/rl", *,
+             damage: str = "none", hyperparams_path=None, episode_duration_s: float = EPISODE_DURATION_S,
+             clock_period_s: float = CLOCK_PERIOD_S, eval_seed: int = 0, num_threads: int | None = None,
+             verbose: int = 0) -> Path:
+    """Train a PPO or SAC policy on AquaFish-v0, save it, and score it.
+
+    Args:
+        algo: "ppo" or "sac".
+        morphology: the robot (``Morphology``, 9 numbers, ``Robot`` or robot string; default healthy).
+        timesteps: env steps (default: the file's ``n_timesteps``).
+        seed: seeds SB3 (torch, NumPy, the envs' initial angles).
+        out_dir: writes ``model.zip``, ``model.json`` (algo, clock period, robot, settings,
+            score), ``hyperparams.yml`` (the settings used), ``monitor/`` (episode returns)
+            and ``learning_curve.png``.
+        damage: damage applied to ``morphology``.
+        hyperparams_path: YAML file (default ``gait/rl_hyperparams.yml``).
+        episode_duration_s: simulated seconds per training episode.
+        clock_period_s: period of the clock input (s).
+        eval_seed: episode seed of the final score (the deterministic policy, 20 s).
+        num_threads: torch CPU threads (None: torch's default).
+        verbose: SB3 verbosity (0, 1, 2).
+
+    Returns:
+        Path of ``model.zip`` (load it with :func:`gait.load_controller`).
+
+    Raises:
+        ValueError: invalid algorithm, robot, hyperparameters or counts.
+        ImportError: stable-baselines3 is missing (install the ``[rl]`` extra).
+    """
+    algo_cls = sb3_algorithm(algo)
+    from stable_baselines3.common.env_util import make_vec_env
+
+    robot = as_robot(morphology if morphology is not None else "healthy", damage=damage)
+    clock_period_s = check_clock_period(clock_period_s)
+    hp = load_hyperparams(algo, hyperparams_path)
+    n_timesteps = hp.pop("n_timesteps") if timesteps is None else timesteps
+    if isinstance(n_timesteps, bool) or not isinstance(n_timesteps, (int, np.integer)) or n_timesteps < 1:
+        raise ValueError(f"timesteps must be a positive integer, got {n_timesteps!r}")
+    hp.pop("n_timesteps", None)
+    policy, n_envs = hp.pop("policy"), hp.pop("n_envs")
+    if num_threads is not None:
+        import torch
+
+        torch.set_num_threads(int(num_threads))
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    venv = make_vec_env(lambda: make_rl_env(robot, episode_duration_s=episode_duration_s, clock_period_s=clock_period_s),
+                        n_envs=n_envs, seed=seed, monitor_dir=str(out_dir / "monitor"))
+    model = algo_cls(policy, venv, seed=seed, device="cpu", verbose=verbose, **hp)
+    start = time.perf_counter()
+    model.learn(total_timesteps=int(n_timesteps))
+    wall_time_s = time.perf_counter() - start
+    venv.close()
+    model_path = out_dir / SB3_MODEL_FILE
+    model.save(model_path)
+
+    score = rollout(SB3PolicyController(model, clock_period_s), robot, seed=eval_seed)
+    meta = {
+        "algo": algo, "clock_period_s": clock_period_s, "robot": robot.to_dict(), "seed": seed,
+        "timesteps": int(n_timesteps), "episode_duration_s": episode_duration_s, "wall_time_s": wall_time_s,
+        "eval_seed": eval_seed, "eval_distance": score.distance, "eval_initial_angles_rad": score.initial_angles.tolist(),
+    }
+    sb3_sidecar(model_path).write_text(json.dumps(meta, indent=1))
+    used = read_hyperparams_section(algo, hyperparams_path) | {"n_timesteps": int(n_timesteps)}
+    (out_dir / "hyperparams.yml").write_text(yaml.safe_dump({algo: {ENV_ID: used}}, sort_keys=False))
+    curve = read_monitor(out_dir / "monitor")
+    if len(curve):
+        plot_learning_curve(curve, out_dir / "learning_curve.png", title=f"{algo.upper()} on {robot.label}")
+    return model_path
+
+
+def read_monitor(monitor_dir) -> np.ndarray:
+    """Episodes logged by SB3's ``Monitor`` in ``monitor_dir``: ``(E, 3)`` of return, length,
+    wall time (s), sorted by wall time; ``(0, 3)`` if none."""
+    rows = []
+    for f in sorted(Path(monitor_dir).glob("*.monitor.csv")):
+        with f.open() as fh:
+            fh.readline()  # the JSON header line
+            rows += [(float(r["r"]), float(r["l"]), float(r["t"])) for r in csv.DictReader(fh)]
+    arr = np.array(rows, dtype=np.float64).reshape(-1, 3)
+    return arr[np.argsort(arr[:, 2], kind="stable")]

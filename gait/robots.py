@@ -1,0 +1,140 @@
+"""Which robot a controller swims in: a morphology plus a damage preset.
+
+A :class:`Robot` is everything AquaFish-v0 needs to build the body: the nine flipper
+dimensions and the name of a damage (which may also carry servo faults, e.g. a seized
+servo). The transfer protocol runs one controller on two robots: its *native* one (the
+morphology it was evolved for) and a *target* (e.g. the damaged robot).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from aquafish_gym import DAMAGES, MORPHOLOGY_FIELDS, Morphology, get_damage
+
+
+@dataclasses.dataclass(frozen=True)
+class Robot:
+    """A morphology and a damage preset, as passed to ``gym.make("AquaFish-v0", ...)``.
+
+    Attributes:
+        morphology: the nine flipper dimensions before the damage (simulator units).
+        damage: a name in ``aquafish_gym.DAMAGES``, applied to ``morphology`` by the env.
+        label: a short name for legends and reports.
+
+    Raises:
+        ValueError: an unknown damage name or a morphology that is not a ``Morphology``.
+    """
+
+    morphology: Morphology
+    damage: str = "none"
+    label: str = ""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.morphology, Morphology):
+            raise ValueError(f"Robot.morphology must be a Morphology, got {type(self.morphology).__name__}")
+        get_damage(self.damage)
+        if not self.label:
+            base = "healthy" if self.morphology == Morphology.healthy() else "custom"
+            object.__setattr__(self, "label", base if self.damage == "none" else f"{base} + {self.damage}")
+
+    def env_kwargs(self) -> dict[str, Any]:
+        """Keyword arguments for ``gym.make("AquaFish-v0", ...)``."""
+        return {"morphology": self.morphology, "damage": self.damage}
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready description: label, damage, and the morphology by field name."""
+        return {"label": self.label, "damage": self.damage,
+                "morphology": dict(zip(MORPHOLOGY_FIELDS, self.morphology.to_array().tolist()))}
+
+
+def as_robot(value, *, damage: str = "none") -> Robot:
+    """Interpret a robot given in any of the accepted forms.
+
+    Args:
+        value: a :class:`Robot`; a :class:`Morphology` or 9 numbers (with ``damage``);
+            or a string for :func:`parse_robot` (``"healthy"``, a damage name, a file,
+            or 9 comma-separated numbers).
+        damage: damage applied to a morphology given as ``Morphology`` or numbers.
+
+    Raises:
+        ValueError: anything else, or an invalid morphology or damage.
+    """
+    if isinstance(value, Robot):
+        return value
+    if isinstance(value, Morphology):
+        return Robot(value, damage)
+    if isinstance(value, (str, Path)):
+        robot = parse_robot(str(value))
+        if damage != "none":
+            if robot.damage != "none":
+                raise ValueError(f"robot {value!r} already has damage {robot.damage!r}; cannot add damage {damage!r}")
+            robot = Robot(robot.morphology, damage)
+        return robot
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return Robot(Morphology.from_array(value), damage)
+    raise ValueError(f"a robot must be a Robot, Morphology, 9 numbers or a string spec, got {type(value).__name__}")
+
+
+def parse_robot(spec: str) -> Robot:
+    """Parse a command-line robot description.
+
+    Accepted forms:
+        * ``healthy``: the undamaged robot.
+        * a damage name (``left_pectoral_half``, ...): the healthy robot with that damage,
+          including its servo faults; this is the paper's damaged *target*.
+        * 9 comma-separated numbers: a morphology (``MORPHOLOGY_FIELDS`` order, units).
+        * a file: JSON (a list of 9 numbers, a mapping of the nine field names, or a mapping
+          with a ``"morphology"`` entry of either form and an optional ``"damage"``), or a
+          text file of 9 numbers separated by commas or whitespace.
+
+    Raises:
+        ValueError: none of the forms, naming what is allowed.
+    """
+    spec = spec.strip()
+    if spec == "healthy":
+        return Robot(Morphology.healthy(), "none", "healthy")
+    if spec in DAMAGES:
+        return Robot(Morphology.healthy(), spec, spec)
+    path = Path(spec)
+    if path.is_file():
+        return _robot_from_file(path)
+    if "," in spec:
+        try:
+            numbers = [float(s) for s in spec.split(",")]
+        except ValueError:
+            raise ValueError(f"morphology {spec!r}: expected 9 comma-separated numbers") from None
+        return Robot(Morphology.from_array(numbers), "none", "custom")
+    raise ValueError(f"unknown robot {spec!r}; use 'healthy', a damage name ({', '.join(sorted(DAMAGES))}), "
+                     f"9 comma-separated numbers ({', '.join(MORPHOLOGY_FIELDS)}) or a JSON/text file")
+
+
+def _morphology_from(value, source: str) -> Morphology:
+    if isinstance(value, dict):
+        missing = set(MORPHOLOGY_FIELDS) - set(value)
+        if missing:
+            raise ValueError(f"{source}: morphology mapping lacks {sorted(missing)}")
+        return Morphology(**{k: value[k] for k in MORPHOLOGY_FIELDS})
+    return Morphology.from_array(value)
+
+
+def _robot_from_file(path: Path) -> Robot:
+    text = path.read_text()
+    if path.suffix.lower() == ".json":
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as err:
+            raise ValueError(f"{path}: not valid JSON ({err})") from None
+        if isinstance(data, dict) and "morphology" in data:
+            return Robot(_morphology_from(data["morphology"], str(path)), data.get("damage", "none"), path.stem)
+        return Robot(_morphology_from(data, str(path)), "none", path.stem)
+    try:
+        numbers = [float(s) for s in text.replace(",", " ").split()]
+    except ValueError:
+        raise ValueError(f"{path}: expected 9 numbers separated by commas or whitespace") from None
+    return Robot(Morphology.from_array(numbers), "none", path.stem)

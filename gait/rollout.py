@@ -1,0 +1,106 @@
+"""Run a controller for one episode of AquaFish-v0: forward distance and trajectory.
+
+This is the gait fitness of paper section 5 ("swimming as far forward as possible in
+20 seconds of simulation time"): the env's summed ``reward_forward``, i.e. the body's
+displacement along its initial heading (units; 1 unit = 8 cm). Because it goes through
+``gym.make("AquaFish-v0")``, the NEAT fitness, the RL return (with ``ctrl_cost_weight = 0``)
+and the transfer score are the same number.
+
+Determinism: the env rebuilds its PyBullet world on every reset, so an episode depends only
+on the controller, the robot, and the initial flipper angles, which are either given or
+drawn by ``reset(seed=seed)``. The same ``seed`` gives the same angles on every robot.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import aquafish_gym  # noqa: F401  (registers AquaFish-v0)
+from gait.controller import Controller
+from gait.robots import Robot, as_robot
+
+#: The paper's gait episode: 20 s of simulated swimming.
+EPISODE_DURATION_S = 20.0
+
+
+@dataclasses.dataclass(frozen=True)
+class Rollout:
+    """One episode of a controller on a robot.
+
+    Attributes:
+        distance: forward distance along the initial heading (units), the gait fitness.
+        episode_return: the env's summed reward (equals ``distance`` when the env's
+            ``ctrl_cost_weight`` is 0, the default).
+        trajectory: ``(T + 1, 2)`` body x, y (units) at the start and after each control
+            step (every 0.1 s by default), ``T = episode_duration_s / control step``.
+        times_s: ``(T + 1,)`` simulated time of each trajectory row (s).
+        initial_angles: ``(3,)`` initial left pectoral, right pectoral, caudal angles (rad).
+        robot: the robot that swam.
+    """
+
+    distance: float
+    episode_return: float
+    trajectory: np.ndarray
+    times_s: np.ndarray
+    initial_angles: np.ndarray
+    robot: Robot
+
+
+def make_env(robot=None, *, damage: str = "none", initial_angles=None,
+             episode_duration_s: float = EPISODE_DURATION_S, **env_kwargs: Any) -> gym.Env:
+    """``gym.make("AquaFish-v0")`` for a robot (anything :func:`gait.robots.as_robot` takes).
+
+    Raises:
+        ValueError: an invalid robot, damage, angles or env argument.
+    """
+    robot = as_robot(robot if robot is not None else "healthy", damage=damage)
+    return gym.make("AquaFish-v0", **robot.env_kwargs(), initial_angles=initial_angles,
+                    episode_duration_s=episode_duration_s, **env_kwargs)
+
+
+def rollout(controller: Controller, robot=None, *, damage: str = "none", seed: int = 0, initial_angles=None,
+            episode_duration_s: float = EPISODE_DURATION_S, **env_kwargs: Any) -> Rollout:
+    """Run ``controller`` for one episode and record its distance and trajectory.
+
+    Args:
+        controller: any :class:`~gait.controller.Controller`.
+        robot: a :class:`~gait.robots.Robot`, ``Morphology``, 9 numbers or a robot string
+            (default: the healthy robot).
+        damage: damage applied to a robot given as a morphology.
+        seed: ``reset(seed=)``; draws the initial flipper angles unless ``initial_angles``.
+        initial_angles: ``(3,)`` left, right pectoral, caudal angles (rad), or None.
+        episode_duration_s: simulated seconds (20 s is the paper's gait fitness).
+        **env_kwargs: further AquaFish-v0 arguments (e.g. ``frame_skip``, fluid parameters).
+
+    Returns:
+        The :class:`Rollout`.
+
+    Raises:
+        ValueError: invalid robot or env arguments, or a controller action outside [-1, 1]^3.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise ValueError(f"seed must be an integer, got {seed!r}")
+    robot = as_robot(robot if robot is not None else "healthy", damage=damage)
+    env = make_env(robot, initial_angles=initial_angles, episode_duration_s=episode_duration_s, **env_kwargs)
+    try:
+        controller.reset()
+        obs, info = env.reset(seed=int(seed))
+        xy = [(info["x_position"], info["y_position"])]
+        times = [info["time_s"]]
+        angles = np.asarray(info["initial_angles"], dtype=np.float64).copy()
+        total = 0.0
+        done = False
+        while not done:
+            obs, reward, terminated, truncated, info = env.step(controller.act(obs, info["time_s"]))
+            total += reward
+            xy.append((info["x_position"], info["y_position"]))
+            times.append(info["time_s"])
+            done = terminated or truncated
+    finally:
+        env.close()
+    return Rollout(distance=float(info["distance"]), episode_return=float(total), trajectory=np.asarray(xy),
+                   times_s=np.asarray(times), initial_angles=angles, robot=robot)

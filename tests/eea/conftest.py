@@ -1,0 +1,59 @@
+"""Shared fixtures of the EEA tests: tiny configs and experiments that run in milliseconds."""
+
+import numpy as np
+import pytest
+
+from eea.behaviour import behaviour_summary
+from eea.config import EEAConfig
+from eea.experiment import Context, Experiment
+
+#: A run small enough for the default test suite (~0.1-0.3 s per round on one core).
+TINY = dict(duration_s=0.16, rounds=2, exploration_population=4, exploration_generations=2, exploration_models=3,
+            estimation_population=5, estimation_generations=3, k_best=2, oob_period=2, oob_sample=2,
+            oob_population=4, oob_generations=2, workers=1)
+
+
+@pytest.fixture
+def tiny_config():
+    def make(**changes):
+        return EEAConfig(**{**TINY, **changes})
+    return make
+
+
+def _make_experiment(index, action=(0.3, -0.2, 0.8), true_angles=(1.0, 2.0, 0.1), steps=16, context=None, seed=0):
+    log = np.random.default_rng(seed + index).normal(0, 3, (steps, 3))
+    true = np.asarray(true_angles, dtype=float)
+    return Experiment(index, np.asarray(action, dtype=float), log, behaviour_summary(log), true,
+                      context if context is not None else Context.exact(true))
+
+
+@pytest.fixture
+def make_experiment():
+    """Factory of experiments with a synthetic (random) target log, for evaluator bookkeeping."""
+    return _make_experiment
+
+
+class SimulatorSpy:
+    """Wraps simulate_batch and records every call's inputs (as copies)."""
+
+    def __init__(self, real):
+        self.real, self.calls = real, []
+
+    def __call__(self, morphologies, actions, initial_angles, steps, **kw):
+        self.calls.append({"morphologies": np.array(morphologies), "actions": np.array(actions),
+                           "initial_angles": np.array(initial_angles), "steps": steps, **kw})
+        return self.real(morphologies, actions, initial_angles, steps, **kw)
+
+    @property
+    def robots(self):
+        return sum(len(c["morphologies"]) for c in self.calls)
+
+
+@pytest.fixture
+def simulator_spy(monkeypatch):
+    """Spy on the simulator calls of eea.evaluation (models; workers=1 runs them in-process)."""
+    import eea.evaluation
+
+    spy = SimulatorSpy(eea.evaluation.simulate_batch)
+    monkeypatch.setattr(eea.evaluation, "simulate_batch", spy)
+    return spy

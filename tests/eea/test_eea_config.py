@@ -1,0 +1,55 @@
+"""EEAConfig: the paper's defaults (section 4) and validation with clear errors."""
+
+import dataclasses
+
+import pytest
+
+from eea.config import FIELD_HELP, EEAConfig
+
+
+def test_defaults_are_the_papers():
+    c = EEAConfig()
+    assert (c.inference, c.damage, c.duration_s, c.rounds) == ("out_of_band", "left_pectoral_half", 1.28, 25)
+    assert (c.exploration_population, c.exploration_generations) == (25, 25)
+    assert (c.estimation_population, c.estimation_generations) == (25, 100)
+    assert (c.crossover_rate, c.tournament_size, c.mutation_bits) == (0.75, 2, 1.0)
+    assert (c.k_best, c.in_band_confidence, c.oob_period, c.oob_sample) == (3, 0.5, 35, 5)
+    assert c.steps == 128 and EEAConfig(duration_s=10.24).steps == 1024 and c.workers >= 1
+
+
+def test_every_field_has_help():
+    assert set(FIELD_HELP) == {f.name for f in dataclasses.fields(EEAConfig)}
+
+
+@pytest.mark.parametrize("changes, match", [
+    ({"inference": "telepathy"}, "valid names: known, none, in_band, out_of_band"),
+    ({"damage": "dented"}, "valid names: .*left_pectoral_half"),
+    ({"duration_s": 0.015}, "multiple of 0.01"),
+    ({"duration_s": 0.01}, "at least 2 steps"),
+    ({"rounds": 0}, "rounds must be an int >= 1"),
+    ({"rounds": 2.0}, "rounds must be an int"),
+    ({"estimation_population": 1}, "estimation_population must be an int >= 2"),
+    ({"k_best": 26}, "k_best .* must be <= estimation_population"),
+    ({"oob_sample": 30}, "oob_sample"),
+    ({"crossover_rate": 1.5}, "crossover_rate must be in"),
+    ({"in_band_confidence": float("nan")}, "in_band_confidence"),
+    ({"mutation_bits": -1}, "mutation_bits"),
+    ({"workers": 0}, "workers"),
+])
+def test_invalid_values_raise(changes, match):
+    with pytest.raises(ValueError, match=match):
+        EEAConfig(**changes)
+
+
+def test_dict_round_trip_and_unknown_keys():
+    c = EEAConfig(inference="in_band", seed=7, workers=1)
+    assert EEAConfig.from_dict(c.to_dict()) == c
+    with pytest.raises(ValueError, match="unknown EEAConfig keys \\['estimaton_population'\\]"):
+        EEAConfig.from_dict({**c.to_dict(), "estimaton_population": 3})
+
+
+def test_same_results_ignores_workers_chunking_and_rounds():
+    c = EEAConfig(workers=1)
+    assert c.same_results_as(c.replace(workers=2, max_batch_robots=7, rounds=40))
+    assert not c.same_results_as(c.replace(seed=1))
+    assert not c.same_results_as(c.replace(inference="none"))

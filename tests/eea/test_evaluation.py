@@ -1,0 +1,103 @@
+"""Evaluator: one batched simulator call per evaluation, caching, identical results for any workers."""
+
+import numpy as np
+import pytest
+
+from aquafish_gym import simulate_batch
+from eea.behaviour import behaviour_summary, similarity
+from eea.encoding import decode_actions, decode_models
+from eea.evaluation import Evaluator
+from eea.experiment import quantise_angles
+
+
+def _genomes(n, seed=0, bits=45):
+    return np.random.default_rng(seed).integers(0, 2, (n, bits), dtype=np.uint8)
+
+
+def test_similarities_are_eq2_against_each_experiments_target(simulator_spy, make_experiment):
+    exps = [make_experiment(0), make_experiment(1, action=(-0.4, 0.1, 0.3))]
+    genomes = _genomes(3)
+    angles = np.random.default_rng(1).uniform(0, 0.5, (3, 2, 3))
+    with Evaluator(16) as ev:
+        sims = ev.similarities(genomes, exps, angles)
+    assert sims.shape == (3, 2)
+    assert len(simulator_spy.calls) == 1 and simulator_spy.robots == 6   # one batched call for the population
+    for p in range(3):
+        for e in range(2):
+            snapped = quantise_angles(angles[p, e][None])[1]
+            log = simulate_batch(decode_models(genomes[p])[None], exps[e].action[None], snapped, 16)
+            assert sims[p, e] == similarity(behaviour_summary(log[0]), exps[e].summary)
+
+
+def test_cache_never_simulates_a_key_twice(simulator_spy, make_experiment):
+    exps = [make_experiment(0), make_experiment(1)]
+    genomes = _genomes(4)
+    genomes[3] = genomes[0]                                          # a duplicate in the same population
+    angles = np.zeros((4, 2, 3))
+    with Evaluator(16) as ev:
+        first = ev.similarities(genomes, exps, angles)
+        assert ev.simulations == 6 and simulator_spy.robots == 6     # 3 distinct genomes x 2 experiments
+        np.testing.assert_array_equal(first[3], first[0])
+        again = ev.similarities(genomes, exps, angles + 1e-8)         # below the 1e-6 rad grid: same keys
+        assert ev.simulations == 6 and len(simulator_spy.calls) == 1
+        np.testing.assert_array_equal(again, first)
+        ev.similarities(genomes[:1], exps, np.full((1, 2, 3), 0.25))  # other angles: simulated
+        ev.similarities(genomes[:1], [make_experiment(2)], np.zeros((1, 1, 3)))  # other experiment index
+        assert ev.simulations == 6 + 2 + 1 and ev.cache_size == 9
+        state = ev.state_dict()
+    with Evaluator(16) as fresh:                                      # a resumed run keeps the cache
+        fresh.load_state_dict(state)
+        np.testing.assert_array_equal(fresh.similarities(genomes, exps, angles), first)
+        assert fresh.simulations == 9 and len(simulator_spy.calls) == 3
+
+
+def test_angles_are_snapped_to_the_grid_before_simulating(simulator_spy, make_experiment):
+    angles = np.array([[[2 * np.pi + 0.3000004, -0.1, 0.2]]])
+    with Evaluator(16) as ev:
+        ev.similarities(_genomes(1), [make_experiment(0)], angles)
+    np.testing.assert_allclose(simulator_spy.calls[0]["initial_angles"], [[0.3, 2 * np.pi - 0.1, 0.2]], atol=1e-6)
+
+
+def test_chunking_splits_one_batch_into_contiguous_calls(simulator_spy):
+    genomes = _genomes(7)
+    morph = decode_models(genomes)
+    actions = decode_actions(_genomes(7, 1, 18))
+    with Evaluator(16, max_batch_robots=3) as ev:
+        chunked = ev.simulate(morph, actions, np.zeros((7, 3)))
+    assert [len(c["morphologies"]) for c in simulator_spy.calls] == [2, 2, 3]
+    np.testing.assert_array_equal(np.concatenate([c["morphologies"] for c in simulator_spy.calls]), morph)
+    with Evaluator(16) as ev:
+        whole = ev.simulate(morph, actions, np.zeros((7, 3)))
+    np.testing.assert_array_equal(chunked, whole)                     # bit for bit
+
+
+def test_summaries_for_exploration_are_cached_within_a_phase(simulator_spy):
+    models, acts = _genomes(3), _genomes(2, 1, 18)
+    with Evaluator(16) as ev:
+        s = ev.summaries(models, acts, decode_actions(acts), np.zeros(3))
+        assert s.shape == (2, 3, 3, 9) and ev.simulations == 6
+        np.testing.assert_array_equal(simulator_spy.calls[0]["initial_angles"], np.zeros((6, 3)))
+        np.testing.assert_array_equal(ev.summaries(models[::-1], acts, decode_actions(acts), np.zeros(3)), s[:, ::-1])
+        assert ev.simulations == 6
+        ev.clear_summaries()
+        ev.summaries(models, acts, decode_actions(acts), np.zeros(3))
+        assert ev.simulations == 12
+    log = simulate_batch(decode_models(models[1])[None], decode_actions(acts[0])[None], np.zeros((1, 3)), 16)
+    np.testing.assert_array_equal(s[0, 1], behaviour_summary(log[0]))
+
+
+def test_two_workers_give_identical_results(make_experiment):
+    exps = [make_experiment(0, steps=32), make_experiment(1, steps=32, action=(0.5, 0.5, 1.0))]
+    genomes = _genomes(9, 3)
+    angles = np.random.default_rng(4).uniform(0, 0.5, (9, 2, 3))
+    with Evaluator(32, workers=1) as one, Evaluator(32, workers=2) as two:
+        np.testing.assert_array_equal(one.similarities(genomes, exps, angles), two.similarities(genomes, exps, angles))
+        assert two._pool is not None
+    assert two._pool is None                                          # closed with the context
+
+
+def test_bad_arguments(make_experiment):
+    with pytest.raises(ValueError, match="workers"):
+        Evaluator(16, workers=0)
+    with Evaluator(16) as ev, pytest.raises(ValueError, match="angles"):
+        ev.similarities(_genomes(2), [make_experiment(0)], np.zeros((2, 2, 3)))

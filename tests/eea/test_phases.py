@@ -1,0 +1,117 @@
+"""Exploration and estimation phases: fitness wiring (eqs. 1, 3), batching, carry-over."""
+
+import numpy as np
+import pytest
+
+from eea.encoding import decode_actions
+from eea.estimation import Estimation, distinct_ranked
+from eea.evaluation import Evaluator
+from eea.exploration import Exploration
+from eea.fitness import action_fitness
+from eea.inference import make_inference
+
+
+class TableEvaluator:
+    """Fake evaluator: similarity of a model = (number of ones in its genome) / 45, per experiment weight."""
+
+    def __init__(self):
+        self.calls = 0
+
+    def similarities(self, genomes, experiments, angles):
+        self.calls += 1
+        ones = genomes.sum(axis=1, keepdims=True) / 45.0
+        return ones * np.array([[1.0, 0.5]])[:, : len(experiments)]
+
+
+def test_estimation_fitness_is_mean_similarity_over_experiments(tiny_config, make_experiment):
+    config = tiny_config(inference="known")
+    est = Estimation.from_config(config, np.random.default_rng(0))
+    first = est.ga.ask()
+    seen = []
+    ev = TableEvaluator()
+    best, fit = est.run([make_experiment(0), make_experiment(1)], make_inference("known"), ev,
+                        np.random.default_rng(1), 4, lambda g, b: seen.append((g, b)))
+    assert ev.calls == 4 and [g for g, _ in seen] == [0, 1, 2, 3]
+    assert fit == pytest.approx(best.sum() / 45 * 0.75)               # mean of (1, 0.5) x ones/45
+    assert seen[0][1] == pytest.approx(first.sum(axis=1).max() / 45 * 0.75)
+    assert all(b2 >= b1 for (_, b1), (_, b2) in zip(seen, seen[1:]))  # elitism, fixed fitness
+
+
+def test_estimation_population_carries_over_between_rounds(tiny_config, make_experiment):
+    est = Estimation.from_config(tiny_config(), np.random.default_rng(0))
+    exps = [make_experiment(0)]
+    est.run(exps, make_inference("known"), TableEvaluator(), np.random.default_rng(1), 3)
+    carried = est.ga.ask()
+    ranked = est.ranked_models()
+    assert len({r.tobytes() for r in ranked}) == len(ranked)
+    np.testing.assert_array_equal(carried[0], est.ga.best_genome)     # elite first
+    ev = TableEvaluator()
+    first_round_two = []
+    ev.similarities = (lambda f: lambda g, e, a: (first_round_two.append(g.copy()), f(g, e, a))[1])(ev.similarities)
+    est.run(exps + [make_experiment(1)], make_inference("known"), ev, np.random.default_rng(2), 1)
+    np.testing.assert_array_equal(first_round_two[0], carried)        # round 2 starts from round 1's population
+
+
+def test_estimation_state_round_trip_continues_identically(tiny_config, make_experiment):
+    exps = [make_experiment(0)]
+    rng = np.random.default_rng(0)
+    a = Estimation.from_config(tiny_config(), rng)
+    a.run(exps, make_inference("known"), TableEvaluator(), rng, 2)
+    state, rng_state = a.state_dict(), rng.bit_generator.state
+    a.run(exps, make_inference("known"), TableEvaluator(), rng, 2)
+    rng2 = np.random.default_rng()
+    rng2.bit_generator.state = rng_state
+    b = Estimation.from_state_dict(state, rng2)
+    b.run(exps, make_inference("known"), TableEvaluator(), rng2, 2)
+    np.testing.assert_array_equal(a.ga.ask(), b.ga.ask())
+
+
+def test_distinct_ranked():
+    g = np.array([[0, 0], [1, 1], [0, 0], [1, 0]], np.uint8)
+    np.testing.assert_array_equal(distinct_ranked(g, np.array([0.5, 0.1, 0.9, 0.3])), [[0, 0], [1, 0], [1, 1]])
+    np.testing.assert_array_equal(distinct_ranked(g, None), [[0, 0], [1, 1], [1, 0]])
+
+
+class SpreadEvaluator:
+    """Fake evaluator: model m's summary is m * 100 * caudal frequency: disagreement grows with Hz."""
+
+    def __init__(self):
+        self.angles, self.cleared = [], 0
+
+    def summaries(self, genomes, action_genomes, actions, angles):
+        self.angles.append(np.array(angles))
+        m = np.arange(len(genomes))[None, :, None, None]
+        return m * 100.0 * actions[:, 2][:, None, None, None] * np.ones((1, 1, 3, 4))
+
+    def clear_summaries(self):
+        self.cleared += 1
+
+
+def test_exploration_picks_the_action_models_disagree_on_most():
+    ev = SpreadEvaluator()
+    rng = np.random.default_rng(0)
+    exploration = Exploration(population=8, generations=6)
+    genome, action, fit = exploration.run(np.zeros((3, 45), np.uint8) + np.eye(3, 45, dtype=np.uint8), ev, rng)
+    np.testing.assert_array_equal(action, decode_actions(genome))
+    hz = action[2]
+    m = np.arange(3)[:, None, None] * 100.0 * hz * np.ones((3, 3, 4))
+    assert fit == pytest.approx(action_fitness(m))
+    first_gen = decode_actions(np.random.default_rng(0).integers(0, 2, (8, 18), dtype=np.uint8))
+    assert hz >= first_gen[:, 2].max()
+    assert len(ev.angles) == 6 and all(np.all(a == 0) for a in ev.angles)   # zero state, one call per generation
+    assert ev.cleared >= 1
+
+
+def test_exploration_without_two_models_simulates_nothing():
+    ev = SpreadEvaluator()
+    genome, action, fit = Exploration(4, 3).run(np.zeros((1, 45), np.uint8), ev, np.random.default_rng(0))
+    assert fit == 0.0 and ev.angles == [] and action.shape == (3,)
+
+
+def test_exploration_batches_each_generation_into_one_simulator_call(simulator_spy):
+    models = np.random.default_rng(0).integers(0, 2, (3, 45), dtype=np.uint8)
+    with Evaluator(16) as ev:
+        Exploration(4, 3).run(models, ev, np.random.default_rng(1))
+    assert 1 <= len(simulator_spy.calls) <= 3
+    assert simulator_spy.calls[0]["morphologies"].shape == (12, 9)      # 4 actions x 3 models at once
+    assert all(np.all(c["initial_angles"] == 0) for c in simulator_spy.calls)

@@ -1,0 +1,105 @@
+"""NEAT gait evolution: config, monotone best fitness, outputs, checkpoint resume."""
+
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from gait import evolve_gait, latest_checkpoint, load_controller, load_neat_config, rollout
+from gait.neat_evolution import DEFAULT_CONFIG
+
+TINY = dict(population_size=6, seed=3, workers=1, episode_duration_s=1.0, checkpoint_every=1, verbose=False)
+
+
+def _strip_time(history):
+    return [{k: v for k, v in h.items() if k != "wall_time_s"} for h in history]
+
+
+def test_default_config():
+    config = load_neat_config()
+    assert (config.genome_config.num_inputs, config.genome_config.num_outputs) == (14, 3)
+    assert config.pop_size == 50 and config.no_fitness_termination
+    assert config.reproduction_config.elitism >= 1
+    assert load_neat_config(population_size=7).pop_size == 7
+
+
+@pytest.mark.parametrize("section, line, match", [
+    ("[DefaultGenome]", "weight_mutate_rat = 0.5", "unknown \\[DefaultGenome\\] key"),
+    ("[NEAT]", "pop_sise = 5", "Unknown .*pop_sise"),
+])
+def test_config_unknown_keys_raise(tmp_path, section, line, match):
+    text = DEFAULT_CONFIG.read_text().replace(f"\n{section}\n", f"\n{section}\n{line}\n", 1)
+    path = tmp_path / "bad.ini"
+    path.write_text(text)
+    with pytest.raises(ValueError, match=match):
+        load_neat_config(path)
+
+
+def test_config_errors(tmp_path):
+    with pytest.raises(ValueError, match="no NEAT config"):
+        load_neat_config(tmp_path / "missing.ini")
+    with pytest.raises(ValueError, match="population_size"):
+        load_neat_config(population_size=1)
+
+
+def test_evolution_never_loses_the_best_and_writes_outputs(tmp_path):
+    out = tmp_path / "run"
+    result = evolve_gait(None, generations=4, out_dir=out, **TINY)
+    best = [h["best_fitness"] for h in result.history]
+    assert [h["generation"] for h in result.history] == [0, 1, 2, 3]
+    assert all(b2 >= b1 for b1, b2 in zip(best, best[1:])), best  # elitism + deterministic fitness
+    assert result.best_fitness == max(best) == result.history[-1]["best_so_far"]
+    assert result.best_rollout.distance == result.best_fitness
+    assert result.history[-1]["evaluations"] == 4 * 6
+    for name in ("best_controller.pkl", "best_genome.txt", "fitness_history.json", "fitness_history.png",
+                 "run.json", "neat_config.ini"):
+        assert (out / name).is_file(), name
+    assert json.loads((out / "fitness_history.json").read_text()) == result.history
+    summary = json.loads((out / "run.json").read_text())
+    assert summary["population_size"] == 6 and summary["generations"] == 4
+    loaded = load_controller(out)
+    again = rollout(loaded, seed=TINY["seed"], episode_duration_s=TINY["episode_duration_s"])
+    assert again.distance == result.best_fitness
+    np.testing.assert_array_equal(again.initial_angles, result.initial_angles)
+
+
+def test_checkpoint_resume_continues_the_same_run(tmp_path):
+    full = evolve_gait(None, generations=4, out_dir=tmp_path / "a", **TINY)
+    shutil.copytree(tmp_path / "a", tmp_path / "b")
+    checkpoint = tmp_path / "b" / "checkpoints" / "neat-checkpoint-2"
+    resumed = evolve_gait(None, generations=4, out_dir=tmp_path / "b", resume=checkpoint, **TINY)
+    assert _strip_time(resumed.history) == _strip_time(full.history)
+    assert resumed.best_fitness == full.best_fitness and resumed.generations == 4
+    assert latest_checkpoint(tmp_path / "b").name == "neat-checkpoint-4"
+    with pytest.raises(ValueError, match="generations must exceed"):
+        evolve_gait(None, generations=4, out_dir=tmp_path / "b", resume=latest_checkpoint(tmp_path / "b"), **TINY)
+    with pytest.raises(ValueError, match="cannot resume"):  # other fitness settings in the same run directory
+        evolve_gait(None, generations=5, out_dir=tmp_path / "b", resume=latest_checkpoint(tmp_path / "b"), **(TINY | dict(seed=4)))
+
+
+def test_parallel_evaluation_matches_serial():
+    kw = TINY | dict(population_size=4)
+    serial = evolve_gait(None, generations=2, **kw)
+    parallel = evolve_gait(None, generations=2, **(kw | dict(workers=2)))
+    assert _strip_time(parallel.history) == _strip_time(serial.history)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(generations=0), "generations"),
+    (dict(workers=0), "workers"),
+    (dict(damage="nope"), "unknown damage"),
+    (dict(resume="/nonexistent/ckpt"), "no NEAT checkpoint"),
+])
+def test_bad_arguments(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        evolve_gait(None, **(TINY | dict(generations=1) | kwargs))
+
+
+def test_several_episodes_per_genome_average_starts():
+    result = evolve_gait(None, generations=1, episodes_per_genome=2, **(TINY | dict(population_size=4)))
+    c, kw = result.best_controller, dict(episode_duration_s=TINY["episode_duration_s"])
+    expected = np.mean([rollout(c, seed=TINY["seed"], **kw).distance, rollout(c, seed=TINY["seed"] + 1, **kw).distance])
+    assert result.best_fitness == pytest.approx(expected, abs=1e-12)
+    with pytest.raises(ValueError, match="episodes"):
+        evolve_gait(None, generations=1, episodes_per_genome=2, initial_angles=[0.0, 0.0, 0.0], **TINY)

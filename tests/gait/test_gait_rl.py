@@ -1,0 +1,65 @@
+"""RL baselines (stable-baselines3): env check, hyperparameters, a short PPO run end to end."""
+
+import json
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+
+pytestmark = pytest.mark.rl
+pytest.importorskip("stable_baselines3")
+
+import aquafish_gym  # noqa: E402,F401
+from stable_baselines3.common.env_checker import check_env  # noqa: E402
+
+from gait import ClockObservation, SB3PolicyController, load_controller, rollout, score_transfer, train_rl  # noqa: E402
+from gait.rl import load_hyperparams  # noqa: E402
+
+
+def test_sb3_check_env_passes():
+    check_env(gym.make("AquaFish-v0", episode_duration_s=1.0).unwrapped, warn=True)
+    check_env(ClockObservation(gym.make("AquaFish-v0", episode_duration_s=1.0)), warn=True)
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_shipped_hyperparams(algo):
+    hp = load_hyperparams(algo)
+    assert hp["policy"] == "MlpPolicy" and hp["n_timesteps"] == 100_000
+    assert isinstance(hp["policy_kwargs"], dict)
+
+
+def test_hyperparams_errors(tmp_path):
+    with pytest.raises(ValueError, match="unknown RL algorithm"):
+        load_hyperparams("dqn")
+    path = tmp_path / "h.yml"
+    path.write_text(yaml.safe_dump({"ppo": {"AquaFish-v0": {"policy": "MlpPolicy", "n_timesteps": 10, "normalize": True}}}))
+    with pytest.raises(ValueError, match="normalize"):
+        load_hyperparams("ppo", path)
+    with pytest.raises(ValueError, match="no section sac"):
+        load_hyperparams("sac", path)
+    path.write_text(yaml.safe_dump({"ppo": {"AquaFish-v0": {"policy": "MlpPolicy", "n_timesteps": 10, "learning_rate": "lin_1e-3"}}}))
+    assert load_hyperparams("ppo", path)["learning_rate"](0.5) == pytest.approx(5e-4)
+
+
+def test_short_ppo_trains_saves_loads_and_scores(tmp_path):
+    hp = tmp_path / "hp.yml"
+    hp.write_text(yaml.safe_dump({"ppo": {"AquaFish-v0": {
+        "n_timesteps": 256, "policy": "MlpPolicy", "n_envs": 1, "n_steps": 64, "batch_size": 32, "n_epochs": 2,
+        "policy_kwargs": {"net_arch": [16, 16]}}}}))
+    path = train_rl("ppo", "healthy", 256, 0, tmp_path / "ppo", hyperparams_path=hp, episode_duration_s=2.0, num_threads=1)
+    assert path.name == "model.zip" and path.is_file()
+    meta = json.loads(path.with_suffix(".json").read_text())
+    assert meta["algo"] == "ppo" and meta["timesteps"] == 256
+    assert (tmp_path / "ppo" / "learning_curve.png").is_file()
+    assert yaml.safe_load((tmp_path / "ppo" / "hyperparams.yml").read_text())["ppo"]["AquaFish-v0"]["n_steps"] == 64
+
+    controller = load_controller(tmp_path / "ppo")
+    assert isinstance(controller, SB3PolicyController)
+    action = controller.act(np.zeros(12), 0.3)
+    assert action.shape == (3,) and np.all(np.abs(action) <= 1)
+    # the saved score is reproduced by the loaded policy (deterministic actions, same seed)
+    assert rollout(controller, seed=meta["eval_seed"]).distance == pytest.approx(meta["eval_distance"], abs=1e-9)
+    t = score_transfer(controller, "healthy", "left_pectoral_half", seed=0, episode_duration_s=2.0)
+    assert np.isfinite(t.native_distance) and np.isfinite(t.target_distance)
+    assert t.target_trajectory.shape == (21, 2)

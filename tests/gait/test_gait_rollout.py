@@ -1,0 +1,107 @@
+"""Rollout: the gait fitness is the env's summed reward, reproducible for a seed."""
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gait_helpers import SHORT_S
+
+import aquafish_gym  # noqa: F401
+from gait import ClockObservation, rollout, with_clock
+from gait.clock import clock_features
+from gait.neat_evolution import FitnessTask, evaluate_genome
+from gait.robots import Robot
+from aquafish_gym import Morphology
+
+
+def test_score_is_reproducible_for_a_seed(controller):
+    a = rollout(controller, seed=3, episode_duration_s=SHORT_S)
+    b = rollout(controller, seed=3, episode_duration_s=SHORT_S)
+    assert a.distance == b.distance
+    np.testing.assert_array_equal(a.trajectory, b.trajectory)
+    np.testing.assert_array_equal(a.initial_angles, b.initial_angles)
+    c = rollout(controller, seed=4, episode_duration_s=SHORT_S)
+    assert not np.allclose(c.initial_angles, a.initial_angles)
+
+
+def test_fitness_equals_env_summed_reward(controller):
+    """The NEAT fitness, the rollout distance and a hand-written env loop agree exactly."""
+    env = gym.make("AquaFish-v0", episode_duration_s=SHORT_S)
+    obs, info = env.reset(seed=5)
+    controller.reset()
+    total, done = 0.0, False
+    while not done:
+        obs, reward, terminated, truncated, info = env.step(controller.act(obs, info["time_s"]))
+        total += reward
+        done = terminated or truncated
+    env.close()
+    r = rollout(controller, seed=5, episode_duration_s=SHORT_S)
+    assert r.distance == pytest.approx(total, abs=1e-12)
+    assert r.episode_return == pytest.approx(total, abs=1e-12)
+    task = FitnessTask(Robot(Morphology.healthy()), seed=5, episode_duration_s=SHORT_S)
+    assert evaluate_genome(controller.genome, controller.config, task=task) == r.distance
+    assert r.distance == pytest.approx(r.trajectory[-1, 1] - r.trajectory[0, 1], abs=1e-9)  # heading +y
+
+
+def test_trajectory_every_control_step(controller):
+    r = rollout(controller, seed=0, episode_duration_s=SHORT_S)
+    steps = int(round(SHORT_S / 0.1))
+    assert r.trajectory.shape == (steps + 1, 2)
+    np.testing.assert_allclose(np.diff(r.times_s), 0.1)
+    np.testing.assert_allclose(r.trajectory[0], 0.0, atol=1e-9)
+    assert np.all(np.isfinite(r.trajectory))
+
+
+def test_given_initial_angles_override_seed(controller):
+    angles = np.array([0.5, 1.0, 0.1])
+    a = rollout(controller, seed=1, initial_angles=angles, episode_duration_s=SHORT_S)
+    b = rollout(controller, seed=2, initial_angles=angles, episode_duration_s=SHORT_S)
+    np.testing.assert_array_equal(a.initial_angles, angles)
+    assert a.distance == b.distance
+
+
+def test_damage_changes_the_episode(controller):
+    healthy = rollout(controller, "healthy", seed=0, episode_duration_s=SHORT_S)
+    damaged = rollout(controller, "left_pectoral_half", seed=0, episode_duration_s=SHORT_S)
+    np.testing.assert_array_equal(healthy.initial_angles, damaged.initial_angles)
+    assert healthy.distance != damaged.distance
+
+
+def test_controller_sees_the_clock(controller):
+    obs = np.zeros(12)
+    controller.reset()
+    actions = np.array([controller.act(obs, t) for t in (0.0, 0.25, 0.5, 1.0)])
+    assert np.all(np.abs(actions) <= 1.0)
+    np.testing.assert_allclose(actions[0], actions[3], atol=1e-12)  # period 1 s
+    assert not np.allclose(actions[0], actions[1])
+
+
+def test_clock_features_and_errors():
+    np.testing.assert_allclose(clock_features(0.25, 1.0), [1.0, 0.0], atol=1e-12)
+    assert with_clock(np.zeros(12), 0.0).shape == (14,)
+    with pytest.raises(ValueError, match=r"shape \(12,\)"):
+        with_clock(np.zeros(11), 0.0)
+    with pytest.raises(ValueError, match="clock_period_s"):
+        ClockObservation(gym.make("AquaFish-v0"), period_s=0.0)
+
+
+def test_clock_observation_wrapper_matches_controller_inputs():
+    env = ClockObservation(gym.make("AquaFish-v0", episode_duration_s=SHORT_S), period_s=1.0)
+    assert env.observation_space.shape == (14,)
+    obs, info = env.reset(seed=0)
+    np.testing.assert_allclose(obs[12:], [0.0, 1.0])
+    obs, *_, info = env.step(np.zeros(3))
+    np.testing.assert_allclose(obs[12:], clock_features(info["time_s"]), atol=1e-12)
+    assert env.observation_space.contains(obs)
+    env.close()
+
+
+def test_bad_action_from_controller_raises():
+    class Wild:
+        def reset(self):
+            pass
+
+        def act(self, obs, time_s):
+            return np.full(3, 2.0)
+
+    with pytest.raises(ValueError, match=r"\[-1, 1\]"):
+        rollout(Wild(), episode_duration_s=SHORT_S)

@@ -1,0 +1,41 @@
+"""Transfer scoring (Figure 12): native vs target distances and trajectories."""
+
+import json
+
+import numpy as np
+import pytest
+from gait_helpers import SHORT_S
+
+from aquafish_gym import Morphology
+from gait import evolve_gait, plot_transfer, rollout, save_transfer, score_transfer
+
+
+def test_transfer_to_own_morphology_gives_native_score(tmp_path):
+    result = evolve_gait(None, generations=2, population_size=4, seed=2, workers=1, episode_duration_s=SHORT_S, verbose=False)
+    t = score_transfer(result.best_controller, Morphology.healthy(), "healthy", seed=2, episode_duration_s=SHORT_S)
+    assert t.native_distance == t.target_distance == result.best_fitness
+    np.testing.assert_array_equal(t.native_trajectory, t.target_trajectory)
+    assert t.transfer_ratio == pytest.approx(1.0)
+
+
+def test_transfer_to_damaged_target(controller, tmp_path):
+    t = score_transfer(controller, "healthy", "left_pectoral_half", seed=1, episode_duration_s=SHORT_S)
+    assert t.target.damage == "left_pectoral_half" and t.native.damage == "none"
+    np.testing.assert_array_equal(t.native_rollout.initial_angles, t.target_rollout.initial_angles)
+    assert t.target_distance == rollout(controller, "left_pectoral_half", seed=1, episode_duration_s=SHORT_S).distance
+    assert t.native_distance != t.target_distance
+    assert t.native_trajectory.shape == t.target_trajectory.shape == (21, 2)
+
+    png = plot_transfer([t, t], tmp_path / "fig12.png", titles=["(a)", "(b)"])
+    assert png.stat().st_size > 1000
+    data = json.loads(save_transfer([t], tmp_path / "t.json").read_text())
+    assert data[0]["target_distance"] == t.target_distance
+    assert len(data[0]["target_trajectory"]) == 21
+
+
+def test_plot_transfer_errors(controller, tmp_path):
+    t = score_transfer(controller, "healthy", "healthy", episode_duration_s=0.5)
+    with pytest.raises(ValueError, match="no transfer results"):
+        plot_transfer([], tmp_path / "x.png")
+    with pytest.raises(ValueError, match="one entry per result"):
+        plot_transfer([t], tmp_path / "x.png", titles=["a", "b"])
