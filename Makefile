@@ -18,7 +18,7 @@ $(STAMP): $(BIN)/python pyproject.toml
 install: $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/aquafish swim --out demo_out
+	$(BIN)/aquafish case-study --preset quick --out demo_out
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -n 2 -q

@@ -52,6 +52,13 @@ PRESETS: dict[str, CaseStudyPreset] = {
                  oob_period=10, oob_population=8, oob_generations=6),
         gait_population=30, gait_generations=12, rl_timesteps=20_000,
     ),
+    # a minutes-long end-to-end check of the whole pipeline (used by the tests)
+    "smoke": CaseStudyPreset(
+        eea=dict(duration_s=0.32, rounds=2, estimation_population=6, estimation_generations=3,
+                 exploration_population=4, exploration_generations=2, exploration_models=3,
+                 k_best=2, oob_period=2, oob_sample=2, oob_population=3, oob_generations=2),
+        gait_population=6, gait_generations=2, rl_timesteps=256,
+    ),
     # the paper's settings (section 4 and 5): hours per EEA run
     "paper": CaseStudyPreset(eea=dict(duration_s=1.28, rounds=25), gait_population=150, gait_generations=100, rl_timesteps=1_000_000),
 }
@@ -100,11 +107,17 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, workers: int
     controllers = {}
     for label, morphology in natives.items():
         gait_dir = out / ("gait_" + label.split()[0].replace("-", "_"))
+        if (gait_dir / "run.json").exists():  # finished earlier: reuse
+            controllers[label] = gait.load_controller(gait_dir / "best_controller.pkl")
+            continue
         result = gait.evolve_gait(morphology, generations=settings.gait_generations, population_size=settings.gait_population,
                                   seed=seed, out_dir=gait_dir, workers=workers)
         controllers[label] = result.best_controller
     if settings.rl_timesteps and _rl_available():
-        path = gait.train_rl("ppo", models["out_of_band"], settings.rl_timesteps, seed, out / "rl_ppo_out_of_band")
+        rl_dir = out / "rl_ppo_out_of_band"
+        path = rl_dir / "model.zip"
+        if not (rl_dir / "model.json").exists():
+            path = gait.train_rl("ppo", models["out_of_band"], settings.rl_timesteps, seed, rl_dir)
         controllers["PPO on out-of-band model"] = gait.load_controller(path)
         natives["PPO on out-of-band model"] = models["out_of_band"]
 

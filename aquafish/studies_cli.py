@@ -57,7 +57,8 @@ def _plot(args: argparse.Namespace) -> int:
 
 def add_commands(sub) -> None:
     c = sub.add_parser("case-study", help="damage-recovery case study (paper section 5): self-model, evolve gaits, transfer")
-    c.add_argument("--preset", default="quick", choices=["quick", "paper"], help="quick (~15 min on 2 cores) or the paper's settings")
+    c.add_argument("--preset", default="quick", choices=["smoke", "quick", "paper"],
+                   help="smoke (a pipeline check), quick (~15 min on 2 cores) or the paper's settings")
     c.add_argument("--damage", default="left_pectoral_half", help="damage of the target robot")
     c.add_argument("--seed", type=int, default=0)
     c.add_argument("--out", default="case_study_out", help="output directory (finished steps are reused)")

@@ -2,6 +2,8 @@
 
 import argparse
 import json
+import subprocess
+import sys
 
 import pytest
 
@@ -45,3 +47,10 @@ def test_gait_then_transfer(tmp_path, capsys):
 def test_bad_input_raises_value_error(argv, match, tmp_path):
     with pytest.raises(ValueError, match=match):
         _run(argv + ["--out", str(tmp_path)])
+
+
+def test_gait_works_without_the_rl_extra():
+    """Importing gait (and its CLI) does not import stable-baselines3 or torch."""
+    code = "import sys, gait, gait.cli; print(any(m in sys.modules for m in ('stable_baselines3', 'torch')))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"

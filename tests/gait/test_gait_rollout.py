@@ -105,3 +105,21 @@ def test_bad_action_from_controller_raises():
 
     with pytest.raises(ValueError, match=r"\[-1, 1\]"):
         rollout(Wild(), episode_duration_s=SHORT_S)
+
+
+def test_recurrent_network_option_is_reproducible(tmp_path):
+    """feed_forward = False gives neat.nn.RecurrentNetwork; reset() clears its state between episodes."""
+    import neat
+
+    from gait import NEATController, load_neat_config
+    from gait.neat_evolution import DEFAULT_CONFIG
+
+    path = tmp_path / "recurrent.ini"
+    path.write_text(DEFAULT_CONFIG.read_text().replace("feed_forward            = True", "feed_forward            = False"))
+    config = load_neat_config(path, population_size=2)
+    genome = next(iter(neat.Population(config, seed=1).population.values()))
+    c = NEATController(genome, config)
+    assert not c.feed_forward
+    a, b = (rollout(c, seed=0, episode_duration_s=SHORT_S) for _ in range(2))
+    assert isinstance(c._net, neat.nn.RecurrentNetwork)
+    assert a.distance == b.distance
