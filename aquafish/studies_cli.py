@@ -45,12 +45,10 @@ def _study(args: argparse.Namespace) -> int:
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from aquafish.study import final_round_table, find_runs, plot_study, summarise
+    from eea.plot import plot_runs
 
-    summary = summarise(find_runs(args.dirs))
     out = Path(args.output) if args.output else Path(args.dirs[0]) / "objective_fitness.png"
-    plot_study(summary, out)
-    print(final_round_table(summary))
+    print(plot_runs(args.dirs, out))
     print(f"wrote {out}")
     return 0
 

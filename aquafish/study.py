@@ -6,22 +6,21 @@ A study is conditions (inference strategies) x experiment durations x replicate 
 already holds every round is skipped, and an interrupted one resumes from its last
 finished round. Runs execute in a local process pool (one process per core, each run
 serial) or, with ``backend="ray"``, as Ray tasks on a cluster (the ``[cluster]`` extra).
+The results are read back and plotted by :mod:`eea.plot` (``aquafish plot``).
 """
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import json
 import os
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
-from typing import Iterable
 
-import numpy as np
 from tqdm.auto import tqdm
 
 from eea.config import EEAConfig
+from eea.record import read_rounds
 
 BACKENDS = ("local", "ray")
 
@@ -70,11 +69,7 @@ class StudySpec:
 
 def rounds_done(run_dir: Path) -> int:
     """Number of finished rounds recorded in ``run_dir/rounds.csv`` (0 if none)."""
-    path = Path(run_dir) / "rounds.csv"
-    if not path.exists():
-        return 0
-    with path.open(newline="") as f:
-        return sum(1 for _ in csv.DictReader(f))
+    return len(read_rounds(run_dir))
 
 
 def _run_one(config_dict: dict, run_dir: str) -> str:
@@ -145,101 +140,3 @@ def _write_spec(spec: StudySpec, out_dir: Path) -> None:
     tmp = path.with_suffix(".tmp")
     tmp.write_text(json.dumps(data, indent=2))
     tmp.replace(path)
-
-
-# -- results --------------------------------------------------------------------------
-@dataclasses.dataclass(frozen=True)
-class RunCurve:
-    """Objective fitness per round of one finished or partial run."""
-
-    inference: str
-    duration_s: float
-    seed: int
-    objective_fitness: np.ndarray  # (rounds,)
-
-
-def find_runs(paths: Iterable) -> list[RunCurve]:
-    """All EEA run directories (``config.json`` + ``rounds.csv``) under ``paths``, recursively.
-
-    Raises:
-        ValueError: a path that does not exist, or no run found.
-    """
-    curves = []
-    for root in paths:
-        root = Path(root)
-        if not root.exists():
-            raise ValueError(f"{root} does not exist")
-        for cfg in sorted(root.rglob("config.json")):
-            csv_path = cfg.with_name("rounds.csv")
-            if not csv_path.exists():
-                continue
-            config = json.loads(cfg.read_text())
-            with csv_path.open(newline="") as f:
-                fitness = np.array([float(row["objective_fitness"]) for row in csv.DictReader(f)])
-            if fitness.size:
-                curves.append(RunCurve(config["inference"], float(config["duration_s"]), int(config["seed"]), fitness))
-    if not curves:
-        raise ValueError(f"no EEA runs (config.json + rounds.csv) found under {[str(p) for p in paths]}")
-    return curves
-
-
-def summarise(curves: list[RunCurve]) -> dict[tuple[str, float], dict]:
-    """Mean and standard deviation of objective fitness per round, per (inference, duration).
-
-    Runs of different lengths are truncated to the shortest in their group.
-    Returns ``{(inference, duration_s): {"mean": (R,), "std": (R,), "n": replicates}}``.
-    """
-    groups: dict[tuple[str, float], list[np.ndarray]] = {}
-    for c in curves:
-        groups.setdefault((c.inference, c.duration_s), []).append(c.objective_fitness)
-    out = {}
-    for key, series in sorted(groups.items()):
-        rounds = min(len(s) for s in series)
-        arr = np.stack([s[:rounds] for s in series])
-        out[key] = {"mean": arr.mean(axis=0), "std": arr.std(axis=0), "n": len(series)}
-    return out
-
-
-def plot_study(summary: dict, path: Path) -> Path:
-    """Figures 5-10: per condition, mean objective fitness (solid) and its standard
-    deviation (dashed) against EEA round, one colour per experiment duration. Writes a PNG."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    conditions = sorted({k[0] for k in summary}, key=_condition_order)
-    fig, axes = plt.subplots(1, len(conditions), figsize=(4.2 * len(conditions), 3.6), squeeze=False, sharey=True)
-    for ax, condition in zip(axes[0], conditions):
-        for i, ((cond, duration), s) in enumerate((k, v) for k, v in summary.items() if k[0] == condition):
-            rounds = np.arange(1, len(s["mean"]) + 1)
-            color = f"C{i}"
-            ax.plot(rounds, s["mean"], "-", color=color, label=f"{duration:g} s (n={s['n']})")
-            ax.plot(rounds, s["std"], "--", color=color)
-        ax.set_title(condition)
-        ax.set_xlabel("EEA round")
-        ax.set_ylim(0, 1.02)
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8, loc="center right")
-    axes[0, 0].set_ylabel("objective fitness (solid: mean, dashed: std)")
-    fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=120)
-    plt.close(fig)
-    tmp.replace(path)
-    return path
-
-
-def _condition_order(name: str) -> tuple[int, str]:
-    order = ["known", "none", "in_band", "out_of_band"]
-    return (order.index(name) if name in order else len(order), name)
-
-
-def final_round_table(summary: dict) -> str:
-    """Plain-text table of final-round mean and std objective fitness per (condition, duration)."""
-    lines = [f"{'condition':<14} {'duration_s':>10} {'runs':>5} {'rounds':>6} {'mean':>7} {'std':>7}"]
-    for (condition, duration), s in sorted(summary.items(), key=lambda kv: (_condition_order(kv[0][0]), kv[0][1])):
-        lines.append(f"{condition:<14} {duration:>10g} {s['n']:>5} {len(s['mean']):>6} {s['mean'][-1]:>7.3f} {s['std'][-1]:>7.3f}")
-    return "\n".join(lines)

@@ -1,26 +1,22 @@
-"""``aquafish eea`` sub-command (argparse), and an optional ``plot`` sub-command.
+"""``aquafish eea`` sub-command (argparse).
 
 ``aquafish eea --inference out_of_band --damage left_pectoral_half --duration 1.28
 --rounds 25 --seed 0 --out DIR`` runs (or resumes) one EEA run; every
 :class:`~eea.config.EEAConfig` field is a flag (``--estimation-population 50``) with the
 dataclass default.
 
-:func:`add_commands` adds only ``eea``: ``aquafish plot`` is provided by
-``aquafish.studies_cli`` (two sub-commands of one name would clash). :func:`add_plot_command`
-adds this package's own ``plot DIR... [--png FILE]`` (:func:`eea.plot.plot_runs`) to a parser
-that has none.
+``aquafish plot`` (:func:`eea.plot.plot_runs`) is added by ``aquafish.studies_cli``.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-from pathlib import Path
 
 from eea.config import FIELD_HELP, EEAConfig
 from eea.inference import INFERENCE_NAMES
 
-__all__ = ["add_commands", "add_plot_command"]
+__all__ = ["add_commands"]
 
 _SHORT_FLAGS = {"duration_s": ("--duration",)}
 
@@ -48,15 +44,6 @@ def _run_eea(args: argparse.Namespace) -> int:
     return 0
 
 
-def _plot(args: argparse.Namespace) -> int:
-    from eea.plot import plot_runs
-
-    png = args.png if args.png is not None else Path(args.dirs[0]) / "objective_fitness.png"
-    print(plot_runs(args.dirs, png))
-    print(f"saved {png}")
-    return 0
-
-
 def add_commands(subparsers) -> None:
     """Add the ``eea`` sub-command to an argparse ``subparsers`` object."""
     eea = subparsers.add_parser("eea", help="run (or resume) the self-modeling EEA",
@@ -67,12 +54,3 @@ def add_commands(subparsers) -> None:
     _add_config_flags(eea)
     eea.set_defaults(func=_run_eea)
 
-
-def add_plot_command(subparsers) -> None:
-    """Add ``plot DIR... [--png FILE]`` (mean objective fitness against round, per strategy)."""
-    plot = subparsers.add_parser("plot", help="plot mean objective fitness against round",
-                                 description="Mean (solid) and std (dashed) objective fitness against EEA round, one "
-                                             "line per inference strategy found in the runs under DIR...")
-    plot.add_argument("dirs", nargs="+", metavar="DIR", help="run directories or directories containing runs")
-    plot.add_argument("--png", type=Path, default=None, help="output image (default: FIRST_DIR/objective_fitness.png)")
-    plot.set_defaults(func=_plot)

@@ -1,12 +1,17 @@
-"""Study plots: mean objective fitness against EEA round (paper Figures 5-10).
+"""Study results: mean objective fitness against EEA round (paper Figures 5-10).
 
-Runs are grouped by inference strategy (and by experiment duration when several occur);
-each group gets one colour: its mean OBJ_FIT (eq. 4) over replicates as a solid line and
-its standard deviation as a dashed line, as in the paper's figures.
+Runs are found on disk (:func:`find_runs`), grouped by (inference strategy, experiment
+duration) and summarised round by round (:func:`summarise_runs`); :func:`plot_study` draws
+the paper's figure layout - one panel per strategy, one colour per duration, mean OBJ_FIT
+(eq. 4) over replicates as a solid line and its standard deviation as a dashed line - and
+:func:`final_round_table` prints the final-round numbers::
+
+    print(plot_runs(["runs/study"], "runs/study/objective_fitness.png"))
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections import defaultdict
 from pathlib import Path
@@ -15,7 +20,26 @@ import numpy as np
 
 from eea.record import CONFIG_FILE, RunResult, load_result
 
-__all__ = ["find_runs", "plot_runs", "summarise_runs"]
+__all__ = ["GroupSummary", "final_round_table", "find_runs", "plot_runs", "plot_study", "summarise_runs"]
+
+#: Panel and table order of the paper's strategies (others follow, by name).
+_PAPER_ORDER = ("known", "none", "in_band", "out_of_band")
+
+
+@dataclasses.dataclass(frozen=True)
+class GroupSummary:
+    """Objective fitness of the replicate runs of one (inference, duration) group.
+
+    Attributes:
+        runs: number of replicate runs.
+        mean: ``(R,)`` mean OBJ_FIT per round over the runs, R = the number of rounds
+            every run of the group has finished (longer runs are truncated to it).
+        std: ``(R,)`` population standard deviation (ddof = 0) per round.
+    """
+
+    runs: int
+    mean: np.ndarray
+    std: np.ndarray
 
 
 def find_runs(paths) -> list[RunResult]:
@@ -37,62 +61,84 @@ def find_runs(paths) -> list[RunResult]:
     return results
 
 
-def summarise_runs(results: list[RunResult]) -> dict[str, dict]:
-    """Per group label: ``{"runs": n, "mean": (R,), "std": (R,)}`` of OBJ_FIT by round.
+def _order(key: tuple[str, float]) -> tuple[int, str, float]:
+    inference, duration = key
+    rank = _PAPER_ORDER.index(inference) if inference in _PAPER_ORDER else len(_PAPER_ORDER)
+    return rank, inference, duration
 
-    Round r's statistics use the runs that reached it; R is the longest run's length.
-    Labels are the inference names, with the duration appended if durations differ.
+
+def summarise_runs(results: list[RunResult]) -> dict[tuple[str, float], GroupSummary]:
+    """Per ``(inference, duration_s)``: mean and std of OBJ_FIT by round over its runs.
+
+    Returns:
+        ``{(inference, duration_s): GroupSummary}`` in the paper's strategy order, then by
+        duration.
     """
-    durations = {r.config.duration_s for r in results}
-    groups: dict[str, list[list[float]]] = defaultdict(list)
-    for r in sorted(results, key=lambda r: (r.config.inference, r.config.duration_s)):
-        label = r.config.inference if len(durations) == 1 else f"{r.config.inference} {r.config.duration_s:g} s"
-        groups[label].append(r.objective_fitness)
+    groups: dict[tuple[str, float], list[list[float]]] = defaultdict(list)
+    for r in results:
+        groups[(r.config.inference, r.config.duration_s)].append(r.objective_fitness)
     summary = {}
-    for label, curves in groups.items():
-        length = max(map(len, curves))
-        by_round = [[c[i] for c in curves if len(c) > i] for i in range(length)]
-        summary[label] = {"runs": len(curves), "complete": min(map(len, curves)),
-                          "mean": np.array([np.mean(v) for v in by_round]),
-                          "std": np.array([np.std(v) for v in by_round])}
+    for key in sorted(groups, key=_order):
+        curves = groups[key]
+        rounds = min(map(len, curves))
+        values = np.array([c[:rounds] for c in curves])  # (runs, R)
+        summary[key] = GroupSummary(len(curves), values.mean(axis=0), values.std(axis=0))
     return summary
 
 
-def plot_runs(paths, out_png: str | os.PathLike) -> str:
-    """Draw mean (solid) and std (dashed) OBJ_FIT against round; save a PNG.
+def final_round_table(summary: dict[tuple[str, float], GroupSummary]) -> str:
+    """Plain-text table: per group, runs, rounds, and mean and std OBJ_FIT at the last round."""
+    lines = [f"{'inference':<12} {'duration_s':>10} {'runs':>5} {'rounds':>6} {'mean':>7} {'std':>7}"]
+    for (inference, duration), s in summary.items():
+        lines.append(f"{inference:<12} {duration:>10g} {s.runs:>5} {len(s.mean):>6} "
+                     f"{s.mean[-1]:>7.4f} {s.std[-1]:>7.4f}")
+    return "\n".join(lines)
+
+
+def plot_study(summary: dict[tuple[str, float], GroupSummary], out_png: str | os.PathLike) -> Path:
+    """Draw Figures 5-10: a panel per strategy, mean (solid) and std (dashed) vs round.
 
     Args:
-        paths: run directories or directories containing runs.
-        out_png: output image path (parent directories are created).
+        summary: from :func:`summarise_runs`.
+        out_png: output image path (parent directories are created; written atomically).
 
     Returns:
-        A text table: per group, the number of runs and the mean and std of OBJ_FIT at
-        the last round all its runs reached.
-
-    Raises:
-        ValueError: as :func:`find_runs`.
+        The PNG's path.
     """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    summary = summarise_runs(find_runs(paths))
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    lines = [f"{'condition':<24} {'runs':>4} {'round':>5} {'mean OBJ_FIT':>12} {'std':>7}"]
-    for label, s in summary.items():
-        rounds = np.arange(1, len(s["mean"]) + 1)
-        (line,) = ax.plot(rounds, s["mean"], "-", label=f"{label} (n={s['runs']})")
-        ax.plot(rounds, s["std"], "--", color=line.get_color())
-        last = s["complete"] - 1
-        lines.append(f"{label:<24} {s['runs']:>4} {last + 1:>5} {s['mean'][last]:>12.4f} {s['std'][last]:>7.4f}")
-    ax.set_xlabel("EEA round")
-    ax.set_ylabel("objective fitness (solid: mean, dashed: std)")
-    ax.set_ylim(0, 1.02)
-    ax.grid(alpha=0.3)
-    ax.legend(loc="center right", fontsize=8)
+    strategies = list(dict.fromkeys(inference for inference, _ in summary))
+    fig, axes = plt.subplots(1, len(strategies), figsize=(4.2 * len(strategies), 3.8), squeeze=False, sharey=True)
+    for ax, strategy in zip(axes[0], strategies):
+        for i, ((inference, duration), s) in enumerate(kv for kv in summary.items() if kv[0][0] == strategy):
+            rounds = np.arange(1, len(s.mean) + 1)
+            ax.plot(rounds, s.mean, "-", color=f"C{i}", label=f"{duration:g} s (n={s.runs})")
+            ax.plot(rounds, s.std, "--", color=f"C{i}")
+        ax.set_title(strategy)
+        ax.set_xlabel("EEA round")
+        ax.set_ylim(0, 1.02)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="center right", fontsize=8)
+    axes[0, 0].set_ylabel("objective fitness (solid: mean, dashed: std)")
     fig.tight_layout()
-    Path(out_png).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out_png, dpi=120)
+    path = Path(out_png)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp.png")
+    fig.savefig(tmp, dpi=120)
     plt.close(fig)
-    return "\n".join(lines)
+    tmp.replace(path)
+    return path
+
+
+def plot_runs(paths, out_png: str | os.PathLike) -> str:
+    """Find the runs under ``paths``, draw :func:`plot_study` to ``out_png``, return the table.
+
+    Raises:
+        ValueError: as :func:`find_runs`.
+    """
+    summary = summarise_runs(find_runs(paths))
+    plot_study(summary, out_png)
+    return final_round_table(summary)

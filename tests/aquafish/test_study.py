@@ -1,4 +1,4 @@
-"""Studies: independent resumable runs, skipping finished ones, local and Ray backends, plots."""
+"""Studies: independent resumable runs, skipping finished ones, local and Ray backends."""
 
 import csv
 import json
@@ -6,8 +6,10 @@ import json
 import numpy as np
 import pytest
 
-from aquafish.study import RunCurve, StudySpec, find_runs, final_round_table, plot_study, rounds_done, run_study, summarise
+from aquafish.cli import main
+from aquafish.study import StudySpec, rounds_done, run_study
 from eea.config import EEAConfig
+from eea.plot import find_runs, summarise_runs
 
 TINY = EEAConfig(rounds=2, exploration_population=3, exploration_generations=1, exploration_models=2,
                  estimation_population=4, estimation_generations=2, k_best=2, oob_period=1, oob_sample=2,
@@ -45,35 +47,16 @@ def test_local_study_runs_skips_finished_and_plots(tmp_path):
     with pytest.raises(ValueError, match="different study"):
         run_study(tiny_spec(replicates=3), tmp_path, progress=False)
 
-    curves = find_runs([tmp_path])
-    assert sorted((c.inference, c.seed) for c in curves) == [("known", 0), ("known", 1), ("none", 0), ("none", 1)]
-    summary = summarise(curves)
+    summary = summarise_runs(find_runs([tmp_path]))
+    assert sorted(summary) == [("known", 0.16), ("none", 0.16)]
     for (inference, duration), s in summary.items():
         runs = [d for d in dirs if d.parts[-3] == inference]
         values = np.array([[float(r["objective_fitness"]) for r in csv.DictReader((d / "rounds.csv").open())] for d in runs])
-        np.testing.assert_allclose(s["mean"], values.mean(axis=0))
-        np.testing.assert_allclose(s["std"], values.std(axis=0))
-    png = plot_study(summary, tmp_path / "fig.png")
-    assert png.stat().st_size > 1000
+        np.testing.assert_allclose(s.mean, values.mean(axis=0))
+        np.testing.assert_allclose(s.std, values.std(axis=0))
     assert json.loads((tmp_path / "study.json").read_text())["replicates"] == 2
-
-
-def test_summary_statistics_on_hand_made_curves():
-    curves = [RunCurve("none", 1.28, 0, np.array([0.5, 0.7, 0.9])), RunCurve("none", 1.28, 1, np.array([0.7, 0.9])),
-              RunCurve("known", 1.28, 0, np.array([1.0]))]
-    s = summarise(curves)
-    np.testing.assert_allclose(s[("none", 1.28)]["mean"], [0.6, 0.8])  # truncated to the shortest run
-    np.testing.assert_allclose(s[("none", 1.28)]["std"], [0.1, 0.1])
-    table = final_round_table(s)
-    assert table.splitlines()[1].split()[:2] == ["known", "1.28"]  # paper order: known before none
-    assert "0.800" in table
-
-
-def test_find_runs_reports_missing_directory(tmp_path):
-    with pytest.raises(ValueError, match="no EEA runs"):
-        find_runs([tmp_path])
-    with pytest.raises(ValueError, match="does not exist"):
-        find_runs([tmp_path / "nope"])
+    assert main(["plot", str(tmp_path)]) == 0
+    assert (tmp_path / "objective_fitness.png").stat().st_size > 1000
 
 
 @pytest.mark.cluster
