@@ -41,7 +41,9 @@ def add_commands(subparsers) -> None:
                    help="controller files (.pkl NEAT, .zip SB3) or run directories, one panel each")
     p.add_argument("--native", nargs="+", default=["healthy"], help=f"each controller's own robot: {ROBOT_HELP}; one, or one per controller")
     p.add_argument("--target", required=True, help=f"robot to transfer to: {ROBOT_HELP}")
-    p.add_argument("--seed", type=int, default=0, help="episode seed: draws the initial angles (default 0, as `aquafish gait`)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the first episode: draws the initial angles (default 0, as `aquafish gait`)")
+    p.add_argument("--episodes", type=int, default=1,
+                   help="paired episodes per robot (seeds seed, seed+1, ...); distances are their means (default 1)")
     p.add_argument("--initial-angles", default=None, help="3 comma-separated angles (rad): left, right pectoral, caudal")
     p.add_argument("--title", nargs="+", default=None, help="one title per controller")
     p.add_argument("--out", type=Path, default=Path("runs/transfer"), help="writes transfer.json and transfer.png (default runs/transfer)")
@@ -100,10 +102,11 @@ def run_transfer(args: argparse.Namespace) -> int:
     angles = _angles(args.initial_angles)
     results = []
     for path, native in zip(args.controller, natives):
-        result = score_transfer(load_controller(path), native, args.target, seed=args.seed, initial_angles=angles)
+        result = score_transfer(load_controller(path), native, args.target, seed=args.seed, episodes=args.episodes,
+                                initial_angles=angles)
         results.append(result)
         print(f"{path}: native {result.native.label} {result.native_distance:.3f} units, "
-              f"target {result.target.label} {result.target_distance:.3f} units")
+              f"target {result.target.label} {result.target_distance:.3f} units (mean of {result.episodes})")
     save_transfer(results, args.out / "transfer.json")
     plot_transfer(results, args.out / "transfer.png", titles=args.title)
     print(f"wrote {args.out / 'transfer.json'} and {args.out / 'transfer.png'}")

@@ -1,9 +1,12 @@
 """Transfer scoring (paper section 5, Figure 12): a controller on its native robot and on a target.
 
-The controller evolved (or trained) for one morphology, its *native* robot, is run for one
-20 s episode on that robot and on a *target* (the damaged robot in the paper), both from the
-same initial flipper angles. The forward distances and the ``(T + 1, 2)`` x, y trajectories
-(every 0.1 s) show how well the gait survives the change of body.
+The controller evolved (or trained) for one morphology, its *native* robot, is run for 20 s
+episodes on that robot and on a *target* (the damaged robot in the paper), episode k of both
+from the same initial flipper angles (seed ``seed + k``). The mean forward distances and the
+first episode's ``(T + 1, 2)`` x, y trajectories (every 0.1 s) show how well the gait
+survives the change of body. A gait's distance depends strongly on where its flippers start
+(an evolved gait can swim 5 units from one start and drift backwards from another), so
+score several episodes when comparing controllers; the paper's Figure 12 shows one.
 """
 
 from __future__ import annotations
@@ -23,51 +26,88 @@ from gait.rollout import EPISODE_DURATION_S, Rollout, rollout
 
 @dataclasses.dataclass(frozen=True)
 class TransferResult:
-    """One controller scored on its native robot and on a target.
+    """One controller scored on its native robot and on a target over K paired episodes.
 
     Attributes:
         native: the robot the controller was made for.
         target: the robot it is transferred to.
-        native_rollout, target_rollout: the two episodes.
+        native_rollouts, target_rollouts: the K >= 1 episodes on each robot; episode k of
+            both starts from the same initial angles.
+
+    Raises:
+        ValueError: if the two tuples are empty or of different lengths.
     """
 
     native: Robot
     target: Robot
-    native_rollout: Rollout
-    target_rollout: Rollout
+    native_rollouts: tuple[Rollout, ...]
+    target_rollouts: tuple[Rollout, ...]
+
+    def __post_init__(self) -> None:
+        if not self.native_rollouts or len(self.native_rollouts) != len(self.target_rollouts):
+            raise ValueError(f"need K >= 1 paired episodes, got {len(self.native_rollouts)} native and "
+                             f"{len(self.target_rollouts)} target rollouts")
+
+    @property
+    def episodes(self) -> int:
+        """K, the number of paired episodes."""
+        return len(self.native_rollouts)
+
+    @property
+    def native_rollout(self) -> Rollout:
+        """The first episode on the native robot (the one drawn in Figure 12)."""
+        return self.native_rollouts[0]
+
+    @property
+    def target_rollout(self) -> Rollout:
+        """The first episode on the target."""
+        return self.target_rollouts[0]
+
+    @property
+    def native_distances(self) -> np.ndarray:
+        """``(K,)`` forward distance of each episode on the native robot (units)."""
+        return np.array([r.distance for r in self.native_rollouts])
+
+    @property
+    def target_distances(self) -> np.ndarray:
+        """``(K,)`` forward distance of each episode on the target (units)."""
+        return np.array([r.distance for r in self.target_rollouts])
 
     @property
     def native_distance(self) -> float:
-        """Forward distance on the native robot (units)."""
-        return self.native_rollout.distance
+        """Mean forward distance on the native robot over the K episodes (units)."""
+        return float(self.native_distances.mean())
 
     @property
     def target_distance(self) -> float:
-        """Forward distance on the target (units)."""
-        return self.target_rollout.distance
+        """Mean forward distance on the target over the K episodes (units)."""
+        return float(self.target_distances.mean())
 
     @property
     def native_trajectory(self) -> np.ndarray:
-        """``(T + 1, 2)`` x, y on the native robot (units)."""
+        """``(T + 1, 2)`` x, y of the first episode on the native robot (units)."""
         return self.native_rollout.trajectory
 
     @property
     def target_trajectory(self) -> np.ndarray:
-        """``(T + 1, 2)`` x, y on the target (units)."""
+        """``(T + 1, 2)`` x, y of the first episode on the target (units)."""
         return self.target_rollout.trajectory
 
     @property
     def transfer_ratio(self) -> float:
-        """``target_distance / native_distance`` (nan if the native distance is 0)."""
+        """``target_distance / native_distance`` of the means (nan if the native mean is 0)."""
         return self.target_distance / self.native_distance if self.native_distance else float("nan")
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready summary with both trajectories (x, y lists)."""
+        """JSON-ready summary: mean and per-episode distances, the first episode's trajectories."""
         return {
             "native": self.native.to_dict(),
             "target": self.target.to_dict(),
+            "episodes": self.episodes,
             "native_distance": self.native_distance,
             "target_distance": self.target_distance,
+            "native_distances": self.native_distances.tolist(),
+            "target_distances": self.target_distances.tolist(),
             "initial_angles_rad": self.native_rollout.initial_angles.tolist(),
             "times_s": self.native_rollout.times_s.tolist(),
             "native_trajectory": self.native_trajectory.tolist(),
@@ -75,7 +115,7 @@ class TransferResult:
         }
 
 
-def score_transfer(controller: Controller, native, target, *, seed: int = 0, initial_angles=None,
+def score_transfer(controller: Controller, native, target, *, seed: int = 0, episodes: int = 1, initial_angles=None,
                    episode_duration_s: float = EPISODE_DURATION_S, **env_kwargs: Any) -> TransferResult:
     """Run ``controller`` on its native robot and on the target, from the same initial angles.
 
@@ -85,10 +125,12 @@ def score_transfer(controller: Controller, native, target, *, seed: int = 0, ini
             string (``"healthy"``, a damage name, a file, 9 comma-separated numbers).
         target: the robot to transfer to, in the same forms; a damage name means the healthy
             robot with that damage (the paper's damaged target), e.g. ``"left_pectoral_half"``.
-        seed: episode seed; draws the initial angles unless ``initial_angles`` (the same
-            seed draws the same angles on both robots). Use the evolution run's seed to
+        seed: seed of the first episode; episode k uses ``seed + k``, which draws its
+            initial angles unless ``initial_angles`` (the same seed draws the same angles
+            on both robots). Use the evolution run's seed and ``episodes_per_genome`` to
             reproduce its fitness on the native robot.
-        initial_angles: ``(3,)`` rad for both episodes, or None.
+        episodes: K >= 1 paired episodes; distances are their means.
+        initial_angles: ``(3,)`` rad for every episode (then ``episodes`` must be 1), or None.
         episode_duration_s: simulated seconds (20 s in the paper).
         **env_kwargs: further AquaFish-v0 arguments for both episodes.
 
@@ -96,11 +138,18 @@ def score_transfer(controller: Controller, native, target, *, seed: int = 0, ini
         :class:`TransferResult`.
 
     Raises:
-        ValueError: an invalid robot, angles or env argument.
+        ValueError: an invalid robot, angles or env argument; ``episodes`` < 1, or > 1 with
+            fixed ``initial_angles`` (the episodes would be identical).
     """
+    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
+        raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")
+    if episodes > 1 and initial_angles is not None:
+        raise ValueError(f"episodes must be 1 when initial_angles are fixed, got {episodes}")
     native, target = as_robot(native), as_robot(target)
-    kw = dict(seed=seed, initial_angles=initial_angles, episode_duration_s=episode_duration_s, **env_kwargs)
-    return TransferResult(native, target, rollout(controller, native, **kw), rollout(controller, target, **kw))
+    kw = dict(initial_angles=initial_angles, episode_duration_s=episode_duration_s, **env_kwargs)
+    seeds = [seed + k for k in range(int(episodes))]
+    return TransferResult(native, target, tuple(rollout(controller, native, seed=s, **kw) for s in seeds),
+                          tuple(rollout(controller, target, seed=s, **kw) for s in seeds))
 
 
 def save_transfer(results: Sequence[TransferResult], path) -> Path:

@@ -33,6 +33,26 @@ def test_transfer_to_damaged_target(controller, tmp_path):
     assert len(data[0]["target_trajectory"]) == 21
 
 
+def test_several_episodes_pair_starts_and_average(controller):
+    t = score_transfer(controller, "healthy", "left_pectoral_half", seed=3, episodes=3, episode_duration_s=SHORT_S)
+    assert t.episodes == 3
+    for k in range(3):  # episode k: seed 3 + k on both robots, the same initial angles
+        np.testing.assert_array_equal(t.native_rollouts[k].initial_angles, t.target_rollouts[k].initial_angles)
+        assert t.target_distances[k] == rollout(controller, "left_pectoral_half", seed=3 + k,
+                                                episode_duration_s=SHORT_S).distance
+    assert len({tuple(r.initial_angles) for r in t.native_rollouts}) == 3
+    assert t.native_distance == pytest.approx(t.native_distances.mean())
+    assert t.target_distance == pytest.approx(sum(t.target_distances) / 3)
+    np.testing.assert_array_equal(t.target_trajectory, t.target_rollouts[0].trajectory)
+    assert t.to_dict()["target_distances"] == t.target_distances.tolist()
+
+
+@pytest.mark.parametrize("kw, match", [({"episodes": 0}, "episodes"), ({"episodes": 2, "initial_angles": [0, 0, 0]}, "fixed")])
+def test_bad_episode_counts_raise(controller, kw, match):
+    with pytest.raises(ValueError, match=match):
+        score_transfer(controller, "healthy", "healthy", episode_duration_s=0.5, **kw)
+
+
 def test_plot_transfer_errors(controller, tmp_path):
     t = score_transfer(controller, "healthy", "healthy", episode_duration_s=0.5)
     with pytest.raises(ValueError, match="no transfer results"):
