@@ -71,7 +71,8 @@ def plot_transfer(results: "Sequence[TransferResult]", path, titles: Sequence[st
 
     Each axes shows the controller on its native morphology (solid) and on the target
     (dashed), x and y in units (1 unit = 8 cm; heading +y at the start), the common start
-    marked with a black circle and each end with a cross; the legend gives the distances.
+    marked with a black circle and each end with a cross. The trajectories are the first
+    episode's; the legend gives its distance and, for K > 1 episodes, the mean over all K.
 
     Args:
         results: one :class:`~gait.transfer.TransferResult` per panel.
@@ -92,10 +93,13 @@ def plot_transfer(results: "Sequence[TransferResult]", path, titles: Sequence[st
     fig = Figure(figsize=(4.2 * len(results), 4.4))
     axes = fig.subplots(1, len(results), squeeze=False)[0]
     for i, (ax, r) in enumerate(zip(axes, results)):
-        runs = ((r.native_trajectory, r.native_distance, f"native ({r.native.label})", "tab:blue", "-"),
-                (r.target_trajectory, r.target_distance, f"target ({r.target.label})", "tab:red", "--"))
-        for traj, dist, name, color, style in runs:
-            ax.plot(traj[:, 0], traj[:, 1], style, color=color, lw=1.5, label=f"{name}: {dist:.2f} units")
+        runs = ((r.native_trajectory, r.native_distances, f"native ({r.native.label})", "tab:blue", "-"),
+                (r.target_trajectory, r.target_distances, f"target ({r.target.label})", "tab:red", "--"))
+        for traj, dists, name, color, style in runs:
+            label = f"{name}: {dists[0]:.2f} units"
+            if len(dists) > 1:
+                label += f" (mean of {len(dists)}: {dists.mean():.2f})"
+            ax.plot(traj[:, 0], traj[:, 1], style, color=color, lw=1.5, label=label)
             ax.plot(traj[-1, 0], traj[-1, 1], "x", color=color, ms=8)
         ax.plot(*r.native_trajectory[0], "ko", ms=7, label="start")
         ax.set_aspect("equal", adjustable="datalim")
