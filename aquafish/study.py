@@ -57,11 +57,15 @@ class StudySpec:
         self.runs(Path("."))  # validates every run's config
 
     def runs(self, out_dir: Path) -> list[tuple[EEAConfig, Path]]:
-        """Every run of the study: ``(config, run directory)``, in a fixed order."""
+        """Every run of the study: ``(config, run directory)``, replicate by replicate.
+
+        Seed 0 of every (condition, duration) comes first, then seed 1, ...: a study that is
+        stopped early (or looked at while running) has the same replicates of every condition.
+        """
         out = []
-        for condition in self.conditions:
-            for duration in self.durations_s:
-                for seed in range(self.replicates):
+        for seed in range(self.replicates):
+            for condition in self.conditions:
+                for duration in self.durations_s:
                     config = self.base.replace(inference=condition, duration_s=duration, seed=seed)
                     out.append((config, Path(out_dir) / condition / f"{duration:g}s" / f"seed{seed}"))
         return out

@@ -25,6 +25,8 @@ def tiny_spec(**kw):
 def test_spec_lists_every_run_with_its_seed(tmp_path):
     runs = tiny_spec(durations_s=(0.16, 0.32)).runs(tmp_path)
     assert len(runs) == 2 * 2 * 2
+    assert [c.seed for c, _ in runs] == [0, 0, 0, 0, 1, 1, 1, 1]  # replicate-major: conditions progress together
+    assert [(c.inference, c.duration_s) for c, _ in runs[:4]] == [("known", 0.16), ("known", 0.32), ("none", 0.16), ("none", 0.32)]
     config, path = runs[-1]
     assert (config.inference, config.duration_s, config.seed) == ("none", 0.32, 1)
     assert path == tmp_path / "none" / "0.32s" / "seed1"
