@@ -8,9 +8,10 @@ PPO/SAC policies trained on the same env (the optional ``[rl]`` extra) are score
 way.
 
 Public API:
-    evolve_gait(morphology, *, damage, generations, population_size, seed, out_dir, workers) -> GaitResult
+    evolve_gait(morphology, *, damage, generations, population_size, seed, out_dir, workers,
+                episodes_per_genome) -> GaitResult
     load_controller(path) -> Controller
-    score_transfer(controller, native, target, *, seed, initial_angles) -> TransferResult
+    score_transfer(controller, native, target, *, seed, episodes, initial_angles) -> TransferResult
     plot_transfer(results, path, titles=None) -> Path
     rollout(controller, robot, *, seed, initial_angles) -> Rollout
     train_rl(algo, morphology, timesteps, seed, out_dir) -> Path      (needs the [rl] extra)
