@@ -52,7 +52,8 @@ FIELD_HELP: dict[str, str] = {
     "oob_generations": "out_of_band: inner GA generations per inference",
     "oob_bits": "out_of_band: bits per angle in the inner GA genome (3 angles)",
     "workers": "worker processes for simulations (1 = serial); never changes results",
-    "max_batch_robots": "at most this many robots per simulate_batch call (chunking); never changes results",
+    "max_batch_robots": "at most this many robots per simulate_batch call (chunking; 32-64 is fastest, "
+                        "larger worlds cost more per robot-step); never changes results",
 }
 
 
@@ -96,7 +97,7 @@ class EEAConfig:
     oob_generations: int = 10
     oob_bits: int = 8
     workers: int = dataclasses.field(default_factory=_default_workers)
-    max_batch_robots: int = 2048
+    max_batch_robots: int = 64
 
     def __post_init__(self) -> None:
         if self.inference not in INFERENCE_NAMES:
