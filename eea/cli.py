@@ -53,4 +53,3 @@ def add_commands(subparsers) -> None:
     eea.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     _add_config_flags(eea)
     eea.set_defaults(func=_run_eea)
-

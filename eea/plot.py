@@ -18,12 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
+from eea.inference import INFERENCE_NAMES
 from eea.record import CONFIG_FILE, RunResult, load_result
 
 __all__ = ["GroupSummary", "final_round_table", "find_runs", "plot_runs", "plot_study", "summarise_runs"]
-
-#: Panel and table order of the paper's strategies (others follow, by name).
-_PAPER_ORDER = ("known", "none", "in_band", "out_of_band")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,8 +60,9 @@ def find_runs(paths) -> list[RunResult]:
 
 
 def _order(key: tuple[str, float]) -> tuple[int, str, float]:
+    """Sort key: strategies in registry (paper) order, then by name, then by duration."""
     inference, duration = key
-    rank = _PAPER_ORDER.index(inference) if inference in _PAPER_ORDER else len(_PAPER_ORDER)
+    rank = INFERENCE_NAMES.index(inference) if inference in INFERENCE_NAMES else len(INFERENCE_NAMES)
     return rank, inference, duration
 
 
