@@ -39,7 +39,7 @@ from gait.clock import CLOCK_PERIOD_S, check_clock_period
 from gait.controller import NEAT_CONTROLLER_FILE, NEATController
 from gait.plots import plot_fitness_history
 from gait.robots import Robot, as_robot
-from gait.rollout import EPISODE_DURATION_S, Rollout, rollout
+from gait.rollout import EPISODE_DURATION_S, Rollout, check_episodes, rollout
 
 #: The documented NEAT config kept next to this module.
 DEFAULT_CONFIG = Path(__file__).with_name("neat_config.ini")
@@ -108,8 +108,7 @@ class FitnessTask:
     episodes: int = 1
 
     def __post_init__(self) -> None:
-        if self.episodes < 1 or (self.episodes > 1 and self.initial_angles is not None):
-            raise ValueError(f"episodes must be >= 1, and 1 when initial_angles are fixed; got {self.episodes}")
+        check_episodes(self.episodes, self.initial_angles)
 
     def controller(self, genome, config) -> NEATController:
         return NEATController(genome, config, self.clock_period_s)

@@ -62,6 +62,20 @@ def make_env(robot=None, *, damage: str = "none", initial_angles=None,
                     episode_duration_s=episode_duration_s, **env_kwargs)
 
 
+def check_episodes(episodes, initial_angles=None) -> int:
+    """Validate a number of episodes drawn from seeds ``seed, seed + 1, ...``; return it as an int.
+
+    Raises:
+        ValueError: if ``episodes`` is not an integer >= 1, or is > 1 while ``initial_angles``
+            are fixed (every episode would be the same).
+    """
+    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
+        raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")
+    if episodes > 1 and initial_angles is not None:
+        raise ValueError(f"episodes must be 1 when initial_angles are fixed (they would be identical), got {episodes}")
+    return int(episodes)
+
+
 def rollout(controller: Controller, robot=None, *, damage: str = "none", seed: int = 0, initial_angles=None,
             episode_duration_s: float = EPISODE_DURATION_S, **env_kwargs: Any) -> Rollout:
     """Run ``controller`` for one episode and record its distance and trajectory.

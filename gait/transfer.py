@@ -21,7 +21,7 @@ import numpy as np
 from gait.controller import Controller
 from gait.plots import plot_transfer
 from gait.robots import Robot, as_robot
-from gait.rollout import EPISODE_DURATION_S, Rollout, rollout
+from gait.rollout import EPISODE_DURATION_S, Rollout, check_episodes, rollout
 
 
 @dataclasses.dataclass(frozen=True)
@@ -141,13 +141,10 @@ def score_transfer(controller: Controller, native, target, *, seed: int = 0, epi
         ValueError: an invalid robot, angles or env argument; ``episodes`` < 1, or > 1 with
             fixed ``initial_angles`` (the episodes would be identical).
     """
-    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
-        raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")
-    if episodes > 1 and initial_angles is not None:
-        raise ValueError(f"episodes must be 1 when initial_angles are fixed, got {episodes}")
+    episodes = check_episodes(episodes, initial_angles)
     native, target = as_robot(native), as_robot(target)
     kw = dict(initial_angles=initial_angles, episode_duration_s=episode_duration_s, **env_kwargs)
-    seeds = [seed + k for k in range(int(episodes))]
+    seeds = [seed + k for k in range(episodes)]
     return TransferResult(native, target, tuple(rollout(controller, native, seed=s, **kw) for s in seeds),
                           tuple(rollout(controller, target, seed=s, **kw) for s in seeds))
 
