@@ -1,19 +1,29 @@
 """Binary genomes of the EEA: model (morphology) and action encodings (paper section 3.2).
 
 Both genomes are bit strings made of consecutive unsigned-integer *fields*, each stored
-most-significant bit first and decoded linearly onto a closed range::
+most-significant bit first and decoded linearly onto its range, in one of two ways:
 
-    value = lo + (hi - lo) * int(bits) / (2**nbits - 1)
+* closed: ``value = lo + (hi - lo) * int(bits) / (2**nbits - 1)``; all-zeros decodes to
+  ``lo`` and all-ones to ``hi``.
+* half-open: ``value = lo + (hi - lo) * int(bits) / 2**nbits``; all-zeros decodes to
+  ``lo`` and all-ones to one step below ``hi``. The levels are the dyadic fractions of the
+  range (0.25, 0.375, 0.875, ... of it).
 
-so the all-zeros field decodes to ``lo`` and the all-ones field to ``hi``.
+The two genomes use them as follows:
 
-* Model genome, 45 bits: 15 per flipper in the order left pectoral, right pectoral,
-  caudal; per flipper x (5 bits), y (6 bits), z (4 bits). Pectoral ranges x in [0, 1],
-  y in [0, 2], z in [0, 0.5]; caudal x in [0, 0.5], y in [0, 2], z in [0, 1] (section 3.1,
-  Figure 4). The decoded order is ``MODEL_NAMES`` and matches
-  ``aquafish_gym.MORPHOLOGY_BOUNDS``.
-* Action genome, 18 bits: 6 per servo; left pectoral speed in [-0.5, 0.5] rev/s, right
-  pectoral speed in [-0.5, 0.5] rev/s, caudal frequency in [0, 1] Hz (section 3.2).
+* Model genome, 45 bits, half-open: 15 per flipper in the order left pectoral, right
+  pectoral, caudal; per flipper x (5 bits), y (6 bits), z (4 bits). Pectoral ranges x in
+  [0, 1), y in [0, 2), z in [0, 0.5); caudal x in [0, 0.5), y in [0, 2), z in [0, 1)
+  (section 3.1, Figure 4). The decoded order is ``MODEL_NAMES`` and matches
+  ``aquafish_gym.MORPHOLOGY_BOUNDS``. Half-open because the robot's own dimensions are
+  dyadic fractions of these ranges: the healthy robot and every damage preset are exact
+  model genomes, so the true morphology reproduces the target (sim = 1, eq. 2) and the
+  ideal baseline can reach OBJ_FIT = 1 (paper Figure 5). On a closed grid none of the
+  healthy dimensions is a level: the nearest grid robot reached only sim ~ 0.994 and
+  models far from the truth fitted the target better than it did.
+* Action genome, 18 bits, closed: 6 per servo; left pectoral speed in [-0.5, 0.5] rev/s,
+  right pectoral speed in [-0.5, 0.5] rev/s, caudal frequency in [0, 1] Hz (section 3.2),
+  so full speed either way and 1 Hz are commands.
 
 Genomes may be given as bool, integer or float arrays whose entries are exactly 0 or 1;
 encoders return ``uint8``.
@@ -90,7 +100,7 @@ def _as_2d(x: np.ndarray, width: int, name: str, what: str) -> tuple[np.ndarray,
     return x.reshape(-1, width), x.ndim == 1
 
 
-def decode_fields(genomes, field_bits, bounds) -> np.ndarray:
+def decode_fields(genomes, field_bits, bounds, *, half_open: bool = False) -> np.ndarray:
     """Decode bit-string genomes into real values field by field.
 
     Args:
@@ -98,10 +108,12 @@ def decode_fields(genomes, field_bits, bounds) -> np.ndarray:
             ``n_bits = sum(field_bits)``; each field most-significant bit first.
         field_bits: ``(n_fields,)`` number of bits of each field, in genome order.
         bounds: ``(n_fields, 2)`` [low, high] of each field's decoded value.
+        half_open: decode onto ``2**nbits`` levels of [low, high) instead of the closed
+            [low, high] (see the module docstring).
 
     Returns:
         ``(P, n_fields)`` (or ``(n_fields,)`` for a 1-D genome) float64 values,
-        ``low + (high - low) * int / (2**nbits - 1)``.
+        ``low + (high - low) * int / (2**nbits - 1)``, or ``/ 2**nbits`` if ``half_open``.
 
     Raises:
         ValueError: if the layout is invalid, the genome width is not ``sum(field_bits)``,
@@ -123,18 +135,21 @@ def decode_fields(genomes, field_bits, bounds) -> np.ndarray:
     weights = np.zeros((n_bits, widths.size), dtype=np.int64)
     weights[np.arange(n_bits), field_of_bit] = np.left_shift(1, shift_of_bit)
     ints = g2.astype(np.int64) @ weights
-    frac = ints / (np.left_shift(1, widths) - 1).astype(np.float64)
+    divisor = np.left_shift(1, widths) - (0 if half_open else 1)
+    frac = ints / divisor.astype(np.float64)
     values = bounds[:, 0] + (bounds[:, 1] - bounds[:, 0]) * frac
     return values[0] if single else values
 
 
-def encode_fields(values, field_bits, bounds) -> np.ndarray:
+def encode_fields(values, field_bits, bounds, *, half_open: bool = False) -> np.ndarray:
     """Encode real values onto the nearest grid point of each field (inverse of decode).
 
     Args:
         values: ``(P, n_fields)`` or ``(n_fields,)`` values inside ``bounds``.
         field_bits: ``(n_fields,)`` number of bits of each field, in genome order.
         bounds: ``(n_fields, 2)`` [low, high] of each field.
+        half_open: the grid of ``decode_fields(..., half_open=True)``; values nearer
+            ``high`` than the top level encode onto the top level.
 
     Returns:
         ``(P, n_bits)`` (or ``(n_bits,)``) uint8 genomes, most-significant bit first.
@@ -160,7 +175,8 @@ def encode_fields(values, field_bits, bounds) -> np.ndarray:
             f"[{lo[col]}, {hi[col]}]"
         )
     levels = np.left_shift(1, widths) - 1
-    ints = np.clip(np.rint(frac * levels), 0, levels).astype(np.int64)  # clip: round-off only
+    divisor = levels + 1 if half_open else levels
+    ints = np.clip(np.rint(frac * divisor), 0, levels).astype(np.int64)
     field_of_bit = np.repeat(np.arange(widths.size), widths)
     shift_of_bit = np.cumsum(widths)[field_of_bit] - 1 - np.arange(field_of_bit.size)
     bits = (np.right_shift(ints[:, field_of_bit], shift_of_bit) & 1).astype(np.uint8)
@@ -175,12 +191,13 @@ def decode_models(genomes) -> np.ndarray:
 
     Returns:
         ``(P, 9)`` or ``(9,)`` float64 dimensions in simulator units, order
-        ``MODEL_NAMES`` (lp_x, lp_y, lp_z, rp_x, rp_y, rp_z, c_x, c_y, c_z).
+        ``MODEL_NAMES`` (lp_x, lp_y, lp_z, rp_x, rp_y, rp_z, c_x, c_y, c_z), on the
+        half-open grid ``lo + (hi - lo) * k / 2**nbits``.
 
     Raises:
         ValueError: if the width is not 45 or an entry is not 0 or 1.
     """
-    return decode_fields(genomes, MODEL_FIELD_BITS, MODEL_BOUNDS)
+    return decode_fields(genomes, MODEL_FIELD_BITS, MODEL_BOUNDS, half_open=True)
 
 
 def encode_models(dims) -> np.ndarray:
@@ -196,7 +213,7 @@ def encode_models(dims) -> np.ndarray:
     Raises:
         ValueError: if the width is not 9, a value is NaN or outside its range.
     """
-    return encode_fields(dims, MODEL_FIELD_BITS, MODEL_BOUNDS)
+    return encode_fields(dims, MODEL_FIELD_BITS, MODEL_BOUNDS, half_open=True)
 
 
 def decode_actions(genomes) -> np.ndarray:

@@ -6,6 +6,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from aquafish_gym import DAMAGES, Morphology, get_damage
 from eea.encoding import (
     ACTION_BITS,
     ACTION_BOUNDS,
@@ -30,23 +31,36 @@ def test_constants_match_paper():
 
 
 def test_range_ends():
+    # Model fields are half-open: all-ones is one step below the high end, which itself
+    # encodes onto that top level (its nearest grid point).
+    top = MODEL_BOUNDS[:, 1] * (1 - 1 / 2.0 ** np.array(MODEL_FIELD_BITS))
     np.testing.assert_array_equal(decode_models(np.zeros((2, 45), np.uint8)), np.zeros((2, 9)))
-    np.testing.assert_array_equal(decode_models(np.ones(45, bool)), MODEL_BOUNDS[:, 1])
-    np.testing.assert_array_equal(decode_actions(np.zeros(18)), ACTION_BOUNDS[:, 0])
-    np.testing.assert_array_equal(decode_actions(np.ones((1, 18))), ACTION_BOUNDS[:, 1][None])
+    np.testing.assert_array_equal(decode_models(np.ones(45, bool)), top)
+    np.testing.assert_array_equal(encode_models(top), np.ones(45, np.uint8))
     np.testing.assert_array_equal(encode_models(MODEL_BOUNDS[:, 1]), np.ones(45, np.uint8))
     np.testing.assert_array_equal(encode_models(MODEL_BOUNDS[:, 0]), np.zeros(45, np.uint8))
+    # Action fields are closed: both servo range ends are commands.
+    np.testing.assert_array_equal(decode_actions(np.zeros(18)), ACTION_BOUNDS[:, 0])
+    np.testing.assert_array_equal(decode_actions(np.ones((1, 18))), ACTION_BOUNDS[:, 1][None])
     np.testing.assert_array_equal(encode_actions(ACTION_BOUNDS.T), [[0] * 18, [1] * 18])
+
+
+@pytest.mark.parametrize("damage", sorted(DAMAGES))
+def test_every_damage_preset_is_a_model_genome(damage):
+    # The ideal baseline can only reach OBJ_FIT = 1 (paper Figure 5) if the target itself is
+    # a model: the healthy robot and every damage preset decode back exactly.
+    dims = get_damage(damage).apply(Morphology.healthy()).to_array()
+    np.testing.assert_array_equal(decode_models(encode_models(dims)), dims)
 
 
 def test_hand_computed_decode():
     g = np.zeros(45, np.uint8)
-    g[0] = 1            # left pectoral x: 10000 = 16 of 31, range [0, 1]
-    g[5:11] = 1         # left pectoral y: 111111 = 63 of 63 -> 2.0
-    g[11:15] = [0, 0, 1, 1]   # left pectoral z: 0011 = 3 of 15 -> 0.5 * 3 / 15
-    g[30:35] = [0, 0, 0, 0, 1]  # caudal x: 1 of 31, range [0, 0.5]
+    g[0] = 1            # left pectoral x: 10000 = 16 of 32 steps, range [0, 1) -> 0.5
+    g[5:11] = 1         # left pectoral y: 111111 = 63 of 64 steps, range [0, 2) -> 1.96875
+    g[11:15] = [0, 0, 1, 1]   # left pectoral z: 0011 = 3 of 16 steps, range [0, 0.5) -> 0.09375
+    g[30:35] = [0, 0, 0, 0, 1]  # caudal x: 1 of 32 steps, range [0, 0.5) -> 0.015625
     dims = decode_models(g)
-    np.testing.assert_allclose(dims, [16 / 31, 2.0, 0.1, 0, 0, 0, 0.5 / 31, 0, 0])
+    np.testing.assert_array_equal(dims, [0.5, 1.96875, 0.09375, 0, 0, 0, 0.015625, 0, 0])
     a = decode_actions(np.array([1, 0, 0, 0, 0, 0] + [0] * 11 + [1], np.uint8))
     np.testing.assert_allclose(a, [-0.5 + 32 / 63, -0.5, 1 / 63])
     assert encode_models(dims).dtype == np.uint8
@@ -58,15 +72,15 @@ def test_round_trip_at_every_grid_point_of_a_field():
     g = np.zeros((32, 45), np.uint8)
     g[:, :5] = (ints[:, None] >> np.arange(4, -1, -1)) & 1
     dims = decode_models(g)
-    np.testing.assert_allclose(dims[:, 0], ints / 31)
+    np.testing.assert_array_equal(dims[:, 0], ints / 32)
     np.testing.assert_array_equal(encode_models(dims), g)
 
 
 def test_encode_picks_nearest_grid_point():
     dims = np.zeros(9)
-    dims[0] = 16 / 31 + 0.4 / 31   # nearer 16 than 17
+    dims[0] = 16 / 32 + 0.4 / 32   # nearer 16 than 17
     np.testing.assert_array_equal(encode_models(dims)[:5], [1, 0, 0, 0, 0])
-    dims[0] = 16 / 31 + 0.6 / 31
+    dims[0] = 16 / 32 + 0.6 / 32
     np.testing.assert_array_equal(encode_models(dims)[:5], [1, 0, 0, 0, 1])
 
 
