@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 
-from eea.config import FIELD_HELP, EEAConfig
+from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, EEAConfig
 from eea.inference import INFERENCE_NAMES
 
 __all__ = ["add_commands"]
@@ -30,6 +30,8 @@ def _add_config_flags(parser: argparse.ArgumentParser) -> None:
                   "help": f"{FIELD_HELP[field.name]} (default: %(default)s)"}
         if field.name == "inference":
             kwargs["choices"] = INFERENCE_NAMES
+        if field.name == "estimation_search":
+            kwargs["choices"] = ESTIMATION_SEARCHES
         parser.add_argument(*flags, **kwargs)
 
 

@@ -18,7 +18,10 @@ import os
 from aquafish_gym import DT_S, get_damage
 from eea.inference import INFERENCE_NAMES
 
-__all__ = ["EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS"]
+__all__ = ["ESTIMATION_SEARCHES", "EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS"]
+
+#: Names of the estimation searches: the paper's GA and CMA-ES (:mod:`eea.cma_search`).
+ESTIMATION_SEARCHES: tuple[str, ...] = ("ga", "cma")
 
 #: Fields that never change a run's results (resuming with other values is allowed):
 #: the number of worker processes and the chunk size of simulator calls, and ``rounds``,
@@ -38,6 +41,9 @@ FIELD_HELP: dict[str, str] = {
                           "disagreement scores an action (eq. 1)",
     "estimation_population": "models per estimation GA generation (paper: 25)",
     "estimation_generations": "estimation GA generations per round (paper: 100)",
+    "estimation_search": "estimation search: ga (the paper's bit-string GA) or cma (CMA-ES over the nine "
+                         "dimensions, eea.cma_search; not the paper's)",
+    "cma_sigma": "cma: initial step size as a fraction of each dimension's range, in (0, 1]",
     "crossover_rate": "probability that a parent pair is recombined (paper: 0.75)",
     "tournament_size": "entrants per tournament (paper: 2)",
     "mutation_bits": "mean number of flipped bits per genome of every GA (paper: 1); at most 18",
@@ -84,6 +90,8 @@ class EEAConfig:
     exploration_models: int = 25
     estimation_population: int = 25
     estimation_generations: int = 100
+    estimation_search: str = "ga"
+    cma_sigma: float = 0.3
     crossover_rate: float = 0.75
     tournament_size: int = 2
     mutation_bits: float = 1.0
@@ -103,6 +111,13 @@ class EEAConfig:
         if self.inference not in INFERENCE_NAMES:
             raise ValueError(f"unknown inference {self.inference!r}; valid names: {', '.join(INFERENCE_NAMES)}")
         get_damage(self.damage)  # raises ValueError listing the valid names
+        if self.estimation_search not in ESTIMATION_SEARCHES:
+            raise ValueError(f"unknown estimation_search {self.estimation_search!r}; "
+                             f"valid names: {', '.join(ESTIMATION_SEARCHES)}")
+        if isinstance(self.cma_sigma, bool) or not isinstance(self.cma_sigma, (int, float)) \
+                or not 0.0 < self.cma_sigma <= 1.0:
+            raise ValueError(f"EEAConfig.cma_sigma must be in (0, 1], got {self.cma_sigma!r}")
+        object.__setattr__(self, "cma_sigma", float(self.cma_sigma))
         minimum = {
             "rounds": 1, "seed": 0, "exploration_population": 1, "exploration_generations": 1,
             "exploration_models": 2, "estimation_population": 2, "estimation_generations": 1,

@@ -6,6 +6,9 @@ the target over all recorded experiments, simulated from the initial angles the 
 strategy chooses for each (model, experiment). One GA lives for the whole run: each round
 continues from the population the previous round ended with (the models carry over), and
 the final hypothesis of a round is the fittest model of its last generation.
+
+``EEAConfig.estimation_search = "cma"`` replaces the GA by CMA-ES over the nine dimensions
+(:class:`~eea.cma_search.CMAModelSearch`, same ask/tell interface; not the paper's).
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from eea.cma_search import CMAModelSearch
 from eea.encoding import MODEL_BITS
 from eea.experiment import Experiment
 from eea.ga import BitGA
@@ -43,7 +47,8 @@ class Estimation:
     """The estimation phase: a model GA carried over rounds, evaluated through an Evaluator.
 
     Args:
-        ga: a :class:`~eea.ga.BitGA` over ``MODEL_BITS`` = 45 bits.
+        ga: a :class:`~eea.ga.BitGA` over ``MODEL_BITS`` = 45 bits, or a
+            :class:`~eea.cma_search.CMAModelSearch` (any search with that ask/tell interface).
 
     Raises:
         ValueError: if the GA's genomes are not 45 bits long.
@@ -59,6 +64,9 @@ class Estimation:
     @classmethod
     def from_config(cls, config, rng: np.random.Generator) -> "Estimation":
         """A fresh random population sized and tuned by an :class:`eea.config.EEAConfig`."""
+        if config.estimation_search == "cma":
+            return cls(CMAModelSearch(config.estimation_population, rng, sigma0=config.cma_sigma,
+                                      elitism=min(config.elitism, 1)))
         return cls(BitGA(MODEL_BITS, config.estimation_population, rng, crossover_rate=config.crossover_rate,
                          mutation_rate=config.mutation_bits / MODEL_BITS, tournament_size=config.tournament_size,
                          elitism=config.elitism))
@@ -127,6 +135,7 @@ class Estimation:
     @classmethod
     def from_state_dict(cls, state: dict, rng: np.random.Generator) -> "Estimation":
         """Rebuild from :meth:`state_dict`, drawing from ``rng`` from now on."""
-        estimation = cls(BitGA.from_state_dict(state["ga"], rng))
+        search = CMAModelSearch if state["ga"].get("search") == "cma" else BitGA
+        estimation = cls(search.from_state_dict(state["ga"], rng))
         estimation._genomes, estimation._fitness = state["genomes"], state["fitness"]
         return estimation
