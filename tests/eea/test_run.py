@@ -68,8 +68,9 @@ def test_resume_extends_a_finished_run_like_a_straight_run(tmp_path, tiny_config
     assert _csv_without_wall(tmp_path / "resumed" / "rounds.csv") == straight and len(straight) == 4
 
 
-def test_resume_after_an_interruption_mid_round(tmp_path, tiny_config, monkeypatch):
-    config = tiny_config(inference="out_of_band", rounds=4)
+@pytest.mark.parametrize("search", ["ga", "cma"])
+def test_resume_after_an_interruption_mid_round(tmp_path, tiny_config, monkeypatch, search):
+    config = tiny_config(inference="out_of_band", rounds=4, estimation_search=search)
     real_run = eea.estimation.Estimation.run
     rounds_started = []
 

@@ -1,0 +1,127 @@
+"""eea.cma_search: CMA-ES over the nine morphology dimensions with the BitGA ask/tell interface."""
+
+import pickle
+
+import numpy as np
+import pytest
+
+from eea.cma_search import CMAModelSearch, unit_to_genomes
+from eea.config import EEAConfig
+from eea.encoding import MODEL_BOUNDS, decode_models, encode_models
+from eea.estimation import Estimation
+from eea.ga import BitGA
+from eea.inference import make_inference
+
+
+def test_unit_to_genomes_picks_the_half_open_grid_cell():
+    x = np.zeros((3, 9))
+    x[1] = 1.0                       # the top end belongs to the top level
+    x[2] = [0.5, 0.25, 0.2499, 0, 0, 0, 0, 0, 0.999]
+    dims = decode_models(unit_to_genomes(x))
+    np.testing.assert_array_equal(dims[0], MODEL_BOUNDS[:, 0])
+    np.testing.assert_array_equal(dims[1], MODEL_BOUNDS[:, 1] * (1 - 1 / 2.0 ** np.array([5, 6, 4] * 3)))
+    # lp_x 5 bits: floor(0.5 * 32) = 16 -> 0.5; lp_y 6 bits: 16 of 64 -> 0.5;
+    # lp_z 4 bits: floor(0.2499 * 16) = 3 -> 0.5 * 3 / 16; c_z: floor(0.999 * 16) = 15 -> 15 / 16
+    np.testing.assert_array_equal(dims[2], [0.5, 0.5, 0.09375, 0, 0, 0, 0, 0, 0.9375])
+
+
+@pytest.mark.parametrize("x, match", [(np.zeros(9), "shape"), (np.full((1, 9), 1.01), "unit cube"),
+                                      (np.full((1, 9), np.nan), "unit cube")])
+def test_unit_to_genomes_rejects_bad_points(x, match):
+    with pytest.raises(ValueError, match=match):
+        unit_to_genomes(x)
+
+
+def _ridge_fitness(target_dims):
+    """An ill-conditioned diagonal ridge peaking at ``target_dims`` (normalised units)."""
+    span = MODEL_BOUNDS[:, 1] - MODEL_BOUNDS[:, 0]
+    u = np.ones(9) / 3.0
+
+    def fitness(genomes):
+        d = (decode_models(genomes) - target_dims) / span
+        along = d @ u
+        return -(np.sum(d**2, axis=1) + 100.0 * (np.sum(d**2, axis=1) - along**2))
+    return fitness
+
+
+def test_finds_the_exact_grid_optimum_of_a_diagonal_ridge():
+    target = np.array([0.25, 0.5, 0.0625, 0.25, 1.0, 0.0625, 0.25, 0.875, 0.375])  # damaged robot
+    fitness = _ridge_fitness(target)
+    search = CMAModelSearch(25, np.random.default_rng(0))
+    for _ in range(150):
+        search.tell(fitness(search.ask()))
+    np.testing.assert_array_equal(search.best_genome, encode_models(target))
+    assert search.best_fitness == 0.0 and search.generation == 150
+
+
+def test_elitism_carries_the_best_point_into_the_next_population():
+    fitness = _ridge_fitness(np.full(9, 0.25))
+    search = CMAModelSearch(10, np.random.default_rng(1))
+    for _ in range(5):
+        genomes = search.ask()
+        np.testing.assert_array_equal(search.ask(), genomes)           # ask is idempotent
+        search.tell(fitness(genomes))
+        assert any((g == search.best_genome).all() for g in search.ask())
+
+
+def test_same_seed_same_search_and_state_round_trip_continues_identically():
+    fitness = _ridge_fitness(np.full(9, 0.25))
+
+    def trajectory(resume_at=None):
+        search, out = CMAModelSearch(12, np.random.default_rng(7)), []
+        for generation in range(12):
+            if generation == resume_at:
+                search = CMAModelSearch.from_state_dict(pickle.loads(pickle.dumps(search.state_dict())))
+            genomes = search.ask()
+            search.tell(fitness(genomes))
+            out.append(genomes)
+        return np.array(out)
+
+    straight = trajectory()
+    np.testing.assert_array_equal(trajectory(resume_at=5), straight)
+    other = CMAModelSearch(12, np.random.default_rng(8)).ask()
+    assert not np.array_equal(other, straight[0])
+
+
+def test_bad_calls_raise():
+    search = CMAModelSearch(4, np.random.default_rng(0))
+    with pytest.raises(RuntimeError, match="before the first tell"):
+        search.best_genome
+    with pytest.raises(RuntimeError, match="without a preceding ask"):
+        search.tell(np.zeros(4))
+    search.ask()
+    with pytest.raises(ValueError, match=r"shape \(4,\)"):
+        search.tell(np.zeros(5))
+    with pytest.raises(ValueError, match="finite"):
+        search.tell([0.0, np.nan, 0.0, 0.0])
+    for kwargs, match in (({"population_size": 1}, "population_size"), ({"sigma0": 0.0}, "sigma0"),
+                          ({"elitism": 2}, "elitism")):
+        args = {"population_size": 4, **kwargs}
+        with pytest.raises(ValueError, match=match):
+            CMAModelSearch(args.pop("population_size"), np.random.default_rng(0), **args)
+    with pytest.raises(ValueError, match="not a CMAModelSearch"):
+        CMAModelSearch.from_state_dict(BitGA(45, 4, np.random.default_rng(0)).state_dict())
+
+
+def test_estimation_uses_the_configured_search_and_restores_it(tiny_config, make_experiment):
+    assert isinstance(Estimation.from_config(tiny_config(), np.random.default_rng(0)).ga, BitGA)
+    est = Estimation.from_config(tiny_config(estimation_search="cma"), np.random.default_rng(0))
+    assert isinstance(est.ga, CMAModelSearch) and est.ga.population_size == tiny_config().estimation_population
+
+    class OnesEvaluator:
+        def similarities(self, genomes, experiments, angles):
+            return np.repeat(genomes.sum(axis=1, keepdims=True) / 45.0, len(experiments), axis=1)
+
+    exps = [make_experiment(0)]
+    est.run(exps, make_inference("known"), OnesEvaluator(), np.random.default_rng(1), 2)
+    restored = Estimation.from_state_dict(est.state_dict(), np.random.default_rng(2))
+    assert isinstance(restored.ga, CMAModelSearch)
+    np.testing.assert_array_equal(restored.ga.ask(), est.ga.ask())
+    np.testing.assert_array_equal(restored.ranked_models(), est.ranked_models())
+
+
+@pytest.mark.parametrize("changes, match", [({"estimation_search": "annealing"}, "valid names: ga, cma"),
+                                            ({"cma_sigma": 0.0}, "cma_sigma"), ({"cma_sigma": 1.5}, "cma_sigma")])
+def test_config_rejects_bad_search_settings(changes, match):
+    with pytest.raises(ValueError, match=match):
+        EEAConfig(**changes)
