@@ -47,7 +47,8 @@ FIELD_HELP: dict[str, str] = {
     "crossover_rate": "probability that a parent pair is recombined (paper: 0.75)",
     "tournament_size": "entrants per tournament (paper: 2)",
     "mutation_bits": "mean number of flipped bits per genome of every GA (paper: 1); at most 18",
-    "elitism": "best genomes copied unchanged into the next generation",
+    "elitism": "best genomes copied unchanged into the next generation (estimation_search=cma: "
+               "any value >= 1 carries the one best point)",
     "k_best": "in_band: models whose initial angles define the inferred arc (paper: K = 3)",
     "in_band_confidence": "in_band: confidence of the newest experiment during its round (paper: 0.5)",
     "in_band_widen": "in_band: widen the arc by this fraction of its width on each side "

@@ -66,7 +66,7 @@ class Estimation:
         """A fresh random population sized and tuned by an :class:`eea.config.EEAConfig`."""
         if config.estimation_search == "cma":
             return cls(CMAModelSearch(config.estimation_population, rng, sigma0=config.cma_sigma,
-                                      elitism=min(config.elitism, 1)))
+                                      elitism=1 if config.elitism else 0))
         return cls(BitGA(MODEL_BITS, config.estimation_population, rng, crossover_rate=config.crossover_rate,
                          mutation_rate=config.mutation_bits / MODEL_BITS, tournament_size=config.tournament_size,
                          elitism=config.elitism))
