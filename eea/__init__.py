@@ -6,6 +6,8 @@ are pure NumPy and know nothing of the simulator:
 
 * ``eea.encoding``  -- 45-bit model and 18-bit action genomes (section 3.2, Figure 4).
 * ``eea.ga``        -- generational bit-string GA with ask/tell (section 4).
+* ``eea.cma_search`` -- CMA-ES over the nine dimensions with the same ask/tell: an
+  optional estimation search (``estimation_search="cma"``), not the paper's.
 * ``eea.behaviour`` -- DFT behaviour summaries and their similarity (equation 2).
 * ``eea.fitness``   -- action, model and objective fitness (equations 1, 3, 4).
 * ``eea.arc``       -- smallest inclusive arcs of initial angles (section 3.3).
@@ -31,6 +33,7 @@ from eea.encoding import decode_actions, decode_fields, decode_models
 from eea.encoding import encode_actions, encode_fields, encode_models
 from eea.fitness import action_fitness, model_fitness, objective_fitness
 from eea.ga import BitGA
+from eea.cma_search import CMAModelSearch
 from eea.config import EEAConfig
 from eea.estimation import Estimation
 from eea.evaluation import Evaluator

@@ -96,16 +96,35 @@ class CMAModelSearch:
         if elitism not in (0, 1):
             raise ValueError(f"elitism must be 0 or 1 for CMA-ES, got {elitism!r}")
         self.population_size, self.sigma0, self.elitism = population_size, float(sigma0), int(elitism)
-        stream = np.random.default_rng(int(rng.integers(2**63)))
-        self._es = cma.CMAEvolutionStrategy(
-            stream.random(len(_LEVELS)), self.sigma0,
-            {"popsize": population_size, "bounds": [0.0, 1.0], "randn": _StandardNormal(stream),
-             "verbose": -9, "seed": np.nan, "tolfun": 0.0, "tolx": 0.0, "tolfunhist": 0.0,
-             "tolstagnation": np.inf, "tolflatfitness": np.inf, "maxiter": np.inf, "maxfevals": np.inf})
+        self._stream = np.random.default_rng(int(rng.integers(2**63)))
+        self._es = self._new_strategy(self._stream.random(len(_LEVELS)))
         self._x: np.ndarray | None = None          # asked points (P, 9), None after tell
+        self._best_x: np.ndarray | None = None     # best point of the last told generation (9,)
         self._best_genome: np.ndarray | None = None
         self._best_fitness = float("nan")
         self._generation = 0
+
+    def _new_strategy(self, mean: np.ndarray) -> cma.CMAEvolutionStrategy:
+        return cma.CMAEvolutionStrategy(
+            mean, self.sigma0,
+            {"popsize": self.population_size, "bounds": [0.0, 1.0], "randn": _StandardNormal(self._stream),
+             "verbose": -9, "seed": np.nan, "tolfun": 0.0, "tolx": 0.0, "tolfunhist": 0.0,
+             "tolstagnation": np.inf, "tolflatfitness": np.inf, "maxiter": np.inf, "maxfevals": np.inf})
+
+    def restart(self) -> None:
+        """Restart the distribution at the best point so far with the initial step size.
+
+        Called by the estimation phase at the start of every round: a new experiment
+        changes MOD_FIT, and a distribution that converged on the old one cannot move.
+        The best point is injected into the first population (elitism). No-op before the
+        first ``tell``.
+        """
+        if self._best_x is None:
+            return
+        self._es = self._new_strategy(self._best_x)
+        if self.elitism:
+            self._es.inject([self._best_x], force=True)
+        self._x = None
 
     def ask(self) -> np.ndarray:
         """The current population as ``(P, 45)`` uint8 model genomes.
@@ -134,6 +153,7 @@ class CMAModelSearch:
         if not np.all(np.isfinite(f)):
             raise ValueError(f"fitness must be finite, got non-finite values at rows {np.flatnonzero(~np.isfinite(f)).tolist()}")
         best = int(np.argmax(f))
+        self._best_x = self._x[best].copy()
         self._best_genome = unit_to_genomes(self._x[best : best + 1])[0]
         self._best_fitness = float(f[best])
         self._es.tell(list(self._x), list(-f))  # cma minimises

@@ -8,7 +8,9 @@ continues from the population the previous round ended with (the models carry ov
 the final hypothesis of a round is the fittest model of its last generation.
 
 ``EEAConfig.estimation_search = "cma"`` replaces the GA by CMA-ES over the nine dimensions
-(:class:`~eea.cma_search.CMAModelSearch`, same ask/tell interface; not the paper's).
+(:class:`~eea.cma_search.CMAModelSearch`, same ask/tell interface; not the paper's). Its
+distribution is restarted at the best model at the start of every round, since a new
+experiment changes the fitness landscape it had converged on.
 """
 
 from __future__ import annotations
@@ -101,6 +103,8 @@ class Estimation:
         if generations < 1:
             raise ValueError(f"generations must be >= 1, got {generations}")
         strategy.begin_round(experiments)
+        if hasattr(self.ga, "restart"):  # CMA-ES re-opens its converged distribution
+            self.ga.restart()
         for generation in range(generations):
             strategy.before_generation(generation, self.ranked_models(), experiments, evaluator, rng)
             genomes = self.ga.ask()

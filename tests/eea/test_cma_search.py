@@ -125,3 +125,17 @@ def test_estimation_uses_the_configured_search_and_restores_it(tiny_config, make
 def test_config_rejects_bad_search_settings(changes, match):
     with pytest.raises(ValueError, match=match):
         EEAConfig(**changes)
+
+
+def test_restart_reopens_the_distribution_around_the_best_point():
+    fitness = _ridge_fitness(np.full(9, 0.25))
+    search = CMAModelSearch(10, np.random.default_rng(3), sigma0=0.3)
+    search.restart()                                                   # no-op before any tell
+    for _ in range(60):
+        search.tell(fitness(search.ask()))
+    converged = {g.tobytes() for g in search.ask()}
+    best = search.best_genome
+    search.restart()
+    reopened = search.ask()
+    np.testing.assert_array_equal(reopened[0], best)                  # the best point is kept
+    assert len({g.tobytes() for g in reopened}) > len(converged)      # and the spread is back
