@@ -10,8 +10,8 @@ from eea.config import ESTIMATION_SEARCHES, EEAConfig
 
 #: EEA settings a study may override from the command line (the rest keep their defaults).
 STUDY_OVERRIDES = ("damage", "rounds", "exploration_population", "exploration_generations", "exploration_models",
-                   "estimation_population", "estimation_generations", "estimation_search", "cma_sigma", "k_best", "oob_period", "oob_sample",
-                   "oob_population", "oob_generations")
+                   "estimation_population", "estimation_generations", "estimation_search", "cma_sigma", "k_best",
+                   "oob_period", "oob_sample", "oob_population", "oob_generations")
 
 
 def _csv(kind):
