@@ -28,6 +28,7 @@ import cma
 import numpy as np
 
 from eea.encoding import MODEL_BITS, MODEL_BOUNDS, MODEL_FIELD_BITS, encode_models
+from eea.ga import TellRecord
 
 __all__ = ["CMAModelSearch", "unit_to_genomes"]
 
@@ -66,7 +67,7 @@ class _StandardNormal:
         return self.rng.standard_normal((lam, n))
 
 
-class CMAModelSearch:
+class CMAModelSearch(TellRecord):
     """CMA-ES over the 9 morphology dimensions, asked and told like a :class:`~eea.ga.BitGA`.
 
     Each ``tell`` updates the distribution (``cma.CMAEvolutionStrategy``, population
@@ -161,29 +162,6 @@ class CMAModelSearch:
             self._es.inject([self._x[best]], force=True)
         self._x = None
         self._generation += 1
-
-    @property
-    def generation(self) -> int:
-        """Number of completed ``tell`` calls."""
-        return self._generation
-
-    @property
-    def best_genome(self) -> np.ndarray:
-        """``(45,)`` uint8 fittest genome of the last told population.
-
-        Raises:
-            RuntimeError: before the first ``tell``.
-        """
-        if self._best_genome is None:
-            raise RuntimeError("best_genome is undefined before the first tell()")
-        return self._best_genome.copy()
-
-    @property
-    def best_fitness(self) -> float:
-        """Fitness of ``best_genome`` as told (RuntimeError before the first ``tell``)."""
-        if self._best_genome is None:
-            raise RuntimeError("best_fitness is undefined before the first tell()")
-        return self._best_fitness
 
     def state_dict(self) -> dict:
         """The whole search (distribution, its random stream, asked points) for the checkpoint."""

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["BitGA"]
+__all__ = ["BitGA", "TellRecord"]
 
 _CROSSOVERS = ("one_point", "uniform")
 _STATE_KEYS = (
@@ -40,7 +40,46 @@ def _check_bits(x, shape_hint: str, name: str) -> np.ndarray:
     return a.astype(np.uint8)
 
 
-class BitGA:
+class TellRecord:
+    """What an ask/tell search reports after ``tell``: the generation count and the best genome.
+
+    Shared by :class:`BitGA` and :class:`eea.cma_search.CMAModelSearch`; a subclass sets
+    ``_generation``, ``_best_genome`` (None before the first ``tell``) and ``_best_fitness``.
+    """
+
+    _generation: int
+    _best_genome: np.ndarray | None
+    _best_fitness: float
+
+    @property
+    def generation(self) -> int:
+        """Number of completed ``tell`` calls (0 before the first)."""
+        return self._generation
+
+    @property
+    def best_genome(self) -> np.ndarray:
+        """``(n_bits,)`` uint8 fittest genome of the last told population.
+
+        Raises:
+            RuntimeError: before the first ``tell``.
+        """
+        if self._best_genome is None:
+            raise RuntimeError("best_genome is undefined before the first tell()")
+        return self._best_genome.copy()
+
+    @property
+    def best_fitness(self) -> float:
+        """Fitness of ``best_genome`` as told.
+
+        Raises:
+            RuntimeError: before the first ``tell``.
+        """
+        if self._best_genome is None:
+            raise RuntimeError("best_fitness is undefined before the first tell()")
+        return self._best_fitness
+
+
+class BitGA(TellRecord):
     """Generational GA over fixed-length bit strings (maximises fitness).
 
     Breeding, once per ``tell``: the ``elitism`` fittest genomes are copied unchanged
@@ -195,33 +234,6 @@ class BitGA:
         return children ^ flips.astype(np.uint8)
 
     # -- results and checkpointing ------------------------------------------------------
-
-    @property
-    def generation(self) -> int:
-        """Number of completed ``tell`` calls (0 before the first)."""
-        return self._generation
-
-    @property
-    def best_genome(self) -> np.ndarray:
-        """``(n_bits,)`` uint8 fittest genome of the last told population.
-
-        Raises:
-            RuntimeError: before the first ``tell``.
-        """
-        if self._best_genome is None:
-            raise RuntimeError("best_genome is undefined before the first tell()")
-        return self._best_genome.copy()
-
-    @property
-    def best_fitness(self) -> float:
-        """Fitness of ``best_genome`` as told.
-
-        Raises:
-            RuntimeError: before the first ``tell``.
-        """
-        if self._best_genome is None:
-            raise RuntimeError("best_fitness is undefined before the first tell()")
-        return self._best_fitness
 
     def state_dict(self) -> dict:
         """Settings and state as plain ints, floats, str and numpy arrays (for ``np.savez``).
