@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import pickle
 
-import cma
 import numpy as np
 
 from eea.encoding import MODEL_BITS, MODEL_BOUNDS, MODEL_FIELD_BITS, encode_models
@@ -105,7 +104,9 @@ class CMAModelSearch(TellRecord):
         self._best_fitness = float("nan")
         self._generation = 0
 
-    def _new_strategy(self, mean: np.ndarray) -> cma.CMAEvolutionStrategy:
+    def _new_strategy(self, mean: np.ndarray):
+        import cma  # here, not at module level: importing cma takes ~1.5 s, and only cma runs need it
+
         return cma.CMAEvolutionStrategy(
             mean, self.sigma0,
             {"popsize": self.population_size, "bounds": [0.0, 1.0], "randn": _StandardNormal(self._stream),
