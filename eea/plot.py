@@ -23,7 +23,8 @@ from eea.checkpoint import atomic_write
 from eea.inference import INFERENCE_NAMES
 from eea.record import CONFIG_FILE, RunResult, load_result
 
-__all__ = ["GroupSummary", "final_round_table", "find_runs", "plot_runs", "plot_study", "summarise_runs"]
+__all__ = ["GroupSummary", "final_round_table", "find_runs", "plot_runs", "plot_study", "summarise_runs",
+           "welch_p_value"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -35,11 +36,17 @@ class GroupSummary:
         mean: ``(R,)`` mean OBJ_FIT per round over the runs, R = the number of rounds
             every run of the group has finished (longer runs are truncated to it).
         std: ``(R,)`` population standard deviation (ddof = 0) per round.
+        final: ``(runs,)`` each run's OBJ_FIT at round R.
+        median_error_deg: ``(3,)`` median inference error (degrees; left, right pectoral,
+            caudal) over rounds 1..R of every run
+            (:attr:`~eea.record.RunResult.inference_error_deg`).
     """
 
     runs: int
     mean: np.ndarray
     std: np.ndarray
+    final: np.ndarray
+    median_error_deg: np.ndarray
 
 
 def find_runs(paths) -> list[RunResult]:
@@ -75,24 +82,56 @@ def summarise_runs(results: list[RunResult]) -> dict[tuple[str, float], GroupSum
         ``{(inference, duration_s): GroupSummary}`` in the paper's strategy order, then by
         duration.
     """
-    groups: dict[tuple[str, float], list[list[float]]] = defaultdict(list)
+    groups: dict[tuple[str, float], list[RunResult]] = defaultdict(list)
     for r in results:
-        groups[(r.config.inference, r.config.duration_s)].append(r.objective_fitness)
+        groups[(r.config.inference, r.config.duration_s)].append(r)
     summary = {}
     for key in sorted(groups, key=_order):
-        curves = groups[key]
-        rounds = min(map(len, curves))
-        values = np.array([c[:rounds] for c in curves])  # (runs, R)
-        summary[key] = GroupSummary(len(curves), values.mean(axis=0), values.std(axis=0))
+        runs = groups[key]
+        rounds = min(len(r.rounds) for r in runs)
+        values = np.array([r.objective_fitness[:rounds] for r in runs])  # (runs, R)
+        errors = np.concatenate([r.inference_error_deg[:rounds] for r in runs])  # (runs * R, 3)
+        summary[key] = GroupSummary(len(runs), values.mean(axis=0), values.std(axis=0), values[:, -1],
+                                    np.median(errors, axis=0))
     return summary
 
 
+def welch_p_value(a, b) -> float:
+    """Two-sided p-value of Welch's t-test that samples ``a`` and ``b`` have equal means.
+
+    Args:
+        a, b: ``(n,)`` and ``(m,)`` samples (e.g. final-round OBJ_FIT of replicate runs).
+
+    Returns:
+        The p-value in [0, 1]; NaN if either sample has fewer than 2 values or both have
+        zero variance (the test is undefined).
+    """
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    if len(a) < 2 or len(b) < 2 or (np.ptp(a) == 0 and np.ptp(b) == 0):
+        return float("nan")
+    from scipy.stats import ttest_ind
+
+    return float(ttest_ind(a, b, equal_var=False).pvalue)
+
+
 def final_round_table(summary: dict[tuple[str, float], GroupSummary]) -> str:
-    """Plain-text table: per group, runs, rounds, and mean and std OBJ_FIT at the last round."""
-    lines = [f"{'inference':<12} {'duration_s':>10} {'runs':>5} {'rounds':>6} {'mean':>7} {'std':>7}"]
+    """Plain-text table of the last round, one line per group.
+
+    Columns: inference, duration_s, runs, rounds, mean and std (ddof 0) OBJ_FIT;
+    ``p_vs_none``, Welch's two-sided p-value (:func:`welch_p_value`) of the final OBJ_FIT
+    against the ``none`` group of the same duration ("-" for ``none`` itself, when there
+    is no such group, or when the test is undefined); and the median inference error in
+    degrees per flipper (``err_left``, ``err_right``, ``err_caudal``).
+    """
+    lines = [f"{'inference':<12} {'duration_s':>10} {'runs':>5} {'rounds':>6} {'mean':>7} {'std':>7} "
+             f"{'p_vs_none':>9} {'err_left':>8} {'err_right':>9} {'err_caudal':>10}"]
     for (inference, duration), s in summary.items():
+        baseline = summary.get(("none", duration))
+        p = welch_p_value(s.final, baseline.final) if baseline is not None and inference != "none" else np.nan
+        p_text = "-" if np.isnan(p) else f"{p:.3f}"
+        left, right, caudal = s.median_error_deg
         lines.append(f"{inference:<12} {duration:>10g} {s.runs:>5} {len(s.mean):>6} "
-                     f"{s.mean[-1]:>7.4f} {s.std[-1]:>7.4f}")
+                     f"{s.mean[-1]:>7.4f} {s.std[-1]:>7.4f} {p_text:>9} {left:>8.1f} {right:>9.1f} {caudal:>10.1f}")
     return "\n".join(lines)
 
 

@@ -14,6 +14,7 @@ A run directory holds ``config.json`` (the :class:`~eea.config.EEAConfig`),
 * ``true_<flipper>_rad`` and ``inferred_<flipper>_rad``: the newest experiment's true
   initial angles and the inferred ones (middle of its context's ranges) at the end of the
   round, flippers ``left`` and ``right`` pectoral and ``caudal`` (e.g. ``true_left_rad``);
+  :attr:`RunResult.inference_error_deg` turns them into the inference error;
 * ``target_experiments``, ``simulations`` (model simulations run, cache hits excluded) and
   ``wall_seconds``, all cumulative.
 
@@ -30,9 +31,13 @@ import json
 import os
 from pathlib import Path
 
+import numpy as np
+
 from aquafish_gym import MORPHOLOGY_FIELDS, Morphology
+from eea.arc import angle_distance
 from eea.checkpoint import atomic_write
 from eea.config import EEAConfig
+from eea.experiment import PERIODS
 
 __all__ = ["CONFIG_FILE", "ROUNDS_FILE", "ROUND_COLUMNS", "RunResult", "load_result", "read_rounds",
            "write_config", "write_rounds"]
@@ -84,6 +89,24 @@ class RunResult:
     def objective_fitness(self) -> list[float]:
         """OBJ_FIT of every finished round, in order."""
         return [row["objective_fitness"] for row in self.rounds]
+
+    @property
+    def inference_error_deg(self) -> np.ndarray:
+        """How far each round's inferred initial angles are from the true ones.
+
+        Returns:
+            ``(rounds, 3)`` degrees, flippers (left, right pectoral, caudal): the distance
+            between ``inferred_<flipper>_rad`` and ``true_<flipper>_rad`` of the round's
+            experiment, the short way round the circle for the pectorals (at most 180) and
+            on the line for the caudal fin (at most 60). ``known``: all 0; ``none``: the
+            distance of the true angles from the zero state.
+        """
+        if not self.rounds:
+            return np.zeros((0, 3))
+        true = np.array([[row[f"true_{f}_rad"] for f in FLIPPERS] for row in self.rounds])
+        inferred = np.array([[row[f"inferred_{f}_rad"] for f in FLIPPERS] for row in self.rounds])
+        return np.degrees(np.stack([angle_distance(inferred[:, i], true[:, i], period)
+                                    for i, period in enumerate(PERIODS)], axis=1))
 
 
 def write_config(out_dir: str | os.PathLike, config: EEAConfig) -> None:

@@ -6,6 +6,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from eea.arc import (
+    angle_distance,
     in_arc,
     sample_arc,
     smallest_inclusive_arc,
@@ -110,3 +111,17 @@ def test_arc_contains_inputs_and_is_smallest(angles):
     # The arc starting at input i that holds every input has width max_j (a_j - a_i) mod 2pi.
     for s in a:
         assert width <= np.max(np.mod(a - s, TWO_PI)) + 1e-9
+
+
+def test_angle_distance_goes_the_short_way_round():
+    # 6.2 and 0.1 rad: 2 pi - 6.1 = 0.18319 apart through 0, not 6.1
+    np.testing.assert_allclose(angle_distance(6.2, 0.1), TWO_PI - 6.1)
+    np.testing.assert_allclose(angle_distance([0.0, np.pi, 1.0], [np.pi, 0.0, 1.0 + 4 * np.pi]), [np.pi, np.pi, 0.0],
+                               atol=1e-12)
+    np.testing.assert_allclose(angle_distance(350.0, 10.0, period=360.0), 20.0)
+    # the caudal fin's line does not wrap
+    np.testing.assert_allclose(angle_distance(-0.5, 0.4, period=None), 0.9)
+    with pytest.raises(ValueError, match="NaN"):
+        angle_distance(np.nan, 0.0)
+    with pytest.raises(ValueError, match="period"):
+        angle_distance(1.0, 0.0, period=0.0)
