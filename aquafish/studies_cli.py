@@ -7,11 +7,12 @@ import dataclasses
 from pathlib import Path
 
 from eea.config import ESTIMATION_SEARCHES, EEAConfig
+from eea.inference import OOB_EXPERIMENTS
 
 #: EEA settings a study may override from the command line (the rest keep their defaults).
 STUDY_OVERRIDES = ("damage", "rounds", "exploration_population", "exploration_generations", "exploration_models",
                    "estimation_population", "estimation_generations", "estimation_search", "cma_sigma", "k_best",
-                   "oob_period", "oob_sample", "oob_population", "oob_generations")
+                   "oob_period", "oob_sample", "oob_population", "oob_generations", "oob_experiments")
 
 
 def _csv(kind):
@@ -73,9 +74,9 @@ def add_commands(sub) -> None:
     s.add_argument("--processes", type=int, default=None, help="local pool size (default: all cores)")
     fields = {f.name: f for f in dataclasses.fields(EEAConfig)}
     for name in STUDY_OVERRIDES:
-        kind = {"damage": str, "estimation_search": str, "cma_sigma": float}.get(name, int)
+        kind = {"damage": str, "estimation_search": str, "cma_sigma": float, "oob_experiments": str}.get(name, int)
         s.add_argument("--" + name.replace("_", "-"), dest=name, type=kind, default=None,
-                       choices=ESTIMATION_SEARCHES if name == "estimation_search" else None,
+                       choices={"estimation_search": ESTIMATION_SEARCHES, "oob_experiments": OOB_EXPERIMENTS}.get(name),
                        help=f"EEA setting (default {fields[name].default})")
     s.set_defaults(func=_study)
 

@@ -14,7 +14,7 @@ import argparse
 import dataclasses
 
 from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, EEAConfig
-from eea.inference import INFERENCE_NAMES
+from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
 
 __all__ = ["add_commands"]
 
@@ -32,6 +32,8 @@ def _add_config_flags(parser: argparse.ArgumentParser) -> None:
             kwargs["choices"] = INFERENCE_NAMES
         if field.name == "estimation_search":
             kwargs["choices"] = ESTIMATION_SEARCHES
+        if field.name == "oob_experiments":
+            kwargs["choices"] = OOB_EXPERIMENTS
         parser.add_argument(*flags, **kwargs)
 
 

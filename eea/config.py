@@ -16,7 +16,7 @@ import math
 import os
 
 from aquafish_gym import DT_S, get_damage
-from eea.inference import INFERENCE_NAMES
+from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
 
 __all__ = ["ESTIMATION_SEARCHES", "EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS"]
 
@@ -58,6 +58,8 @@ FIELD_HELP: dict[str, str] = {
     "oob_population": "out_of_band: candidate angle sets per inner GA generation",
     "oob_generations": "out_of_band: inner GA generations per inference",
     "oob_bits": "out_of_band: bits per angle in the inner GA genome (3 angles)",
+    "oob_experiments": "out_of_band: angles refined by each inference: newest (the paper's: only the newest "
+                       "experiment) or all (also every older experiment at generation 0 of each round; not the paper's)",
     "workers": "worker processes for simulations (1 = serial); never changes results",
     "max_batch_robots": "at most this many robots per simulate_batch call (chunking; 32-64 is fastest, "
                         "larger worlds cost more per robot-step); never changes results",
@@ -105,6 +107,7 @@ class EEAConfig:
     oob_population: int = 10
     oob_generations: int = 10
     oob_bits: int = 8
+    oob_experiments: str = "newest"
     workers: int = dataclasses.field(default_factory=_default_workers)
     max_batch_robots: int = 64
 
@@ -115,6 +118,8 @@ class EEAConfig:
         if self.estimation_search not in ESTIMATION_SEARCHES:
             raise ValueError(f"unknown estimation_search {self.estimation_search!r}; "
                              f"valid names: {', '.join(ESTIMATION_SEARCHES)}")
+        if self.oob_experiments not in OOB_EXPERIMENTS:
+            raise ValueError(f"unknown oob_experiments {self.oob_experiments!r}; valid names: {', '.join(OOB_EXPERIMENTS)}")
         if isinstance(self.cma_sigma, bool) or not isinstance(self.cma_sigma, (int, float)) \
                 or not 0.0 < self.cma_sigma <= 1.0:
             raise ValueError(f"EEAConfig.cma_sigma must be in (0, 1], got {self.cma_sigma!r}")

@@ -45,7 +45,11 @@ from eea.ga import BitGA
 from eea.experiment import CAUDAL_LIMIT_RAD, PERIODS, TWO_PI, Context, Experiment
 
 __all__ = ["INFERENCE_NAMES", "INFERENCE_STRATEGIES", "InBand", "InferenceStrategy", "Known", "NoInference",
-           "OutOfBand", "make_inference"]
+           "OOB_EXPERIMENTS", "OutOfBand", "make_inference"]
+
+#: Which experiments an out-of-band inference refines: the paper's newest one, or (at the
+#: first inference of every round) all of them; see :class:`OutOfBand`.
+OOB_EXPERIMENTS: tuple[str, ...] = ("newest", "all")
 
 
 class InferenceStrategy:
@@ -182,19 +186,28 @@ class OutOfBand(InferenceStrategy):
     inference never forgets a better earlier answer for the same models. The context is
     set to the best angles with confidence 1.0 (all models use them).
 
+    ``experiments="all"`` (not the paper's) also re-infers every older experiment at
+    generation 0 of each round, seeded with its current angles, with the models of the
+    previous round: in the paper an experiment's angles are fixed once its round ends,
+    although they were inferred with the models of that early round. The inner GAs of all
+    experiments run in lockstep, one batched evaluation per inner generation.
+
     Raises:
-        ValueError: if any count is < 1 (``bits`` < 2).
+        ValueError: if any count is < 1 (``bits`` < 2) or ``experiments`` is not one of
+            :data:`OOB_EXPERIMENTS`.
     """
 
     name = "out_of_band"
 
     def __init__(self, period: int = 35, sample: int = 5, population: int = 10, generations: int = 10,
-                 bits: int = 8, ga_options: dict | None = None) -> None:
+                 bits: int = 8, ga_options: dict | None = None, experiments: str = "newest") -> None:
         if min(period, sample, population, generations) < 1 or bits < 2:
             raise ValueError(f"OutOfBand needs period, sample, population, generations >= 1 and bits >= 2; "
                              f"got {period}, {sample}, {population}, {generations}, {bits}")
+        if experiments not in OOB_EXPERIMENTS:
+            raise ValueError(f"OutOfBand experiments must be one of {', '.join(OOB_EXPERIMENTS)}, got {experiments!r}")
         self.period, self.sample, self.population = int(period), int(sample), int(population)
-        self.generations, self.bits = int(generations), int(bits)
+        self.generations, self.bits, self.experiments = int(generations), int(bits), experiments
         self.ga_options = dict(ga_options or {})
         step = TWO_PI / 2 ** self.bits
         self.field_bits = (self.bits,) * 3
@@ -205,7 +218,7 @@ class OutOfBand(InferenceStrategy):
         options = {"crossover_rate": config.crossover_rate, "tournament_size": config.tournament_size,
                    "mutation_rate": config.mutation_bits / (3 * config.oob_bits), "elitism": config.elitism}
         return cls(config.oob_period, config.oob_sample, config.oob_population, config.oob_generations,
-                   config.oob_bits, options)
+                   config.oob_bits, options, config.oob_experiments)
 
     def new_context(self, true_angles):
         return Context.exact(np.zeros(3))  # replaced by the first inference (generation 0)
@@ -214,29 +227,56 @@ class OutOfBand(InferenceStrategy):
         experiments[-1].context = experiments[-1].context.with_confidence(1.0)
 
     def before_generation(self, generation, ranked_genomes, experiments, evaluator, rng):
-        if generation % self.period == 0:
-            best = self.infer_angles(ranked_genomes[: self.sample], experiments[-1], evaluator, rng,
-                                     seed_current=generation > 0)
-            experiments[-1].context = Context.exact(best)
+        if generation % self.period:
+            return
+        targets = list(experiments) if self.experiments == "all" and generation == 0 else [experiments[-1]]
+        seeded = [generation > 0 or i < len(targets) - 1 for i in range(len(targets))]  # the newest: fresh at 0
+        best = self.infer_angles(ranked_genomes[: self.sample], targets, evaluator, rng, seed_current=seeded)
+        for experiment, angles in zip(targets, best):
+            experiment.context = Context.exact(angles)
 
-    def infer_angles(self, models: np.ndarray, experiment: Experiment, evaluator, rng: np.random.Generator,
-                     seed_current: bool = False) -> np.ndarray:
-        """The paper's optAng(): best ``(3,)`` initial angles (rad) of ``experiment`` for ``(S, 45)`` models."""
-        initial = None
-        if seed_current:
-            current = experiment.context.estimate()
-            step = TWO_PI / 2 ** self.bits  # nearest pectoral level on the circle (2 pi - eps -> 0)
-            current[:2] = np.mod(np.rint(current[:2] / step), 2 ** self.bits) * step
-            current = np.clip(current, self.bounds[:, 0], self.bounds[:, 1])
-            initial = encode_fields(current, self.field_bits, self.bounds)[None]
-        ga = BitGA(3 * self.bits, self.population, rng, initial=initial, **self.ga_options)
-        s = len(models)
+    def _current_genome(self, experiment: Experiment) -> np.ndarray:
+        """``(1, 3 * bits)`` genome of the experiment's current angles (nearest levels)."""
+        current = experiment.context.estimate()
+        step = TWO_PI / 2 ** self.bits  # nearest pectoral level on the circle (2 pi - eps -> 0)
+        current[:2] = np.mod(np.rint(current[:2] / step), 2 ** self.bits) * step
+        current = np.clip(current, self.bounds[:, 0], self.bounds[:, 1])
+        return encode_fields(current, self.field_bits, self.bounds)[None]
+
+    def infer_angles(self, models: np.ndarray, experiments: Sequence[Experiment], evaluator,
+                     rng: np.random.Generator, seed_current: bool | Sequence[bool] = False) -> np.ndarray:
+        """The paper's optAng(): the best initial angles of each experiment for the models.
+
+        One inner GA per experiment, run in lockstep: inner generation g evaluates every
+        GA's candidates in one :meth:`Evaluator.similarities` call, candidate q of every GA
+        sharing the rows of candidate q (each experiment's similarity depends only on its
+        own angles).
+
+        Args:
+            models: ``(S, 45)`` model genomes that score the candidates (mean similarity).
+            experiments: the E experiments whose angles are inferred.
+            evaluator: an :class:`eea.evaluation.Evaluator`.
+            rng: draws every inner GA's randomness.
+            seed_current: per experiment (or one for all), whether its current angles join
+                the inner GA's first population.
+
+        Returns:
+            ``(E, 3)`` radians (pectorals in [0, 2 pi), caudal in the sweep).
+        """
+        seeds = [seed_current] * len(experiments) if isinstance(seed_current, bool) else list(seed_current)
+        if len(seeds) != len(experiments):
+            raise ValueError(f"seed_current needs one flag per experiment ({len(experiments)}), got {len(seeds)}")
+        gas = [BitGA(3 * self.bits, self.population, rng, initial=self._current_genome(e) if seeded else None,
+                     **self.ga_options) for e, seeded in zip(experiments, seeds)]
+        s, e = len(models), len(experiments)
         for _ in range(self.generations):
-            candidates = decode_fields(ga.ask(), self.field_bits, self.bounds)          # (Q, 3)
-            angles = np.repeat(candidates, s, axis=0)[:, None, :]                       # (Q*S, 1, 3)
-            sims = evaluator.similarities(np.tile(models, (len(candidates), 1)), [experiment], angles)
-            ga.tell(sims.reshape(len(candidates), s).mean(axis=1))
-        return decode_fields(ga.best_genome, self.field_bits, self.bounds)
+            candidates = np.stack([decode_fields(ga.ask(), self.field_bits, self.bounds) for ga in gas], axis=1)
+            angles = np.repeat(candidates, s, axis=0)                                   # (Q*S, E, 3)
+            sims = evaluator.similarities(np.tile(models, (len(candidates), 1)), experiments, angles)
+            scores = sims.reshape(len(candidates), s, e).mean(axis=1)                    # (Q, E)
+            for j, ga in enumerate(gas):
+                ga.tell(scores[:, j])
+        return np.stack([decode_fields(ga.best_genome, self.field_bits, self.bounds) for ga in gas])
 
 
 #: Registry of strategies by name (``EEAConfig.inference``).

@@ -35,6 +35,7 @@ def test_every_field_has_help():
     ({"in_band_confidence": float("nan")}, "in_band_confidence"),
     ({"mutation_bits": -1}, "mutation_bits"),
     ({"workers": 0}, "workers"),
+    ({"oob_experiments": "oldest"}, "oob_experiments .*valid names: newest, all"),
 ])
 def test_invalid_values_raise(changes, match):
     with pytest.raises(ValueError, match=match):
