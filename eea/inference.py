@@ -262,6 +262,9 @@ class OutOfBand(InferenceStrategy):
 
         Returns:
             ``(E, 3)`` radians (pectorals in [0, 2 pi), caudal in the sweep).
+
+        Raises:
+            ValueError: if ``seed_current`` is a sequence without one flag per experiment.
         """
         seeds = [seed_current] * len(experiments) if isinstance(seed_current, bool) else list(seed_current)
         if len(seeds) != len(experiments):
