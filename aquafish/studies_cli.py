@@ -1,4 +1,4 @@
-"""``aquafish case-study``, ``aquafish study`` and ``aquafish plot``."""
+"""``aquafish case-study``, ``aquafish study``, ``aquafish plot`` and ``aquafish diagnose``."""
 
 from __future__ import annotations
 
@@ -54,6 +54,19 @@ def _plot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _diagnose(args: argparse.Namespace) -> int:
+    from eea.diagnosis import diagnose_run
+    from eea.plot import find_runs
+
+    print(f"{'run':<40} {'inference':<12} {'E':>3} {'final@inf':>9} {'true@inf':>9} {'final@true':>10} "
+          f"{'true@true':>9}  failure")
+    for result in find_runs(args.dirs):
+        d = diagnose_run(result.out_dir, workers=args.workers)
+        print(f"{str(d.out_dir):<40} {d.inference:<12} {d.experiments:>3} {d.final_inferred:>9.4f} "
+              f"{d.true_inferred:>9.4f} {d.final_true_angles:>10.4f} {d.true_true_angles:>9.4f}  {d.verdict}")
+    return 0
+
+
 def add_commands(sub) -> None:
     c = sub.add_parser("case-study", help="damage-recovery case study (paper section 5): self-model, evolve gaits, transfer")
     c.add_argument("--preset", default="quick", choices=["smoke", "quick", "paper"],
@@ -84,3 +97,9 @@ def add_commands(sub) -> None:
     p.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
     p.add_argument("--output", "-o", default=None, help="PNG path (default: FIRST_DIR/objective_fitness.png)")
     p.set_defaults(func=_plot)
+
+    d = sub.add_parser("diagnose", help="search or inference failure? MOD_FIT of the final and the true morphology "
+                                        "under the inferred and the true initial angles, per run (eea.diagnosis)")
+    d.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
+    d.add_argument("--workers", type=int, default=1, help="simulation processes (default: 1)")
+    d.set_defaults(func=_diagnose)

@@ -21,7 +21,8 @@ On top of ``aquafish_gym.simulate_batch``:
 * ``eea.exploration``, ``eea.estimation`` -- the two phases of a round (section 3.2).
 * ``eea.config``     -- ``EEAConfig``, the paper's defaults (section 4).
 * ``eea.run``        -- ``run(config, out_dir)``: a resumable run; ``eea.record`` reads it
-  back (``load_result``), ``eea.checkpoint`` saves its state, ``eea.plot`` draws studies.
+  back (``load_result``), ``eea.checkpoint`` saves its state, ``eea.plot`` draws studies,
+  ``eea.diagnosis`` tells a search failure from an inference failure.
 """
 
 from eea.arc import in_arc, sample_arc, smallest_inclusive_arc, smallest_inclusive_interval
