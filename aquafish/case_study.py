@@ -99,7 +99,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, workers: int
     t0 = time.perf_counter()
 
     # 2. self-model twice
-    models, eea_rows = {}, {}
+    models, eea_results = {}, {}
     for inference in ("none", "out_of_band"):
         config = EEAConfig(inference=inference, damage=damage, seed=seed, **settings.eea,
                            **({"workers": workers} if workers else {}))
@@ -107,7 +107,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, workers: int
         eea.run(config, run_dir, progress=progress)
         result = eea.load_result(run_dir)
         models[inference] = result.best_morphology
-        eea_rows[inference] = result.rounds[-1]
+        eea_results[inference] = result
 
     # 3. gaits
     natives = {"healthy": Morphology.healthy(), "plain EEA model": models["none"], "out-of-band EEA model": models["out_of_band"]}
@@ -149,9 +149,10 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, workers: int
         "models": {
             inference: {
                 "morphology": _dims(models[inference]),
-                "objective_fitness": float(eea_rows[inference]["objective_fitness"]),
-                "initial_angle_error_deg": _angle_error_deg(eea_rows[inference]),
-                "target_experiments": int(eea_rows[inference]["target_experiments"]),
+                "objective_fitness": float(eea_results[inference].rounds[-1]["objective_fitness"]),
+                "initial_angle_error_deg": dict(zip(("left", "right", "caudal"),
+                                                    eea_results[inference].inference_error_deg[-1].round(2).tolist())),
+                "target_experiments": int(eea_results[inference].rounds[-1]["target_experiments"]),
             }
             for inference in models
         },
@@ -170,18 +171,6 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, workers: int
 
 def _dims(m: Morphology) -> dict[str, float]:
     return dict(zip(MORPHOLOGY_FIELDS, m.to_array().round(4).tolist()))
-
-
-def _angle_error_deg(row: dict) -> dict[str, float] | None:
-    """Circular error (deg) between true and inferred initial angles of the last experiment."""
-    names = ("left", "right", "caudal")
-    try:
-        true = np.array([float(row[f"true_{n}_rad"]) for n in names])
-        inferred = np.array([float(row[f"inferred_{n}_rad"]) for n in names])
-    except (KeyError, ValueError, TypeError):
-        return None
-    err = np.abs((inferred - true + np.pi) % (2 * np.pi) - np.pi)
-    return dict(zip(names, np.degrees(err).round(2).tolist()))
 
 
 def _write_atomic(path: Path, text: str) -> None:

@@ -27,7 +27,7 @@ from eea.checkpoint import load_state
 from eea.encoding import encode_models
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
-from eea.record import MODEL_COLUMNS, load_result
+from eea.record import load_result
 
 __all__ = ["RunDiagnosis", "diagnose_run"]
 
@@ -85,7 +85,7 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1) -> RunDiagnosis:
     experiments = [Experiment.from_state_dict(e) for e in state.experiments]
     inferred = np.stack([e.context.estimate() for e in experiments])[None]   # (1, E, 3)
     true = np.stack([e.true_angles for e in experiments])[None]
-    final = encode_models(np.array([[result.rounds[-1][c] for c in MODEL_COLUMNS]]))
+    final = encode_models(result.best_morphology.to_array()[None])
     truth = encode_models(get_damage(result.config.damage).apply(Morphology.healthy()).to_array()[None])
     with Evaluator(result.config.steps, workers=workers, max_batch_robots=result.config.max_batch_robots) as ev:
         def fit(genome, angles):
