@@ -25,6 +25,7 @@ import eea
 import gait
 from aquafish_gym import MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology, get_damage
 from aquafish_gym.drawing import plot_morphologies
+from eea.checkpoint import atomic_write
 from eea.config import EEAConfig
 
 
@@ -164,19 +165,13 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, workers: int
         "figures": figures,
         "wall_seconds": time.perf_counter() - t0,
     }
-    _write_atomic(out / "report.json", json.dumps(report, indent=2))
-    _write_atomic(out / "report.md", render_report(report))
+    atomic_write(out / "report.json", json.dumps(report, indent=2).encode())
+    atomic_write(out / "report.md", render_report(report).encode())
     return report
 
 
 def _dims(m: Morphology) -> dict[str, float]:
     return dict(zip(MORPHOLOGY_FIELDS, m.to_array().round(4).tolist()))
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(text)
-    tmp.replace(path)
 
 
 def render_report(report: dict) -> str:
