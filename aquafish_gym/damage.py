@@ -101,6 +101,7 @@ for _d in (
     Damage("right_pectoral_half", "Right pectoral flipper length halved.", _scale(right_pectoral_y=0.5)),
     Damage("left_pectoral_missing", "Left pectoral flipper lost entirely (all three dimensions 0).", _scale(left_pectoral_x=0.0, left_pectoral_y=0.0, left_pectoral_z=0.0)),
     Damage("caudal_half", "Caudal fin length halved.", _scale(caudal_y=0.5)),
+    Damage("caudal_missing", "Caudal fin lost entirely (all three dimensions 0): the tail gives no thrust.", _scale(caudal_x=0.0, caudal_y=0.0, caudal_z=0.0)),
     Damage("seized_left_pectoral", "Left pectoral servo seized: the flipper stays at its initial angle.", _identity, ServoFaults(seized=(True, False, False))),
     Damage("weak_right_pectoral", "Right pectoral servo turns at half the commanded speed.", _identity, ServoFaults(speed_scale=(1.0, 0.5, 1.0))),
 ):

@@ -34,6 +34,10 @@ class SimParams:
         caudal_amplitude_deg: half sweep of the caudal fin (degrees), paper: 30.
         caudal_position_gain, caudal_velocity_gain: PyBullet position-control gains.
         imu_noise_deg: standard deviation of Gaussian noise added to the IMU angles (deg).
+        reactive_thrust: apply Lighthill's reactive force at the caudal fin's trailing
+            edge (:func:`~aquafish_gym.fluid.reactive_force`), the fin's source of thrust.
+            Default True; False gives the pure-drag model of the paper's lab, in which a
+            rigid fin barely propels the robot.
 
     Raises:
         ValueError: a field out of its allowed range (named in the message).
@@ -51,6 +55,7 @@ class SimParams:
     caudal_position_gain: float = 0.3
     caudal_velocity_gain: float = 1.0
     imu_noise_deg: float = 0.0
+    reactive_thrust: bool = True
 
     def __post_init__(self) -> None:
         nonneg = ("drag_coefficient", "fluid_density", "gravity", "ballast_offset", "imu_noise_deg")
@@ -67,6 +72,9 @@ class SimParams:
             raise ValueError(f"SimParams.ballast_offset must be < 0.5 (the body radius), got {self.ballast_offset}")
         if not 0 < self.caudal_amplitude_deg <= 90:
             raise ValueError(f"SimParams.caudal_amplitude_deg must be in (0, 90], got {self.caudal_amplitude_deg}")
+        if not isinstance(self.reactive_thrust, (bool, np.bool_)):
+            raise ValueError(f"SimParams.reactive_thrust must be True or False, got {self.reactive_thrust!r}")
+        object.__setattr__(self, "reactive_thrust", bool(self.reactive_thrust))
         if self.drag_law not in DRAG_LAWS:
             raise ValueError(f"SimParams.drag_law must be one of {DRAG_LAWS}, got {self.drag_law!r}")
         current = np.asarray(self.water_current, dtype=np.float64)

@@ -20,7 +20,7 @@ import math
 import numpy as np
 import pybullet as p
 
-from aquafish_gym.fluid import box_faces
+from aquafish_gym.fluid import added_mass_per_length, box_faces
 from aquafish_gym.params import SimParams
 
 BODY_RADIUS = 0.5
@@ -53,6 +53,11 @@ class RobotSpec:
         box_offsets: ``(N, 4, 3)`` centre of each link's drag box relative to its centre
             of mass (link frame): ``(0, 0, ballast_offset)`` for the body, 0 for flippers.
         axis_areas: ``(N, 4, 3)`` area of the pair of faces normal to x, y, z.
+        caudal_trailing_edge: ``(N, 3)`` midpoint of the caudal fin's trailing edge relative
+            to its centre of mass, caudal link frame: ``(0, -length / 2, 0)``.
+        caudal_added_mass: ``(N,)`` added mass per unit length of the caudal fin,
+            (pi / 4) rho height^2 (:func:`~aquafish_gym.fluid.added_mass_per_length`);
+            0 for a fin without area (length or height 0).
     """
 
     masses: np.ndarray
@@ -64,6 +69,8 @@ class RobotSpec:
     face_areas: np.ndarray
     box_offsets: np.ndarray
     axis_areas: np.ndarray
+    caudal_trailing_edge: np.ndarray
+    caudal_added_mass: np.ndarray
 
     @property
     def total_mass(self) -> np.ndarray:
@@ -123,6 +130,9 @@ def robot_spec(morphologies: np.ndarray, params: SimParams) -> RobotSpec:
     face_areas = np.concatenate([ba[:, None], fa], axis=1)
     box_offsets = np.zeros((n, N_LINKS, 3))
     box_offsets[:, 0, 2] = params.ballast_offset
+    trailing_edge = np.zeros((n, 3))
+    trailing_edge[:, 1] = -sy[:, 2] / 2
+    fin_height = np.where(sy[:, 2] * sz[:, 2] > 0, sz[:, 2], 0.0)
     return RobotSpec(
         masses=masses,
         inertias=inertias,
@@ -133,6 +143,8 @@ def robot_spec(morphologies: np.ndarray, params: SimParams) -> RobotSpec:
         face_areas=face_areas,
         box_offsets=box_offsets,
         axis_areas=face_areas[..., ::2].copy(),
+        caudal_trailing_edge=trailing_edge,
+        caudal_added_mass=added_mass_per_length(fin_height, params.fluid_density),
     )
 
 

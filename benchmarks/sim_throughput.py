@@ -4,9 +4,12 @@ For batches of 1, 25 and 100 robots of 128 steps, measures in the same run
 
 * ``simulate_batch`` (world creation, fluid model, servos, IMU log), and
 * PyBullet stepping the same bodies with no fluid model and no per-step Python work
-  (``stepSimulation`` only, after the same world is built),
+  (``stepSimulation`` only, after the same world is built), and
+* ``simulate_batch`` without the reactive caudal thrust (``reactive_thrust=False``, the
+  pure-drag model),
 
-and prints microseconds per robot-step and their ratio (median of ``--repeats`` runs).
+and prints microseconds per robot-step, the ratio to raw PyBullet, and what the reactive
+thrust costs (median of ``--repeats`` runs).
 
     python -m benchmarks.sim_throughput [--steps 128] [--repeats 5] [--sizes 1,25,100]
 """
@@ -15,13 +18,12 @@ from __future__ import annotations
 
 import argparse
 import platform
-import statistics
 import time
 
 import numpy as np
 import pybullet as p
 
-from aquafish_gym import BatchWorld, Morphology, simulate_batch
+from aquafish_gym import BatchWorld, Morphology, SimParams, simulate_batch
 from aquafish_gym.morphology import MORPHOLOGY_BOUNDS
 
 
@@ -34,10 +36,10 @@ def _inputs(n: int, rng: np.random.Generator):
     return morph, actions, angles
 
 
-def time_simulate_batch(n: int, steps: int, rng) -> float:
+def time_simulate_batch(n: int, steps: int, rng, params: SimParams | None = None) -> float:
     morph, actions, angles = _inputs(n, rng)
     t0 = time.perf_counter()
-    simulate_batch(morph, actions, angles, steps)
+    simulate_batch(morph, actions, angles, steps, params=params)
     return time.perf_counter() - t0
 
 
@@ -65,13 +67,17 @@ def main(argv=None) -> None:
     rng = np.random.default_rng(0)
     sizes = [int(s) for s in args.sizes.split(",")]
     print(f"machine: {platform.processor() or platform.machine()}, {platform.python_implementation()} {platform.python_version()}, pybullet API {p.getAPIVersion()}")
-    print(f"{'robots':>6} {'steps':>5} {'sim us/robot-step':>18} {'raw us/robot-step':>18} {'ratio':>6}")
+    pure_drag = SimParams(reactive_thrust=False)
+    print(f"{'robots':>6} {'steps':>5} {'sim us/robot-step':>18} {'raw us/robot-step':>18} {'ratio':>6} "
+          f"{'pure-drag us/robot-step':>24} {'reactive cost':>13}")
     for n in sizes:
         time_simulate_batch(n, 8, rng)  # warm-up
-        sim = statistics.median(time_simulate_batch(n, args.steps, rng) for _ in range(args.repeats))
-        raw = statistics.median(time_raw_pybullet(n, args.steps, rng) for _ in range(args.repeats))
+        times = np.array([(time_simulate_batch(n, args.steps, rng), time_raw_pybullet(n, args.steps, rng),
+                            time_simulate_batch(n, args.steps, rng, pure_drag)) for _ in range(args.repeats)])
+        sim, raw, drag = np.median(times, axis=0)  # interleaved, so slow spells hit all three
         us = 1e6 / (n * args.steps)
-        print(f"{n:>6} {args.steps:>5} {sim * us:>18.1f} {raw * us:>18.1f} {sim / raw:>6.2f}")
+        print(f"{n:>6} {args.steps:>5} {sim * us:>18.1f} {raw * us:>18.1f} {sim / raw:>6.2f} "
+              f"{drag * us:>24.1f} {np.median(times[:, 0] / times[:, 2]) - 1:>12.1%}")
 
 
 if __name__ == "__main__":

@@ -3,7 +3,9 @@
 import numpy as np
 import pytest
 
-from aquafish_gym.fluid import box_drag, box_faces, drag_wrench, quat_to_matrix, righting_torque
+from aquafish_gym.fluid import (
+    added_mass_per_length, box_drag, box_faces, drag_wrench, quat_to_matrix, reactive_force, righting_torque,
+)
 
 I3 = np.eye(3)
 
@@ -87,3 +89,55 @@ def test_unknown_drag_law_raises():
     c, n, a = one_face([1, 0, 0], [0, 0, 0], 1.0)
     with pytest.raises(ValueError, match="drag_law"):
         drag_wrench(I3, np.ones(3), np.zeros(3), c, n, a, drag_coefficient=1.0, fluid_density=1.0, drag_law="cubic")
+
+
+# -- Lighthill's reactive force at the trailing edge (Lighthill 1971) ----------------------
+T_FIN = np.array([0.0, -1.0, 0.0])  # along the fin, towards the trailing edge
+N_FIN = np.array([1.0, 0.0, 0.0])
+TE = np.array([0.0, -0.5, 0.0])  # trailing edge 0.5 behind the centre of mass
+
+
+def test_added_mass_per_length_is_a_water_cylinder_of_the_fin_height():
+    assert added_mass_per_length(0.4, 1.0) == pytest.approx(np.pi * 0.04)  # (pi/4) rho s^2
+    assert added_mass_per_length(0.4, 2.0) == pytest.approx(2 * np.pi * 0.04)
+    assert added_mass_per_length(0.0, 1.0) == 0.0
+
+
+def test_reactive_force_on_a_fin_pitching_in_still_water_is_pure_thrust():
+    # fin turning at 2 rad/s about z: the trailing edge moves at w x r = (1, 0, 0), i.e. w = 1, u = 0
+    m = np.pi * 0.04
+    f, t = reactive_force(I3, np.zeros(3), np.array([0, 0, 2.0]), TE, T_FIN, N_FIN, m)
+    np.testing.assert_allclose(f, [0.0, m / 2, 0.0], atol=1e-15)  # -(1/2) m w^2 t: forward, towards the hinge
+    np.testing.assert_allclose(t, 0.0, atol=1e-15)  # along the lever arm: no moment
+
+
+def test_reactive_force_on_a_swimming_fin_matches_hand_value():
+    # swimming forward at 0.3: v_te = (1, 0.3, 0), u = v_te . t = -0.3, w = 1
+    m = np.pi * 0.04  # 0.1256637
+    f, t = reactive_force(I3, np.array([0, 0.3, 0]), np.array([0, 0, 2.0]), TE, T_FIN, N_FIN, m)
+    # F = m w u n - (1/2) m w^2 t = (-0.0376991, 0.0628319, 0); moment (0, -0.5, 0) x F = (0, 0, -0.0188496)
+    np.testing.assert_allclose(f, [-0.0376991, 0.0628319, 0.0], atol=1e-7)
+    np.testing.assert_allclose(t, [0.0, 0.0, -0.0188496], atol=1e-7)
+    # the same relative velocity from a water current instead of the fin's own motion
+    f_current, _ = reactive_force(I3, np.zeros(3), np.array([0, 0, 2.0]), TE, T_FIN, N_FIN, m, water_current=(0, -0.3, 0))
+    np.testing.assert_allclose(f_current, f, atol=1e-15)
+
+
+def test_reactive_force_does_not_depend_on_the_normal_sign_and_turns_with_the_link():
+    rng = np.random.default_rng(5)
+    q = rng.normal(size=(4, 4))
+    rot = quat_to_matrix(q / np.linalg.norm(q, axis=1, keepdims=True))
+    v, w = rng.normal(size=(4, 3)), rng.normal(size=(4, 3))
+    f, t = reactive_force(rot, v, w, np.tile(TE, (4, 1)), T_FIN, N_FIN, np.full(4, 0.1))
+    f_flip, t_flip = reactive_force(rot, v, w, np.tile(TE, (4, 1)), T_FIN, -N_FIN, np.full(4, 0.1))
+    np.testing.assert_allclose(f_flip, f, atol=1e-15)
+    np.testing.assert_allclose(t_flip, t, atol=1e-15)
+    # the link-frame result equals the one computed from link-frame velocities with R = I
+    v_l, w_l = np.einsum("nji,nj->ni", rot, v), np.einsum("nji,nj->ni", rot, w)
+    f_local, _ = reactive_force(np.broadcast_to(I3, (4, 3, 3)), v_l, w_l, np.tile(TE, (4, 1)), T_FIN, N_FIN, np.full(4, 0.1))
+    np.testing.assert_allclose(f, f_local, atol=1e-12)
+
+
+def test_reactive_force_of_a_fin_without_added_mass_is_zero():
+    f, t = reactive_force(I3, np.ones(3), np.ones(3), TE, T_FIN, N_FIN, 0.0)
+    assert np.all(f == 0) and np.all(t == 0)

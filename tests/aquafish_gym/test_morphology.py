@@ -38,7 +38,7 @@ def test_damage_presets():
     assert get_damage("left_pectoral_missing").apply().to_array()[:3].sum() == 0
     assert get_damage("seized_left_pectoral").faults.seized == (True, False, False)
     assert get_damage("none").apply() == healthy
-    assert {"none", "left_pectoral_half", "right_pectoral_half", "left_pectoral_missing", "caudal_half", "seized_left_pectoral"} <= set(DAMAGES)
+    assert {"none", "left_pectoral_half", "right_pectoral_half", "left_pectoral_missing", "caudal_half", "caudal_missing", "seized_left_pectoral"} <= set(DAMAGES)
 
 
 def test_unknown_damage_lists_valid_names():

@@ -72,13 +72,110 @@ def test_rolled_robot_rights_itself():
     assert rolls[:50].min() < 20.0  # and it started turning back at once
 
 
-def test_caudal_fin_alone_swims_forward():
-    with BatchWorld(NO_PECTORALS[None]) as world:
-        world.reset(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
-        for _ in range(1000):
+def swim(morphologies, actions, steps: int, params: SimParams | None = None):
+    """Swim robots from rest (flippers at 0) for ``steps``; return (displacement (N, 3), body velocity (N, steps, 3))."""
+    morphologies = np.atleast_2d(morphologies)
+    n = len(morphologies)
+    velocity = np.empty((n, steps, 3))
+    with BatchWorld(morphologies, params) as world:
+        world.reset(np.zeros((n, 3)), np.broadcast_to(actions, (n, 3)))
+        for k in range(steps):
             world.step()
-        dx, dy, _ = world.position[0, 0] - world.home[0]
-    assert dy > 0.03 and abs(dx) < dy
+            velocity[:, k] = world.linear_velocity[:, 0]
+        return world.position[:, 0] - world.home, velocity
+
+
+def test_caudal_fin_alone_swims_forward():
+    ((dx, dy, _),), _ = swim(NO_PECTORALS, [0.0, 0.0, 1.0], 1000)
+    assert dy > 1.0 and abs(dx) < 0.1 * dy
+
+
+def test_caudal_thrust_from_rest_is_positive_and_grows_with_frequency():
+    displacement, _ = swim(np.tile(NO_PECTORALS, (3, 1)), [[0, 0, 0.25], [0, 0, 0.5], [0, 0, 1.0]], 500)
+    forward = displacement[:, 1]
+    assert 0 < forward[0] < forward[1] < forward[2]
+
+
+def test_pure_drag_model_barely_swims():
+    """``reactive_thrust=False`` is the lab's pure-drag model: a rigid fin gives almost no thrust."""
+    ((_, dy_drag, _),), _ = swim(NO_PECTORALS, [0.0, 0.0, 1.0], 1000, SimParams(reactive_thrust=False))
+    ((_, dy, _),), _ = swim(NO_PECTORALS, [0.0, 0.0, 1.0], 1000)
+    assert 0 < dy_drag < 0.05 * dy
+
+
+def test_caudal_only_steady_speed_and_strouhal_number():
+    """Steady speed of the caudal fin at 1 Hz against Lighthill's small-amplitude estimate.
+
+    Mean thrust of a fin pitching with amplitude A about a hinge L ahead of its trailing
+    edge (lateral excursion h = L sin(A sin wt), slope ~ A sin wt): Lighthill's
+    T = (m / 2) <h_t^2 - U^2 h_x^2> = (m A^2 / 4) (L^2 w^2 - U^2). Against quadratic drag
+    (rho c_d S / 2) U^2 on the frontal area S (capsule end pi r^2 plus the fin's edge) this
+    gives U = L w sqrt((m A^2 / 4) / (rho c_d S / 2 + m A^2 / 4)) = 0.715 units/s. The
+    simulated robot also pays for the fin's lateral drag and its yaw recoil, so it must be
+    somewhat slower, never faster. Literature band: small servo-driven robotic fish swim
+    0.2-1 body lengths/s; the pure-drag model gave St ~ 34.
+    """
+    prm = SimParams()
+    morph = Morphology.from_array(NO_PECTORALS)
+    length, height, thickness = morph.caudal_y, morph.caudal_z, morph.caudal_x
+    amplitude, omega = prm.caudal_amplitude_rad, 2 * math.pi * 1.0
+    m = math.pi / 4 * prm.fluid_density * height**2
+    frontal = math.pi * BODY_RADIUS**2 + thickness * height
+    drag = 0.5 * prm.fluid_density * prm.drag_coefficient * frontal
+    u_lighthill = length * omega * math.sqrt((m * amplitude**2 / 4) / (drag + m * amplitude**2 / 4))
+    assert u_lighthill == pytest.approx(0.715, abs=0.002)
+
+    _, velocity = swim(NO_PECTORALS, [0.0, 0.0, 1.0], 2000)
+    speed = velocity[0, -500:, 1].mean()  # mean over the last 5 s (5 beats)
+    assert 0.5 * u_lighthill < speed < 1.05 * u_lighthill
+    body_lengths_per_s = speed / (2 * BODY_RADIUS + BODY_CYLINDER_LENGTH)
+    assert 0.2 <= body_lengths_per_s <= 1.0
+    strouhal = 1.0 * 2 * length * math.sin(amplitude) / speed  # f x peak-to-peak trailing-edge excursion / U
+    assert 1.0 < strouhal < 2.5
+
+
+def test_robot_without_caudal_fin_does_not_move_under_a_caudal_command():
+    tailless = get_damage("caudal_missing").apply().to_array()
+    displacement, _ = swim(tailless, [0.0, 0.0, 1.0], 1000)
+    assert np.abs(displacement).max() < 1e-3
+
+
+def test_water_current_carries_the_robot():
+    """A body at rest in a current accelerates by quadratic drag: c - v(t) = c / (1 + c k t), k = rho c_d S / (2 M)."""
+    current = 0.5
+    prm = SimParams(water_current=(0.0, current, 0.0))
+    _, velocity = swim(NO_FLIPPERS, [0.0, 0.0, 0.0], 1000, prm)
+    mass = math.pi * BODY_RADIUS**2 * BODY_CYLINDER_LENGTH + 4 / 3 * math.pi * BODY_RADIUS**3
+    k = 0.5 * prm.fluid_density * prm.drag_coefficient * math.pi * BODY_RADIUS**2 / mass
+    expected = current - current / (1 + current * k * 10.0)  # 0.330 units/s after 10 s
+    assert velocity[0, -1, 1] == pytest.approx(expected, rel=0.02)
+    assert np.all(velocity[0, :, 1] <= current)
+
+
+def test_reactive_couple_on_the_body_equals_the_force_at_the_trailing_edge():
+    """The simulator adds the reactive force's couple to the body (one PyBullet call fewer); the same
+    force applied at the trailing edge itself must give the same motion."""
+    from aquafish_gym.fluid import reactive_force
+    from aquafish_gym.robot import LINK_CAUDAL
+
+    angles, action = np.array([[0.3, 1.0, 0.1]]), np.array([[0.2, -0.3, 1.0]])
+    with BatchWorld(HEALTHY[None]) as ref, BatchWorld(HEALTHY[None], SimParams(reactive_thrust=False)) as world:
+        ref.reset(angles, action)
+        world.reset(angles, action)
+        for _ in range(300):
+            ref.step()
+            rot = world.rotation[0, 3]
+            force, _ = reactive_force(rot, world.linear_velocity[0, 3], world.angular_velocity[0, 3],
+                                      world.spec.caudal_trailing_edge[0], np.array([0.0, -1.0, 0.0]),
+                                      np.array([1.0, 0.0, 0.0]), world.spec.caudal_added_mass[0])
+            edge = world.position[0, 3] + rot @ world.spec.caudal_trailing_edge[0]
+            p.applyExternalForce(world.bodies[0], LINK_CAUDAL, (rot @ force).tolist(), edge.tolist(), p.WORLD_FRAME,
+                                 physicsClientId=world.client)
+            world.step()
+        moved = np.linalg.norm(ref.position[0, 0] - ref.home[0])
+        assert moved > 0.2
+        np.testing.assert_allclose(world.position[0, 0], ref.position[0, 0], atol=1e-5)
+        np.testing.assert_allclose(world.imu_rpy_deg(), ref.imu_rpy_deg(), atol=1e-3)
 
 
 def test_zero_size_flippers_never_give_nan():
