@@ -245,6 +245,52 @@ def reactive_force(
     return force, _cross(trailing_edge, force)
 
 
+def caudal_reactive_force(
+    rotation: np.ndarray,
+    linear_velocity: np.ndarray,
+    angular_velocity: np.ndarray,
+    half_length: np.ndarray,
+    added_mass: np.ndarray,
+    *,
+    water_current=(0.0, 0.0, 0.0),
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`reactive_force` in closed form for fins lying along -y of their link frame.
+
+    The caudal fin's link frame has the fin along -y from the hinge (t = -y), its normal
+    along x (n = x) and the centre of mass halfway, so the trailing edge is at
+    r = (0, -l/2, 0) from it. Then, with (v, w_l) the centre-of-mass velocity relative to the
+    water and the angular velocity in the link frame, u = -v_y, w = v_x + (l/2) w_z and
+
+        F = (m w u, m w^2 / 2, 0),   r x F = (0, 0, (l/2) F_x).
+
+    Identical to :func:`reactive_force` with those vectors (a test checks it), at a
+    fraction of the NumPy calls; the simulator uses this one.
+
+    Args:
+        rotation: ``(..., 3, 3)`` link-to-world rotation.
+        linear_velocity: ``(..., 3)`` world velocity of the centre of mass (units/s).
+        angular_velocity: ``(..., 3)`` world angular velocity (rad/s).
+        half_length: ``(...)`` l/2, centre of mass to trailing edge (units).
+        added_mass: ``(...)`` m (mass units / unit); 0 switches a fin off.
+        water_current: ``(3,)`` uniform water velocity, world frame (units/s).
+
+    Returns:
+        ``force (..., 3)`` and ``torque (..., 3)`` about the centre of mass, link frame.
+    """
+    rel = linear_velocity - np.asarray(water_current)
+    vx = (rotation[..., :, 0] * rel).sum(axis=-1)  # (R^T v)_x
+    vy = (rotation[..., :, 1] * rel).sum(axis=-1)
+    wz = (rotation[..., :, 2] * angular_velocity).sum(axis=-1)
+    w = vx + half_length * wz
+    mw = added_mass * w
+    force = np.zeros(np.shape(w) + (3,))
+    force[..., 0] = -mw * vy
+    force[..., 1] = 0.5 * mw * w
+    torque = np.zeros_like(force)
+    torque[..., 2] = half_length * force[..., 0]
+    return force, torque
+
+
 def righting_torque(rotation: np.ndarray, mass: np.ndarray, gravity: float, ballast_offset: float) -> np.ndarray:
     """Couple of gravity and buoyancy on a neutrally buoyant, ballasted body.
 

@@ -15,7 +15,7 @@ import numpy as np
 import pybullet as p
 
 from aquafish_gym.damage import faults_array
-from aquafish_gym.fluid import box_drag, quat_to_matrix, reactive_force, righting_torque
+from aquafish_gym.fluid import box_drag, caudal_reactive_force, quat_to_matrix, righting_torque
 from aquafish_gym.imu import roll_pitch_yaw_deg, unwrap_yaw_deg
 from aquafish_gym.morphology import validate_morphologies
 from aquafish_gym.params import DT_S, SimParams
@@ -25,9 +25,6 @@ from aquafish_gym.robot import JOINTS, LINK_CAUDAL, N_LINKS, create_robot, robot
 ACTION_BOUNDS = np.array([[-0.5, 0.5], [-0.5, 0.5], [0.0, 1.0]])
 ACTION_BOUNDS.setflags(write=False)
 _LINKS = (-1, *JOINTS)
-#: The caudal fin in its link frame: along -y from the hinge to the trailing edge; normal x.
-_FIN_TANGENT = np.array([0.0, -1.0, 0.0])
-_FIN_NORMAL = np.array([1.0, 0.0, 0.0])
 #: Robots of a batch sit on a grid this far apart (units) so that PyBullet's broadphase
 #: never pairs them (collisions are masked off anyway; overlapping bounding boxes at one
 #: point made stepping O(N^2)). Only the body's orientation is logged, so a robot's IMU
@@ -191,7 +188,7 @@ class BatchWorld:
         Drag on every face of every link (:func:`~aquafish_gym.fluid.box_drag`), the
         gravity-buoyancy couple on the body and, with ``params.reactive_thrust``, the
         reactive force at the caudal fin's trailing edge
-        (:func:`~aquafish_gym.fluid.reactive_force`). Torques are about each link's centre
+        (:func:`~aquafish_gym.fluid.caudal_reactive_force`). Torques are about each link's centre
         of mass.
 
         The reactive force acts at the trailing edge, i.e. at the fin's centre of mass plus
@@ -211,9 +208,9 @@ class BatchWorld:
         righting = righting_torque(body_rot, self.spec.masses[:, 0], prm.gravity, prm.ballast_offset)
         if prm.reactive_thrust:
             fin_rot = self.rotation[:, 3]
-            f_fin, t_fin = reactive_force(
-                fin_rot, self.linear_velocity[:, 3], self.angular_velocity[:, 3], self.spec.caudal_trailing_edge,
-                _FIN_TANGENT, _FIN_NORMAL, self.spec.caudal_added_mass, water_current=prm.water_current,
+            f_fin, t_fin = caudal_reactive_force(
+                fin_rot, self.linear_velocity[:, 3], self.angular_velocity[:, 3], -self.spec.caudal_trailing_edge[:, 1],
+                self.spec.caudal_added_mass, water_current=prm.water_current,
             )
             force[:, 3] += f_fin
             righting += np.einsum("nij,nj->ni", fin_rot, t_fin)  # the couple, in the world frame

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from aquafish_gym.fluid import (
-    added_mass_per_length, box_drag, box_faces, drag_wrench, quat_to_matrix, reactive_force, righting_torque,
+    added_mass_per_length, box_drag, box_faces, caudal_reactive_force, drag_wrench, quat_to_matrix, reactive_force, righting_torque,
 )
 
 I3 = np.eye(3)
@@ -141,3 +141,16 @@ def test_reactive_force_does_not_depend_on_the_normal_sign_and_turns_with_the_li
 def test_reactive_force_of_a_fin_without_added_mass_is_zero():
     f, t = reactive_force(I3, np.ones(3), np.ones(3), TE, T_FIN, N_FIN, 0.0)
     assert np.all(f == 0) and np.all(t == 0)
+
+
+def test_caudal_closed_form_equals_the_general_reactive_force():
+    rng = np.random.default_rng(7)
+    q = rng.normal(size=(6, 4))
+    rot = quat_to_matrix(q / np.linalg.norm(q, axis=1, keepdims=True))
+    v, w = rng.normal(size=(6, 3)), rng.normal(size=(6, 3))
+    half, m = rng.uniform(0, 1, 6), rng.uniform(0, 0.3, 6)
+    edge = np.stack([np.zeros(6), -half, np.zeros(6)], axis=1)
+    f_ref, t_ref = reactive_force(rot, v, w, edge, T_FIN, N_FIN, m, water_current=(0.1, -0.2, 0.3))
+    f, t = caudal_reactive_force(rot, v, w, half, m, water_current=(0.1, -0.2, 0.3))
+    np.testing.assert_allclose(f, f_ref, atol=1e-14)
+    np.testing.assert_allclose(t, t_ref, atol=1e-14)
