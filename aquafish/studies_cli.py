@@ -1,4 +1,4 @@
-"""``aquafish case-study``, ``aquafish study``, ``aquafish plot`` and ``aquafish diagnose``."""
+"""``aquafish case-study``, ``aquafish study``, ``aquafish plot``, ``aquafish diagnose`` and ``aquafish damages``."""
 
 from __future__ import annotations
 
@@ -67,6 +67,17 @@ def _diagnose(args: argparse.Namespace) -> int:
     return 0
 
 
+def _damages(args: argparse.Namespace) -> int:
+    from aquafish.damage_table import GaitBudget, damage_table, format_table
+
+    budget = GaitBudget(args.generations, args.population_size, args.episodes_per_genome, args.seed, args.workers)
+    rows = damage_table(args.out, damages=args.damages, budget=budget, starts=args.starts, eval_seed=args.eval_seed,
+                        verbose=args.verbose)
+    print(format_table(rows, args.starts))
+    print(f"wrote {Path(args.out) / 'damage_table.md'} and damage_table.json")
+    return 0
+
+
 def add_commands(sub) -> None:
     c = sub.add_parser("case-study", help="damage-recovery case study (paper section 5): self-model, evolve gaits, transfer")
     c.add_argument("--preset", default="quick", choices=["smoke", "quick", "paper"],
@@ -103,3 +114,17 @@ def add_commands(sub) -> None:
     d.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
     d.add_argument("--workers", type=int, default=1, help="simulation processes (default: 1)")
     d.set_defaults(func=_diagnose)
+
+    t = sub.add_parser("damages", help="which damages a gait must adapt to: healthy gait vs a gait evolved on the "
+                                       "damaged robot, per damage preset (aquafish.damage_table)")
+    t.add_argument("--out", required=True, help="output directory (gaits are evolved once and reused)")
+    t.add_argument("--damages", type=_csv(str), default=None, help="damage presets (default: all but none)")
+    t.add_argument("--generations", type=int, default=30, help="NEAT generations per gait (default 30)")
+    t.add_argument("--population-size", type=int, default=50, help="NEAT genomes per generation (default 50)")
+    t.add_argument("--episodes-per-genome", type=int, default=2, help="training starts per genome (default 2)")
+    t.add_argument("--starts", type=int, default=10, help="fresh starts per gait and robot (default 10)")
+    t.add_argument("--seed", type=int, default=0, help="NEAT seed and first training start (default 0)")
+    t.add_argument("--eval-seed", type=int, default=1000, help="seed of the first fresh start (default 1000)")
+    t.add_argument("--workers", type=int, default=1, help="NEAT evaluation processes (default 1)")
+    t.add_argument("--verbose", action="store_true", help="NEAT's per-generation report")
+    t.set_defaults(func=_damages)
