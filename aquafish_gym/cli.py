@@ -34,7 +34,8 @@ def _bench(args: argparse.Namespace) -> int:
 
 def add_commands(sub) -> None:
     p = sub.add_parser("swim", help="swim the healthy and damaged robots with a fixed gait; plot trajectories")
-    p.add_argument("--damages", default="none,left_pectoral_half", help="comma-separated damage names")
+    p.add_argument("--damages", default="none,left_pectoral_half,caudal_half,caudal_missing",
+                   help="comma-separated damage names (default none,left_pectoral_half,caudal_half,caudal_missing)")
     p.add_argument("--action", default="0.25,0.25,1.0", help="servo command: left rev/s, right rev/s, caudal Hz")
     p.add_argument("--duration", type=float, default=20.0, help="seconds of simulated swimming")
     p.add_argument("--out", default="demo_out", help="output directory")

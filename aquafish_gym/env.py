@@ -35,7 +35,8 @@ class AquaFishEnv(gym.Env):
 
     ## Description
     The aquatic robot of Rose et al. (ERLARS 2013, section 3.1) in PyBullet with a
-    per-face fluid-drag model (DESIGN.md section 3). Two pectoral flippers on
+    per-face fluid-drag model and Lighthill's reactive thrust at the caudal fin's trailing
+    edge (DESIGN.md section 3; ``reactive_thrust=False`` for pure drag). Two pectoral flippers on
     continuous-rotation servos (no position feedback) and a caudal fin oscillating over
     a +-30 degree sweep. The goal is to swim as far as possible along the initial heading.
     Morphology (nine flipper dimensions) and damage are parameters, so the same env is

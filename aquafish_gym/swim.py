@@ -11,8 +11,9 @@ from aquafish_gym.morphology import Morphology
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.simulator import BatchWorld
 
-#: The demo's fixed gait: both pectorals at 0.25 rev/s, caudal fin at 1 Hz (the healthy robot
-#: drifts straight back, the damaged one veers).
+#: The demo's fixed gait: both pectorals at 0.25 rev/s, caudal fin at 1 Hz. From flippers at 0,
+#: the healthy robot swims 5.8 units straight ahead in 20 s, the one with a half-length left
+#: pectoral veers to the right (2.8 units sideways), half a tail swims 2.3 units, no tail none.
 FIXED_GAIT = (0.25, 0.25, 1.0)
 
 
