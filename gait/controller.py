@@ -1,7 +1,8 @@
 """Gait controllers: map the IMU observation and the clock to AquaFish-v0's action.
 
 A :class:`Controller` has ``reset()`` (start of an episode) and
-``act(obs (12,), time_s) -> action (3,) in [-1, 1]``. Two kinds exist:
+``act(obs (12,), time_s) -> action (3,) in [-1, 1]``. :class:`ConstantController` is the
+open-loop baseline (one fixed action); two kinds are learned:
 
 * :class:`NEATController`: a neat-python genome decoded to ``neat.nn.FeedForwardNetwork``
   (or ``neat.nn.RecurrentNetwork`` when the config has ``feed_forward = False``; the CTRNN
@@ -41,6 +42,34 @@ class Controller(Protocol):
 
     def act(self, obs: np.ndarray, time_s: float) -> np.ndarray:
         """Return the action ``(3,)`` in [-1, 1] for observation ``obs (12,)`` at ``time_s``."""
+
+
+class ConstantController:
+    """An open-loop baseline: the same action at every step (e.g. the caudal fin alone at 1 Hz).
+
+    Args:
+        action: ``(3,)`` env action in [-1, 1]: left, right pectoral speed, caudal frequency
+            (``(0, 0, 1)``: pectorals still, caudal fin at 1 Hz).
+
+    Raises:
+        ValueError: wrong shape, NaN, or an entry outside [-1, 1].
+    """
+
+    def __init__(self, action):
+        arr = np.asarray(action, dtype=np.float64)
+        if arr.shape != (3,) or not np.all(np.isfinite(arr)) or np.any(np.abs(arr) > 1.0):
+            raise ValueError(f"action must be 3 finite numbers in [-1, 1] (left, right pectoral, caudal), got {action!r}")
+        self.action = arr
+
+    def reset(self) -> None:
+        """Nothing to clear."""
+
+    def act(self, obs: np.ndarray, time_s: float) -> np.ndarray:
+        """Return a copy of the constant action ``(3,)``."""
+        return self.action.copy()
+
+    def __repr__(self) -> str:
+        return f"ConstantController({self.action.tolist()})"
 
 
 class NEATController:

@@ -8,6 +8,7 @@ from gait_helpers import SHORT_S
 import aquafish_gym  # noqa: F401
 from gait import ClockObservation, rollout, with_clock
 from gait.clock import clock_features
+from gait.controller import ConstantController
 from gait.neat_evolution import FitnessTask, evaluate_genome
 from gait.robots import Robot
 from aquafish_gym import Morphology
@@ -123,3 +124,23 @@ def test_recurrent_network_option_is_reproducible(tmp_path):
     a, b = (rollout(c, seed=0, episode_duration_s=SHORT_S) for _ in range(2))
     assert isinstance(c._net, neat.nn.RecurrentNetwork)
     assert a.distance == b.distance
+
+
+def test_constant_controller_caudal_only_matches_the_simulator():
+    """(0, 0, 1) is pectorals still and the caudal fin at 1 Hz; its distance is the body's forward displacement."""
+    from aquafish_gym import BatchWorld
+
+    out = rollout(ConstantController([0.0, 0.0, 1.0]), "healthy", initial_angles=(0.0, 0.0, 0.0), episode_duration_s=2.0)
+    with BatchWorld(Morphology.healthy().to_array()[None]) as world:
+        world.reset(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
+        for _ in range(200):
+            world.step()
+        forward = world.position[0, 0, 1] - world.home[0, 1]
+    assert forward > 0.1
+    assert out.distance == pytest.approx(forward, abs=1e-9)
+
+
+@pytest.mark.parametrize("action", [[0.0, 0.0], [0.0, 0.0, 1.5], [float("nan"), 0.0, 0.0]])
+def test_constant_controller_rejects_bad_actions(action):
+    with pytest.raises(ValueError, match="action"):
+        ConstantController(action)
