@@ -9,7 +9,9 @@ For batches of 1, 25 and 100 robots of 128 steps, measures in the same run
   pure-drag model),
 
 and prints microseconds per robot-step, the ratio to raw PyBullet, and what the reactive
-thrust costs (median of ``--repeats`` runs).
+thrust costs (median of ``--repeats`` interleaved runs). Times are this process's CPU time
+(``time.process_time``): PyBullet's DIRECT client runs in-process, so that is the simulator's
+whole cost, and other jobs on the machine change it far less than wall time.
 
     python -m benchmarks.sim_throughput [--steps 128] [--repeats 5] [--sizes 1,25,100]
 """
@@ -38,9 +40,9 @@ def _inputs(n: int, rng: np.random.Generator):
 
 def time_simulate_batch(n: int, steps: int, rng, params: SimParams | None = None) -> float:
     morph, actions, angles = _inputs(n, rng)
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     simulate_batch(morph, actions, angles, steps, params=params)
-    return time.perf_counter() - t0
+    return time.process_time() - t0
 
 
 def time_raw_pybullet(n: int, steps: int, rng) -> float:
@@ -50,10 +52,10 @@ def time_raw_pybullet(n: int, steps: int, rng) -> float:
     try:
         world = BatchWorld(morph, client=client)
         world.reset(angles, actions)
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         for _ in range(steps):
             p.stepSimulation(physicsClientId=client)
-        return time.perf_counter() - t0
+        return time.process_time() - t0
     finally:
         p.disconnect(client)
 
