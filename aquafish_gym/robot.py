@@ -53,8 +53,9 @@ class RobotSpec:
         box_offsets: ``(N, 4, 3)`` centre of each link's drag box relative to its centre
             of mass (link frame): ``(0, 0, ballast_offset)`` for the body, 0 for flippers.
         axis_areas: ``(N, 4, 3)`` area of the pair of faces normal to x, y, z.
-        caudal_trailing_edge: ``(N, 3)`` midpoint of the caudal fin's trailing edge relative
-            to its centre of mass, caudal link frame: ``(0, -length / 2, 0)``.
+        caudal_half_length: ``(N,)`` distance from the caudal fin's centre of mass to the
+            midpoint of its trailing edge (units), which lies at ``(0, -half_length, 0)`` in
+            the caudal link frame.
         caudal_added_mass: ``(N,)`` added mass per unit length of the caudal fin,
             (pi / 4) rho height^2 (:func:`~aquafish_gym.fluid.added_mass_per_length`);
             0 for a fin without area (length or height 0).
@@ -69,7 +70,7 @@ class RobotSpec:
     face_areas: np.ndarray
     box_offsets: np.ndarray
     axis_areas: np.ndarray
-    caudal_trailing_edge: np.ndarray
+    caudal_half_length: np.ndarray
     caudal_added_mass: np.ndarray
 
     @property
@@ -130,8 +131,6 @@ def robot_spec(morphologies: np.ndarray, params: SimParams) -> RobotSpec:
     face_areas = np.concatenate([ba[:, None], fa], axis=1)
     box_offsets = np.zeros((n, N_LINKS, 3))
     box_offsets[:, 0, 2] = params.ballast_offset
-    trailing_edge = np.zeros((n, 3))
-    trailing_edge[:, 1] = -sy[:, 2] / 2
     fin_height = np.where(sy[:, 2] * sz[:, 2] > 0, sz[:, 2], 0.0)
     return RobotSpec(
         masses=masses,
@@ -143,7 +142,7 @@ def robot_spec(morphologies: np.ndarray, params: SimParams) -> RobotSpec:
         face_areas=face_areas,
         box_offsets=box_offsets,
         axis_areas=face_areas[..., ::2].copy(),
-        caudal_trailing_edge=trailing_edge,
+        caudal_half_length=sy[:, 2] / 2,
         caudal_added_mass=added_mass_per_length(fin_height, params.fluid_density),
     )
 

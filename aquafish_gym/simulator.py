@@ -209,7 +209,7 @@ class BatchWorld:
         if prm.reactive_thrust:
             fin_rot = self.rotation[:, 3]
             f_fin, t_fin = caudal_reactive_force(
-                fin_rot, self.linear_velocity[:, 3], self.angular_velocity[:, 3], -self.spec.caudal_trailing_edge[:, 1],
+                fin_rot, self.linear_velocity[:, 3], self.angular_velocity[:, 3], self.spec.caudal_half_length,
                 self.spec.caudal_added_mass, water_current=prm.water_current,
             )
             force[:, 3] += f_fin

@@ -165,10 +165,11 @@ def test_reactive_couple_on_the_body_equals_the_force_at_the_trailing_edge():
         for _ in range(300):
             ref.step()
             rot = world.rotation[0, 3]
-            force, _ = reactive_force(rot, world.linear_velocity[0, 3], world.angular_velocity[0, 3],
-                                      world.spec.caudal_trailing_edge[0], np.array([0.0, -1.0, 0.0]),
-                                      np.array([1.0, 0.0, 0.0]), world.spec.caudal_added_mass[0])
-            edge = world.position[0, 3] + rot @ world.spec.caudal_trailing_edge[0]
+            trailing_edge = np.array([0.0, -world.spec.caudal_half_length[0], 0.0])
+            force, _ = reactive_force(rot, world.linear_velocity[0, 3], world.angular_velocity[0, 3], trailing_edge,
+                                      np.array([0.0, -1.0, 0.0]), np.array([1.0, 0.0, 0.0]),
+                                      world.spec.caudal_added_mass[0])
+            edge = world.position[0, 3] + rot @ trailing_edge
             p.applyExternalForce(world.bodies[0], LINK_CAUDAL, (rot @ force).tolist(), edge.tolist(), p.WORLD_FRAME,
                                  physicsClientId=world.client)
             world.step()
