@@ -176,7 +176,7 @@ def added_mass_per_length(height, fluid_density: float) -> np.ndarray:
     """Added mass per unit length of a flat fin section of height ``s``: m = (pi / 4) rho s^2.
 
     The added mass of a flat plate of width s accelerated normal to itself (the mass of a
-    water cylinder of diameter s), per unit length (Lighthill 1971, section 2).
+    water cylinder of diameter s), per unit length, as in Lighthill (1971).
 
     Args:
         height: ``(...)`` fin height s (units), normal to both the fin's length and its normal.
