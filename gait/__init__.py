@@ -28,8 +28,8 @@ from gait.rl import train_rl  # stable-baselines3 is imported only when training
 
 
 __all__ = [
-    "CLOCK_PERIOD_S", "EPISODE_DURATION_S", "ClockObservation", "ConstantController", "Controller", "GaitResult", "NEATController",
-    "Robot", "Rollout", "SB3PolicyController", "TransferResult", "as_robot", "clock_features", "evolve_gait",
+    "CLOCK_PERIOD_S", "EPISODE_DURATION_S", "ClockObservation", "ConstantController", "Controller", "GaitResult",
+    "NEATController", "Robot", "Rollout", "SB3PolicyController", "TransferResult", "as_robot", "clock_features", "evolve_gait",
     "latest_checkpoint", "load_controller", "load_neat_config", "make_env", "parse_robot", "plot_fitness_history",
     "plot_transfer", "rollout", "save_transfer", "score_transfer", "train_rl", "with_clock",
 ]
