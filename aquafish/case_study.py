@@ -115,13 +115,9 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, workers: int
     controllers = {}
     for label, morphology in natives.items():
         gait_dir = out / ("gait_" + label.split()[0].replace("-", "_"))
-        if (gait_dir / "run.json").exists():  # finished earlier: reuse
-            controllers[label] = gait.load_controller(gait_dir / "best_controller.pkl")
-            continue
-        result = gait.evolve_gait(morphology, generations=settings.gait_generations, population_size=settings.gait_population,
-                                  seed=seed, out_dir=gait_dir, workers=workers, episodes_per_genome=settings.gait_episodes,
-                                  verbose=progress)
-        controllers[label] = result.best_controller
+        controllers[label] = gait.evolve_or_load_gait(  # a finished gait is reused, an interrupted one resumed
+            morphology, gait_dir, generations=settings.gait_generations, population_size=settings.gait_population,
+            seed=seed, workers=workers, episodes_per_genome=settings.gait_episodes, verbose=progress)
     if settings.rl_timesteps and _rl_available():
         rl_dir = out / "rl_ppo_out_of_band"
         path = rl_dir / "model.zip"

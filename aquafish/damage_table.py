@@ -15,7 +15,8 @@ a damage *qualifies* for the damage-recovery case study (paper section 5) when i
 gait, and a gait made for the damaged body does much better.
 
 Every gait is evolved once into ``OUT/gaits/<robot>/`` and reused when the command is
-repeated (an interrupted gait run resumes from its last checkpoint); the table is written
+repeated (:func:`gait.evolve_or_load_gait`; an interrupted gait run resumes from its last
+checkpoint); the table is written
 to ``OUT/damage_table.json`` and ``.md`` through :func:`eea.checkpoint.atomic_write`.
 """
 
@@ -30,8 +31,7 @@ import numpy as np
 
 from aquafish_gym import DAMAGES
 from eea.checkpoint import atomic_write
-from gait.controller import NEAT_CONTROLLER_FILE, load_controller
-from gait.neat_evolution import evolve_gait, latest_checkpoint
+from gait.neat_evolution import evolve_or_load_gait
 from gait.rollout import rollout
 
 #: A damage qualifies for the case study when the healthy gait keeps at most this share of
@@ -58,24 +58,10 @@ class GaitBudget:
     workers: int = 1
 
 
-def evolve_or_load(robot: str, budget: GaitBudget, out_dir: Path, *, verbose: bool = False):
-    """The NEAT gait for ``robot`` (``"healthy"`` or a damage name), evolved once into ``out_dir``.
-
-    Returns:
-        The best controller. A finished run in ``out_dir`` is loaded, not repeated; a run
-        interrupted after a checkpoint resumes from it.
-    """
-    done = out_dir / NEAT_CONTROLLER_FILE
-    if done.is_file() and (out_dir / "run.json").is_file():
-        return load_controller(done)
-    try:
-        resume = latest_checkpoint(out_dir)
-    except ValueError:
-        resume = None
-    result = evolve_gait(robot, generations=budget.generations, population_size=budget.population_size,
-                         seed=budget.seed, out_dir=out_dir, workers=budget.workers, resume=resume,
-                         episodes_per_genome=budget.episodes_per_genome, verbose=verbose)
-    return result.best_controller
+def _gait(robot: str, budget: GaitBudget, out_dir: Path, verbose: bool):
+    return evolve_or_load_gait(robot, out_dir, generations=budget.generations, population_size=budget.population_size,
+                               seed=budget.seed, workers=budget.workers,
+                               episodes_per_genome=budget.episodes_per_genome, verbose=verbose)
 
 
 def distances(controller, robot: str, eval_seed: int, starts: int) -> np.ndarray:
@@ -113,11 +99,11 @@ def damage_table(out, *, damages=None, budget: GaitBudget = GaitBudget(), starts
     if isinstance(starts, bool) or not isinstance(starts, int) or starts < 1:
         raise ValueError(f"starts must be an integer >= 1, got {starts!r}")
     out = Path(out)
-    healthy_gait = evolve_or_load("healthy", budget, out / "gaits" / "healthy", verbose=verbose)
+    healthy_gait = _gait("healthy", budget, out / "gaits" / "healthy", verbose)
     on_healthy = distances(healthy_gait, "healthy", eval_seed, starts)
     rows = []
     for name in names:
-        oracle = evolve_or_load(name, budget, out / "gaits" / name, verbose=verbose)
+        oracle = _gait(name, budget, out / "gaits" / name, verbose)
         healthy_on_damaged = distances(healthy_gait, name, eval_seed, starts)
         oracle_on_damaged = distances(oracle, name, eval_seed, starts)
         oracle_swims = bool(oracle_on_damaged.mean() > 0)

@@ -36,7 +36,7 @@ import neat
 import numpy as np
 
 from gait.clock import CLOCK_PERIOD_S, check_clock_period
-from gait.controller import NEAT_CONTROLLER_FILE, NEATController
+from gait.controller import NEAT_CONTROLLER_FILE, NEATController, load_controller
 from gait.plots import plot_fitness_history
 from gait.robots import Robot, as_robot
 from gait.rollout import EPISODE_DURATION_S, Rollout, check_episodes, rollout
@@ -48,6 +48,8 @@ HISTORY_PLOT = "fitness_history.png"
 CHECKPOINT_DIR = "checkpoints"
 CHECKPOINT_PREFIX = "neat-checkpoint-"
 SETTINGS_FILE = "fitness_settings.json"
+#: Written last by :func:`evolve_gait`: its presence marks a finished run.
+RUN_FILE = "run.json"
 
 
 def load_neat_config(path=None, *, population_size: int | None = None) -> neat.Config:
@@ -243,8 +245,6 @@ def _previous_run(out_dir: Path | None, generation: int) -> tuple[list[dict], NE
     history = [h for h in json.loads((out_dir / HISTORY_FILE).read_text()) if h["generation"] < generation]
     if not history or not (out_dir / NEAT_CONTROLLER_FILE).is_file():
         return history, None, -np.inf
-    from gait.controller import load_controller
-
     return history, load_controller(out_dir / NEAT_CONTROLLER_FILE), history[-1]["best_so_far"]
 
 
@@ -368,6 +368,31 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
     return result
 
 
+def evolve_or_load_gait(morphology, out_dir, **kwargs) -> NEATController:
+    """The best controller of a NEAT run in ``out_dir``, evolving it only if it is not finished.
+
+    A finished run (its ``run.json`` written) is loaded, not repeated; a run interrupted after
+    a checkpoint resumes from its latest one; otherwise a new run starts. The case study and
+    the damage table evolve every gait through this, so repeating a command reuses its gaits.
+
+    Args:
+        morphology: as :func:`evolve_gait`.
+        out_dir: the run directory.
+        **kwargs: further :func:`evolve_gait` arguments (not ``out_dir`` or ``resume``).
+
+    Raises:
+        ValueError: as :func:`evolve_gait`.
+    """
+    out_dir = Path(out_dir)
+    if (out_dir / RUN_FILE).is_file():
+        return load_controller(out_dir / NEAT_CONTROLLER_FILE)
+    try:
+        resume = latest_checkpoint(out_dir)
+    except ValueError:
+        resume = None
+    return evolve_gait(morphology, out_dir=out_dir, resume=resume, **kwargs).best_controller
+
+
 def _write_outputs(result: GaitResult, task: FitnessTask, config: neat.Config) -> None:
     out = result.out_dir
     (out / "best_genome.txt").write_text(f"{result.best_controller!r}\nfitness {result.best_fitness}\n\n{result.best_controller.genome}\n")
@@ -387,4 +412,4 @@ def _write_outputs(result: GaitResult, task: FitnessTask, config: neat.Config) -
         "wall_time_s": result.wall_time_s,
         "controller": NEAT_CONTROLLER_FILE,
     }
-    (out / "run.json").write_text(json.dumps(summary, indent=1))
+    (out / RUN_FILE).write_text(json.dumps(summary, indent=1))

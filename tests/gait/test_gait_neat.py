@@ -6,7 +6,7 @@ import shutil
 import numpy as np
 import pytest
 
-from gait import evolve_gait, latest_checkpoint, load_controller, load_neat_config, rollout
+from gait import evolve_gait, evolve_or_load_gait, latest_checkpoint, load_controller, load_neat_config, rollout
 from gait.neat_evolution import DEFAULT_CONFIG
 
 TINY = dict(population_size=6, seed=3, workers=1, episode_duration_s=1.0, checkpoint_every=1, verbose=False)
@@ -103,3 +103,17 @@ def test_several_episodes_per_genome_average_starts():
     assert result.best_fitness == pytest.approx(expected, abs=1e-12)
     with pytest.raises(ValueError, match="episodes"):
         evolve_gait(None, generations=1, episodes_per_genome=2, initial_angles=[0.0, 0.0, 0.0], **TINY)
+
+
+def test_evolve_or_load_gait_reuses_a_finished_run_and_resumes_an_interrupted_one(tmp_path):
+    full = evolve_gait(None, generations=3, out_dir=tmp_path / "a", **TINY)
+    # finished: loaded, not evolved again (a different budget would raise or change it)
+    loaded = evolve_or_load_gait(None, tmp_path / "a", generations=99, **TINY)
+    assert rollout(loaded, seed=3, episode_duration_s=1.0).distance == pytest.approx(full.best_fitness)
+    # interrupted after generation 2 (no run.json, later checkpoints gone): resumed to the same result
+    shutil.copytree(tmp_path / "a", tmp_path / "b")
+    (tmp_path / "b" / "run.json").unlink()
+    (tmp_path / "b" / "checkpoints" / "neat-checkpoint-3").unlink()
+    resumed = evolve_or_load_gait(None, tmp_path / "b", generations=3, **TINY)
+    assert json.loads((tmp_path / "b" / "run.json").read_text())["best_fitness"] == full.best_fitness
+    assert rollout(resumed, seed=3, episode_duration_s=1.0).distance == pytest.approx(full.best_fitness)
