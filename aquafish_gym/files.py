@@ -29,6 +29,8 @@ def atomic_write(path: str | os.PathLike, data: bytes) -> None:
     The temporary file ``.NAME.*.tmp`` lives in the same directory as ``path`` (a rename
     is atomic only within one file system) and is removed if anything fails, including a
     ``KeyboardInterrupt``; ``path`` is then left as it was. The parent directory must exist.
+    The new file gets the permissions a plain ``open(path, "w")`` would give it
+    (``0o666`` less the process umask), not ``mkstemp``'s private ``0o600``.
 
     Args:
         path: file to create or replace.
@@ -43,6 +45,8 @@ def atomic_write(path: str | os.PathLike, data: bytes) -> None:
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as f:
+            if hasattr(os, "fchmod"):  # POSIX
+                os.fchmod(f.fileno(), 0o666 & ~_umask())
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
@@ -51,6 +55,13 @@ def atomic_write(path: str | os.PathLike, data: bytes) -> None:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def _umask() -> int:
+    """The process's file-creation mask (read by setting it and setting it back)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def save_figure(fig: Figure, path: str | os.PathLike, **savefig_kwargs: Any) -> Path:

@@ -17,6 +17,13 @@ def test_atomic_write_writes_and_replaces(tmp_path):
     assert os.listdir(tmp_path) == ["a.json"]
 
 
+def test_atomic_write_gives_the_permissions_of_a_plain_open(tmp_path):
+    plain, atomic = tmp_path / "plain", tmp_path / "atomic"
+    plain.write_bytes(b"x")
+    atomic_write(atomic, b"x")
+    assert atomic.stat().st_mode == plain.stat().st_mode
+
+
 def test_failed_rename_keeps_the_old_file_and_removes_the_temporary(tmp_path, monkeypatch):
     path = tmp_path / "a.json"
     path.write_bytes(b"old")
