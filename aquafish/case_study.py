@@ -25,7 +25,7 @@ import eea
 import gait
 from aquafish_gym import MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology, get_damage
 from aquafish_gym.drawing import plot_morphologies
-from eea.checkpoint import atomic_write
+from aquafish_gym.files import atomic_write
 from eea.config import EEAConfig
 
 

@@ -17,7 +17,7 @@ gait, and a gait made for the damaged body does much better.
 Every gait is evolved once into ``OUT/gaits/<robot>/`` and reused when the command is
 repeated (:func:`gait.evolve_or_load_gait`; an interrupted gait run resumes from its last
 checkpoint); the table is written
-to ``OUT/damage_table.json`` and ``.md`` through :func:`eea.checkpoint.atomic_write`.
+to ``OUT/damage_table.json`` and ``.md`` through :func:`aquafish_gym.files.atomic_write`.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from aquafish_gym import DAMAGES
-from eea.checkpoint import atomic_write
+from aquafish_gym.files import atomic_write
 from gait.neat_evolution import evolve_or_load_gait
 from gait.rollout import rollout
 

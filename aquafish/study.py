@@ -19,6 +19,7 @@ from pathlib import Path
 
 from tqdm.auto import tqdm
 
+from aquafish_gym.files import atomic_write
 from eea.config import EEAConfig
 from eea.record import read_rounds
 
@@ -141,6 +142,4 @@ def _write_spec(spec: StudySpec, out_dir: Path) -> None:
         if old != data:
             raise ValueError(f"{path} describes a different study; use another --out or delete it")
         return
-    tmp = path.with_suffix(".tmp")
-    tmp.write_text(json.dumps(data, indent=2))
-    tmp.replace(path)
+    atomic_write(path, json.dumps(data, indent=2).encode())

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aquafish_gym.files import save_figure
 from aquafish_gym.morphology import Morphology
 from aquafish_gym.robot import BODY_LENGTH, BODY_RADIUS, CAUDAL_HINGE_Y, PECTORAL_HINGE_Y
 
@@ -52,7 +53,11 @@ def draw_morphology(ax_top, ax_side, morphology: Morphology, title: str = "") ->
 
 
 def plot_morphologies(morphologies: list[Morphology], titles: list[str], path) -> Path:
-    """Draw morphologies side by side (top view above, side view below); write a PNG."""
+    """Draw morphologies side by side (top view above, side view below); write a PNG atomically.
+
+    Raises:
+        OSError: as :func:`aquafish_gym.files.save_figure`.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -63,10 +68,7 @@ def plot_morphologies(morphologies: list[Morphology], titles: list[str], path) -
     for k, (m, t) in enumerate(zip(morphologies, titles)):
         draw_morphology(axes[0, k], axes[1, k], m, t)
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=120)
-    plt.close(fig)
-    tmp.replace(path)
-    return path
+    try:
+        return save_figure(fig, path, dpi=120)
+    finally:
+        plt.close(fig)

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from aquafish_gym.damage import get_damage
+from aquafish_gym.files import save_figure
 from aquafish_gym.morphology import Morphology
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.simulator import BatchWorld
@@ -52,7 +53,11 @@ def swim_trajectories(damages, action=FIXED_GAIT, duration_s: float = 20.0, init
 
 
 def plot_trajectories(trajectories: np.ndarray, labels, path: Path, title: str = "") -> Path:
-    """Plot ``(N, T, 2)`` trajectories on one axes with the start marked; write a PNG."""
+    """Plot ``(N, T, 2)`` trajectories on one axes with the start marked; write a PNG atomically.
+
+    Raises:
+        OSError: as :func:`aquafish_gym.files.save_figure`.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -68,10 +73,7 @@ def plot_trajectories(trajectories: np.ndarray, labels, path: Path, title: str =
     ax.grid(True, alpha=0.3)
     ax.legend()
     ax.set_title(title)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=120, bbox_inches="tight")
-    plt.close(fig)
-    tmp.replace(path)
-    return path
+    try:
+        return save_figure(fig, path, dpi=120, bbox_inches="tight")
+    finally:
+        plt.close(fig)

@@ -12,14 +12,13 @@ the paper's figure layout - one panel per strategy, one colour per duration, mea
 from __future__ import annotations
 
 import dataclasses
-import io
 import os
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
 
-from eea.checkpoint import atomic_write
+from aquafish_gym.files import save_figure
 from eea.inference import INFERENCE_NAMES
 from eea.record import CONFIG_FILE, RunResult, load_result
 
@@ -164,13 +163,10 @@ def plot_study(summary: dict[tuple[str, float], GroupSummary], out_png: str | os
         ax.legend(loc="center right", fontsize=8)
     axes[0, 0].set_ylabel("objective fitness (solid: mean, dashed: std)")
     fig.tight_layout()
-    png = io.BytesIO()
-    fig.savefig(png, format="png", dpi=120)
-    plt.close(fig)
-    path = Path(out_png)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write(path, png.getvalue())
-    return path
+    try:
+        return save_figure(fig, out_png, format="png", dpi=120)
+    finally:
+        plt.close(fig)
 
 
 def plot_runs(paths, out_png: str | os.PathLike) -> str:

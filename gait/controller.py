@@ -24,6 +24,7 @@ from typing import Any, Protocol, runtime_checkable
 import neat
 import numpy as np
 
+from aquafish_gym.files import atomic_write
 from gait.clock import CLOCK_DIM, CLOCK_PERIOD_S, OBS_DIM, check_clock_period, with_clock
 
 #: File names inside a run directory that :func:`load_controller` looks for.
@@ -118,11 +119,14 @@ class NEATController:
         return np.clip(np.asarray(out, dtype=np.float64), -1.0, 1.0)
 
     def save(self, path) -> Path:
-        """Pickle the controller (genome, config, clock period) to ``path``; return it."""
+        """Pickle the controller (genome, config, clock period) to ``path`` atomically; return it.
+
+        Raises:
+            OSError: as :func:`aquafish_gym.files.atomic_write`.
+        """
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        with path.open("wb") as f:
-            pickle.dump(self, f, protocol=pickle.HIGHEST_PROTOCOL)
+        atomic_write(path, pickle.dumps(self, protocol=pickle.HIGHEST_PROTOCOL))
         return path
 
     def __getstate__(self) -> dict[str, Any]:

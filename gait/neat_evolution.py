@@ -35,6 +35,7 @@ from typing import Any
 import neat
 import numpy as np
 
+from aquafish_gym.files import atomic_write
 from gait.clock import CLOCK_PERIOD_S, check_clock_period
 from gait.controller import NEAT_CONTROLLER_FILE, NEATController, load_controller
 from gait.plots import plot_fitness_history
@@ -176,7 +177,7 @@ class HistoryReporter(neat.reporting.BaseReporter):
             "wall_time_s": self._elapsed_before + time.perf_counter() - self._start,
         })
         if self.out_dir is not None:
-            (self.out_dir / HISTORY_FILE).write_text(json.dumps(self.history, indent=1))
+            atomic_write(self.out_dir / HISTORY_FILE, json.dumps(self.history, indent=1).encode())
 
 
 @dataclasses.dataclass
@@ -270,7 +271,7 @@ def _attach_reporters(population: neat.Population, task: FitnessTask, out_dir: P
             if before != json.loads(json.dumps(_settings(task))):
                 raise ValueError(f"cannot resume: {settings_file} has fitness settings {before}, this run has {_settings(task)}")
         (out_dir / CHECKPOINT_DIR).mkdir(parents=True, exist_ok=True)
-        settings_file.write_text(json.dumps(_settings(task), indent=1))
+        atomic_write(settings_file, json.dumps(_settings(task), indent=1).encode())
     recorder = HistoryReporter(task, out_dir, history, best, best_fitness)
     if verbose:
         population.add_reporter(neat.StdOutReporter(show_species_detail=False))
@@ -344,7 +345,7 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
 
     recorder, checkpointer = _attach_reporters(population, task, out_dir, resume is not None, verbose, checkpoint_every)
     if out_dir is not None and config_text is not None:
-        (out_dir / "neat_config.ini").write_text(config_text)
+        atomic_write(out_dir / "neat_config.ini", config_text.encode())
 
     evaluate = functools.partial(evaluate_genome, task=task)
     if workers == 1:
@@ -395,7 +396,8 @@ def evolve_or_load_gait(morphology, out_dir, **kwargs) -> NEATController:
 
 def _write_outputs(result: GaitResult, task: FitnessTask, config: neat.Config) -> None:
     out = result.out_dir
-    (out / "best_genome.txt").write_text(f"{result.best_controller!r}\nfitness {result.best_fitness}\n\n{result.best_controller.genome}\n")
+    atomic_write(out / "best_genome.txt",
+                 f"{result.best_controller!r}\nfitness {result.best_fitness}\n\n{result.best_controller.genome}\n".encode())
     plot_fitness_history(result.history, out / HISTORY_PLOT, title=f"NEAT gait: {result.robot.label}, seed {result.seed}")
     summary: dict[str, Any] = {
         "robot": result.robot.to_dict(),
@@ -412,4 +414,4 @@ def _write_outputs(result: GaitResult, task: FitnessTask, config: neat.Config) -
         "wall_time_s": result.wall_time_s,
         "controller": NEAT_CONTROLLER_FILE,
     }
-    (out / RUN_FILE).write_text(json.dumps(summary, indent=1))
+    atomic_write(out / RUN_FILE, json.dumps(summary, indent=1).encode())

@@ -1,6 +1,7 @@
 """Figures of the gait study: fitness per generation, and transfer trajectories (Figure 12).
 
-Matplotlib's object-oriented API with the Agg canvas: no pyplot, no global backend
+Matplotlib's object-oriented API (a bare ``Figure``, rendered in memory by
+:func:`aquafish_gym.files.save_figure` and written atomically): no pyplot, no global backend
 change, works headless.
 """
 
@@ -10,23 +11,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+
+from aquafish_gym.files import save_figure
 
 if TYPE_CHECKING:
     from gait.transfer import TransferResult
 
 #: Centimetres per simulator unit (the body diameter is 1 unit = 8 cm).
 CM_PER_UNIT = 8.0
-
-
-def save_figure(fig: Figure, path) -> Path:
-    """Render ``fig`` with the Agg canvas to ``path`` (parent folders created); return the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    FigureCanvasAgg(fig)
-    fig.savefig(path, dpi=120)
-    return path
 
 
 def plot_fitness_history(history: Sequence[dict], path, title: str | None = None) -> Path:
@@ -63,7 +56,7 @@ def plot_fitness_history(history: Sequence[dict], path, title: str | None = None
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=8)
     fig.tight_layout()
-    return save_figure(fig, path)
+    return save_figure(fig, path, dpi=120)
 
 
 def plot_transfer(results: "Sequence[TransferResult]", path, titles: Sequence[str] | None = None) -> Path:
@@ -109,7 +102,7 @@ def plot_transfer(results: "Sequence[TransferResult]", path, titles: Sequence[st
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=7)
     fig.tight_layout()
-    return save_figure(fig, path)
+    return save_figure(fig, path, dpi=120)
 
 
 def plot_learning_curve(episodes: np.ndarray, path, title: str = "") -> Path:
@@ -138,4 +131,4 @@ def plot_learning_curve(episodes: np.ndarray, path, title: str = "") -> Path:
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    return save_figure(fig, path)
+    return save_figure(fig, path, dpi=120)

@@ -19,6 +19,7 @@ from typing import Any, Callable
 import numpy as np
 import yaml
 
+from aquafish_gym.files import atomic_write
 from gait.clock import CLOCK_PERIOD_S, ClockObservation, check_clock_period
 from gait.controller import SB3_ALGOS, SB3_MODEL_FILE, SB3PolicyController, sb3_algorithm, sb3_sidecar
 from gait.plots import plot_learning_curve
@@ -160,9 +161,9 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
         "timesteps": int(n_timesteps), "episode_duration_s": episode_duration_s, "wall_time_s": wall_time_s,
         "eval_seed": eval_seed, "eval_distance": score.distance, "eval_initial_angles_rad": score.initial_angles.tolist(),
     }
-    sb3_sidecar(model_path).write_text(json.dumps(meta, indent=1))
+    atomic_write(sb3_sidecar(model_path), json.dumps(meta, indent=1).encode())
     used = read_hyperparams_section(algo, hyperparams_path) | {"n_timesteps": int(n_timesteps)}
-    (out_dir / "hyperparams.yml").write_text(yaml.safe_dump({algo: {ENV_ID: used}}, sort_keys=False))
+    atomic_write(out_dir / "hyperparams.yml", yaml.safe_dump({algo: {ENV_ID: used}}, sort_keys=False).encode())
     curve = read_monitor(out_dir / "monitor")
     if len(curve):
         plot_learning_curve(curve, out_dir / "learning_curve.png", title=f"{algo.upper()} on {robot.label}")

@@ -18,6 +18,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from aquafish_gym.files import atomic_write
 from gait.controller import Controller
 from gait.plots import plot_transfer
 from gait.robots import Robot, as_robot
@@ -150,10 +151,14 @@ def score_transfer(controller: Controller, native, target, *, seed: int = 0, epi
 
 
 def save_transfer(results: Sequence[TransferResult], path) -> Path:
-    """Write the results (distances and trajectories) as a JSON list; return the path."""
+    """Write the results (distances and trajectories) as a JSON list atomically; return the path.
+
+    Raises:
+        OSError: as :func:`aquafish_gym.files.atomic_write`.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps([r.to_dict() for r in results], indent=1))
+    atomic_write(path, json.dumps([r.to_dict() for r in results], indent=1).encode())
     return path
 
 
