@@ -2,8 +2,9 @@
 
 Each package contributes its sub-commands through an ``add_commands(subparsers)``
 function in its ``cli`` module; a sub-command's handler is stored as ``func`` and receives
-the parsed ``argparse.Namespace``. A package whose optional dependencies are missing simply
-contributes nothing.
+the parsed ``argparse.Namespace``. These modules import no optional dependency
+(stable-baselines3, torch, ray) at module level: a handler that needs one imports it
+itself, so every sub-command is listed whatever extras are installed.
 """
 
 from __future__ import annotations
@@ -13,20 +14,14 @@ import importlib
 import sys
 
 #: Modules that contribute sub-commands, in help order.
-COMMAND_MODULES = ("aquafish_gym.cli", "eea.cli", "gait.cli", "aquafish.studies_cli")
+COMMAND_MODULES = ("aquafish_gym.cli", "aquafish.bench_cli", "eea.cli", "gait.cli", "aquafish.studies_cli")
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="aquafish", description="Self-modeling aquatic robot: simulate, self-model (EEA), evolve gaits, transfer.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMAND_MODULES:
-        try:
-            module = importlib.import_module(name)
-        except ModuleNotFoundError as err:
-            if err.name == name:  # the module itself is not written yet
-                continue
-            raise
-        module.add_commands(sub)
+        importlib.import_module(name).add_commands(sub)
     return parser
 
 

@@ -1,4 +1,4 @@
-"""``aquafish`` sub-commands of the simulator package: ``swim`` and ``bench``."""
+"""``aquafish swim``, the sub-command of the simulator package (``aquafish bench`` is in :mod:`aquafish.bench_cli`)."""
 
 from __future__ import annotations
 
@@ -21,18 +21,8 @@ def _swim(args: argparse.Namespace) -> int:
     return 0
 
 
-def _bench(args: argparse.Namespace) -> int:
-    if args.what == "sim":
-        from benchmarks.sim_throughput import main as bench_main
-    else:
-        import importlib
-
-        bench_main = importlib.import_module(f"benchmarks.{args.what}").main
-    bench_main(args.rest)
-    return 0
-
-
 def add_commands(sub) -> None:
+    """Add the ``swim`` sub-command to an argparse ``subparsers`` object."""
     p = sub.add_parser("swim", help="swim the healthy and damaged robots with a fixed gait; plot trajectories")
     p.add_argument("--damages", default="none,left_pectoral_half,caudal_half,caudal_missing",
                    help="comma-separated damage names (default none,left_pectoral_half,caudal_half,caudal_missing)")
@@ -40,8 +30,3 @@ def add_commands(sub) -> None:
     p.add_argument("--duration", type=float, default=20.0, help="seconds of simulated swimming")
     p.add_argument("--out", default="demo_out", help="output directory")
     p.set_defaults(func=_swim)
-
-    b = sub.add_parser("bench", help="run a benchmark script (sim = simulator throughput)")
-    b.add_argument("what", help="benchmark name: sim, or a module in benchmarks/ (e.g. eea_round)")
-    b.add_argument("rest", nargs=argparse.REMAINDER, help="arguments passed to the benchmark")
-    b.set_defaults(func=_bench)

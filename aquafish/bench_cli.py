@@ -1,0 +1,31 @@
+"""``aquafish bench``: run one of the benchmark scripts in :mod:`benchmarks`.
+
+``aquafish bench sim`` runs :mod:`benchmarks.sim_throughput`; ``aquafish bench NAME ARGS``
+runs ``benchmarks.NAME.main(ARGS)`` (e.g. ``aquafish bench eea_round --workers 1,2``).
+It lives here, in the top-level CLI package, so that the simulator package
+:mod:`aquafish_gym` imports nothing from :mod:`benchmarks`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+
+__all__ = ["add_commands"]
+
+#: Short names of benchmark modules.
+ALIASES = {"sim": "sim_throughput"}
+
+
+def _bench(args: argparse.Namespace) -> int:
+    bench_main = importlib.import_module(f"benchmarks.{ALIASES.get(args.what, args.what)}").main
+    bench_main(args.rest)
+    return 0
+
+
+def add_commands(sub) -> None:
+    """Add the ``bench`` sub-command to an argparse ``subparsers`` object."""
+    b = sub.add_parser("bench", help="run a benchmark script (sim = simulator throughput)")
+    b.add_argument("what", help="benchmark name: sim, or a module in benchmarks/ (e.g. eea_round)")
+    b.add_argument("rest", nargs=argparse.REMAINDER, help="arguments passed to the benchmark")
+    b.set_defaults(func=_bench)
