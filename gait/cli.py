@@ -92,7 +92,8 @@ def _angles(text: str | None):
 
 def run_transfer(args: argparse.Namespace) -> int:
     from gait.controller import load_controller
-    from gait.transfer import plot_transfer, save_transfer, score_transfer
+    from gait.plots import plot_transfer
+    from gait.transfer import save_transfer, score_transfer
 
     natives = args.native * len(args.controller) if len(args.native) == 1 else args.native
     if len(natives) != len(args.controller):

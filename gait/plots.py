@@ -8,15 +8,13 @@ change, works headless.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Sequence
+from typing import Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from aquafish_gym.files import save_figure
-
-if TYPE_CHECKING:
-    from gait.transfer import TransferResult
+from gait.transfer import TransferResult
 
 #: Centimetres per simulator unit (the body diameter is 1 unit = 8 cm).
 CM_PER_UNIT = 8.0
@@ -59,7 +57,7 @@ def plot_fitness_history(history: Sequence[dict], path, title: str | None = None
     return save_figure(fig, path, dpi=120)
 
 
-def plot_transfer(results: "Sequence[TransferResult]", path, titles: Sequence[str] | None = None) -> Path:
+def plot_transfer(results: Sequence[TransferResult], path, titles: Sequence[str] | None = None) -> Path:
     """Plot native and target trajectories of each transfer, one axes per result (Figure 12).
 
     Each axes shows the controller on its native morphology (solid) and on the target

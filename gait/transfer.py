@@ -7,6 +7,7 @@ first episode's ``(T + 1, 2)`` x, y trajectories (every 0.1 s) show how well the
 survives the change of body. A gait's distance depends strongly on where its flippers start
 (an evolved gait can swim 5 units from one start and drift backwards from another), so
 score several episodes when comparing controllers; the paper's Figure 12 shows one.
+:func:`gait.plots.plot_transfer` draws the figure (also exported as ``gait.plot_transfer``).
 """
 
 from __future__ import annotations
@@ -20,7 +21,6 @@ import numpy as np
 
 from aquafish_gym.files import atomic_write
 from gait.controller import Controller
-from gait.plots import plot_transfer
 from gait.robots import Robot, as_robot
 from gait.rollout import EPISODE_DURATION_S, Rollout, check_episodes, rollout
 
@@ -162,4 +162,4 @@ def save_transfer(results: Sequence[TransferResult], path) -> Path:
     return path
 
 
-__all__ = ["TransferResult", "plot_transfer", "save_transfer", "score_transfer"]
+__all__ = ["TransferResult", "save_transfer", "score_transfer"]
