@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from pathlib import Path
 
-from eea.config import ESTIMATION_SEARCHES, EEAConfig
-from eea.inference import OOB_EXPERIMENTS
+from eea.cli import add_config_flags, config_flag_names
+from eea.config import EEAConfig
 
-#: EEA settings a study may override from the command line (the rest keep their defaults).
-STUDY_OVERRIDES = ("damage", "rounds", "exploration_population", "exploration_generations", "exploration_models",
-                   "estimation_population", "estimation_generations", "estimation_search", "cma_sigma", "k_best",
-                   "oob_period", "oob_sample", "oob_population", "oob_generations", "oob_experiments")
+#: EEA settings that are no flags of ``aquafish study``: the study sets them per run
+#: (``--conditions``, ``--durations``, ``--replicates`` give inference, duration and seed)
+#: and runs every run serially (``--processes`` runs at once). Every other
+#: :class:`~eea.config.EEAConfig` field is a flag, as in ``aquafish eea``.
+STUDY_EXCLUDED = ("inference", "duration_s", "seed", "workers")
 
 
 def _csv(kind):
@@ -37,9 +37,8 @@ def _case_study(args: argparse.Namespace) -> int:
 def _study(args: argparse.Namespace) -> int:
     from aquafish.study import StudySpec, run_study
 
-    defaults = EEAConfig(workers=1)
-    overrides = {name: getattr(args, name) for name in STUDY_OVERRIDES if getattr(args, name) is not None}
-    spec = StudySpec(args.conditions, args.durations, args.replicates, defaults.replace(**overrides))
+    base = EEAConfig(workers=1, **{name: getattr(args, name) for name in config_flag_names(STUDY_EXCLUDED)})
+    spec = StudySpec(args.conditions, args.durations, args.replicates, base)
     dirs = run_study(spec, args.out, backend=args.backend, address=args.address, processes=args.processes)
     print(f"{len(dirs)} runs under {args.out}; plot them with: aquafish plot {args.out}")
     return 0
@@ -96,12 +95,7 @@ def add_commands(sub) -> None:
     s.add_argument("--backend", choices=["local", "ray"], default="local", help="local process pool or Ray tasks")
     s.add_argument("--address", default=None, help="Ray cluster address (ray.init); default: start a local Ray")
     s.add_argument("--processes", type=int, default=None, help="local pool size (default: all cores)")
-    fields = {f.name: f for f in dataclasses.fields(EEAConfig)}
-    for name in STUDY_OVERRIDES:
-        kind = {"damage": str, "estimation_search": str, "cma_sigma": float, "oob_experiments": str}.get(name, int)
-        s.add_argument("--" + name.replace("_", "-"), dest=name, type=kind, default=None,
-                       choices={"estimation_search": ESTIMATION_SEARCHES, "oob_experiments": OOB_EXPERIMENTS}.get(name),
-                       help=f"EEA setting (default {fields[name].default})")
+    add_config_flags(s, exclude=STUDY_EXCLUDED)
     s.set_defaults(func=_study)
 
     p = sub.add_parser("plot", help="plot mean objective fitness vs round per condition and duration (Figures 5-10)")

@@ -1,7 +1,10 @@
-"""The ``aquafish`` parser: every sub-command registered, no optional dependency imported."""
+"""The ``aquafish`` parser: every sub-command registered, no optional dependency imported, study flags."""
 
+import dataclasses
 import subprocess
 import sys
+
+import pytest
 
 from aquafish.cli import build_parser, main
 
@@ -26,3 +29,46 @@ def test_bench_passes_the_rest_to_the_benchmark(capsys):
     assert main(["bench", "sim", "--steps", "2", "--repeats", "1", "--sizes", "1"]) == 0
     table = capsys.readouterr().out.splitlines()
     assert table[1].split()[:2] == ["robots", "steps"] and table[2].split()[:2] == ["1", "2"]
+
+
+def _flags(parser, command):
+    sub = next(a for a in parser._actions if a.dest == "command").choices[command]
+    return {a.dest: a for a in sub._actions if a.option_strings}
+
+
+def test_study_has_every_eea_flag_but_the_per_run_ones():
+    from eea.config import EEAConfig
+
+    parser = build_parser()
+    eea, study = _flags(parser, "eea"), _flags(parser, "study")
+    fields = [f.name for f in dataclasses.fields(EEAConfig)]
+    per_run = {"inference", "duration_s", "seed", "workers"}
+    assert per_run <= set(eea) and not per_run & set(study)
+    for name in set(fields) - per_run:
+        assert (study[name].option_strings, study[name].default, study[name].type, study[name].choices, study[name].help) \
+            == (eea[name].option_strings, eea[name].default, eea[name].type, eea[name].choices, eea[name].help)
+
+
+def test_study_command_line_of_the_readme(monkeypatch, tmp_path):
+    import aquafish.study
+
+    specs = []
+    monkeypatch.setattr(aquafish.study, "run_study", lambda spec, out, **kw: specs.append((spec, out, kw)) or [])
+    argv = ["study", "--conditions", "known,none,in_band,out_of_band", "--durations", "1.28", "--replicates", "5",
+            "--rounds", "10", "--estimation-generations", "30", "--exploration-generations", "10", "--oob-period", "10",
+            "--estimation-search", "cma", "--cma-sigma", "0.2", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    spec, out, kw = specs[0]
+    assert (spec.conditions, spec.durations_s, spec.replicates, out) == (("known", "none", "in_band", "out_of_band"),
+                                                                          (1.28,), 5, str(tmp_path))
+    from eea.config import EEAConfig
+
+    assert spec.base == EEAConfig(workers=1, rounds=10, estimation_generations=30, exploration_generations=10,
+                                  oob_period=10, estimation_search="cma", cma_sigma=0.2)
+    assert kw == {"backend": "local", "address": None, "processes": None}
+
+
+@pytest.mark.parametrize("flag", ["--seed", "--inference", "--workers"])
+def test_study_rejects_per_run_settings(flag, tmp_path):
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["study", "--out", str(tmp_path), flag, "1"])
