@@ -108,7 +108,8 @@ def plot_learning_curve(episodes: np.ndarray, path, title: str = "") -> Path:
 
     Args:
         episodes: ``(E, 3)`` return, length (steps), wall time per episode, in order
-            (from :func:`gait.rl.read_monitor`).
+            (columns ``r``, ``l``, ``t`` of SB3's
+            ``stable_baselines3.common.monitor.load_results``, as :func:`gait.rl.train_rl` reads them).
         path: image file to write.
         title: axes title.
 

@@ -10,7 +10,6 @@ Hyperparameters come from ``gait/rl_hyperparams.yml`` (RL Zoo conventions).
 from __future__ import annotations
 
 import copy
-import csv
 import json
 import time
 from pathlib import Path
@@ -125,10 +124,14 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
 
     Raises:
         ValueError: invalid algorithm, robot, hyperparameters or counts.
-        ImportError: stable-baselines3 is missing (install the ``[rl]`` extra).
+        ImportError: stable-baselines3, or pandas (for SB3's ``load_results``), is missing
+            (install the ``[rl]`` extra); raised before training.
     """
     algo_cls = sb3_algorithm(algo)
     from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.monitor import load_results
+
+    import pandas  # noqa: F401  (load_results needs it: fail now, not after training)
 
     robot = as_robot(morphology if morphology is not None else "healthy", damage=damage)
     clock_period_s = check_clock_period(clock_period_s)
@@ -164,19 +167,8 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
     atomic_write(sb3_sidecar(model_path), json.dumps(meta, indent=1).encode())
     used = read_hyperparams_section(algo, hyperparams_path) | {"n_timesteps": int(n_timesteps)}
     atomic_write(out_dir / "hyperparams.yml", yaml.safe_dump({algo: {ENV_ID: used}}, sort_keys=False).encode())
-    curve = read_monitor(out_dir / "monitor")
+    # return, length and wall time (s since the first env started) of every episode, in time order
+    curve = load_results(str(out_dir / "monitor"))[["r", "l", "t"]].to_numpy(dtype=np.float64)
     if len(curve):
         plot_learning_curve(curve, out_dir / "learning_curve.png", title=f"{algo.upper()} on {robot.label}")
     return model_path
-
-
-def read_monitor(monitor_dir) -> np.ndarray:
-    """Episodes logged by SB3's ``Monitor`` in ``monitor_dir``: ``(E, 3)`` of return, length,
-    wall time (s), sorted by wall time; ``(0, 3)`` if none."""
-    rows = []
-    for f in sorted(Path(monitor_dir).glob("*.monitor.csv")):
-        with f.open() as fh:
-            fh.readline()  # the JSON header line
-            rows += [(float(r["r"]), float(r["l"]), float(r["t"])) for r in csv.DictReader(fh)]
-    arr = np.array(rows, dtype=np.float64).reshape(-1, 3)
-    return arr[np.argsort(arr[:, 2], kind="stable")]
