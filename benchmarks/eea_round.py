@@ -22,50 +22,35 @@ import numpy as np
 from eea.behaviour import behaviour_summary
 from eea.config import EEAConfig
 from eea.encoding import ACTION_BITS, decode_actions
-from eea.estimation import Estimation
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
-from eea.exploration import Exploration
-from eea.inference import make_inference
-from eea.target import Target
+from eea.round import RoundParts, run_round
 
 
-def recorded_experiments(config: EEAConfig, n: int, rng: np.random.Generator) -> tuple[Target, list[Experiment]]:
+def recorded_experiments(parts: RoundParts, n: int, rng: np.random.Generator) -> tuple[Experiment, ...]:
     """``n`` experiments with random actions on the target, contexts locked as after their rounds."""
-    target = Target(config.damage, config.steps, rng)
-    strategy = make_inference(config.inference, config)
     experiments = []
     for i in range(n):
         action = decode_actions(rng.integers(0, 2, ACTION_BITS, dtype=np.uint8))
-        log, true = target.perform(action)
-        ctx = strategy.new_context(true).with_confidence(1.0)
+        log, true = parts.target.perform(action)
+        ctx = parts.strategy.new_context(true).with_confidence(1.0)
         experiments.append(Experiment(i, action, log, behaviour_summary(log), true, ctx))
-    return target, experiments
+    return tuple(experiments)
 
 
 def time_round(config: EEAConfig, n_experiments: int, seed: int = 0) -> dict:
-    """Run one round; return wall seconds per phase and the simulation count."""
+    """Run one round (:func:`eea.round.run_round`); return wall seconds per phase and the simulation count."""
     rng = np.random.default_rng(seed)
-    target, experiments = recorded_experiments(config, n_experiments, rng)
-    strategy = make_inference(config.inference, config)
-    estimation = Estimation.from_config(config, rng)
     with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots) as evaluator:
+        parts = RoundParts.from_config(config, rng, evaluator)
+        experiments = recorded_experiments(parts, n_experiments, rng)
         evaluator.simulate(np.full((config.workers, 9), 0.25), np.zeros((config.workers, 3)),
                            np.zeros((config.workers, 3)))  # start the pool outside the timing
         evaluator.simulations = 0
-        t0 = time.perf_counter()
-        models = estimation.ranked_models(config.exploration_models)
-        _, action, _ = Exploration.from_config(config).run(models, evaluator, rng)
-        t1 = time.perf_counter()
-        explore_sims = evaluator.simulations
-        log, true = target.perform(action)
-        experiments.append(Experiment(len(experiments), action, log, behaviour_summary(log), true,
-                                      strategy.new_context(true)))
-        t2 = time.perf_counter()
-        estimation.run(experiments, strategy, evaluator, rng, config.estimation_generations)
-        t3 = time.perf_counter()
-    return {"exploration_s": t1 - t0, "target_s": t2 - t1, "estimation_s": t3 - t2, "wall_s": t3 - t0,
-            "exploration_sims": explore_sims, "simulations": evaluator.simulations}
+        record = run_round(n_experiments + 1, experiments, parts, rng)
+    return {"exploration_s": record.exploration_s, "target_s": record.target_s, "estimation_s": record.estimation_s,
+            "wall_s": record.wall_s, "exploration_sims": record.exploration_simulations,
+            "simulations": record.simulations}
 
 
 def main(argv=None) -> None:

@@ -10,7 +10,7 @@ ridge, and a converged population gives crossover nothing to mix. CMA-ES (the ``
 package) adapts a full covariance and so walks along correlated directions.
 
 Search space: the unit cube ``[0, 1]^9``, one coordinate per morphology dimension (order
-``eea.encoding.MODEL_NAMES``). A point ``x`` is the model genome whose field ``d`` holds
+``aquafish_gym.MORPHOLOGY_FIELDS``). A point ``x`` is the model genome whose field ``d`` holds
 level ``floor(x_d * 2**bits_d)`` (the top level for ``x_d = 1``), i.e. the cell of the
 half-open model grid that contains it. ``ask`` returns those genomes, so the rest of the
 EEA (evaluation cache, inference, records) sees ordinary 45-bit model genomes.
@@ -23,10 +23,13 @@ is reproducible and resumes bit-for-bit.
 from __future__ import annotations
 
 import pickle
+from typing import ClassVar
 
 import numpy as np
 
-from eea.encoding import MODEL_BITS, MODEL_BOUNDS, MODEL_FIELD_BITS, encode_models
+from aquafish_gym import MORPHOLOGY_BOUNDS
+from aquafish_gym.checks import check_int
+from eea.encoding import MODEL_BITS, MODEL_FIELD_BITS, encode_models
 from eea.ga import TellRecord
 
 __all__ = ["CMAModelSearch", "unit_to_genomes"]
@@ -38,7 +41,7 @@ def unit_to_genomes(x) -> np.ndarray:
     """Model genomes of points of the unit cube (see the module docstring).
 
     Args:
-        x: ``(P, 9)`` coordinates in [0, 1], order ``MODEL_NAMES``.
+        x: ``(P, 9)`` coordinates in [0, 1], order ``aquafish_gym.MORPHOLOGY_FIELDS``.
 
     Returns:
         ``(P, 45)`` uint8 model genomes.
@@ -52,7 +55,7 @@ def unit_to_genomes(x) -> np.ndarray:
     if not np.all((x >= 0.0) & (x <= 1.0)):
         raise ValueError("x must lie in the unit cube [0, 1]^9 (no NaN)")
     levels = np.minimum(np.floor(x * _LEVELS), _LEVELS - 1)
-    lo, hi = MODEL_BOUNDS[:, 0], MODEL_BOUNDS[:, 1]
+    lo, hi = MORPHOLOGY_BOUNDS[:, 0], MORPHOLOGY_BOUNDS[:, 1]
     return encode_models(lo + (hi - lo) * levels / _LEVELS)
 
 
@@ -85,12 +88,12 @@ class CMAModelSearch(TellRecord):
         ValueError: if an argument is outside the ranges above.
     """
 
+    name: ClassVar[str] = "cma"
     n_bits: int = MODEL_BITS
 
     def __init__(self, population_size: int, rng: np.random.Generator, *, sigma0: float = 0.3,
                  elitism: int = 1) -> None:
-        if isinstance(population_size, bool) or not isinstance(population_size, int) or population_size < 2:
-            raise ValueError(f"population_size must be an int >= 2, got {population_size!r}")
+        check_int("population_size", population_size, 2)
         if not (isinstance(sigma0, (int, float)) and 0.0 < sigma0 <= 1.0):
             raise ValueError(f"sigma0 must be in (0, 1], got {sigma0!r}")
         if elitism not in (0, 1):
@@ -98,11 +101,18 @@ class CMAModelSearch(TellRecord):
         self.population_size, self.sigma0, self.elitism = population_size, float(sigma0), int(elitism)
         self._stream = np.random.default_rng(int(rng.integers(2**63)))
         self._es = self._new_strategy(self._stream.random(len(_LEVELS)))
-        self._x: np.ndarray | None = None          # asked points (P, 9), None after tell
+        self._x: np.ndarray | None = None          # sampled points (P, 9), None after tell
+        self._asked = False
         self._best_x: np.ndarray | None = None     # best point of the last told generation (9,)
         self._best_genome: np.ndarray | None = None
         self._best_fitness = float("nan")
         self._generation = 0
+
+    @classmethod
+    def from_config(cls, config, rng: np.random.Generator) -> "CMAModelSearch":
+        """Sized and tuned by an :class:`eea.config.EEAConfig` (``estimation_population``,
+        ``cma_sigma``; any ``elitism`` >= 1 carries the one best point)."""
+        return cls(config.estimation_population, rng, sigma0=config.cma_sigma, elitism=1 if config.elitism else 0)
 
     def _new_strategy(self, mean: np.ndarray):
         import cma  # here, not at module level: importing cma takes ~1.5 s, and only cma runs need it
@@ -126,16 +136,31 @@ class CMAModelSearch(TellRecord):
         self._es = self._new_strategy(self._best_x)
         if self.elitism:
             self._es.inject([self._best_x], force=True)
-        self._x = None
+        self._x, self._asked = None, False
 
-    def ask(self) -> np.ndarray:
-        """The current population as ``(P, 45)`` uint8 model genomes.
+    @property
+    def population(self) -> np.ndarray:
+        """The population the next (or pending) ``ask`` returns, ``(P, 45)`` uint8 model genomes.
 
-        Calling ``ask`` again before ``tell`` returns the same population.
+        Samples it from the distribution if that has not happened yet (the same points
+        ``ask`` then returns).
         """
         if self._x is None:
             self._x = np.clip(np.asarray(self._es.ask(), dtype=np.float64), 0.0, 1.0)
         return unit_to_genomes(self._x)
+
+    def ask(self) -> np.ndarray:
+        """The current population as ``(P, 45)`` uint8 model genomes, to be evaluated.
+
+        Raises:
+            RuntimeError: if the population was already asked and not told (ask twice).
+        """
+        if self._asked:
+            raise RuntimeError(f"ask() called twice: generation {self._generation}'s population was asked and "
+                               "not told; tell() its fitness first (or read CMAModelSearch.population)")
+        genomes = self.population
+        self._asked = True
+        return genomes
 
     def tell(self, fitness) -> None:
         """Record the fitness of the last asked population (higher is better) and update.
@@ -147,8 +172,9 @@ class CMAModelSearch(TellRecord):
             RuntimeError: if ``ask`` was not called since the last ``tell``.
             ValueError: if ``fitness`` is not shaped ``(P,)`` or is not finite.
         """
-        if self._x is None:
-            raise RuntimeError("tell() called without a preceding ask(): ask, evaluate, then tell once")
+        if not self._asked:
+            raise RuntimeError("tell() called without a preceding ask(): call ask() to get generation "
+                               f"{self._generation}'s population, evaluate it, then tell() its fitness once")
         f = np.asarray(fitness, dtype=np.float64)
         if f.shape != (self.population_size,):
             raise ValueError(f"fitness must have shape ({self.population_size},), got {f.shape}")
@@ -161,7 +187,7 @@ class CMAModelSearch(TellRecord):
         self._es.tell(list(self._x), list(-f))  # cma minimises
         if self.elitism:
             self._es.inject([self._x[best]], force=True)
-        self._x = None
+        self._x, self._asked = None, False
         self._generation += 1
 
     def state_dict(self) -> dict:
@@ -180,4 +206,6 @@ class CMAModelSearch(TellRecord):
         search = pickle.loads(state["pickle"])
         if not isinstance(search, cls):
             raise ValueError("state holds no CMAModelSearch")
+        if not hasattr(search, "_asked"):  # checkpoints written before ask/tell misuse was checked
+            search._asked = search._x is not None
         return search

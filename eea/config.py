@@ -16,12 +16,15 @@ import math
 import os
 
 from aquafish_gym import DT_S, get_damage
+from aquafish_gym.checks import check_int
 from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
+from eea.model_search import SEARCH_NAMES
 
 __all__ = ["ESTIMATION_SEARCHES", "EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS"]
 
-#: Names of the estimation searches: the paper's GA and CMA-ES (:mod:`eea.cma_search`).
-ESTIMATION_SEARCHES: tuple[str, ...] = ("ga", "cma")
+#: Names of the estimation searches (:data:`eea.model_search.MODEL_SEARCHES`): the paper's
+#: GA and CMA-ES (:mod:`eea.cma_search`).
+ESTIMATION_SEARCHES: tuple[str, ...] = SEARCH_NAMES
 
 #: Fields that never change a run's results (resuming with other values is allowed):
 #: the number of worker processes and the chunk size of simulator calls, and ``rounds``,
@@ -132,11 +135,7 @@ class EEAConfig:
             "max_batch_robots": 1,
         }
         for name, low in minimum.items():
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise ValueError(f"EEAConfig.{name} must be an int >= {low}, got {value!r}")
-        if self.oob_bits > 30:
-            raise ValueError(f"EEAConfig.oob_bits must be <= 30, got {self.oob_bits}")
+            check_int(f"EEAConfig.{name}", getattr(self, name), low, 30 if name == "oob_bits" else None)
         for name, population in (("elitism", "exploration_population"), ("elitism", "estimation_population"),
                                  ("k_best", "estimation_population"), ("oob_sample", "estimation_population")):
             if getattr(self, name) > getattr(self, population):

@@ -25,6 +25,7 @@ import numpy as np
 from aquafish_gym import Morphology, get_damage
 from eea.checkpoint import load_state
 from eea.encoding import encode_models
+from eea.fitness import model_fitness_from_similarities
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from eea.record import load_result
@@ -89,7 +90,7 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1) -> RunDiagnosis:
     truth = encode_models(get_damage(result.config.damage).apply(Morphology.healthy()).to_array()[None])
     with Evaluator(result.config.steps, workers=workers, max_batch_robots=result.config.max_batch_robots) as ev:
         def fit(genome, angles):
-            return float(ev.similarities(genome, experiments, angles).mean())
+            return float(model_fitness_from_similarities(ev.similarities(genome, experiments, angles))[0])
 
         return RunDiagnosis(Path(out_dir), result.config.inference, len(experiments), fit(final, inferred),
                             fit(truth, inferred), fit(final, true), fit(truth, true))

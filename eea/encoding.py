@@ -14,16 +14,17 @@ The two genomes use them as follows:
 * Model genome, 45 bits, half-open: 15 per flipper in the order left pectoral, right
   pectoral, caudal; per flipper x (5 bits), y (6 bits), z (4 bits). Pectoral ranges x in
   [0, 1), y in [0, 2), z in [0, 0.5); caudal x in [0, 0.5), y in [0, 2), z in [0, 1)
-  (section 3.1, Figure 4). The decoded order is ``MODEL_NAMES`` and matches
-  ``aquafish_gym.MORPHOLOGY_BOUNDS``. Half-open because the robot's own dimensions are
+  (section 3.1, Figure 4). The decoded order and ranges are the simulator's own,
+  ``aquafish_gym.MORPHOLOGY_FIELDS`` and ``MORPHOLOGY_BOUNDS``. Half-open because the robot's own dimensions are
   dyadic fractions of these ranges: the healthy robot and every damage preset are exact
   model genomes, so the true morphology reproduces the target (sim = 1, eq. 2) and the
   ideal baseline can reach OBJ_FIT = 1 (paper Figure 5). On a closed grid none of the
   healthy dimensions is a level: the nearest grid robot reached only sim ~ 0.994 and
   models far from the truth fitted the target better than it did.
 * Action genome, 18 bits, closed: 6 per servo; left pectoral speed in [-0.5, 0.5] rev/s,
-  right pectoral speed in [-0.5, 0.5] rev/s, caudal frequency in [0, 1] Hz (section 3.2),
-  so full speed either way and 1 Hz are commands.
+  right pectoral speed in [-0.5, 0.5] rev/s, caudal frequency in [0, 1] Hz (section 3.2;
+  the ranges are ``aquafish_gym.ACTION_BOUNDS``), so full speed either way and 1 Hz are
+  commands.
 
 Genomes may be given as bool, integer or float arrays whose entries are exactly 0 or 1;
 encoders return ``uint8``.
@@ -33,15 +34,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from aquafish_gym import ACTION_BOUNDS, MORPHOLOGY_BOUNDS
+
 __all__ = [
     "ACTION_BITS",
-    "ACTION_BOUNDS",
     "ACTION_FIELD_BITS",
-    "ACTION_NAMES",
     "MODEL_BITS",
-    "MODEL_BOUNDS",
     "MODEL_FIELD_BITS",
-    "MODEL_NAMES",
     "decode_actions",
     "decode_fields",
     "decode_models",
@@ -52,22 +51,9 @@ __all__ = [
 
 MODEL_FIELD_BITS: tuple[int, ...] = (5, 6, 4) * 3
 MODEL_BITS: int = sum(MODEL_FIELD_BITS)  # 45
-MODEL_NAMES: tuple[str, ...] = (
-    "lp_x", "lp_y", "lp_z", "rp_x", "rp_y", "rp_z", "c_x", "c_y", "c_z",
-)
-#: (9, 2) [low, high] of each morphology dimension, simulator units, order ``MODEL_NAMES``.
-MODEL_BOUNDS: np.ndarray = np.array(
-    [[0.0, 1.0], [0.0, 2.0], [0.0, 0.5]] * 2 + [[0.0, 0.5], [0.0, 2.0], [0.0, 1.0]]
-)
 
 ACTION_FIELD_BITS: tuple[int, ...] = (6, 6, 6)
 ACTION_BITS: int = sum(ACTION_FIELD_BITS)  # 18
-ACTION_NAMES: tuple[str, ...] = ("left_pectoral_rev_s", "right_pectoral_rev_s", "caudal_hz")
-#: (3, 2) [low, high] of each servo command: rev/s, rev/s, Hz.
-ACTION_BOUNDS: np.ndarray = np.array([[-0.5, 0.5], [-0.5, 0.5], [0.0, 1.0]])
-
-MODEL_BOUNDS.flags.writeable = False
-ACTION_BOUNDS.flags.writeable = False
 
 # Values may lie outside [lo, hi] by this fraction of the range (floating-point round-off)
 # and still be encoded onto the nearest end; anything further out raises.
@@ -191,21 +177,21 @@ def decode_models(genomes) -> np.ndarray:
 
     Returns:
         ``(P, 9)`` or ``(9,)`` float64 dimensions in simulator units, order
-        ``MODEL_NAMES`` (lp_x, lp_y, lp_z, rp_x, rp_y, rp_z, c_x, c_y, c_z), on the
+        ``aquafish_gym.MORPHOLOGY_FIELDS``, on the
         half-open grid ``lo + (hi - lo) * k / 2**nbits``.
 
     Raises:
         ValueError: if the width is not 45 or an entry is not 0 or 1.
     """
-    return decode_fields(genomes, MODEL_FIELD_BITS, MODEL_BOUNDS, half_open=True)
+    return decode_fields(genomes, MODEL_FIELD_BITS, MORPHOLOGY_BOUNDS, half_open=True)
 
 
 def encode_models(dims) -> np.ndarray:
     """Encode flipper dimensions onto the nearest model genome (inverse of ``decode_models``).
 
     Args:
-        dims: ``(P, 9)`` or ``(9,)`` dimensions in simulator units, order ``MODEL_NAMES``,
-            each inside its ``MODEL_BOUNDS`` row.
+        dims: ``(P, 9)`` or ``(9,)`` dimensions in simulator units, order
+            ``aquafish_gym.MORPHOLOGY_FIELDS``, each inside its ``MORPHOLOGY_BOUNDS`` row.
 
     Returns:
         ``(P, 45)`` or ``(45,)`` uint8 genomes.
@@ -213,7 +199,7 @@ def encode_models(dims) -> np.ndarray:
     Raises:
         ValueError: if the width is not 9, a value is NaN or outside its range.
     """
-    return encode_fields(dims, MODEL_FIELD_BITS, MODEL_BOUNDS, half_open=True)
+    return encode_fields(dims, MODEL_FIELD_BITS, MORPHOLOGY_BOUNDS, half_open=True)
 
 
 def decode_actions(genomes) -> np.ndarray:

@@ -1,31 +1,29 @@
 """Estimation phase of the EEA: evolve models that explain the experiments (paper 3.2-3.4).
 
-A :class:`~eea.ga.BitGA` over 45-bit model genomes (population 25, 100 generations per
-round in the paper); a model's fitness is MOD_FIT (eq. 3), its mean similarity (eq. 2) to
-the target over all recorded experiments, simulated from the initial angles the inference
-strategy chooses for each (model, experiment). One GA lives for the whole run: each round
-continues from the population the previous round ended with (the models carry over), and
-the final hypothesis of a round is the fittest model of its last generation.
-
-``EEAConfig.estimation_search = "cma"`` replaces the GA by CMA-ES over the nine dimensions
-(:class:`~eea.cma_search.CMAModelSearch`, same ask/tell interface; not the paper's). Its
-distribution is restarted at the best model at the start of every round, since a new
-experiment changes the fitness landscape it had converged on.
+A model search (:mod:`eea.model_search`; the paper's bit-string GA over 45-bit model
+genomes, population 25, 100 generations per round) whose fitness is MOD_FIT (eq. 3), a
+model's mean similarity (eq. 2) to the target over all recorded experiments, simulated from
+the initial angles the inference strategy chooses for each (model, experiment). One search
+lives for the whole run: each round continues from where the previous round ended (the
+GA's models carry over; CMA-ES restarts its distribution at the best model, since a new
+experiment changes the landscape it had converged on), and the final hypothesis of a round
+is the fittest model of its last generation.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Callable, Sequence
 
 import numpy as np
 
-from eea.cma_search import CMAModelSearch
 from eea.encoding import MODEL_BITS
 from eea.experiment import Experiment
-from eea.ga import BitGA
+from eea.fitness import model_fitness_from_similarities
 from eea.inference import InferenceStrategy
+from eea.model_search import ModelSearch, check_model_search, make_model_search, model_search_from_state
 
-__all__ = ["Estimation", "distinct_ranked"]
+__all__ = ["Estimation", "EstimationResult", "distinct_ranked"]
 
 
 def distinct_ranked(genomes: np.ndarray, fitness: np.ndarray | None) -> np.ndarray:
@@ -45,43 +43,57 @@ def distinct_ranked(genomes: np.ndarray, fitness: np.ndarray | None) -> np.ndarr
     return genomes[rows]
 
 
-class Estimation:
-    """The estimation phase: a model GA carried over rounds, evaluated through an Evaluator.
+@dataclasses.dataclass(frozen=True, eq=False)
+class EstimationResult:
+    """What one estimation phase returns.
 
-    Args:
-        ga: a :class:`~eea.ga.BitGA` over ``MODEL_BITS`` = 45 bits, or a
-            :class:`~eea.cma_search.CMAModelSearch` (any search with that ask/tell interface).
-
-    Raises:
-        ValueError: if the GA's genomes are not 45 bits long.
+    Attributes:
+        experiments: the experiments with the contexts the strategy inferred, oldest first.
+        best_genome: ``(45,)`` uint8 fittest model of the last generation.
+        best_fitness: its MOD_FIT (eq. 3).
     """
 
-    def __init__(self, ga: BitGA) -> None:
-        if ga.n_bits != MODEL_BITS:
-            raise ValueError(f"the estimation GA must evolve {MODEL_BITS}-bit model genomes, got {ga.n_bits} bits")
-        self.ga = ga
+    experiments: tuple[Experiment, ...]
+    best_genome: np.ndarray
+    best_fitness: float
+
+
+class Estimation:
+    """The estimation phase: a model search carried over rounds, evaluated through an Evaluator.
+
+    Args:
+        search: a :class:`~eea.model_search.ModelSearch` over ``MODEL_BITS`` = 45 bits.
+
+    Raises:
+        ValueError: if ``search`` does not satisfy the interface or its genomes are not
+            45 bits long.
+    """
+
+    def __init__(self, search: ModelSearch) -> None:
+        check_model_search(search)
+        if search.n_bits != MODEL_BITS:
+            raise ValueError(f"the estimation search must evolve {MODEL_BITS}-bit model genomes, got {search.n_bits} bits")
+        self.search = search
         self._genomes: np.ndarray | None = None  # last evaluated generation (P, 45)
         self._fitness: np.ndarray | None = None  # and its fitness (P,)
 
     @classmethod
     def from_config(cls, config, rng: np.random.Generator) -> "Estimation":
-        """A fresh random population sized and tuned by an :class:`eea.config.EEAConfig`."""
-        if config.estimation_search == "cma":
-            return cls(CMAModelSearch(config.estimation_population, rng, sigma0=config.cma_sigma,
-                                      elitism=1 if config.elitism else 0))
-        return cls(BitGA(MODEL_BITS, config.estimation_population, rng, crossover_rate=config.crossover_rate,
-                         mutation_rate=config.mutation_bits / MODEL_BITS, tournament_size=config.tournament_size,
-                         elitism=config.elitism))
+        """A fresh random population of the search ``config.estimation_search``, sized and
+        tuned by an :class:`eea.config.EEAConfig`."""
+        return cls(make_model_search(config.estimation_search, config, rng))
 
     def run(self, experiments: Sequence[Experiment], strategy: InferenceStrategy, evaluator,
             rng: np.random.Generator, generations: int,
-            on_generation: Callable[[int, float], None] | None = None) -> tuple[np.ndarray, float]:
+            on_generation: Callable[[int, float], None] | None = None) -> EstimationResult:
         """Evolve the models for ``generations`` generations against all experiments.
 
         Per generation: ``strategy.before_generation``; the population's initial angles
         ``strategy.angles`` ``(P, E, 3)``; one :meth:`Evaluator.similarities` call
-        ``(P, E)``; fitness = its mean over E (MOD_FIT, eq. 3); ``strategy.after_generation``;
-        ``ga.tell``. ``strategy.begin_round``/``end_round`` bracket the phase.
+        ``(P, E)``; MOD_FIT (eq. 3, :func:`eea.fitness.model_fitness_from_similarities`);
+        ``strategy.after_generation``; ``search.tell``. ``search.restart`` and
+        ``strategy.begin_round``/``end_round`` bracket the phase. Each hook's experiments
+        are passed on to the next.
 
         Args:
             experiments: the E >= 1 recorded experiments, newest last.
@@ -92,8 +104,8 @@ class Estimation:
             on_generation: called with (generation, best fitness so far) after each one.
 
         Returns:
-            ``(best_genome (45,) uint8, best_fitness)``: the fittest model of the last
-            generation and its MOD_FIT.
+            The :class:`EstimationResult`: the experiments with their final contexts and
+            the fittest model of the last generation with its MOD_FIT.
 
         Raises:
             ValueError: if there are no experiments or ``generations < 1``.
@@ -102,21 +114,20 @@ class Estimation:
             raise ValueError("estimation needs at least one experiment")
         if generations < 1:
             raise ValueError(f"generations must be >= 1, got {generations}")
-        strategy.begin_round(experiments)
-        if hasattr(self.ga, "restart"):  # CMA-ES re-opens its converged distribution
-            self.ga.restart()
+        experiments = strategy.begin_round(tuple(experiments))
+        self.search.restart()
         for generation in range(generations):
-            strategy.before_generation(generation, self.ranked_models(), experiments, evaluator, rng)
-            genomes = self.ga.ask()
+            experiments = strategy.before_generation(generation, self.ranked_models(), experiments, evaluator, rng)
+            genomes = self.search.ask()
             angles = strategy.angles(experiments, len(genomes), rng)
-            fitness = evaluator.similarities(genomes, experiments, angles).mean(axis=1)
-            strategy.after_generation(genomes, angles, fitness, experiments)
-            self.ga.tell(fitness)
+            fitness = model_fitness_from_similarities(evaluator.similarities(genomes, experiments, angles))
+            experiments = strategy.after_generation(genomes, angles, fitness, experiments)
+            self.search.tell(fitness)
             self._genomes, self._fitness = genomes, fitness
             if on_generation is not None:
-                on_generation(generation, self.ga.best_fitness)
-        strategy.end_round(experiments)
-        return self.ga.best_genome, self.ga.best_fitness
+                on_generation(generation, self.search.best_fitness)
+        experiments = strategy.end_round(experiments)
+        return EstimationResult(tuple(experiments), self.search.best_genome, self.search.best_fitness)
 
     def ranked_models(self, limit: int | None = None) -> np.ndarray:
         """Distinct models of the last evaluated generation, best first, at most ``limit``.
@@ -127,19 +138,23 @@ class Estimation:
             ``(R, 45)`` uint8.
         """
         if self._genomes is None:
-            ranked = distinct_ranked(self.ga.ask(), None)
+            ranked = distinct_ranked(self.search.population, None)
         else:
             ranked = distinct_ranked(self._genomes, self._fitness)
         return ranked if limit is None else ranked[:limit]
 
     def state_dict(self) -> dict:
-        """GA state and the last evaluated generation, for the run checkpoint."""
-        return {"ga": self.ga.state_dict(), "genomes": self._genomes, "fitness": self._fitness}
+        """Search state and the last evaluated generation, for the run checkpoint."""
+        return {"search": self.search.state_dict(), "genomes": self._genomes, "fitness": self._fitness}
 
     @classmethod
     def from_state_dict(cls, state: dict, rng: np.random.Generator) -> "Estimation":
-        """Rebuild from :meth:`state_dict`, drawing from ``rng`` from now on."""
-        search = CMAModelSearch if state["ga"].get("search") == "cma" else BitGA
-        estimation = cls(search.from_state_dict(state["ga"], rng))
+        """Rebuild from :meth:`state_dict`, drawing from ``rng`` from now on.
+
+        Raises:
+            ValueError: on an unknown search or an invalid state.
+        """
+        search = state["search"] if "search" in state else state["ga"]  # "ga": checkpoints before issue 12
+        estimation = cls(model_search_from_state(search, rng))
         estimation._genomes, estimation._fitness = state["genomes"], state["fitness"]
         return estimation

@@ -30,9 +30,10 @@ from typing import Sequence
 import numpy as np
 
 from aquafish_gym import SimParams, simulate_batch
+from aquafish_gym.checks import check_int
 from eea.behaviour import behaviour_summary, similarity
 from eea.encoding import decode_models
-from eea.experiment import Experiment, quantise_angles
+from eea.experiment import Experiment, check_params, quantise_angles
 
 __all__ = ["Evaluator"]
 
@@ -56,7 +57,8 @@ class Evaluator:
         workers: worker processes; 1 simulates in this process. The pool is created on
             first use and lives until :meth:`close` (use the evaluator as a context manager).
         max_batch_robots: at most this many robots per ``simulate_batch`` call.
-        params: simulator parameters of the models (default: the defaults).
+        params: simulator parameters of the models (default: the defaults); the caudal
+            sweep must be the default one (:func:`eea.experiment.check_params`).
 
     Attributes:
         simulations: number of robot simulations run so far (cache hits excluded).
@@ -68,10 +70,9 @@ class Evaluator:
     def __init__(self, steps: int, *, workers: int = 1, max_batch_robots: int = 2048,
                  params: SimParams | None = None) -> None:
         for name, value in (("steps", steps), ("workers", workers), ("max_batch_robots", max_batch_robots)):
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-                raise ValueError(f"{name} must be an int >= 1, got {value!r}")
+            check_int(name, value, 1)
         self.steps, self.workers, self.max_batch_robots = int(steps), int(workers), int(max_batch_robots)
-        self.params = params
+        self.params = check_params(params)
         self.simulations = 0
         self._similarity: dict[bytes, float] = {}
         self._summaries: dict[bytes, np.ndarray] = {}

@@ -19,22 +19,43 @@ import dataclasses
 import numpy as np
 
 from aquafish_gym import SimParams
-from eea.arc import sample_arc
+from eea.arc import TWO_PI, sample_arc
 
 __all__ = [
-    "ANGLE_RESOLUTION_RAD", "CAUDAL_LIMIT_RAD", "PERIODS", "Context", "Experiment", "quantise_angles",
-    "random_angles",
+    "ANGLE_RESOLUTION_RAD", "CAUDAL_LIMIT_RAD", "FLIPPERS", "PERIODS", "Context", "Experiment", "check_params",
+    "quantise_angles", "random_angles", "with_newest_context",
 ]
 
-TWO_PI = 2.0 * np.pi
-#: Half sweep of the caudal fin (rad): initial caudal angles lie in [-limit, limit].
+#: Half sweep of the caudal fin (rad): initial caudal angles lie in [-limit, limit]. The
+#: simulator's default sweep (``SimParams.caudal_amplitude_deg``); :func:`check_params`
+#: refuses simulator parameters with another one.
 CAUDAL_LIMIT_RAD: float = SimParams().caudal_amplitude_rad
+#: Short names of the three flippers in angle order (left pectoral, right pectoral, caudal
+#: fin), as in the ``true_<flipper>_rad`` columns of ``rounds.csv``.
+FLIPPERS: tuple[str, ...] = ("left", "right", "caudal")
 #: Period of each flipper's angle (rad); None = not circular (the caudal fin).
 PERIODS: tuple[float | None, ...] = (TWO_PI, TWO_PI, None)
 #: Grid of simulated initial angles (rad). Angles are snapped to it before every simulation,
 #: so a cached result and a fresh simulation of the same key are bit-for-bit equal.
 ANGLE_RESOLUTION_RAD: float = 1e-6
 _PECTORAL_LEVELS = round(TWO_PI / ANGLE_RESOLUTION_RAD)
+
+
+def check_params(params: SimParams | None) -> SimParams:
+    """The simulator parameters of a run's target and models (``None``: the defaults).
+
+    Raises:
+        ValueError: if ``params`` is not a :class:`~aquafish_gym.SimParams`, or its caudal
+            sweep differs from :data:`CAUDAL_LIMIT_RAD`, on which the EEA's initial-angle
+            space (contexts, random angles, the out-of-band genome) is built.
+    """
+    params = SimParams() if params is None else params
+    if not isinstance(params, SimParams):
+        raise ValueError(f"params must be an aquafish_gym.SimParams, got {type(params).__name__}")
+    if params.caudal_amplitude_rad != CAUDAL_LIMIT_RAD:
+        raise ValueError(f"the EEA's initial-angle space assumes a caudal sweep of +-{np.degrees(CAUDAL_LIMIT_RAD):g} deg, "
+                         f"got SimParams.caudal_amplitude_deg = {params.caudal_amplitude_deg!r}")
+    return params
 
 
 def quantise_angles(angles_rad) -> tuple[np.ndarray, np.ndarray]:
@@ -168,11 +189,12 @@ class Context:
         return mid
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(frozen=True, eq=False)
 class Experiment:
     """One action performed on the target and its recorded response (paper section 3.2).
 
-    Only ``context`` changes after creation (inference strategies replace it).
+    Immutable: an inference strategy that refines the context returns a new experiment
+    (:meth:`with_context`), which the estimation phase passes on.
 
     Attributes:
         index: position in the run's experiment list (0-based); part of cache keys.
@@ -192,6 +214,19 @@ class Experiment:
     true_angles: np.ndarray
     context: Context
 
+    def __post_init__(self) -> None:
+        for name in ("action", "imu_log", "summary", "true_angles"):
+            value = getattr(self, name)
+            if isinstance(value, np.ndarray) and value.dtype == np.float64 and not value.flags.writeable:
+                continue  # already a read-only copy (with_context shares it)
+            array = np.array(value, dtype=np.float64)  # a private, read-only copy
+            array.setflags(write=False)
+            object.__setattr__(self, name, array)
+
+    def with_context(self, context: Context) -> "Experiment":
+        """The same experiment with another context (paper: setFlippers, setConfidence)."""
+        return dataclasses.replace(self, context=context)
+
     def state_dict(self) -> dict:
         """Plain data (numbers, lists, arrays) for the run checkpoint."""
         return {"index": self.index, "action": self.action, "imu_log": self.imu_log, "summary": self.summary,
@@ -204,3 +239,9 @@ class Experiment:
         return cls(int(state["index"]), np.asarray(state["action"]), np.asarray(state["imu_log"]),
                    np.asarray(state["summary"]), np.asarray(state["true_angles"]),
                    Context(tuple(ctx["starts"]), tuple(ctx["widths"]), ctx["confidence"]))
+
+
+def with_newest_context(experiments, context: Context) -> tuple[Experiment, ...]:
+    """``experiments`` (oldest first) with the newest one's context replaced by ``context``."""
+    experiments = tuple(experiments)
+    return experiments[:-1] + (experiments[-1].with_context(context),)

@@ -15,10 +15,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from aquafish_gym import MORPHOLOGY_BOUNDS
 from eea.behaviour import MAX_COEFFICIENT, similarity
-from eea.encoding import MODEL_BOUNDS
 
-__all__ = ["action_fitness", "model_fitness", "objective_fitness"]
+__all__ = ["action_fitness", "model_fitness", "model_fitness_from_similarities", "objective_fitness"]
 
 
 def action_fitness(summaries, max_coefficient: float = MAX_COEFFICIENT):
@@ -85,10 +85,31 @@ def model_fitness(model_summaries, target_summaries, max_coefficient: float = MA
             f"model_summaries must have shape (P, {', '.join(map(str, target.shape))}) to "
             f"match target_summaries, got {models.shape}"
         )
-    return similarity(models, target, max_coefficient).mean(axis=-1)
+    return model_fitness_from_similarities(similarity(models, target, max_coefficient))
 
 
-def objective_fitness(model_dims, target_dims, bounds=MODEL_BOUNDS):
+def model_fitness_from_similarities(similarities) -> np.ndarray:
+    """MOD_FIT (paper equation 3) from the similarities already computed: their mean over E.
+
+    The estimation phase gets cached similarities from :class:`eea.evaluation.Evaluator`
+    rather than summaries; this is the one place equation 3 averages them.
+
+    Args:
+        similarities: ``(P, E)`` sim(B_{i,a_e}, T_{a_e}) (eq. 2), any leading dimensions.
+
+    Returns:
+        ``(P,)`` float64.
+
+    Raises:
+        ValueError: if there is no experiment axis or it is empty.
+    """
+    sims = np.asarray(similarities, dtype=np.float64)
+    if sims.ndim < 1 or sims.shape[-1] < 1:
+        raise ValueError(f"similarities must have shape (..., E) with E >= 1, got {sims.shape}")
+    return sims.mean(axis=-1)
+
+
+def objective_fitness(model_dims, target_dims, bounds=MORPHOLOGY_BOUNDS):
     """Oracle model quality, paper equation 4 (1 = exact, 0 = every dimension maximally off).
 
     ``OBJ_FIT = 1 - 1/n * sum_i |model_i - target_i| / (max_i - min_i)``, n = 9.
@@ -96,8 +117,8 @@ def objective_fitness(model_dims, target_dims, bounds=MODEL_BOUNDS):
     Args:
         model_dims: ``(..., n)`` model dimensions in simulator units (decoded genomes).
         target_dims: ``(n,)`` the target's true dimensions.
-        bounds: ``(n, 2)`` [min, max] of each dimension; default the model genome's
-            ranges, ``eea.encoding.MODEL_BOUNDS`` (= ``aquafish_gym.MORPHOLOGY_BOUNDS``).
+        bounds: ``(n, 2)`` [min, max] of each dimension; default
+            ``aquafish_gym.MORPHOLOGY_BOUNDS`` (the model genome's ranges).
 
     Returns:
         ``(...)`` float64 in [0, 1] (a float for a single ``(n,)`` model).

@@ -11,7 +11,10 @@ the caller so a whole population can go into one batched simulator call::
         ga.tell(evaluate(genomes))         # (25,) fitness, higher is better
     ga.best_genome, ga.best_fitness
 
-``tell`` takes the fitness of exactly the population returned by the last ``ask``. The
+``ask`` and ``tell`` alternate: ``tell`` takes the fitness of exactly the population the
+last ``ask`` returned, and asking twice or telling twice raises :class:`RuntimeError`
+naming the misuse (read the current population without asking through
+:attr:`BitGA.population`). The
 elites are carried over unchanged as the first ``elitism`` rows of the next population and
 are evaluated again with it, so noisy fitness or a changed context (e.g. newly inferred
 initial angles) is re-measured every generation; callers that want to save simulations can
@@ -21,6 +24,8 @@ cache results by genome themselves.
 from __future__ import annotations
 
 import numpy as np
+
+from aquafish_gym.checks import check_int
 
 __all__ = ["BitGA", "TellRecord"]
 
@@ -127,8 +132,7 @@ class BitGA(TellRecord):
             ("n_bits", n_bits, 1), ("population_size", population_size, 1),
             ("tournament_size", tournament_size, 1), ("elitism", elitism, 0),
         ):
-            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
-                raise ValueError(f"{name} must be an int >= {low}, got {value!r}")
+            check_int(name, value, low)
         if elitism > population_size:
             raise ValueError(
                 f"elitism must be <= population_size ({population_size}), got {elitism}"
@@ -165,13 +169,25 @@ class BitGA(TellRecord):
 
     # -- ask / tell ---------------------------------------------------------------------
 
-    def ask(self) -> np.ndarray:
-        """Return the current population, ``(P, n_bits)`` uint8 (a copy).
+    @property
+    def population(self) -> np.ndarray:
+        """The population the next (or pending) ``ask`` returns, ``(P, n_bits)`` uint8 (a copy)."""
+        return self._population.copy()
 
-        Calling ``ask`` again before ``tell`` returns the same population.
+    def ask(self) -> np.ndarray:
+        """Return the current population, ``(P, n_bits)`` uint8 (a copy), to be evaluated.
+
+        Raises:
+            RuntimeError: if the population was already asked and not told (ask twice).
         """
+        if self._asked:
+            raise RuntimeError(f"ask() called twice: generation {self._generation}'s population was asked and "
+                               "not told; tell() its fitness first (or read BitGA.population)")
         self._asked = True
         return self._population.copy()
+
+    def restart(self) -> None:
+        """No-op: the GA's population carries over between rounds as it is (the paper's EEA)."""
 
     def tell(self, fitness) -> None:
         """Record the fitness of the last asked population and breed the next one.
@@ -254,6 +270,11 @@ class BitGA(TellRecord):
         }
 
     @classmethod
+    def _build(cls, n_bits: int, population_size: int, rng: np.random.Generator, **options) -> "BitGA":
+        """Construct from the full argument list (subclasses with fixed ``n_bits`` override it)."""
+        return cls(n_bits, population_size, rng, **options)
+
+    @classmethod
     def from_state_dict(cls, state: dict, rng: np.random.Generator) -> "BitGA":
         """Rebuild a GA saved by :meth:`state_dict`, drawing from ``rng`` from now on.
 
@@ -264,7 +285,7 @@ class BitGA(TellRecord):
         if set(state) != keys:
             raise ValueError(f"state keys differ: missing {sorted(keys - set(state))}, "
                              f"unknown {sorted(set(state) - keys)}")
-        ga = cls(int(state["n_bits"]), int(state["population_size"]), rng,
+        ga = cls._build(int(state["n_bits"]), int(state["population_size"]), rng,
                  crossover_rate=float(state["crossover_rate"]),
                  mutation_rate=float(state["mutation_rate"]),
                  tournament_size=int(state["tournament_size"]), elitism=int(state["elitism"]),

@@ -22,15 +22,17 @@ name            paper   initial angles of the models
 
 Hook order within one estimation phase (:class:`eea.estimation.Estimation`)::
 
-    begin_round(experiments)
+    experiments = begin_round(experiments)
     for generation in range(G):
-        before_generation(generation, ranked_genomes, experiments, evaluator, rng)
+        experiments = before_generation(generation, ranked_genomes, experiments, evaluator, rng)
         angles = angles(experiments, P, rng)       # (P, E, 3), then fitness, then
-        after_generation(genomes, angles, fitness, experiments)
-    end_round(experiments)
+        experiments = after_generation(genomes, angles, fitness, experiments)
+    experiments = end_round(experiments)
 
-Strategies keep no state of their own: everything they infer lives in the experiments'
-contexts, which the run checkpoints.
+Experiments are immutable: a hook that refines a context returns new experiments
+(:meth:`Experiment.with_context`) and the estimation phase passes them on. Strategies keep
+no state of their own: everything they infer lives in the experiments' contexts, which the
+run checkpoints.
 """
 
 from __future__ import annotations
@@ -39,10 +41,13 @@ from typing import ClassVar, Sequence
 
 import numpy as np
 
-from eea.arc import smallest_inclusive_arc, smallest_inclusive_interval, widen_arc
+from eea.arc import TWO_PI, smallest_inclusive_arc, smallest_inclusive_interval, widen_arc
 from eea.encoding import decode_fields, encode_fields
 from eea.ga import BitGA
-from eea.experiment import CAUDAL_LIMIT_RAD, PERIODS, TWO_PI, Context, Experiment
+from eea.experiment import CAUDAL_LIMIT_RAD, PERIODS, Context, Experiment, with_newest_context
+
+#: What every hook takes and returns: the run's experiments, oldest first.
+Experiments = Sequence[Experiment]
 
 __all__ = ["INFERENCE_NAMES", "INFERENCE_STRATEGIES", "InBand", "InferenceStrategy", "Known", "NoInference",
            "OOB_EXPERIMENTS", "OutOfBand", "make_inference"]
@@ -53,7 +58,7 @@ OOB_EXPERIMENTS: tuple[str, ...] = ("newest", "all")
 
 
 class InferenceStrategy:
-    """Interface of a context inference strategy; the base class is a no-op for every hook."""
+    """Interface of a context inference strategy; the base class's hooks return the experiments unchanged."""
 
     name: ClassVar[str] = ""
 
@@ -66,8 +71,9 @@ class InferenceStrategy:
         """Context of a freshly performed experiment whose true angles are ``(3,)`` rad."""
         raise NotImplementedError
 
-    def begin_round(self, experiments: Sequence[Experiment]) -> None:
-        """Called once before the estimation generations of a round."""
+    def begin_round(self, experiments: Experiments) -> Experiments:
+        """Called once before the estimation generations of a round; returns the experiments to use."""
+        return experiments
 
     def angles(self, experiments: Sequence[Experiment], n_models: int, rng: np.random.Generator) -> np.ndarray:
         """Initial angles of every model in every experiment (the paper's PERFORM()).
@@ -80,21 +86,27 @@ class InferenceStrategy:
             return np.zeros((n_models, 0, 3))
         return np.stack([exp.context.sample(rng, n_models) for exp in experiments], axis=1)
 
-    def before_generation(self, generation: int, ranked_genomes: np.ndarray, experiments: Sequence[Experiment],
-                          evaluator, rng: np.random.Generator) -> None:
+    def before_generation(self, generation: int, ranked_genomes: np.ndarray, experiments: Experiments,
+                          evaluator, rng: np.random.Generator) -> Experiments:
         """Called before estimation generation ``generation`` (0-based) is evaluated.
 
         Args:
             ranked_genomes: ``(R, 45)`` distinct model genomes, best first by their last
                 fitness (population order before any fitness is known).
+
+        Returns:
+            The experiments the generation is evaluated on.
         """
+        return experiments
 
     def after_generation(self, genomes: np.ndarray, angles: np.ndarray, fitness: np.ndarray,
-                         experiments: Sequence[Experiment]) -> None:
+                         experiments: Experiments) -> Experiments:
         """Called with a generation's ``(P, 45)`` genomes, ``(P, E, 3)`` angles, ``(P,)`` fitness."""
+        return experiments
 
-    def end_round(self, experiments: Sequence[Experiment]) -> None:
-        """Called once after the estimation generations of a round."""
+    def end_round(self, experiments: Experiments) -> Experiments:
+        """Called once after the estimation generations of a round; returns the final experiments."""
+        return experiments
 
 
 class Known(InferenceStrategy):
@@ -145,11 +157,12 @@ class InBand(InferenceStrategy):
         return Context.unknown(self.confidence)
 
     def begin_round(self, experiments):
-        experiments[-1].context = experiments[-1].context.with_confidence(self.confidence)
+        return with_newest_context(experiments, experiments[-1].context.with_confidence(self.confidence))
 
     def after_generation(self, genomes, angles, fitness, experiments):
         best = np.argsort(-np.asarray(fitness), kind="stable")[: self.k_best]
-        experiments[-1].context = self.infer_context(angles[best, -1, :], experiments[-1].context.confidence)
+        return with_newest_context(experiments,
+                                   self.infer_context(angles[best, -1, :], experiments[-1].context.confidence))
 
     def infer_context(self, best_angles: np.ndarray, confidence: float) -> Context:
         """Context holding ``(K, 3)`` angles: smallestInclusive() per flipper (paper 3.3)."""
@@ -170,7 +183,7 @@ class InBand(InferenceStrategy):
         return Context(tuple(starts), tuple(widths), confidence)
 
     def end_round(self, experiments):
-        experiments[-1].context = experiments[-1].context.with_confidence(1.0)
+        return with_newest_context(experiments, experiments[-1].context.with_confidence(1.0))
 
 
 class OutOfBand(InferenceStrategy):
@@ -224,16 +237,17 @@ class OutOfBand(InferenceStrategy):
         return Context.exact(np.zeros(3))  # replaced by the first inference (generation 0)
 
     def begin_round(self, experiments):
-        experiments[-1].context = experiments[-1].context.with_confidence(1.0)
+        return with_newest_context(experiments, experiments[-1].context.with_confidence(1.0))
 
     def before_generation(self, generation, ranked_genomes, experiments, evaluator, rng):
         if generation % self.period:
-            return
-        targets = list(experiments) if self.experiments == "all" and generation == 0 else [experiments[-1]]
+            return experiments
+        experiments = tuple(experiments)
+        first = 0 if self.experiments == "all" and generation == 0 else len(experiments) - 1
+        targets = experiments[first:]
         seeded = [generation > 0 or i < len(targets) - 1 for i in range(len(targets))]  # the newest: fresh at 0
         best = self.infer_angles(ranked_genomes[: self.sample], targets, evaluator, rng, seed_current=seeded)
-        for experiment, angles in zip(targets, best):
-            experiment.context = Context.exact(angles)
+        return experiments[:first] + tuple(e.with_context(Context.exact(a)) for e, a in zip(targets, best))
 
     def _current_genome(self, experiment: Experiment) -> np.ndarray:
         """``(1, 3 * bits)`` genome of the experiment's current angles (nearest levels)."""

@@ -33,20 +33,21 @@ from pathlib import Path
 
 import numpy as np
 
-from aquafish_gym import MORPHOLOGY_FIELDS, Morphology
+from aquafish_gym import ACTION_FIELDS, MORPHOLOGY_FIELDS, Morphology
+from aquafish_gym.files import atomic_write
 from eea.arc import angle_distance
-from eea.checkpoint import atomic_write
 from eea.config import EEAConfig
-from eea.experiment import PERIODS
+from eea.encoding import decode_models
+from eea.experiment import FLIPPERS, PERIODS
+from eea.fitness import objective_fitness
 
 __all__ = ["CONFIG_FILE", "ROUNDS_FILE", "ROUND_COLUMNS", "RunResult", "load_result", "read_rounds",
-           "write_config", "write_rounds"]
+           "round_row", "write_config", "write_rounds"]
 
 CONFIG_FILE = "config.json"
 ROUNDS_FILE = "rounds.csv"
-FLIPPERS = ("left", "right", "caudal")  # left, right pectoral flipper; caudal fin
 MODEL_COLUMNS = tuple(f"model_{name}" for name in MORPHOLOGY_FIELDS)
-ACTION_COLUMNS = ("action_left_pectoral_rev_s", "action_right_pectoral_rev_s", "action_caudal_hz")
+ACTION_COLUMNS = tuple(f"action_{name}" for name in ACTION_FIELDS)
 ROUND_COLUMNS: tuple[str, ...] = (
     "round", "objective_fitness", "model_fitness", "action_fitness", *MODEL_COLUMNS, *ACTION_COLUMNS,
     *(f"true_{f}_rad" for f in FLIPPERS), *(f"inferred_{f}_rad" for f in FLIPPERS),
@@ -107,6 +108,31 @@ class RunResult:
         inferred = np.array([[row[f"inferred_{f}_rad"] for f in FLIPPERS] for row in self.rounds])
         return np.degrees(np.stack([angle_distance(inferred[:, i], true[:, i], period)
                                     for i, period in enumerate(PERIODS)], axis=1))
+
+
+def round_row(record, target_morphology: Morphology, wall_seconds: float) -> dict:
+    """The ``rounds.csv`` row of a :class:`eea.round.RoundRecord`.
+
+    Args:
+        record: the round.
+        target_morphology: the target's true morphology (the oracle of OBJ_FIT, eq. 4).
+        wall_seconds: cumulative wall seconds of the run after this round.
+
+    Returns:
+        A dict with keys :data:`ROUND_COLUMNS` (ints and floats).
+    """
+    dims = decode_models(record.best_genome)
+    experiment = record.experiment
+    row = {"round": int(record.number),
+           "objective_fitness": objective_fitness(dims, target_morphology.to_array()),
+           "model_fitness": float(record.model_fitness), "action_fitness": float(record.action_fitness)}
+    row.update(zip(MODEL_COLUMNS, dims.tolist()))
+    row.update(zip(ACTION_COLUMNS, np.asarray(record.action, dtype=float).tolist()))
+    row.update({f"true_{f}_rad": a for f, a in zip(FLIPPERS, experiment.true_angles.tolist())})
+    row.update({f"inferred_{f}_rad": a for f, a in zip(FLIPPERS, experiment.context.estimate().tolist())})
+    row.update({"target_experiments": experiment.index + 1, "simulations": int(record.simulations),
+                "wall_seconds": float(wall_seconds)})
+    return row
 
 
 def write_config(out_dir: str | os.PathLike, config: EEAConfig) -> None:

@@ -10,7 +10,8 @@
         record        OBJ_FIT (eq. 4) of the best model, angles, counters -> rounds.csv
 
 and writes ``DIR/config.json``, ``DIR/rounds.csv`` and the checkpoint ``DIR/state.pkl``
-(see :mod:`eea.record`, :mod:`eea.checkpoint`). All randomness comes from one
+(see :mod:`eea.record`, :mod:`eea.checkpoint`). The round itself is
+:func:`eea.round.run_round`. All randomness comes from one
 ``numpy.random.Generator`` seeded with ``config.seed``, so the same config gives the same
 rounds. Resumable: running the same command again after an interruption continues from the
 last finished round and ends with the same ``rounds.csv`` (``wall_seconds`` aside) as an
@@ -20,24 +21,18 @@ uninterrupted run.
 from __future__ import annotations
 
 import os
-import time
 from pathlib import Path
 
 import numpy as np
 from tqdm.auto import tqdm
 
-from eea.behaviour import behaviour_summary
 from eea.checkpoint import RunState, load_state, save_state
 from eea.config import RESULT_NEUTRAL_FIELDS, EEAConfig
-from eea.encoding import decode_models
 from eea.estimation import Estimation
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
-from eea.exploration import Exploration
-from eea.fitness import objective_fitness
-from eea.inference import make_inference
-from eea.record import MODEL_COLUMNS, ACTION_COLUMNS, FLIPPERS, RunResult, read_config, write_config, write_rounds
-from eea.target import Target
+from eea.record import RunResult, read_config, round_row, write_config, write_rounds
+from eea.round import RoundParts, run_round
 
 __all__ = ["run"]
 
@@ -50,20 +45,6 @@ def _check_config(out_dir: Path, config: EEAConfig) -> None:
     diff = [f"{k}: {theirs[k]!r} -> {mine[k]!r}" for k in mine if k not in RESULT_NEUTRAL_FIELDS and mine[k] != theirs[k]]
     raise ValueError(f"{out_dir} holds a run with a different config ({'; '.join(diff)}); "
                      "use another directory or the same settings to resume it")
-
-
-def _row(round_number, config, target, best_genome, best_fitness, action, action_fit, experiment,
-         simulations, wall_seconds) -> dict:
-    dims = decode_models(best_genome)
-    row = {"round": round_number, "objective_fitness": objective_fitness(dims, target.morphology.to_array()),
-           "model_fitness": float(best_fitness), "action_fitness": float(action_fit)}
-    row.update(zip(MODEL_COLUMNS, dims.tolist()))
-    row.update(zip(ACTION_COLUMNS, np.asarray(action, dtype=float).tolist()))
-    row.update({f"true_{f}_rad": a for f, a in zip(FLIPPERS, experiment.true_angles.tolist())})
-    row.update({f"inferred_{f}_rad": a for f, a in zip(FLIPPERS, experiment.context.estimate().tolist())})
-    row.update({"target_experiments": experiment.index + 1, "simulations": int(simulations),
-                "wall_seconds": float(wall_seconds)})
-    return row
 
 
 def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True) -> RunResult:
@@ -94,44 +75,35 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
     if state is not None:
         rng.bit_generator.state = state.rng_state
         estimation = Estimation.from_state_dict(state.estimation, rng)
-        experiments = [Experiment.from_state_dict(e) for e in state.experiments]
+        experiments = tuple(Experiment.from_state_dict(e) for e in state.experiments)
     else:
-        estimation = Estimation.from_config(config, rng)
-        experiments = []
-        state = RunState(config.to_dict(), 0, {}, {}, [], {}, 0.0, [])
+        estimation, experiments, state = None, (), RunState(config.to_dict())
     write_rounds(out, state.rows)  # repairs a kill between the checkpoint and the csv
-    target = Target(config.damage, config.steps, rng)
-    strategy = make_inference(config.inference, config)
-    exploration = Exploration.from_config(config)
     bar = tqdm(total=config.rounds, initial=min(state.rounds_done, config.rounds), unit="round",
                desc=f"eea {config.inference} seed {config.seed}", disable=not progress)
 
-    def phase(name: str, generations: int | None = None):
+    def on_phase(name: str, generations: int | None):
+        bar.set_postfix_str(name)
+        if generations is None:
+            return None
+
         def report(generation: int, best: float) -> None:
             bar.set_postfix_str(f"{name} {generation + 1}/{generations} best {best:.4f}")
-        bar.set_postfix_str(name)
         return report
 
     with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots) as evaluator, bar:
         if state.evaluator:
             evaluator.load_state_dict(state.evaluator)
-        for round_index in range(state.rounds_done, config.rounds):
-            started = time.perf_counter()
-            models = estimation.ranked_models(config.exploration_models)
-            action_genome, action, action_fit = exploration.run(
-                models, evaluator, rng, phase("exploration", config.exploration_generations))
-            phase("target")
-            imu_log, true_angles = target.perform(action)
-            experiments.append(Experiment(len(experiments), action, imu_log, behaviour_summary(imu_log),
-                                          true_angles, strategy.new_context(true_angles)))
-            best_genome, best_fitness = estimation.run(
-                experiments, strategy, evaluator, rng, config.estimation_generations,
-                phase("estimation", config.estimation_generations))
-            wall = state.wall_seconds + time.perf_counter() - started
-            row = _row(round_index + 1, config, target, best_genome, best_fitness, action, action_fit,
-                       experiments[-1], evaluator.simulations, wall)
-            state = RunState(config.to_dict(), round_index + 1, rng.bit_generator.state, estimation.state_dict(),
-                             [e.state_dict() for e in experiments], evaluator.state_dict(), wall, state.rows + [row])
+        parts = RoundParts.from_config(config, rng, evaluator, estimation)
+        for number in range(state.rounds_done + 1, config.rounds + 1):
+            record = run_round(number, experiments, parts, rng, on_phase)
+            experiments = record.experiments
+            wall = state.wall_seconds + record.wall_s
+            row = round_row(record, parts.target.morphology, wall)
+            state = RunState(config=config.to_dict(), rounds_done=number, rng_state=rng.bit_generator.state,
+                             estimation=parts.estimation.state_dict(),
+                             experiments=tuple(e.state_dict() for e in experiments),
+                             evaluator=evaluator.state_dict(), wall_seconds=wall, rows=(*state.rows, row))
             save_state(out, state)
             write_rounds(out, state.rows)
             bar.update(1)

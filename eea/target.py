@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from aquafish_gym import Morphology, SimParams, get_damage, simulate_batch
-from eea.experiment import quantise_angles, random_angles
+from aquafish_gym.checks import check_int
+from eea.experiment import check_params, quantise_angles, random_angles
 
 __all__ = ["Target"]
 
@@ -27,26 +28,26 @@ class Target:
             ``"left_pectoral_half"`` (the paper's case study).
         steps: simulation steps (0.01 s each) of every experiment, >= 1.
         rng: draws the true initial angles of every experiment (the run's generator).
-        params: simulator parameters (default: the defaults).
+        params: simulator parameters (default: the defaults); the caudal sweep must be
+            the default one (:func:`eea.experiment.check_params`).
 
     Attributes:
         morphology: the damaged :class:`~aquafish_gym.Morphology` (the oracle for OBJ_FIT).
         faults: the damaged robot's :class:`~aquafish_gym.ServoFaults`.
 
     Raises:
-        ValueError: on an unknown damage name (the message lists the valid names) or
-            ``steps < 1``.
+        ValueError: on an unknown damage name (the message lists the valid names),
+            ``steps < 1`` or ``params`` with another caudal sweep.
     """
 
     def __init__(self, damage: str, steps: int, rng: np.random.Generator, params: SimParams | None = None) -> None:
         preset = get_damage(damage)
-        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
-            raise ValueError(f"steps must be a positive integer, got {steps!r}")
+        check_int("steps", steps, 1)
         self.damage = damage
         self.morphology: Morphology = preset.apply(Morphology.healthy())
         self.faults = preset.faults
         self.steps = int(steps)
-        self.params = params
+        self.params = check_params(params)
         self._rng = rng
 
     def perform(self, action) -> tuple[np.ndarray, np.ndarray]:

@@ -7,7 +7,8 @@ import pytest
 
 from eea.cma_search import CMAModelSearch, unit_to_genomes
 from eea.config import EEAConfig
-from eea.encoding import MODEL_BOUNDS, decode_models, encode_models
+from aquafish_gym import MORPHOLOGY_BOUNDS as MODEL_BOUNDS
+from eea.encoding import decode_models, encode_models
 from eea.estimation import Estimation
 from eea.ga import BitGA
 from eea.inference import make_inference
@@ -59,9 +60,11 @@ def test_elitism_carries_the_best_point_into_the_next_population():
     search = CMAModelSearch(10, np.random.default_rng(1))
     for _ in range(5):
         genomes = search.ask()
-        np.testing.assert_array_equal(search.ask(), genomes)           # ask is idempotent
+        np.testing.assert_array_equal(search.population, genomes)      # reading does not resample
+        with pytest.raises(RuntimeError, match="ask\\(\\) called twice"):
+            search.ask()
         search.tell(fitness(genomes))
-        assert any((g == search.best_genome).all() for g in search.ask())
+        assert any((g == search.best_genome).all() for g in search.population)
 
 
 def test_same_seed_same_search_and_state_round_trip_continues_identically():
@@ -104,9 +107,9 @@ def test_bad_calls_raise():
 
 
 def test_estimation_uses_the_configured_search_and_restores_it(tiny_config, make_experiment):
-    assert isinstance(Estimation.from_config(tiny_config(), np.random.default_rng(0)).ga, BitGA)
+    assert isinstance(Estimation.from_config(tiny_config(), np.random.default_rng(0)).search, BitGA)
     est = Estimation.from_config(tiny_config(estimation_search="cma"), np.random.default_rng(0))
-    assert isinstance(est.ga, CMAModelSearch) and est.ga.population_size == tiny_config().estimation_population
+    assert isinstance(est.search, CMAModelSearch) and est.search.population_size == tiny_config().estimation_population
 
     class OnesEvaluator:
         def similarities(self, genomes, experiments, angles):
@@ -115,8 +118,8 @@ def test_estimation_uses_the_configured_search_and_restores_it(tiny_config, make
     exps = [make_experiment(0)]
     est.run(exps, make_inference("known"), OnesEvaluator(), np.random.default_rng(1), 2)
     restored = Estimation.from_state_dict(est.state_dict(), np.random.default_rng(2))
-    assert isinstance(restored.ga, CMAModelSearch)
-    np.testing.assert_array_equal(restored.ga.ask(), est.ga.ask())
+    assert isinstance(restored.search, CMAModelSearch)
+    np.testing.assert_array_equal(restored.search.ask(), est.search.ask())
     np.testing.assert_array_equal(restored.ranked_models(), est.ranked_models())
 
 
@@ -133,7 +136,7 @@ def test_restart_reopens_the_distribution_around_the_best_point():
     search.restart()                                                   # no-op before any tell
     for _ in range(60):
         search.tell(fitness(search.ask()))
-    converged = {g.tobytes() for g in search.ask()}
+    converged = {g.tobytes() for g in search.population}
     best = search.best_genome
     search.restart()
     reopened = search.ask()

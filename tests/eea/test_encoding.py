@@ -6,12 +6,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from aquafish_gym import DAMAGES, Morphology, get_damage
+from aquafish_gym import ACTION_BOUNDS, DAMAGES, Morphology, get_damage
+from aquafish_gym import MORPHOLOGY_BOUNDS as MODEL_BOUNDS
 from eea.encoding import (
     ACTION_BITS,
-    ACTION_BOUNDS,
     MODEL_BITS,
-    MODEL_BOUNDS,
     MODEL_FIELD_BITS,
     decode_actions,
     decode_models,

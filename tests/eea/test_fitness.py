@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from eea.behaviour import similarity
-from eea.encoding import MODEL_BOUNDS
+from aquafish_gym import MORPHOLOGY_BOUNDS as MODEL_BOUNDS
 from eea.fitness import action_fitness, model_fitness, objective_fitness
 
 

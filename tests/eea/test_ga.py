@@ -20,7 +20,9 @@ def test_ask_shape_dtype_and_initial():
     x = ga.ask()
     assert x.shape == (25, 45) and x.dtype == np.uint8
     assert set(np.unique(x)) <= {0, 1}
-    np.testing.assert_array_equal(ga.ask(), x)     # asking again changes nothing
+    np.testing.assert_array_equal(ga.population, x)   # reading the population does not ask
+    with pytest.raises(RuntimeError, match="ask\\(\\) called twice"):
+        ga.ask()
     assert ga.generation == 0
     seed = np.ones((3, 45), np.uint8)
     ga = BitGA(45, 25, np.random.default_rng(0), initial=seed)
@@ -32,11 +34,11 @@ def test_deterministic_for_a_seed():
     for _ in range(2):
         ga = BitGA(18, 10, np.random.default_rng(42))
         _run_onemax(ga, 5)
-        runs.append(ga.ask())
+        runs.append(ga.population)
     np.testing.assert_array_equal(runs[0], runs[1])
     other = BitGA(18, 10, np.random.default_rng(43))
     _run_onemax(other, 5)
-    assert not np.array_equal(other.ask(), runs[0])
+    assert not np.array_equal(other.population, runs[0])
 
 
 @pytest.mark.parametrize("seed", range(3))
@@ -51,7 +53,7 @@ def test_elitism_best_never_decreases_and_elite_is_first_row(seed):
         ga.tell(genomes.sum(axis=1))
         assert ga.best_fitness >= previous
         previous = ga.best_fitness
-        np.testing.assert_array_equal(ga.best_genome, ga.ask()[0])
+        np.testing.assert_array_equal(ga.best_genome, ga.population[0])
 
 
 @pytest.mark.parametrize("seed", range(3))

@@ -21,18 +21,20 @@ def test_contract_every_strategy(strategy, make_experiment):
     """Same API test for every registered strategy (evosax-style registry fixture)."""
     rng = np.random.default_rng(0)
     exps = [make_experiment(0), make_experiment(1, true_angles=(6.0, 0.2, -0.3))]
-    for e in exps:
-        e.context = strategy.new_context(e.true_angles)
-        assert isinstance(e.context, Context)
-    strategy.begin_round(exps)
+    exps = tuple(e.with_context(strategy.new_context(e.true_angles)) for e in exps)
+    assert all(isinstance(e.context, Context) for e in exps)
+    given = exps
+    exps = strategy.begin_round(exps)
     with Evaluator(16) as ev:
-        strategy.before_generation(0, np.random.default_rng(1).integers(0, 2, (4, 45), dtype=np.uint8), exps, ev, rng)
+        exps = strategy.before_generation(0, np.random.default_rng(1).integers(0, 2, (4, 45), dtype=np.uint8), exps, ev, rng)
     angles = strategy.angles(exps, 5, rng)
     assert angles.shape == (5, 2, 3)
     assert np.all((angles[..., :2] >= 0) & (angles[..., :2] < TWO_PI)) and np.all(np.abs(angles[..., 2]) <= CAUDAL_LIMIT_RAD)
-    strategy.after_generation(np.zeros((5, 45), np.uint8), angles, np.arange(5.0), exps)
-    strategy.end_round(exps)
-    assert exps[-1].context.confidence == 1.0      # every strategy ends a round locked in
+    exps = strategy.after_generation(np.zeros((5, 45), np.uint8), angles, np.arange(5.0), exps)
+    exps = strategy.end_round(exps)
+    assert len(exps) == 2 and exps[-1].context.confidence == 1.0      # every strategy ends a round locked in
+    assert [e.index for e in exps] == [0, 1] and all(e.imu_log is g.imu_log for e, g in zip(exps, given))
+    assert given[-1].context == strategy.new_context(given[-1].true_angles)   # the inputs were not modified
     assert strategy.angles([], 3, rng).shape == (3, 0, 3)
 
 
@@ -59,7 +61,7 @@ def test_in_band_arc_wraps_through_zero_and_locks(make_experiment):
     angles = np.zeros((5, 1, 3))
     angles[:, 0] = [[6.2, 3.0, 0.3], [0.1, 3.2, -0.2], [1.5, 1.0, 0.4], [0.05, 3.1, 0.0], [3.0, 5.0, 0.1]]
     fitness = np.array([0.9, 0.8, 0.1, 0.7, 0.2])      # best three: rows 0, 1, 3
-    s.after_generation(np.zeros((5, 45), np.uint8), angles, fitness, exps)
+    exps = s.after_generation(np.zeros((5, 45), np.uint8), angles, fitness, exps)
     ctx = exps[0].context
     assert ctx.starts[0] == pytest.approx(6.2) and ctx.widths[0] == pytest.approx(0.1 + TWO_PI - 6.2)  # 0.183, not 6.15
     assert ctx.starts[1] == pytest.approx(3.0) and ctx.widths[1] == pytest.approx(0.2)
@@ -67,7 +69,7 @@ def test_in_band_arc_wraps_through_zero_and_locks(make_experiment):
     assert ctx.confidence == 0.5
     sampled = ctx.with_confidence(1.0).sample(np.random.default_rng(0), 300)
     assert np.all(in_arc(sampled[:, 0], 6.2, ctx.widths[0])) and sampled[:, 0].min() < 0.1
-    s.end_round(exps)
+    exps = s.end_round(exps)
     assert exps[0].context.confidence == 1.0
     widened = InBand(3, 0.5, widen=0.2).infer_context(angles[[0, 1, 3], 0], 0.5)
     assert widened.widths[0] == pytest.approx(1.4 * (0.1 + TWO_PI - 6.2))
@@ -90,10 +92,10 @@ def test_out_of_band_finds_the_angles_that_best_explain_the_target(make_experime
     peak = [6.1, 0.2, -0.3]
     s = OutOfBand(period=35, sample=2, population=20, generations=15, bits=8)
     exps = [make_experiment(0), make_experiment(1, context=s.new_context(np.zeros(3)))]
-    s.begin_round(exps)
+    exps = s.begin_round(exps)
     fake = PeakedEvaluator(peak)
     models = np.random.default_rng(0).integers(0, 2, (6, 45), dtype=np.uint8)
-    s.before_generation(0, models, exps, fake, np.random.default_rng(1))
+    exps = s.before_generation(0, models, exps, fake, np.random.default_rng(1))
     assert len(fake.calls) == 15                                      # one batched evaluation per inner generation
     genomes, angles = fake.calls[0]
     assert genomes.shape == (20 * 2, 45) and angles.shape == (40, 1, 3)
@@ -103,9 +105,9 @@ def test_out_of_band_finds_the_angles_that_best_explain_the_target(make_experime
     assert exps[-1].context.confidence == 1.0 and exps[-1].context.widths == (0.0, 0.0, 0.0)
     assert np.abs((est - peak + np.pi) % TWO_PI - np.pi).max() < 0.25
     before = exps[-1].context
-    s.before_generation(34, models, exps, fake, np.random.default_rng(2))   # not a multiple of the period
+    exps = s.before_generation(34, models, exps, fake, np.random.default_rng(2))   # not a multiple of the period
     assert exps[-1].context == before and len(fake.calls) == 15
-    s.before_generation(35, models, exps, fake, np.random.default_rng(2))   # generation 35: infers again
+    exps = s.before_generation(35, models, exps, fake, np.random.default_rng(2))   # generation 35: infers again
     assert len(fake.calls) == 30
     first = fake.calls[15][1][::2, 0]
     assert np.any(np.all(np.abs(first - before.estimate()) < TWO_PI / 256, axis=1))  # seeded with current angles
@@ -134,14 +136,14 @@ def test_out_of_band_all_refines_every_experiment_at_generation_0_only(make_expe
             make_experiment(2, context=s.new_context(np.zeros(3)))]
     fake = PeakPerExperiment(peaks)
     models = np.random.default_rng(0).integers(0, 2, (6, 45), dtype=np.uint8)
-    s.before_generation(0, models, exps, fake, np.random.default_rng(1))
+    exps = s.before_generation(0, models, exps, fake, np.random.default_rng(1))
     assert len(fake.calls) == 15 and fake.calls[0].shape == (20 * 2, 3, 3)  # lockstep: one call per inner generation
     first = fake.calls[0][::2]                                                # (20 candidates, E, 3)
     assert np.any(np.all(np.abs(first[:, 1] - [0.5, 0.5, 0.0]) < TWO_PI / 256, axis=1))  # older: seeded
     np.testing.assert_allclose(exps[0].context.estimate(), exact, atol=1e-9)  # elitism keeps an optimum
     for e, peak in zip(exps[1:], peaks[1:]):
         assert np.abs((e.context.estimate() - peak + np.pi) % TWO_PI - np.pi).max() < 0.25
-    s.before_generation(10, models, exps, fake, np.random.default_rng(2))   # later inferences: the newest only
+    exps = s.before_generation(10, models, exps, fake, np.random.default_rng(2))   # later inferences: the newest only
     assert len(fake.calls) == 30 and fake.calls[-1].shape == (40, 1, 3)
     with pytest.raises(ValueError, match="newest, all"):
         OutOfBand(experiments="oldest")
@@ -152,7 +154,7 @@ def test_out_of_band_newest_never_touches_older_experiments(make_experiment):
     old = Context.exact([0.5, 0.5, 0.0])
     exps = [make_experiment(0, context=old), make_experiment(1, context=s.new_context(np.zeros(3)))]
     fake = PeakPerExperiment([[3.0, 0.1, -0.3], [6.0, 2.0, 0.0]])
-    s.before_generation(0, np.zeros((2, 45), np.uint8), exps, fake, np.random.default_rng(1))
+    exps = s.before_generation(0, np.zeros((2, 45), np.uint8), exps, fake, np.random.default_rng(1))
     assert exps[0].context == old and all(c.shape == (12, 1, 3) for c in fake.calls)
 
 
@@ -164,8 +166,7 @@ def _estimate(config, experiments, spy, generations=2):
     strategy = make_inference(config.inference, config)
     estimation = Estimation.from_config(config, rng)
     with Evaluator(16) as ev:
-        estimation.run(experiments, strategy, ev, rng, generations)
-    return strategy
+        return estimation.run(experiments, strategy, ev, rng, generations).experiments
 
 
 def _angles_by_action(spy, action):
@@ -186,7 +187,7 @@ def test_known_sends_the_true_angles(tiny_config, simulator_spy, make_experiment
 
 def test_none_sends_the_zero_state(tiny_config, simulator_spy, make_experiment):
     exps = [make_experiment(0, true_angles=(5.9, 0.4, -0.2))]
-    exps[0].context = make_inference("none").new_context(exps[0].true_angles)
+    exps = [exps[0].with_context(make_inference("none").new_context(exps[0].true_angles))]
     _estimate(tiny_config(inference="none"), exps, simulator_spy)
     sent = np.concatenate([c["initial_angles"] for c in simulator_spy.calls])
     assert len(sent) > 0 and np.all(sent == 0.0)
@@ -196,13 +197,13 @@ def test_in_band_sends_locked_ranges_and_samples_the_newest(tiny_config, simulat
     locked = Context((6.0, 1.0, -0.1), (0.5, 0.2, 0.1), 1.0)             # an earlier round's arc, wraps through 0
     exps = [make_experiment(0, action=(0.1, 0.1, 0.1), context=locked),
             make_experiment(1, action=(0.2, 0.2, 0.2), context=Context.unknown(0.5))]
-    strategy = _estimate(tiny_config(inference="in_band", estimation_population=20), exps, simulator_spy, generations=3)
+    inferred = _estimate(tiny_config(inference="in_band", estimation_population=20), exps, simulator_spy, generations=3)
     old = _angles_by_action(simulator_spy, exps[0].action)
     assert np.all(in_arc(old[:, 0], 6.0, 0.5, atol=2e-6)) and np.all(in_arc(old[:, 1], 1.0, 0.2, atol=2e-6))
     assert np.all((old[:, 2] >= -0.1 - 1e-6) & (old[:, 2] <= 1e-6))
     new = _angles_by_action(simulator_spy, exps[1].action)
     assert len(np.unique(new[:, 0])) == len(new)                          # sampled, never a fixed point
-    ctx = exps[1].context
+    ctx = inferred[1].context
     assert ctx.confidence == 1.0 and ctx.widths[0] < TWO_PI               # an arc was inferred, then locked
 
 
@@ -210,11 +211,11 @@ def test_out_of_band_sends_the_inferred_angles(tiny_config, simulator_spy, make_
     exps = [make_experiment(0, action=(0.1, 0.1, 0.1)),
             make_experiment(1, action=(0.2, 0.2, 0.2), context=OutOfBand().new_context(np.zeros(3)))]
     config = tiny_config(inference="out_of_band", oob_period=5, oob_bits=4)
-    _estimate(config, exps, simulator_spy, generations=2)
+    inferred = _estimate(config, exps, simulator_spy, generations=2)
     sent = _angles_by_action(simulator_spy, exps[1].action)
     grid = TWO_PI / 16
     assert np.allclose(np.round(sent[:, :2] / grid) * grid, sent[:, :2], atol=1e-6)   # candidates on the 4-bit grid
-    best = exps[1].context.estimate()
+    best = inferred[1].context.estimate()
     last_call = simulator_spy.calls[-1]                                    # the final estimation generation
     rows = np.all(last_call["actions"] == exps[1].action, axis=1)
     assert rows.any()                                                      # new children (cached rows are not re-sent)

@@ -26,11 +26,12 @@ class TableEvaluator:
 def test_estimation_fitness_is_mean_similarity_over_experiments(tiny_config, make_experiment):
     config = tiny_config(inference="known")
     est = Estimation.from_config(config, np.random.default_rng(0))
-    first = est.ga.ask()
+    first = est.search.population
     seen = []
     ev = TableEvaluator()
-    best, fit = est.run([make_experiment(0), make_experiment(1)], make_inference("known"), ev,
-                        np.random.default_rng(1), 4, lambda g, b: seen.append((g, b)))
+    result = est.run([make_experiment(0), make_experiment(1)], make_inference("known"), ev,
+                     np.random.default_rng(1), 4, lambda g, b: seen.append((g, b)))
+    best, fit = result.best_genome, result.best_fitness
     assert ev.calls == 4 and [g for g, _ in seen] == [0, 1, 2, 3]
     assert fit == pytest.approx(best.sum() / 45 * 0.75)               # mean of (1, 0.5) x ones/45
     assert seen[0][1] == pytest.approx(first.sum(axis=1).max() / 45 * 0.75)
@@ -41,10 +42,10 @@ def test_estimation_population_carries_over_between_rounds(tiny_config, make_exp
     est = Estimation.from_config(tiny_config(), np.random.default_rng(0))
     exps = [make_experiment(0)]
     est.run(exps, make_inference("known"), TableEvaluator(), np.random.default_rng(1), 3)
-    carried = est.ga.ask()
+    carried = est.search.population
     ranked = est.ranked_models()
     assert len({r.tobytes() for r in ranked}) == len(ranked)
-    np.testing.assert_array_equal(carried[0], est.ga.best_genome)     # elite first
+    np.testing.assert_array_equal(carried[0], est.search.best_genome)  # elite first
     ev = TableEvaluator()
     first_round_two = []
     ev.similarities = (lambda f: lambda g, e, a: (first_round_two.append(g.copy()), f(g, e, a))[1])(ev.similarities)
@@ -63,7 +64,7 @@ def test_estimation_state_round_trip_continues_identically(tiny_config, make_exp
     rng2.bit_generator.state = rng_state
     b = Estimation.from_state_dict(state, rng2)
     b.run(exps, make_inference("known"), TableEvaluator(), rng2, 2)
-    np.testing.assert_array_equal(a.ga.ask(), b.ga.ask())
+    np.testing.assert_array_equal(a.search.ask(), b.search.ask())
 
 
 def test_distinct_ranked():

@@ -1,0 +1,31 @@
+"""Argument checks shared by every package: one message for one kind of mistake."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["check_int"]
+
+
+def check_int(name: str, value, minimum: int | None = None, maximum: int | None = None) -> int:
+    """``value`` as an ``int`` if it is an integer (``bool`` excluded) within the bounds.
+
+    Args:
+        name: how the message names the argument (e.g. ``"steps"``, ``"EEAConfig.rounds"``).
+        value: the argument; ``int`` and NumPy integers are accepted.
+        minimum, maximum: inclusive bounds (None: unbounded).
+
+    Returns:
+        ``int(value)``.
+
+    Raises:
+        ValueError: ``"<name> must be an int >= <minimum>, got <value!r>"`` (and ``<=
+            <maximum>`` when bounded above) if ``value`` is not an integer or out of range.
+    """
+    ok = not isinstance(value, (bool, np.bool_)) and isinstance(value, (int, np.integer))
+    ok = ok and (minimum is None or value >= minimum) and (maximum is None or value <= maximum)
+    if not ok:
+        bounds = " and ".join(b for b in (f">= {minimum}" if minimum is not None else "",
+                                          f"<= {maximum}" if maximum is not None else "") if b)
+        raise ValueError(f"{name} must be an int{' ' + bounds if bounds else ''}, got {value!r}")
+    return int(value)

@@ -1,0 +1,154 @@
+"""Model searches of the estimation phase: one ask/tell interface, chosen by name.
+
+The estimation phase (:class:`eea.estimation.Estimation`) evolves 45-bit model genomes
+through any object that satisfies :class:`ModelSearch`; :data:`MODEL_SEARCHES` maps the
+names ``EEAConfig.estimation_search`` accepts to the classes:
+
+=======  ==========================================  =======================================
+name     class                                       search
+=======  ==========================================  =======================================
+``ga``   :class:`ModelGA`                            the paper's bit-string GA (section 4)
+``cma``  :class:`~eea.cma_search.CMAModelSearch`     CMA-ES over the nine dimensions (not
+                                                     the paper's)
+=======  ==========================================  =======================================
+
+Misuse raises :class:`RuntimeError` naming it, as in pyribs: ``tell`` without a pending
+``ask``, ``ask`` twice without ``tell``, ``best_genome`` before the first ``tell``.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar, Protocol
+
+import numpy as np
+
+from eea.cma_search import CMAModelSearch
+from eea.encoding import MODEL_BITS
+from eea.ga import BitGA
+
+__all__ = ["MODEL_SEARCHES", "SEARCH_NAMES", "ModelGA", "ModelSearch", "check_model_search", "make_model_search",
+           "model_search_from_state"]
+
+
+class ModelSearch(Protocol):
+    """What the estimation phase needs of a model search (maximises fitness).
+
+    Attributes:
+        name: the registry name (``EEAConfig.estimation_search``).
+        n_bits: genome length, 45.
+        population_size: P, genomes per generation.
+    """
+
+    name: ClassVar[str]
+    n_bits: int
+    population_size: int
+
+    @property
+    def population(self) -> np.ndarray:
+        """``(P, 45)`` uint8: the population the next (or pending) ``ask`` returns."""
+
+    def ask(self) -> np.ndarray:
+        """``(P, 45)`` uint8 genomes to evaluate. Raises RuntimeError if asked twice."""
+
+    def tell(self, fitness) -> None:
+        """``(P,)`` fitness of the last asked genomes. Raises RuntimeError without an ask."""
+
+    @property
+    def best_genome(self) -> np.ndarray:
+        """``(45,)`` uint8 fittest genome of the last told generation."""
+
+    @property
+    def best_fitness(self) -> float:
+        """Its fitness."""
+
+    def restart(self) -> None:
+        """Called at the start of every round (a new experiment changes the landscape)."""
+
+    def state_dict(self) -> dict:
+        """Everything needed to resume, with ``"search": name``."""
+
+
+class ModelGA(BitGA):
+    """The paper's estimation GA: a :class:`~eea.ga.BitGA` over 45-bit model genomes.
+
+    Its population carries over between rounds (``restart`` is a no-op).
+    """
+
+    name: ClassVar[str] = "ga"
+
+    def __init__(self, population_size: int, rng: np.random.Generator, **options) -> None:
+        super().__init__(MODEL_BITS, population_size, rng, **options)
+
+    @classmethod
+    def from_config(cls, config, rng: np.random.Generator) -> "ModelGA":
+        """Sized and tuned by an :class:`eea.config.EEAConfig` (population, crossover,
+        mutation ``mutation_bits / 45``, tournament, elitism)."""
+        return cls(config.estimation_population, rng, crossover_rate=config.crossover_rate,
+                   mutation_rate=config.mutation_bits / MODEL_BITS, tournament_size=config.tournament_size,
+                   elitism=config.elitism)
+
+    def state_dict(self) -> dict:
+        """:meth:`BitGA.state_dict` with ``"search": "ga"``."""
+        return {"search": self.name, **super().state_dict()}
+
+    @classmethod
+    def _build(cls, n_bits: int, population_size: int, rng: np.random.Generator, **options) -> "ModelGA":
+        if n_bits != MODEL_BITS:
+            raise ValueError(f"a model GA evolves {MODEL_BITS}-bit genomes, the state has {n_bits} bits")
+        return cls(population_size, rng, **options)
+
+    @classmethod
+    def from_state_dict(cls, state: dict, rng: np.random.Generator) -> "ModelGA":
+        """Rebuild from :meth:`state_dict` (or a plain :meth:`BitGA.state_dict` of 45-bit genomes).
+
+        Raises:
+            ValueError: if the state is not a 45-bit GA's, or as :meth:`BitGA.from_state_dict`.
+        """
+        return super().from_state_dict({k: v for k, v in state.items() if k != "search"}, rng)
+
+
+#: What :func:`check_model_search` looks for on a search's class.
+_MEMBERS = ("name", "n_bits", "population_size", "population", "ask", "tell", "best_genome", "best_fitness",
+            "restart", "state_dict", "from_state_dict", "from_config")
+
+
+def check_model_search(search) -> None:
+    """Check that ``search`` has every member of :class:`ModelSearch` (looked up on its class,
+    so no property is evaluated).
+
+    Raises:
+        ValueError: naming the missing members.
+    """
+    missing = [m for m in _MEMBERS if not hasattr(type(search), m) and not hasattr(search, m)]
+    if missing:
+        raise ValueError(f"{type(search).__name__} is not a ModelSearch: it lacks {', '.join(missing)}")
+
+
+#: Registry of model searches by name (``EEAConfig.estimation_search``).
+MODEL_SEARCHES: dict[str, type] = {cls.name: cls for cls in (ModelGA, CMAModelSearch)}
+SEARCH_NAMES: tuple[str, ...] = tuple(MODEL_SEARCHES)
+
+
+def _search_class(name) -> type:
+    try:
+        return MODEL_SEARCHES[name]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown estimation search {name!r}; valid names: {', '.join(SEARCH_NAMES)}") from None
+
+
+def make_model_search(name: str, config, rng: np.random.Generator) -> ModelSearch:
+    """A fresh search called ``name``, sized and tuned by an :class:`eea.config.EEAConfig`.
+
+    Raises:
+        ValueError: on an unknown name (the message lists the valid names).
+    """
+    return _search_class(name).from_config(config, rng)
+
+
+def model_search_from_state(state: dict, rng: np.random.Generator) -> ModelSearch:
+    """Rebuild a search from its ``state_dict`` (a state without ``"search"`` is the GA's).
+
+    Raises:
+        ValueError: on an unknown search name or an invalid state.
+    """
+    return _search_class(state.get("search", ModelGA.name)).from_state_dict(state, rng)
