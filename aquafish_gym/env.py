@@ -11,9 +11,9 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-import pybullet as p
 from gymnasium import spaces
 
+from aquafish_gym.bullet import p
 from aquafish_gym.damage import NO_FAULTS, ServoFaults, get_damage
 from aquafish_gym.morphology import Morphology
 from aquafish_gym.params import DT_S, SimParams

@@ -18,8 +18,8 @@ import dataclasses
 import math
 
 import numpy as np
-import pybullet as p
 
+from aquafish_gym.bullet import p
 from aquafish_gym.fluid import added_mass_per_length, box_faces
 from aquafish_gym.params import SimParams
 

@@ -12,8 +12,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import pybullet as p
 
+from aquafish_gym.bullet import p
 from aquafish_gym.damage import faults_array
 from aquafish_gym.fluid import box_drag, caudal_reactive_force, quat_to_matrix, righting_torque
 from aquafish_gym.imu import roll_pitch_yaw_deg, unwrap_yaw_deg

@@ -23,8 +23,8 @@ import platform
 import time
 
 import numpy as np
-import pybullet as p
 
+from aquafish_gym.bullet import p
 from aquafish_gym import BatchWorld, Morphology, SimParams, simulate_batch
 from aquafish_gym.morphology import MORPHOLOGY_BOUNDS
 

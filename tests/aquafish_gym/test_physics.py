@@ -3,9 +3,9 @@
 import math
 
 import numpy as np
-import pybullet as p
 import pytest
 
+from aquafish_gym.bullet import p
 from aquafish_gym import BatchWorld, Morphology, SimParams, get_damage, simulate_batch
 from aquafish_gym.robot import BODY_CYLINDER_LENGTH, BODY_RADIUS
 

@@ -3,9 +3,9 @@
 import math
 
 import numpy as np
-import pybullet as p
 import pytest
 
+from aquafish_gym.bullet import p
 from aquafish_gym import BatchWorld, Morphology, SimParams, simulate_batch
 from aquafish_gym.imu import roll_pitch_yaw_deg, unwrap_yaw_deg
 from aquafish_gym.morphology import MORPHOLOGY_BOUNDS
