@@ -48,8 +48,8 @@ class RobotSpec:
         com_offsets: ``(N, 4, 3)`` link centre of mass relative to the link frame
             (the hinge for flippers, the geometric centre for the body).
         sizes: ``(N, 3, 3)`` flipper box sizes.
-        face_centres: ``(N, 4, 6, 3)``, face_normals ``(N, 4, 6, 3)``, face_areas
-            ``(N, 4, 6)``: drag faces relative to each link's centre of mass, link frame.
+        face_areas: ``(N, 4, 6)`` areas of each link's drag-box faces (+x, -x, +y, -y, +z,
+            -z; units^2); a flipper without volume has zero areas.
         box_offsets: ``(N, 4, 3)`` centre of each link's drag box relative to its centre
             of mass (link frame): ``(0, 0, ballast_offset)`` for the body, 0 for flippers.
         axis_areas: ``(N, 4, 3)`` area of the pair of faces normal to x, y, z.
@@ -65,18 +65,11 @@ class RobotSpec:
     inertias: np.ndarray
     com_offsets: np.ndarray
     sizes: np.ndarray
-    face_centres: np.ndarray
-    face_normals: np.ndarray
     face_areas: np.ndarray
     box_offsets: np.ndarray
     axis_areas: np.ndarray
     caudal_half_length: np.ndarray
     caudal_added_mass: np.ndarray
-
-    @property
-    def total_mass(self) -> np.ndarray:
-        """``(N,)`` mass of each robot."""
-        return self.masses.sum(axis=1)
 
 
 def body_mass_properties(density: float, ballast_offset: float) -> tuple[float, np.ndarray]:
@@ -96,14 +89,11 @@ def body_mass_properties(density: float, ballast_offset: float) -> tuple[float, 
     return mass, np.array([i_perp - mass * h2, i_axis - mass * h2, i_perp])
 
 
-def _body_faces(n: int, ballast_offset: float):
-    """Body drag faces: the capsule's bounding faces carrying its projected areas."""
+def _body_face_areas(n: int) -> np.ndarray:
+    """``(n, 6)`` body drag-face areas: the capsule's bounding box faces carrying its projected areas."""
     side = 2 * BODY_RADIUS * BODY_CYLINDER_LENGTH + math.pi * BODY_RADIUS**2  # projected on x or z
     end = math.pi * BODY_RADIUS**2  # projected on y
-    centres, normals, _ = box_faces(np.array([2 * BODY_RADIUS, BODY_LENGTH, 2 * BODY_RADIUS]))
-    centres = centres + np.array([0.0, 0.0, ballast_offset])  # relative to the lowered COM
-    areas = np.array([side, side, end, end, side, side])
-    return (np.broadcast_to(centres, (n, 6, 3)), np.broadcast_to(normals, (n, 6, 3)), np.broadcast_to(areas, (n, 6)))
+    return np.broadcast_to(np.array([side, side, end, end, side, side]), (n, 6))
 
 
 def robot_spec(morphologies: np.ndarray, params: SimParams) -> RobotSpec:
@@ -126,9 +116,7 @@ def robot_spec(morphologies: np.ndarray, params: SimParams) -> RobotSpec:
     com[:, 2] = np.stack([sx[:, 1] / 2, -sy[:, 1] / 2, np.zeros(n)], axis=-1)
     com[:, 3] = np.stack([np.zeros(n), -sy[:, 2] / 2, np.zeros(n)], axis=-1)
 
-    bc, bn, ba = _body_faces(n, params.ballast_offset)
-    fc, fn, fa = box_faces(sizes)
-    face_areas = np.concatenate([ba[:, None], fa], axis=1)
+    face_areas = np.concatenate([_body_face_areas(n)[:, None], box_faces(sizes)[2]], axis=1)
     box_offsets = np.zeros((n, N_LINKS, 3))
     box_offsets[:, 0, 2] = params.ballast_offset
     fin_height = np.where(sy[:, 2] * sz[:, 2] > 0, sz[:, 2], 0.0)
@@ -137,8 +125,6 @@ def robot_spec(morphologies: np.ndarray, params: SimParams) -> RobotSpec:
         inertias=inertias,
         com_offsets=com,
         sizes=sizes.copy(),
-        face_centres=np.concatenate([bc[:, None], fc], axis=1),
-        face_normals=np.concatenate([bn[:, None], fn], axis=1),
         face_areas=face_areas,
         box_offsets=box_offsets,
         axis_areas=face_areas[..., ::2].copy(),
