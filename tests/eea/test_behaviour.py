@@ -69,7 +69,9 @@ def test_broadcast_population_against_one_summary():
     s = similarity(pop, target)
     assert s.shape == (5,)
     np.testing.assert_allclose(s, [similarity(p, target) for p in pop])
-    assert np.all((s >= 0) & (s <= 1))
+    pop[3] = target + 1.0                          # every coefficient 1 away: (1 - 1/100) each
+    s = similarity(pop, target)
+    assert s[3] == pytest.approx(0.99) and np.argmax(s) == 3 and np.all(np.delete(s, 3) < 0.9)
 
 
 @pytest.mark.parametrize(

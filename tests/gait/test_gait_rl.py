@@ -13,7 +13,7 @@ pytest.importorskip("stable_baselines3")
 import aquafish_gym  # noqa: E402,F401
 from stable_baselines3.common.env_checker import check_env  # noqa: E402
 
-from gait import ClockObservation, SB3PolicyController, load_controller, rollout, score_transfer, train_rl  # noqa: E402
+from gait import ClockObservation, SB3PolicyController, load_controller, rollout, score_transfer, train_rl, with_clock  # noqa: E402
 from gait.rl import load_hyperparams  # noqa: E402
 
 
@@ -56,8 +56,9 @@ def test_short_ppo_trains_saves_loads_and_scores(tmp_path):
 
     controller = load_controller(tmp_path / "ppo")
     assert isinstance(controller, SB3PolicyController)
-    action = controller.act(np.zeros(12), 0.3)
-    assert action.shape == (3,) and np.all(np.abs(action) <= 1)
+    # the loaded policy sees the clock of the period recorded in model.json, deterministically
+    raw, _ = controller.model.predict(with_clock(np.zeros(12), 0.3, meta["clock_period_s"]), deterministic=True)
+    np.testing.assert_array_equal(controller.act(np.zeros(12), 0.3), np.clip(np.asarray(raw, dtype=np.float64), -1, 1))
     # the saved score is reproduced by the loaded policy (deterministic actions, same seed)
     assert rollout(controller, seed=meta["eval_seed"]).distance == pytest.approx(meta["eval_distance"], abs=1e-9)
     t = score_transfer(controller, "healthy", "left_pectoral_half", seed=0, episode_duration_s=2.0)

@@ -1,0 +1,53 @@
+"""Controllers clip what their network or policy outputs to the action range [-1, 1]."""
+
+import copy
+
+import gymnasium as gym
+import neat
+import numpy as np
+
+from gait import NEATController, SB3PolicyController, with_clock
+
+
+def test_neat_controller_clips_the_raw_network_output(controller):
+    """Outputs 0 and 1 made identity nodes with biases 3 and -2.5 and no inputs: raw values outside [-1, 1]."""
+    genome = copy.deepcopy(controller.genome)
+    out_keys = controller.config.genome_config.output_keys
+    for key, bias in zip(out_keys, (3.0, -2.5, 0.25)):
+        node = genome.nodes[key]
+        node.activation, node.aggregation, node.bias, node.response = "identity", "sum", bias, 1.0
+    for conn in genome.connections.values():
+        if conn.key[1] in out_keys[:2]:
+            conn.weight = 0.0
+    c = NEATController(genome, controller.config)
+    obs = np.random.default_rng(0).normal(size=12)
+    inputs = with_clock(obs, 0.3, c.clock_period_s).tolist()
+    raw = np.array(neat.nn.FeedForwardNetwork.create(genome, controller.config).activate(inputs))
+    assert raw[0] == 3.0 and raw[1] == -2.5
+    np.testing.assert_array_equal(c.act(obs, 0.3), [1.0, -1.0, np.clip(raw[2], -1.0, 1.0)])
+
+
+class _StubModel:
+    """Stands in for an SB3 model: a fixed action, and a record of what ``predict`` saw."""
+
+    observation_space = gym.spaces.Box(-np.inf, np.inf, (14,))
+
+    def __init__(self, action):
+        self.action = np.asarray(action, dtype=np.float32)
+        self.seen = []
+
+    def predict(self, obs, deterministic=False):
+        self.seen.append((np.array(obs), deterministic))
+        return self.action, None
+
+
+def test_sb3_controller_clips_the_policy_action_and_feeds_the_clock():
+    model = _StubModel([2.0, -1.5, 0.5])
+    c = SB3PolicyController(model, clock_period_s=2.0)
+    obs = np.random.default_rng(1).normal(size=12)
+    action = c.act(obs, 0.5)
+    assert action.dtype == np.float64
+    np.testing.assert_array_equal(action, [1.0, -1.0, 0.5])
+    (seen, deterministic), = model.seen
+    np.testing.assert_array_equal(seen, with_clock(obs, 0.5, 2.0))
+    assert deterministic is True
