@@ -21,6 +21,8 @@ from aquafish_gym.morphology import validate_morphologies
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.robot import JOINTS, LINK_CAUDAL, N_LINKS, create_robot, robot_spec
 
+#: Names of the three servo commands, units in the name, in action order.
+ACTION_FIELDS: tuple[str, ...] = ("left_pectoral_rev_s", "right_pectoral_rev_s", "caudal_hz")
 #: Servo command ranges: left/right pectoral speed (rev/s), caudal frequency (Hz). Paper 3.1.
 ACTION_BOUNDS = np.array([[-0.5, 0.5], [-0.5, 0.5], [0.0, 1.0]])
 ACTION_BOUNDS.setflags(write=False)
