@@ -3,8 +3,9 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+NATIVE := aquafish_gym/native/_aquafish_step.so
 
-.PHONY: demo test test-all bench install clean
+.PHONY: demo test test-all bench install native clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -15,19 +16,26 @@ $(STAMP): $(BIN)/python pyproject.toml
 	$(BIN)/python -m pip install --quiet -e ".[test,rl,cluster]"
 	touch $(STAMP)
 
-install: $(STAMP)
+# The compiled simulator step (aquafish_gym/native): needs a C++ compiler and, once, the
+# PyBullet source distribution's headers from the package index.
+$(NATIVE): $(STAMP) aquafish_gym/native/aquafish_step.cpp aquafish_gym/native/build.py
+	$(BIN)/python -m aquafish_gym.native.build --force
 
-demo: $(STAMP)
+install: $(STAMP) $(NATIVE)
+
+native: $(NATIVE)
+
+demo: $(STAMP) $(NATIVE)
 	$(BIN)/aquafish case-study --preset quick --out demo_out
 
-test: $(STAMP)
-	$(BIN)/python -m pytest -n 2 -q
+test: $(STAMP) $(NATIVE)
+	AQUAFISH_REQUIRE_NATIVE=1 $(BIN)/python -m pytest -n 2 -q
 
-test-all: $(STAMP)
-	$(BIN)/python -m pytest -n 2 -q -m ""
+test-all: $(STAMP) $(NATIVE)
+	AQUAFISH_REQUIRE_NATIVE=1 $(BIN)/python -m pytest -n 2 -q -m ""
 
-bench: $(STAMP)
+bench: $(STAMP) $(NATIVE)
 	$(BIN)/python -m benchmarks.sim_throughput
 
 clean:
-	rm -rf $(VENV) demo_out .pytest_cache
+	rm -rf $(VENV) demo_out .pytest_cache aquafish_gym/native/_aquafish_step.so aquafish_gym/native/include

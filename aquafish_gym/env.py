@@ -227,8 +227,7 @@ class AquaFishEnv(gym.Env):
         w = self.world
         w.set_actions(self.servo_command(action)[None])
         before = self._position()
-        for _ in range(self.frame_skip):
-            w.step()
+        w.advance(self.frame_skip)
         displacement = self._position() - before
         reward, reward_info = self._get_rew(displacement, action)
         self._distance += reward_info["reward_forward"]

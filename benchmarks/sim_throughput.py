@@ -2,16 +2,19 @@
 
 For batches of 1, 25 and 100 robots of 128 steps, measures in the same run
 
-* ``simulate_batch`` (world creation, fluid model, servos, IMU log), and
+* ``simulate_batch`` (world creation, fluid model, servos, IMU log) with the compiled step
+  (:mod:`aquafish_gym.native`, the default when it is built),
+* the same with the NumPy path (``native=False``; the same results bit for bit),
 * PyBullet stepping the same bodies with no fluid model and no per-step Python work
   (``stepSimulation`` only, after the same world is built), and
 * ``simulate_batch`` without the reactive caudal thrust (``reactive_thrust=False``, the
-  pure-drag model),
+  pure-drag model, compiled),
 
-and prints microseconds per robot-step, the ratio to raw PyBullet, and what the reactive
-thrust costs (median of ``--repeats`` interleaved runs). Times are this process's CPU time
-(``time.process_time``): PyBullet's DIRECT client runs in-process, so that is the simulator's
-whole cost, and other jobs on the machine change it far less than wall time.
+and prints microseconds per robot-step, the ratio of each path to raw PyBullet, and what
+the reactive thrust costs (median of ``--repeats`` interleaved runs). Times are this
+process's CPU time (``time.process_time``): PyBullet's DIRECT client runs in-process, so
+that is the simulator's whole cost, and other jobs on the machine change it far less than
+wall time.
 
     python -m benchmarks.sim_throughput [--steps 128] [--repeats 5] [--sizes 1,25,100]
 """
@@ -24,8 +27,8 @@ import time
 
 import numpy as np
 
+from aquafish_gym import BatchWorld, Morphology, SimParams, native, simulate_batch
 from aquafish_gym.bullet import p
-from aquafish_gym import BatchWorld, Morphology, SimParams, simulate_batch
 from aquafish_gym.morphology import MORPHOLOGY_BOUNDS
 
 
@@ -38,10 +41,10 @@ def _inputs(n: int, rng: np.random.Generator):
     return morph, actions, angles
 
 
-def time_simulate_batch(n: int, steps: int, rng, params: SimParams | None = None) -> float:
+def time_simulate_batch(n: int, steps: int, rng, params: SimParams | None = None, native: bool | None = None) -> float:
     morph, actions, angles = _inputs(n, rng)
     t0 = time.process_time()
-    simulate_batch(morph, actions, angles, steps, params=params)
+    simulate_batch(morph, actions, angles, steps, params=params, native=native)
     return time.process_time() - t0
 
 
@@ -50,7 +53,7 @@ def time_raw_pybullet(n: int, steps: int, rng) -> float:
     morph, actions, angles = _inputs(n, rng)
     client = p.connect(p.DIRECT)
     try:
-        world = BatchWorld(morph, client=client)
+        world = BatchWorld(morph, client=client, native=False)
         world.reset(angles, actions)
         t0 = time.process_time()
         for _ in range(steps):
@@ -68,18 +71,25 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     rng = np.random.default_rng(0)
     sizes = [int(s) for s in args.sizes.split(",")]
-    print(f"machine: {platform.processor() or platform.machine()}, {platform.python_implementation()} {platform.python_version()}, pybullet API {p.getAPIVersion()}")
+    print(f"machine: {platform.processor() or platform.machine()}, {platform.python_implementation()} "
+          f"{platform.python_version()}, pybullet API {p.getAPIVersion()}, compiled step: "
+          f"{'yes' if native.available() else 'NO (' + str(native.unavailable_reason()) + ')'}")
+    compiled = native.available() or None
     pure_drag = SimParams(reactive_thrust=False)
-    print(f"{'robots':>6} {'steps':>5} {'sim us/robot-step':>18} {'raw us/robot-step':>18} {'ratio':>6} "
-          f"{'pure-drag us/robot-step':>24} {'reactive cost':>13}")
+    print(f"{'robots':>6} {'steps':>5} {'sim us/robot-step':>18} {'numpy-path us':>13} {'raw us/robot-step':>18} "
+          f"{'ratio':>6} {'numpy ratio':>11} {'pure-drag us':>12} {'reactive cost':>13}")
     for n in sizes:
         time_simulate_batch(n, 8, rng)  # warm-up
-        times = np.array([(time_simulate_batch(n, args.steps, rng), time_raw_pybullet(n, args.steps, rng),
-                            time_simulate_batch(n, args.steps, rng, pure_drag)) for _ in range(args.repeats)])
-        sim, raw, drag = np.median(times, axis=0)  # interleaved, so slow spells hit all three
+        times = np.array([(time_simulate_batch(n, args.steps, rng, native=compiled),
+                           time_simulate_batch(n, args.steps, rng, native=False),
+                           time_raw_pybullet(n, args.steps, rng),
+                           time_simulate_batch(n, args.steps, rng, pure_drag, native=compiled))
+                          for _ in range(args.repeats)])
+        sim, numpy_path, raw, drag = np.median(times, axis=0)  # interleaved, so slow spells hit all four
         us = 1e6 / (n * args.steps)
-        print(f"{n:>6} {args.steps:>5} {sim * us:>18.1f} {raw * us:>18.1f} {sim / raw:>6.2f} "
-              f"{drag * us:>24.1f} {np.median(times[:, 0] / times[:, 2]) - 1:>12.1%}")
+        print(f"{n:>6} {args.steps:>5} {sim * us:>18.1f} {numpy_path * us:>13.1f} {raw * us:>18.1f} {sim / raw:>6.2f} "
+              f"{numpy_path / raw:>11.2f} {drag * us:>12.1f} {np.median(times[:, 0] / times[:, 3]) - 1:>12.1%}",
+              flush=True)
 
 
 if __name__ == "__main__":

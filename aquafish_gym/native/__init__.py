@@ -1,0 +1,190 @@
+"""The compiled step: :class:`~aquafish_gym.BatchWorld`'s physics loop without Python.
+
+A :class:`BatchWorld` step is mostly Python calling PyBullet: about nine calls per robot
+(base pose, base velocity, link states, four forces and a torque, the caudal servo), each
+1-3 us, against a few us of physics. ``aquafish_step.cpp`` runs the same loop (fluid
+wrench, force and servo commands, ``stepSimulation``, state read-back) in C++, inside a
+PyBullet plugin, with the arithmetic of :mod:`aquafish_gym.fluid` operation for operation
+in NumPy's order and without fused multiply-adds: a world gives the same IMU log bit for
+bit on either path (tests check it). The NumPy path stays the reference.
+
+Build it with ``python -m aquafish_gym.native.build`` (``make`` does). A world uses it
+whenever it is built (``BatchWorld(..., native=None)``); ``native=False`` forces the NumPy
+path, ``native=True`` requires the compiled one. ``AQUAFISH_NATIVE=0`` in the environment
+turns it off for the whole process.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from aquafish_gym.bullet import p
+
+__all__ = ["LIBRARY", "NativeStep", "NativeUnavailable", "available", "client_handle", "unavailable_reason",
+           "warn_unavailable_once"]
+
+#: The plugin built by :mod:`aquafish_gym.native.build`.
+LIBRARY = Path(__file__).with_name("_aquafish_step.so")
+_VERSION = 1
+_POSTFIX = "_aquafish"
+
+_lib: ctypes.CDLL | None = None
+_warned = False
+_handles: dict[int, int] = {}  # PyBullet client id -> the plugin's client handle on that server
+
+
+class NativeUnavailable(RuntimeError):
+    """The compiled step is not built or cannot be loaded; the message says how to build it."""
+
+
+def _load() -> ctypes.CDLL:
+    global _lib
+    if _lib is not None:
+        return _lib
+    if not LIBRARY.exists():
+        raise NativeUnavailable(f"the compiled step is not built ({LIBRARY.name} missing): run `make install` "
+                                "or `python -m aquafish_gym.native.build`")
+    lib = ctypes.CDLL(str(LIBRARY))
+    if lib.af_version() != _VERSION:
+        raise NativeUnavailable(f"{LIBRARY.name} is version {lib.af_version()}, expected {_VERSION}: rebuild it "
+                                "with `python -m aquafish_gym.native.build --force`")
+    code = lib.af_bind(p.__file__.encode())
+    if code != 0:
+        raise NativeUnavailable(f"{LIBRARY.name} cannot find PyBullet's C API in {p.__file__} (code {code})")
+    lib.af_last_client.restype = ctypes.c_void_p
+    lib.af_run.restype = ctypes.c_int
+    _lib = lib
+    return lib
+
+
+def unavailable_reason() -> str | None:
+    """None if the compiled step can be used, else why not (switched off, not built, not loadable)."""
+    if os.environ.get("AQUAFISH_NATIVE", "1") == "0":
+        return "switched off by AQUAFISH_NATIVE=0"
+    try:
+        _load()
+    except (NativeUnavailable, OSError) as err:
+        return str(err)
+    return None
+
+
+def available() -> bool:
+    """Whether the compiled step is built, loads, and is not switched off (``AQUAFISH_NATIVE=0``)."""
+    return unavailable_reason() is None
+
+
+def warn_unavailable_once() -> None:
+    """Warn (once per process) that worlds fall back to the NumPy path, unless that was asked for."""
+    global _warned
+    reason = unavailable_reason()
+    if reason is not None and not _warned and os.environ.get("AQUAFISH_NATIVE", "1") != "0":
+        _warned = True
+        warnings.warn(f"aquafish_gym: the simulator runs its NumPy path, 2-3x slower: {reason}", RuntimeWarning,
+                      stacklevel=3)
+
+
+def client_handle(client: int) -> int:
+    """The plugin's handle on PyBullet client ``client``'s server (loading the plugin there once).
+
+    Raises:
+        NativeUnavailable: if the library is not built or PyBullet refuses the plugin.
+    """
+    lib = _load()
+    for _ in range(2):
+        lib.af_forget_last()
+        uid = p.loadPlugin(str(LIBRARY), _POSTFIX, physicsClientId=client)
+        if uid < 0:
+            raise NativeUnavailable(f"PyBullet could not load the plugin {LIBRARY}")
+        fresh = lib.af_last_client()
+        if fresh:
+            _handles[client] = fresh
+            return fresh
+        if client in _handles:
+            return _handles[client]
+        p.unloadPlugin(uid, physicsClientId=client)  # loaded before we kept its handle: load it afresh
+    raise NativeUnavailable("the plugin did not report its client handle")
+
+
+def _doubles(a: np.ndarray):
+    return a.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
+
+
+def _ints(a: np.ndarray):
+    return a.ctypes.data_as(ctypes.POINTER(ctypes.c_int))
+
+
+class NativeStep:
+    """The compiled loop bound to one :class:`~aquafish_gym.BatchWorld` (its robots and params).
+
+    Args:
+        world: the world; its spec, bodies, active links and params are copied once.
+
+    Raises:
+        NativeUnavailable: as :func:`client_handle`.
+    """
+
+    def __init__(self, world) -> None:
+        from aquafish_gym.robot import LINK_CAUDAL
+
+        prm, spec, n = world.params, world.spec, world.n
+        self.world = world
+        self.handle = ctypes.c_void_p(client_handle(world.client))
+        self.bodies = np.ascontiguousarray(world.bodies, dtype=np.intc)
+        self.active = np.zeros((n, 4), dtype=np.intc)
+        for i, links in enumerate(world._active):
+            self.active[i, links] = 1
+        self.box_offsets = np.ascontiguousarray(spec.box_offsets, dtype=np.float64)
+        self.axis_areas = np.ascontiguousarray(spec.axis_areas, dtype=np.float64)
+        # the same expressions as fluid.righting_torque and fluid.box_drag, so the same doubles
+        self.righting_w = np.ascontiguousarray(np.asarray(spec.masses[:, 0]) * prm.gravity * prm.ballast_offset)
+        self.caudal_half = np.ascontiguousarray(spec.caudal_half_length, dtype=np.float64)
+        self.caudal_mass = np.ascontiguousarray(spec.caudal_added_mass, dtype=np.float64)
+        self.quadratic = prm.drag_law == "quadratic"
+        self.drag_c = (-0.5 * prm.drag_coefficient * prm.fluid_density) if self.quadratic else -prm.drag_coefficient
+        self.current = np.ascontiguousarray(prm.water_current, dtype=np.float64)
+        info = p.getJointInfo(world.bodies[0], LINK_CAUDAL, physicsClientId=world.client)
+        self.caudal_joint, self.caudal_q, self.caudal_u = LINK_CAUDAL, info[3], info[4]
+
+    def run(self, steps: int, caudal_angle: np.ndarray, caudal_velocity: np.ndarray, oscillating: np.ndarray,
+            log: bool) -> np.ndarray | None:
+        """Step the world ``steps`` times; its state arrays are read and replaced.
+
+        Args:
+            steps: physics steps of 0.01 s.
+            caudal_angle, caudal_velocity: ``(steps, K)`` the caudal servo's target angle
+                (rad) and velocity (rad/s) of the K oscillating robots at every step.
+            oscillating: ``(K,)`` their indices.
+            log: return the body orientation after every step.
+
+        Returns:
+            ``(N, steps, 4)`` body quaternions (x, y, z, w) if ``log``, else None.
+
+        Raises:
+            RuntimeError: if PyBullet did not answer a state request as expected.
+        """
+        w, prm = self.world, self.world.params
+        state = [np.ascontiguousarray(a, dtype=np.float64) for a in
+                 (w.position, w.orientation, w.linear_velocity, w.angular_velocity)]
+        quats = np.empty((w.n, steps, 4)) if log else None
+        angle = np.ascontiguousarray(caudal_angle, dtype=np.float64)
+        velocity = np.ascontiguousarray(caudal_velocity, dtype=np.float64)
+        osc = np.ascontiguousarray(oscillating, dtype=np.intc)
+        code = _lib.af_run(
+            self.handle, ctypes.c_int(w.n), ctypes.c_int(steps), _ints(self.bodies), _ints(self.active),
+            _doubles(self.box_offsets), _doubles(self.axis_areas), _doubles(self.righting_w),
+            _doubles(self.caudal_half), _doubles(self.caudal_mass), ctypes.c_double(self.drag_c),
+            ctypes.c_int(self.quadratic), _doubles(self.current), ctypes.c_int(bool(prm.reactive_thrust)),
+            ctypes.c_int(self.caudal_joint), ctypes.c_int(self.caudal_q), ctypes.c_int(self.caudal_u),
+            ctypes.c_double(prm.caudal_position_gain), ctypes.c_double(prm.caudal_velocity_gain),
+            ctypes.c_double(prm.caudal_max_torque), ctypes.c_int(len(osc)), _ints(osc), _doubles(angle),
+            _doubles(velocity), *(_doubles(a) for a in state), _doubles(quats) if log else None)
+        if code != 0:
+            raise RuntimeError(f"compiled step failed with code {code} (-2: a state request failed, "
+                               "-3: a robot without 3 joints)")
+        w.position, w.orientation, w.linear_velocity, w.angular_velocity = state
+        return quats
