@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from aquafish_gym.checks import check_int
 from aquafish_gym import DAMAGES
 from aquafish_gym.files import atomic_write
 from gait.neat_evolution import evolve_or_load_gait
@@ -96,8 +97,7 @@ def damage_table(out, *, damages=None, budget: GaitBudget = GaitBudget(), starts
     unknown = [d for d in names if d not in DAMAGES or d == "none"]
     if unknown:
         raise ValueError(f"unknown damage(s) {unknown}; valid: {', '.join(sorted(d for d in DAMAGES if d != 'none'))}")
-    if isinstance(starts, bool) or not isinstance(starts, int) or starts < 1:
-        raise ValueError(f"starts must be an integer >= 1, got {starts!r}")
+    check_int("starts", starts, 1)
     out = Path(out)
     healthy_gait = _gait("healthy", budget, out / "gaits" / "healthy", verbose)
     on_healthy = distances(healthy_gait, "healthy", eval_seed, starts)

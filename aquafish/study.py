@@ -19,6 +19,7 @@ from pathlib import Path
 
 from tqdm.auto import tqdm
 
+from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from eea.config import EEAConfig
 from eea.record import read_rounds
@@ -53,8 +54,7 @@ class StudySpec:
             raise ValueError(f"conditions must be a non-empty list without repeats, got {self.conditions}")
         if not self.durations_s or len(set(self.durations_s)) != len(self.durations_s):
             raise ValueError(f"durations must be a non-empty list without repeats, got {self.durations_s}")
-        if isinstance(self.replicates, bool) or not isinstance(self.replicates, int) or self.replicates < 1:
-            raise ValueError(f"replicates must be a positive integer, got {self.replicates!r}")
+        check_int("replicates", self.replicates, 1)
         self.runs(Path("."))  # validates every run's config
 
     def runs(self, out_dir: Path) -> list[tuple[EEAConfig, Path]]:

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 from aquafish_gym.files import save_figure
 from aquafish_gym.morphology import Morphology
 from aquafish_gym.robot import BODY_LENGTH, BODY_RADIUS, CAUDAL_HINGE_Y, PECTORAL_HINGE_Y

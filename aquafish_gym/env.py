@@ -13,8 +13,9 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from aquafish_gym.checks import check_int
 from aquafish_gym.bullet import p
-from aquafish_gym.damage import NO_FAULTS, ServoFaults, get_damage
+from aquafish_gym.damage import ServoFaults, get_damage
 from aquafish_gym.morphology import Morphology
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.simulator import ACTION_BOUNDS, BatchWorld
@@ -122,8 +123,7 @@ class AquaFishEnv(gym.Env):
         self.faults = faults if faults is not None else self.damage.faults
         if not isinstance(self.faults, ServoFaults):
             raise ValueError(f"faults must be a ServoFaults, got {type(self.faults).__name__}")
-        if isinstance(frame_skip, bool) or not isinstance(frame_skip, (int, np.integer)) or frame_skip < 1:
-            raise ValueError(f"frame_skip must be a positive integer (physics steps of {DT_S} s), got {frame_skip!r}")
+        check_int(f"frame_skip (physics steps of {DT_S} s)", frame_skip, 1)
         if not (isinstance(episode_duration_s, (int, float)) and math.isfinite(episode_duration_s) and episode_duration_s > 0):
             raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
         if not (isinstance(ctrl_cost_weight, (int, float)) and math.isfinite(ctrl_cost_weight) and ctrl_cost_weight >= 0):

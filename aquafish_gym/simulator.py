@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from aquafish_gym.checks import check_int
 from aquafish_gym import native as _native
 from aquafish_gym.bullet import p
 from aquafish_gym.damage import faults_array
@@ -376,8 +377,7 @@ def simulate_batch(morphologies, actions, initial_angles, steps: int, *, faults=
     Raises:
         ValueError: bad shapes, out-of-range values, NaN, or ``steps < 1``.
     """
-    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
-        raise ValueError(f"steps must be a positive integer (0.01 s each), got {steps!r}")
+    check_int("steps (0.01 s each)", steps, 1)
     morph = validate_morphologies(morphologies)
     n = morph.shape[0]
     prm = params if params is not None else SimParams()

@@ -35,6 +35,7 @@ from typing import Any
 import neat
 import numpy as np
 
+from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from gait.clock import CLOCK_PERIOD_S, check_clock_period
 from gait.controller import NEAT_CONTROLLER_FILE, NEATController, load_controller
@@ -79,8 +80,7 @@ def load_neat_config(path=None, *, population_size: int | None = None) -> neat.C
     if unknown:
         raise ValueError(f"NEAT config {path}: unknown [DefaultGenome] key(s) {unknown}")
     if population_size is not None:
-        if isinstance(population_size, bool) or not isinstance(population_size, int) or population_size < 2:
-            raise ValueError(f"population_size must be an integer >= 2, got {population_size!r}")
+        check_int("population_size", population_size, 2)
         config.pop_size = population_size
     return config
 
@@ -223,12 +223,6 @@ def latest_checkpoint(out_dir) -> Path:
     return found[-1]
 
 
-def _check_int(name: str, value, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
 def _restore(resume, population_size: int | None) -> neat.Population:
     path = Path(resume)
     if not path.is_file():
@@ -321,13 +315,13 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
             beyond ``generations``.
     """
     robot = as_robot(morphology if morphology is not None else "healthy", damage=damage)
-    generations = _check_int("generations", generations, 1)
-    seed = _check_int("seed", seed, 0)
-    workers = _check_int("workers", workers if workers is not None else (os.cpu_count() or 1), 1)
-    checkpoint_every = _check_int("checkpoint_every", checkpoint_every, 1)
+    generations = check_int("generations", generations, 1)
+    seed = check_int("seed", seed, 0)
+    workers = check_int("workers", workers if workers is not None else (os.cpu_count() or 1), 1)
+    checkpoint_every = check_int("checkpoint_every", checkpoint_every, 1)
     angles = None if initial_angles is None else tuple(float(a) for a in np.asarray(initial_angles, dtype=float).reshape(3))
     task = FitnessTask(robot, seed, angles, float(episode_duration_s), check_clock_period(clock_period_s),
-                       _check_int("episodes_per_genome", episodes_per_genome, 1))
+                       check_int("episodes_per_genome", episodes_per_genome, 1))
     out_dir = Path(out_dir) if out_dir is not None else None
 
     random.seed(seed)

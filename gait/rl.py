@@ -18,6 +18,7 @@ from typing import Any, Callable
 import numpy as np
 import yaml
 
+from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from gait.clock import CLOCK_PERIOD_S, ClockObservation, check_clock_period
 from gait.controller import SB3_ALGOS, SB3_MODEL_FILE, SB3PolicyController, sb3_algorithm, sb3_sidecar
@@ -137,8 +138,7 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
     clock_period_s = check_clock_period(clock_period_s)
     hp = load_hyperparams(algo, hyperparams_path)
     n_timesteps = hp.pop("n_timesteps") if timesteps is None else timesteps
-    if isinstance(n_timesteps, bool) or not isinstance(n_timesteps, (int, np.integer)) or n_timesteps < 1:
-        raise ValueError(f"timesteps must be a positive integer, got {n_timesteps!r}")
+    check_int("timesteps", n_timesteps, 1)
     hp.pop("n_timesteps", None)
     policy, n_envs = hp.pop("policy"), hp.pop("n_envs")
     if num_threads is not None:

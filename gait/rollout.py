@@ -20,6 +20,7 @@ import gymnasium as gym
 import numpy as np
 
 import aquafish_gym  # noqa: F401  (registers AquaFish-v0)
+from aquafish_gym.checks import check_int
 from gait.controller import Controller
 from gait.robots import Robot, as_robot
 
@@ -69,8 +70,7 @@ def check_episodes(episodes, initial_angles=None) -> int:
         ValueError: if ``episodes`` is not an integer >= 1, or is > 1 while ``initial_angles``
             are fixed (every episode would be the same).
     """
-    if isinstance(episodes, bool) or not isinstance(episodes, (int, np.integer)) or episodes < 1:
-        raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")
+    check_int("episodes", episodes, 1)
     if episodes > 1 and initial_angles is not None:
         raise ValueError(f"episodes must be 1 when initial_angles are fixed (they would be identical), got {episodes}")
     return int(episodes)
@@ -96,8 +96,7 @@ def rollout(controller: Controller, robot=None, *, damage: str = "none", seed: i
     Raises:
         ValueError: invalid robot or env arguments, or a controller action outside [-1, 1]^3.
     """
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
-        raise ValueError(f"seed must be an integer, got {seed!r}")
+    check_int("seed", seed)
     robot = as_robot(robot if robot is not None else "healthy", damage=damage)
     env = make_env(robot, initial_angles=initial_angles, episode_duration_s=episode_duration_s, **env_kwargs)
     try:
