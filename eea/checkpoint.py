@@ -36,6 +36,8 @@ class RunState:
         estimation: :meth:`eea.estimation.Estimation.state_dict` (empty before the first round).
         experiments: :meth:`eea.experiment.Experiment.state_dict` of every experiment.
         evaluator: :meth:`eea.evaluation.Evaluator.state_dict` (counter and cache).
+        inference: the strategy's :meth:`~eea.strategy.InferenceStrategy.state_dict`
+            (empty for the paper's strategies).
         wall_seconds: wall time of the finished rounds (s), over all sessions.
         rows: the rounds.csv rows so far (one dict per round).
         version: the checkpoint format.
@@ -47,6 +49,7 @@ class RunState:
     estimation: dict = dataclasses.field(default_factory=dict)
     experiments: tuple = ()
     evaluator: dict = dataclasses.field(default_factory=dict)
+    inference: dict = dataclasses.field(default_factory=dict)
     wall_seconds: float = 0.0
     rows: tuple = ()
     version: int = _VERSION
@@ -71,4 +74,5 @@ def load_state(out_dir: str | os.PathLike) -> RunState | None:
         data = pickle.load(f)
     if data.get("version") != _VERSION:
         raise ValueError(f"{path} has checkpoint version {data.get('version')!r}, expected {_VERSION}")
+    data.setdefault("inference", {})  # checkpoints written before strategies could keep state
     return RunState(**{**data, "experiments": tuple(data["experiments"]), "rows": tuple(data["rows"])})

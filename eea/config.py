@@ -61,6 +61,8 @@ FIELD_HELP: dict[str, str] = {
     "oob_population": "out_of_band: candidate angle sets per inner GA generation",
     "oob_generations": "out_of_band: inner GA generations per inference",
     "oob_bits": "out_of_band: bits per angle in the inner GA genome (3 angles)",
+    "profile_proposals": "profile: perturbed angle sets tried per model, experiment and generation (not the paper's)",
+    "profile_initial": "profile: random angle sets tried per model for a new experiment",
     "oob_experiments": "out_of_band: angles refined by each inference: newest (the paper's: only the newest "
                        "experiment) or all (also every older experiment at generation 0 of each round; not the paper's)",
     "workers": "worker processes for simulations (1 = serial); never changes results",
@@ -111,6 +113,8 @@ class EEAConfig:
     oob_generations: int = 10
     oob_bits: int = 8
     oob_experiments: str = "newest"
+    profile_proposals: int = 2
+    profile_initial: int = 8
     workers: int = dataclasses.field(default_factory=_default_workers)
     max_batch_robots: int = 64
 
@@ -132,6 +136,7 @@ class EEAConfig:
             "exploration_models": 2, "estimation_population": 2, "estimation_generations": 1,
             "tournament_size": 1, "elitism": 0, "k_best": 1, "oob_period": 1, "oob_sample": 1,
             "oob_population": 1, "oob_generations": 1, "oob_bits": 2, "workers": 1,
+            "profile_proposals": 1, "profile_initial": 1,
             "max_batch_robots": 1,
         }
         for name, low in minimum.items():

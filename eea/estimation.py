@@ -20,7 +20,7 @@ import numpy as np
 from eea.encoding import MODEL_BITS
 from eea.experiment import Experiment
 from eea.fitness import model_fitness_from_similarities
-from eea.inference import InferenceStrategy
+from eea.strategy import InferenceStrategy
 from eea.model_search import ModelSearch, check_model_search, make_model_search, model_search_from_state
 
 __all__ = ["Estimation", "EstimationResult", "distinct_ranked"]
@@ -88,8 +88,8 @@ class Estimation:
             on_generation: Callable[[int, float], None] | None = None) -> EstimationResult:
         """Evolve the models for ``generations`` generations against all experiments.
 
-        Per generation: ``strategy.before_generation``; the population's initial angles
-        ``strategy.angles`` ``(P, E, 3)``; one :meth:`Evaluator.similarities` call
+        Per generation: ``search.ask``; ``strategy.before_generation``; the population's
+        initial angles ``strategy.angles`` ``(P, E, 3)``; one :meth:`Evaluator.similarities` call
         ``(P, E)``; MOD_FIT (eq. 3, :func:`eea.fitness.model_fitness_from_similarities`);
         ``strategy.after_generation``; ``search.tell``. ``search.restart`` and
         ``strategy.begin_round``/``end_round`` bracket the phase. Each hook's experiments
@@ -117,9 +117,10 @@ class Estimation:
         experiments = strategy.begin_round(tuple(experiments))
         self.search.restart()
         for generation in range(generations):
-            experiments = strategy.before_generation(generation, self.ranked_models(), experiments, evaluator, rng)
+            ranked = self.ranked_models()
             genomes = self.search.ask()
-            angles = strategy.angles(experiments, len(genomes), rng)
+            experiments = strategy.before_generation(generation, ranked, experiments, evaluator, rng, genomes=genomes)
+            angles = strategy.angles(experiments, genomes, rng)
             fitness = model_fitness_from_similarities(evaluator.similarities(genomes, experiments, angles))
             experiments = strategy.after_generation(genomes, angles, fitness, experiments)
             self.search.tell(fitness)

@@ -18,26 +18,16 @@ name            paper   initial angles of the models
 ``out_of_band`` 3.4     every ``period`` generations (0, 35, 70) an inner GA over the
                         newest experiment's angles, scored by the mean similarity of a
                         sample of the best models to the target; confidence 1.0 at once
+``profile``     --      not the paper's: every model keeps its own best angles per
+                        experiment, searched for it each generation (:mod:`eea.profile`)
 ==============  ======  =============================================================
 
-Hook order within one estimation phase (:class:`eea.estimation.Estimation`)::
-
-    experiments = begin_round(experiments)
-    for generation in range(G):
-        experiments = before_generation(generation, ranked_genomes, experiments, evaluator, rng)
-        angles = angles(experiments, P, rng)       # (P, E, 3), then fitness, then
-        experiments = after_generation(genomes, angles, fitness, experiments)
-    experiments = end_round(experiments)
-
-Experiments are immutable: a hook that refines a context returns new experiments
-(:meth:`Experiment.with_context`) and the estimation phase passes them on. Strategies keep
-no state of their own: everything they infer lives in the experiments' contexts, which the
-run checkpoints.
+The hooks a strategy implements and their order are in :mod:`eea.strategy`.
 """
 
 from __future__ import annotations
 
-from typing import ClassVar, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -45,9 +35,8 @@ from eea.arc import TWO_PI, smallest_inclusive_arc, smallest_inclusive_interval,
 from eea.encoding import decode_fields, encode_fields
 from eea.ga import BitGA
 from eea.experiment import CAUDAL_LIMIT_RAD, PERIODS, Context, Experiment, with_newest_context
-
-#: What every hook takes and returns: the run's experiments, oldest first.
-Experiments = Sequence[Experiment]
+from eea.profile import Profile
+from eea.strategy import InferenceStrategy
 
 __all__ = ["INFERENCE_NAMES", "INFERENCE_STRATEGIES", "InBand", "InferenceStrategy", "Known", "NoInference",
            "OOB_EXPERIMENTS", "OutOfBand", "make_inference"]
@@ -55,58 +44,6 @@ __all__ = ["INFERENCE_NAMES", "INFERENCE_STRATEGIES", "InBand", "InferenceStrate
 #: Which experiments an out-of-band inference refines: the paper's newest one, or (at the
 #: first inference of every round) all of them; see :class:`OutOfBand`.
 OOB_EXPERIMENTS: tuple[str, ...] = ("newest", "all")
-
-
-class InferenceStrategy:
-    """Interface of a context inference strategy; the base class's hooks return the experiments unchanged."""
-
-    name: ClassVar[str] = ""
-
-    @classmethod
-    def from_config(cls, config) -> "InferenceStrategy":
-        """Build from an :class:`eea.config.EEAConfig` (subclasses read their fields)."""
-        return cls()
-
-    def new_context(self, true_angles: np.ndarray) -> Context:
-        """Context of a freshly performed experiment whose true angles are ``(3,)`` rad."""
-        raise NotImplementedError
-
-    def begin_round(self, experiments: Experiments) -> Experiments:
-        """Called once before the estimation generations of a round; returns the experiments to use."""
-        return experiments
-
-    def angles(self, experiments: Sequence[Experiment], n_models: int, rng: np.random.Generator) -> np.ndarray:
-        """Initial angles of every model in every experiment (the paper's PERFORM()).
-
-        Returns:
-            ``(n_models, E, 3)`` radians, experiment e's column drawn by
-            :meth:`Context.sample` of its context.
-        """
-        if not experiments:
-            return np.zeros((n_models, 0, 3))
-        return np.stack([exp.context.sample(rng, n_models) for exp in experiments], axis=1)
-
-    def before_generation(self, generation: int, ranked_genomes: np.ndarray, experiments: Experiments,
-                          evaluator, rng: np.random.Generator) -> Experiments:
-        """Called before estimation generation ``generation`` (0-based) is evaluated.
-
-        Args:
-            ranked_genomes: ``(R, 45)`` distinct model genomes, best first by their last
-                fitness (population order before any fitness is known).
-
-        Returns:
-            The experiments the generation is evaluated on.
-        """
-        return experiments
-
-    def after_generation(self, genomes: np.ndarray, angles: np.ndarray, fitness: np.ndarray,
-                         experiments: Experiments) -> Experiments:
-        """Called with a generation's ``(P, 45)`` genomes, ``(P, E, 3)`` angles, ``(P,)`` fitness."""
-        return experiments
-
-    def end_round(self, experiments: Experiments) -> Experiments:
-        """Called once after the estimation generations of a round; returns the final experiments."""
-        return experiments
 
 
 class Known(InferenceStrategy):
@@ -239,7 +176,7 @@ class OutOfBand(InferenceStrategy):
     def begin_round(self, experiments):
         return with_newest_context(experiments, experiments[-1].context.with_confidence(1.0))
 
-    def before_generation(self, generation, ranked_genomes, experiments, evaluator, rng):
+    def before_generation(self, generation, ranked_genomes, experiments, evaluator, rng, genomes=None):
         if generation % self.period:
             return experiments
         experiments = tuple(experiments)
@@ -298,7 +235,7 @@ class OutOfBand(InferenceStrategy):
 
 #: Registry of strategies by name (``EEAConfig.inference``).
 INFERENCE_STRATEGIES: dict[str, type[InferenceStrategy]] = {
-    cls.name: cls for cls in (Known, NoInference, InBand, OutOfBand)
+    cls.name: cls for cls in (Known, NoInference, InBand, OutOfBand, Profile)
 }
 INFERENCE_NAMES: tuple[str, ...] = tuple(INFERENCE_STRATEGIES)
 

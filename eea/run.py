@@ -95,6 +95,7 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
         if state.evaluator:
             evaluator.load_state_dict(state.evaluator)
         parts = RoundParts.from_config(config, rng, evaluator, estimation)
+        parts.strategy.load_state_dict(state.inference)
         for number in range(state.rounds_done + 1, config.rounds + 1):
             record = run_round(number, experiments, parts, rng, on_phase)
             experiments = record.experiments
@@ -103,7 +104,8 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
             state = RunState(config=config.to_dict(), rounds_done=number, rng_state=rng.bit_generator.state,
                              estimation=parts.estimation.state_dict(),
                              experiments=tuple(e.state_dict() for e in experiments),
-                             evaluator=evaluator.state_dict(), wall_seconds=wall, rows=(*state.rows, row))
+                             evaluator=evaluator.state_dict(), inference=parts.strategy.state_dict(),
+                             wall_seconds=wall, rows=(*state.rows, row))
             save_state(out, state)
             write_rounds(out, state.rows)
             bar.update(1)

@@ -25,9 +25,10 @@ def test_contract_every_strategy(strategy, make_experiment):
     assert all(isinstance(e.context, Context) for e in exps)
     given = exps
     exps = strategy.begin_round(exps)
+    genomes = np.random.default_rng(1).integers(0, 2, (5, 45), dtype=np.uint8)
     with Evaluator(16) as ev:
-        exps = strategy.before_generation(0, np.random.default_rng(1).integers(0, 2, (4, 45), dtype=np.uint8), exps, ev, rng)
-    angles = strategy.angles(exps, 5, rng)
+        exps = strategy.before_generation(0, genomes[:4], exps, ev, rng, genomes=genomes)
+    angles = strategy.angles(exps, genomes, rng)
     assert angles.shape == (5, 2, 3)
     assert np.all((angles[..., :2] >= 0) & (angles[..., :2] < TWO_PI)) and np.all(np.abs(angles[..., 2]) <= CAUDAL_LIMIT_RAD)
     exps = strategy.after_generation(np.zeros((5, 45), np.uint8), angles, np.arange(5.0), exps)
@@ -35,22 +36,23 @@ def test_contract_every_strategy(strategy, make_experiment):
     assert len(exps) == 2 and exps[-1].context.confidence == 1.0      # every strategy ends a round locked in
     assert [e.index for e in exps] == [0, 1] and all(e.imu_log is g.imu_log for e, g in zip(exps, given))
     assert given[-1].context == strategy.new_context(given[-1].true_angles)   # the inputs were not modified
-    assert strategy.angles([], 3, rng).shape == (3, 0, 3)
+    assert strategy.angles([], np.zeros((3, 45), np.uint8), rng).shape == (3, 0, 3)
 
 
 def test_registry_and_unknown_name():
-    assert INFERENCE_NAMES == ("known", "none", "in_band", "out_of_band")
+    assert INFERENCE_NAMES == ("known", "none", "in_band", "out_of_band", "profile")
     assert all(cls.name == name for name, cls in INFERENCE_STRATEGIES.items())
-    with pytest.raises(ValueError, match="valid names: known, none, in_band, out_of_band"):
+    with pytest.raises(ValueError, match="valid names: known, none, in_band, out_of_band, profile"):
         make_inference("guess")
 
 
 def test_known_and_none_contexts(make_experiment):
     truth = np.array([5.5, 0.25, -0.4])
     known, none = make_inference("known"), make_inference("none")
-    np.testing.assert_array_equal(known.angles([make_experiment(0, context=known.new_context(truth))], 3,
+    three = np.zeros((3, 45), np.uint8)
+    np.testing.assert_array_equal(known.angles([make_experiment(0, context=known.new_context(truth))], three,
                                                np.random.default_rng()), np.tile(truth, (3, 1, 1)))
-    np.testing.assert_array_equal(none.angles([make_experiment(0, context=none.new_context(truth))], 3,
+    np.testing.assert_array_equal(none.angles([make_experiment(0, context=none.new_context(truth))], three,
                                               np.random.default_rng()), np.zeros((3, 1, 3)))
 
 

@@ -1,0 +1,178 @@
+"""Profile inference: every model keeps its own best initial angles (not the paper's).
+
+The paper's strategies give all models of a generation the same context per experiment;
+out-of-band fits that one set of angles to the current best models, the models then fit
+those angles, and the pair locks in (README, "Why out-of-band inference helps so little").
+Here the initial angles are nuisance parameters profiled out per model: a model is scored
+by MOD_FIT (eq. 3) under the best angles found *for it*, so the true morphology, given its
+true angles, scores 1 whatever the other models believe.
+
+Per estimation generation, for every distinct model about to be evaluated and every
+experiment, :class:`Profile` tries
+
+* its remembered best angles (free: the evaluator has them cached),
+* the angles of the best model so far (shared knowledge: a good model's angles are a good
+  guess for its neighbours),
+* ``proposals`` perturbations of its own best (each flipper moved with probability 1/2,
+  at least one: pectorals by a normal step of 0.1, 0.4 or 1.2 rad, the caudal fin by 0.02,
+  0.08 or 0.2 rad; one in four a uniform random draw),
+
+in one batched :meth:`Evaluator.similarities` call (every candidate row carries one
+candidate for every experiment: an experiment's similarity depends only on its own
+angles), and keeps the best per experiment. A model never seen before inherits the memory
+of the nearest (Hamming) model of the previous generation, i.e. of its parent. A new
+experiment is first tried from ``initial`` random angle sets per model. The estimation
+generation itself then simulates nothing new: its angles are the remembered ones.
+
+Cost: about ``U (proposals + 1) E`` simulations per generation for U distinct models and E
+experiments, plus ``U initial`` at the first generation of a round; 3-4 times the
+estimation cost of ``known`` with the defaults.
+
+The memory is the strategy's state (:meth:`Profile.state_dict`); the run checkpoints it.
+The experiments' contexts hold the best model's angles (the ``inferred_*`` columns of
+``rounds.csv``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from eea.arc import TWO_PI
+from eea.experiment import CAUDAL_LIMIT_RAD, Context, random_angles
+from eea.strategy import Experiments, InferenceStrategy
+
+__all__ = ["Profile"]
+
+#: Normal step sizes of a perturbation (rad): pectorals, caudal fin; one pair drawn per candidate.
+_STEPS_RAD = np.array([[0.1, 0.02], [0.4, 0.08], [1.2, 0.2]])
+_RANDOM_SHARE = 0.25
+
+
+def _keys(genomes: np.ndarray) -> list[bytes]:
+    return [g.tobytes() for g in np.asarray(genomes, dtype=np.uint8)]
+
+
+class Profile(InferenceStrategy):
+    """Per-model initial angles, profiled out of MOD_FIT (see the module docstring).
+
+    Args:
+        proposals: perturbed angle sets tried per model, experiment and generation (>= 1).
+        initial: random angle sets tried per model for a new experiment (>= 1).
+
+    Raises:
+        ValueError: if a count is < 1.
+    """
+
+    name = "profile"
+
+    def __init__(self, proposals: int = 2, initial: int = 8) -> None:
+        if proposals < 1 or initial < 1:
+            raise ValueError(f"Profile needs proposals >= 1 and initial >= 1, got {proposals}, {initial}")
+        self.proposals, self.initial = int(proposals), int(initial)
+        self._memory: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}  # genome -> ((E, 3) angles, (E,) sims)
+        self._best: bytes | None = None                                 # the best genome of the last generation
+
+    @classmethod
+    def from_config(cls, config):
+        return cls(config.profile_proposals, config.profile_initial)
+
+    def new_context(self, true_angles):
+        return Context.exact(np.zeros(3))  # replaced by the best model's angles after each generation
+
+    # -- memory ---------------------------------------------------------------------------
+    def _recall(self, genomes: np.ndarray, n_experiments: int, rng: np.random.Generator):
+        """Remembered (or inherited) angles ``(U, E, 3)``, their similarities ``(U, E)`` (NaN:
+        not evaluated for this model) and which entries have no angles at all ``(U, E)``."""
+        angles = np.empty((len(genomes), n_experiments, 3))
+        sims = np.full((len(genomes), n_experiments), np.nan)
+        fresh = np.zeros((len(genomes), n_experiments), dtype=bool)
+        known = list(self._memory)
+        parents = np.frombuffer(b"".join(known), dtype=np.uint8).reshape(len(known), -1) if known else None
+        for u, key in enumerate(_keys(genomes)):
+            entry = self._memory.get(key)
+            if entry is None and parents is not None:  # the nearest model of the last generation
+                nearest = int(np.argmin((parents != genomes[u]).sum(axis=1)))
+                entry = self._memory[known[nearest]]
+                entry = (entry[0], np.full(len(entry[1]), np.nan))  # its angles, not its scores
+            m = 0 if entry is None else len(entry[1])
+            if m:
+                angles[u, :m], sims[u, :m] = entry[0][:n_experiments], entry[1][:n_experiments]
+            if m < n_experiments:
+                angles[u, m:] = random_angles(rng, n_experiments - m)
+                fresh[u, m:] = True
+        return angles, sims, fresh
+
+    def _perturb(self, angles: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """One perturbed copy of ``(U, E, 3)`` angles (a quarter of the entries redrawn at random)."""
+        u, e = angles.shape[:2]
+        steps = _STEPS_RAD[rng.integers(0, len(_STEPS_RAD), size=(u, e))]              # (U, E, 2)
+        moved = rng.random((u, e, 3)) < 0.5                                             # each flipper: 1 in 2
+        moved[np.arange(u)[:, None], np.arange(e), rng.integers(0, 3, (u, e))] = True   # at least one
+        out = angles + rng.standard_normal((u, e, 3)) * steps[..., [0, 0, 1]] * moved
+        out[..., :2] = np.mod(out[..., :2], TWO_PI)
+        out[..., 2] = np.clip(out[..., 2], -CAUDAL_LIMIT_RAD, CAUDAL_LIMIT_RAD)
+        redraw = rng.random((u, e)) < _RANDOM_SHARE
+        out[redraw] = random_angles(rng, int(redraw.sum()))
+        return out
+
+    def _try(self, candidates: np.ndarray, genomes: np.ndarray, angles: np.ndarray, sims: np.ndarray,
+             experiments, evaluator) -> None:
+        """Evaluate ``(C, U, E, 3)`` candidates; keep, per model and experiment, the best (in place)."""
+        c, u, e = candidates.shape[:3]
+        scores = evaluator.similarities(np.tile(genomes, (c, 1)), experiments,
+                                        candidates.reshape(c * u, e, 3)).reshape(c, u, e)
+        scores = np.concatenate([np.where(np.isnan(sims), -np.inf, sims)[None], scores])
+        best = np.argmax(scores, axis=0)                                                # (U, E); 0 = keep
+        everything = np.concatenate([angles[None], candidates])
+        angles[:] = np.take_along_axis(everything, best[None, :, :, None], axis=0)[0]
+        sims[:] = np.take_along_axis(scores, best[None], axis=0)[0]
+
+    # -- hooks ----------------------------------------------------------------------------
+    def before_generation(self, generation, ranked_genomes, experiments, evaluator, rng, genomes=None):
+        if genomes is None or not len(experiments):
+            return experiments
+        distinct = np.unique(np.asarray(genomes, dtype=np.uint8), axis=0)
+        n_exp = len(experiments)
+        angles, sims, fresh = self._recall(distinct, n_exp, rng)
+        if np.isnan(sims).any():  # score inherited angles; random starts where there are none
+            starts = np.repeat(angles[None], self.initial if fresh.any() else 1, axis=0)
+            if fresh.any():
+                starts[:, fresh] = random_angles(rng, self.initial * int(fresh.sum())).reshape(self.initial, -1, 3)
+            self._try(starts, distinct, angles, sims, experiments, evaluator)
+        candidates = [self._perturb(angles, rng) for _ in range(self.proposals)]
+        if self._best is not None and self._best in self._memory:
+            shared = self._memory[self._best][0]
+            if len(shared) == n_exp:
+                candidates.append(np.broadcast_to(shared, angles.shape))
+        self._try(np.stack(candidates), distinct, angles, sims, experiments, evaluator)
+        self._memory = {key: (angles[u].copy(), sims[u].copy()) for u, key in enumerate(_keys(distinct))}
+        return experiments
+
+    def angles(self, experiments: Experiments, genomes: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """Each model's remembered angles ``(P, E, 3)`` (the contexts' for a model not profiled yet)."""
+        rows = [self._memory.get(key) for key in _keys(genomes)]
+        if any(r is None or len(r[1]) != len(experiments) for r in rows):
+            return super().angles(experiments, genomes, rng)
+        return np.stack([r[0] for r in rows])
+
+    def after_generation(self, genomes, angles, fitness, experiments):
+        best = int(np.argmax(fitness))
+        self._best = np.asarray(genomes[best], dtype=np.uint8).tobytes()
+        return tuple(e.with_context(Context.exact(angles[best, i])) for i, e in enumerate(experiments))
+
+    # -- checkpoint -----------------------------------------------------------------------
+    def state_dict(self) -> dict:
+        """The memory (genome bytes -> angles, similarities) and the last best genome."""
+        return {"memory": {k: (a.copy(), s.copy()) for k, (a, s) in self._memory.items()}, "best": self._best}
+
+    def load_state_dict(self, state: dict) -> None:
+        """Restore :meth:`state_dict` (an empty dict: nothing remembered yet).
+
+        Raises:
+            ValueError: on unknown keys.
+        """
+        unknown = set(state) - {"memory", "best"}
+        if unknown:
+            raise ValueError(f"profile inference state has unknown keys {sorted(unknown)}")
+        self._memory = {k: (np.asarray(a), np.asarray(s)) for k, (a, s) in state.get("memory", {}).items()}
+        self._best = state.get("best")

@@ -1,0 +1,94 @@
+"""eea.profile: every model finds and keeps its own best initial angles."""
+
+import numpy as np
+import pytest
+
+import eea
+from eea.profile import Profile
+
+TWO_PI = 2 * np.pi
+
+
+class PeakPerModel:
+    """Fake evaluator: model m's similarity in experiment e peaks at angles that depend on m and e."""
+
+    def __init__(self):
+        self.rows = 0
+
+    def peak(self, genome, index):
+        seed = int(genome[:8].dot(1 << np.arange(8))) * 7 + index
+        rng = np.random.default_rng(seed)
+        return np.array([rng.uniform(0, TWO_PI), rng.uniform(0, TWO_PI), rng.uniform(-0.5, 0.5)])
+
+    def similarities(self, genomes, experiments, angles):
+        self.rows += len(genomes) * len(experiments)
+        out = np.empty((len(genomes), len(experiments)))
+        for i, g in enumerate(genomes):
+            for j, e in enumerate(experiments):
+                d = np.abs((angles[i, j] - self.peak(g, e.index) + np.pi) % TWO_PI - np.pi)
+                out[i, j] = 1.0 - d.mean() / np.pi
+        return out
+
+
+def test_each_model_climbs_to_its_own_angles_and_scores_only_rise(make_experiment):
+    s = Profile(proposals=3, initial=8)
+    exps = (make_experiment(0), make_experiment(1))
+    genomes = np.random.default_rng(0).integers(0, 2, (4, 45), dtype=np.uint8)
+    fake = PeakPerModel()
+    rng = np.random.default_rng(1)
+    history = []
+    for generation in range(40):
+        exps = s.before_generation(generation, genomes, exps, fake, rng, genomes=genomes)
+        angles = s.angles(exps, genomes, rng)
+        scores = fake.similarities(genomes, exps, angles)
+        history.append(scores)
+        exps = s.after_generation(genomes, angles, scores.mean(axis=1), exps)
+    history = np.array(history)
+    assert np.all(np.diff(history, axis=0) >= 0)                 # a model's remembered angles never get worse
+    assert history[-1].min() > 0.97                              # every model near its own peak
+    for m, g in enumerate(genomes):                              # ... and the peaks differ between models
+        for e in exps:
+            err = np.abs((angles[m, e.index] - fake.peak(g, e.index) + np.pi) % TWO_PI - np.pi)
+            assert err.max() < 0.15
+    best = int(np.argmax(history[-1].mean(axis=1)))
+    np.testing.assert_array_equal(exps[1].context.estimate(), angles[best, 1])   # contexts: the best model's
+
+
+def test_a_new_model_inherits_its_nearest_parent_angles(make_experiment):
+    s = Profile(proposals=1, initial=4)
+    exps = (make_experiment(0),)
+    parent = np.zeros((1, 45), np.uint8)
+    fake = PeakPerModel()
+    rng = np.random.default_rng(0)
+    for g in range(30):
+        exps = s.before_generation(g, parent, exps, fake, rng, genomes=parent)
+    remembered = s.angles(exps, parent, rng)
+    child = parent.copy()
+    child[0, 44] = 1                                              # differs in a bit the fake ignores: same peak
+    rows = fake.rows
+    s.before_generation(30, child, exps, fake, rng, genomes=child)
+    assert fake.rows - rows <= 2 + 1                              # inherited angles scored, proposals; no random starts
+    child_angles = s.angles(exps, child, rng)
+    assert fake.similarities(child, exps, child_angles)[0, 0] >= fake.similarities(parent, exps, remembered)[0, 0]
+
+
+def test_profile_run_resumes_exactly(tmp_path, tiny_config, monkeypatch):
+    import csv
+    config = tiny_config(inference="profile", rounds=3, profile_proposals=1, profile_initial=2)
+    eea.run(config, tmp_path / "straight", progress=False)
+    eea.run(config.replace(rounds=2), tmp_path / "resumed", progress=False)
+    eea.run(config, tmp_path / "resumed", progress=False)
+
+    def rows(d):
+        with open(tmp_path / d / "rounds.csv", newline="") as f:
+            return [{k: v for k, v in r.items() if k != "wall_seconds"} for r in csv.DictReader(f)]
+    assert rows("straight") == rows("resumed") and len(rows("straight")) == 3
+
+
+def test_bad_settings_raise(tiny_config):
+    with pytest.raises(ValueError, match="proposals"):
+        Profile(proposals=0)
+    with pytest.raises(ValueError, match="profile_initial"):
+        tiny_config(inference="profile", profile_initial=0)
+    with pytest.raises(ValueError, match="unknown keys"):
+        Profile().load_state_dict({"memo": {}})
