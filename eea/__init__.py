@@ -19,7 +19,9 @@ On top of ``aquafish_gym.simulate_batch``:
 * ``eea.experiment`` -- experiments on the target and their context (angle ranges).
 * ``eea.target``     -- the simulated damaged robot, random initial angles per experiment.
 * ``eea.evaluation`` -- batched, cached, parallel simulation of candidate models.
-* ``eea.inference``  -- context inference strategies: known, none, in_band, out_of_band.
+* ``eea.strategy``   -- the interface of a context inference strategy (hooks, order).
+* ``eea.inference``  -- the paper's strategies: known, none, in_band, out_of_band, and the
+  registry; ``eea.profile`` -- per-model angles (not the paper's).
 * ``eea.exploration``, ``eea.estimation`` -- the two phases of a round (section 3.2).
 * ``eea.round``      -- ``run_round``: one round as one function, a frozen ``RoundRecord``.
 * ``eea.config``     -- ``EEAConfig``, the paper's defaults (section 4).
