@@ -155,11 +155,8 @@ class CMAModelSearch(TellRecord):
         Raises:
             RuntimeError: if the population was already asked and not told (ask twice).
         """
-        if self._asked:
-            raise RuntimeError(f"ask() called twice: generation {self._generation}'s population was asked and "
-                               "not told; tell() its fitness first (or read CMAModelSearch.population)")
         genomes = self.population
-        self._asked = True
+        self._start_ask()
         return genomes
 
     def tell(self, fitness) -> None:
@@ -172,9 +169,7 @@ class CMAModelSearch(TellRecord):
             RuntimeError: if ``ask`` was not called since the last ``tell``.
             ValueError: if ``fitness`` is not shaped ``(P,)`` or is not finite.
         """
-        if not self._asked:
-            raise RuntimeError("tell() called without a preceding ask(): call ask() to get generation "
-                               f"{self._generation}'s population, evaluate it, then tell() its fitness once")
+        self._check_tell()
         f = np.asarray(fitness, dtype=np.float64)
         if f.shape != (self.population_size,):
             raise ValueError(f"fitness must have shape ({self.population_size},), got {f.shape}")

@@ -46,15 +46,31 @@ def _check_bits(x, shape_hint: str, name: str) -> np.ndarray:
 
 
 class TellRecord:
-    """What an ask/tell search reports after ``tell``: the generation count and the best genome.
+    """What an ask/tell search reports after ``tell`` (the generation count and the best
+    genome), and its one check of ask/tell misuse.
 
     Shared by :class:`BitGA` and :class:`eea.cma_search.CMAModelSearch`; a subclass sets
-    ``_generation``, ``_best_genome`` (None before the first ``tell``) and ``_best_fitness``.
+    ``_generation``, ``_best_genome`` (None before the first ``tell``), ``_best_fitness`` and
+    ``_asked`` (cleared by ``tell``).
     """
 
     _generation: int
     _best_genome: np.ndarray | None
     _best_fitness: float
+    _asked: bool
+
+    def _start_ask(self) -> None:
+        """Mark the population asked; raise RuntimeError if it already was (ask twice)."""
+        if self._asked:
+            raise RuntimeError(f"ask() called twice: generation {self._generation}'s population was asked and "
+                               f"not told; tell() its fitness first (or read {type(self).__name__}.population)")
+        self._asked = True
+
+    def _check_tell(self) -> None:
+        """Raise RuntimeError if nothing was asked since the last ``tell`` (tell before ask, tell twice)."""
+        if not self._asked:
+            raise RuntimeError("tell() called without a preceding ask(): call ask() to get generation "
+                               f"{self._generation}'s population, evaluate it, then tell() its fitness once")
 
     @property
     def generation(self) -> int:
@@ -180,10 +196,7 @@ class BitGA(TellRecord):
         Raises:
             RuntimeError: if the population was already asked and not told (ask twice).
         """
-        if self._asked:
-            raise RuntimeError(f"ask() called twice: generation {self._generation}'s population was asked and "
-                               "not told; tell() its fitness first (or read BitGA.population)")
-        self._asked = True
+        self._start_ask()
         return self._population.copy()
 
     def restart(self) -> None:
@@ -201,11 +214,7 @@ class BitGA(TellRecord):
                 ask, or tell twice).
             ValueError: if ``fitness`` is not shaped ``(P,)`` or contains NaN.
         """
-        if not self._asked:
-            raise RuntimeError(
-                "tell() called without a preceding ask(): call ask() to get generation "
-                f"{self._generation}'s population, evaluate it, then tell() its fitness once"
-            )
+        self._check_tell()
         f = np.asarray(fitness, dtype=np.float64)
         if f.shape != (self.population_size,):
             raise ValueError(
