@@ -4,8 +4,9 @@ Performs 5 experiments on the ``left_pectoral_half`` target, then fits every can
 model's initial angles for every experiment equally hard (:class:`eea.profile.Profile`,
 4 proposals, 16 random starts, 60 generations) and prints each model's OBJ_FIT (eq. 4) beside
 its profiled MOD_FIT (eq. 3). The candidates are the truth, 4 models 3 bits away from it,
-and 8 random models. If random models come as close to 1 as the truth does, the experiments
-cannot tell morphologies apart once the angles are unknown, whatever the inference.
+and 8 random models, the same in every setting (drawn from their own seed). If random
+models come as close to 1 as the truth does, the experiments cannot tell morphologies
+apart once the angles are unknown, whatever the inference.
 
     python examples/angle_identifiability.py --duration 1.28 --actions random
     python examples/angle_identifiability.py --duration 5.12 --actions fast   # full-speed pectorals
@@ -48,10 +49,11 @@ def main(argv=None) -> None:
         experiments.append(Experiment(i, action, log, behaviour_summary(log), true, Context.exact(true)))
     experiments = tuple(experiments)
     truth = encode_models(target.morphology.to_array()[None])
+    models_rng = np.random.default_rng(args.seed + 1)  # the same candidates whatever the experiments
     near = np.repeat(truth, 4, axis=0)
     for k in range(4):
-        near[k, rng.integers(0, 45, 3)] ^= 1
-    genomes = np.concatenate([truth, near, rng.integers(0, 2, (8, 45), dtype=np.uint8)])
+        near[k, models_rng.choice(45, 3, replace=False)] ^= 1
+    genomes = np.concatenate([truth, near, models_rng.integers(0, 2, (8, 45), dtype=np.uint8)])
     obj = objective_fitness(decode_models(genomes), target.morphology.to_array())
     profile, fit_rng = Profile(proposals=4, initial=16), np.random.default_rng(0)
     with Evaluator(steps) as evaluator:
