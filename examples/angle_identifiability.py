@@ -1,6 +1,6 @@
 """How well can free initial angles make a wrong model fit the target? (README, "Per-model angles").
 
-Performs 5 experiments on the ``left_pectoral_half`` target, then fits every candidate
+Performs 5 (``--experiments``) experiments on the ``left_pectoral_half`` target, then fits every candidate
 model's initial angles for every experiment equally hard (:class:`eea.profile.Profile`,
 4 proposals, 16 random starts, 60 generations) and prints each model's OBJ_FIT (eq. 4) beside
 its profiled MOD_FIT (eq. 3). The candidates are the truth, 4 models 3 bits away from it,
@@ -37,14 +37,15 @@ def main(argv=None) -> None:
                         help="5 random actions, or 5 full-speed pectoral actions (default random)")
     parser.add_argument("--damage", default="left_pectoral_half")
     parser.add_argument("--generations", type=int, default=60, help="angle-fitting generations (default 60)")
+    parser.add_argument("--experiments", type=int, default=5, help="experiments (default 5; fast actions repeat)")
     parser.add_argument("--seed", type=int, default=11)
     args = parser.parse_args(argv)
     steps = round(args.duration / 0.01)
     rng = np.random.default_rng(args.seed)
     target = Target(args.damage, steps, rng)
     experiments = []
-    for i in range(5):
-        action = FAST_ACTIONS[i] if args.actions == "fast" else decode_actions(rng.integers(0, 2, ACTION_BITS, dtype=np.uint8))
+    for i in range(args.experiments):
+        action = FAST_ACTIONS[i % len(FAST_ACTIONS)] if args.actions == "fast" else decode_actions(rng.integers(0, 2, ACTION_BITS, dtype=np.uint8))
         log, true = target.perform(action)
         experiments.append(Experiment(i, action, log, behaviour_summary(log), true, Context.exact(true)))
     experiments = tuple(experiments)
@@ -63,7 +64,7 @@ def main(argv=None) -> None:
         fitted = model_fitness_from_similarities(evaluator.similarities(genomes, experiments, angles))
         true_angles = np.stack([e.true_angles for e in experiments])[None]
         at_truth = model_fitness_from_similarities(evaluator.similarities(truth, experiments, true_angles))[0]
-    print(f"{args.damage}, 5 {args.actions} actions of {args.duration} s; the truth at its true angles: MOD_FIT {at_truth:.4f}")
+    print(f"{args.damage}, {args.experiments} {args.actions} actions of {args.duration} s; the truth at its true angles: MOD_FIT {at_truth:.4f}")
     for name, rows in (("truth", slice(0, 1)), ("3 bits off", slice(1, 5)), ("random", slice(5, 13))):
         print(f"{name:>10}: OBJ_FIT {np.round(obj[rows], 3).tolist()}  profiled MOD_FIT {np.round(fitted[rows], 4).tolist()}")
 
