@@ -246,8 +246,9 @@ class BatchWorld:
         return force, torque
 
     def _caudal_targets(self, steps: int) -> tuple[np.ndarray, np.ndarray]:
-        """The caudal sweep's target angles and velocities ``(steps, K)`` of the oscillating
-        robots, advancing their phase as :meth:`step` does (the same NumPy operations)."""
+        """The caudal sweep ``A sin(phase)``: target angles and velocities ``(steps, K)`` of
+        the K oscillating robots for the next ``steps`` steps, advancing their phase by
+        ``2 pi f dt`` per step (both paths use it, so both command the same doubles)."""
         idx = self._oscillating
         amp, w = self.params.caudal_amplitude_rad, self._caudal_omega[idx]
         angles, velocities = np.empty((steps, idx.size)), np.empty((steps, idx.size))
@@ -260,7 +261,7 @@ class BatchWorld:
     def _step_native(self, steps: int, log: bool) -> np.ndarray | None:
         angles, velocities = self._caudal_targets(steps)
         quats = self._native.run(steps, angles, velocities, self._oscillating, log)
-        for _ in range(steps):
+        for _ in range(steps):  # summed step by step, as step() does, so time_s is the same double
             self.time_s += DT_S
         self.rotation = quat_to_matrix(self.orientation)
         return quats
@@ -286,16 +287,10 @@ class BatchWorld:
                 apply_force(body, _LINKS[k], fi[k], origin, frame, physicsClientId=c)
             apply_torque(body, -1, ti, frame, physicsClientId=c)
         if self._oscillating.size:
-            # caudal sweep A sin(phase); the phase advances by 2 pi f dt per step
-            idx = self._oscillating
-            prm = self.params
-            amp, w = prm.caudal_amplitude_rad, self._caudal_omega[idx]
-            phase = self._caudal_phase[idx] + w * DT_S
-            self._caudal_phase[idx] = phase
-            angle, velocity = (amp * np.sin(phase)).tolist(), (amp * w * np.cos(phase)).tolist()
-            motor, bodies = p.setJointMotorControl2, self.bodies
+            angles, velocities = self._caudal_targets(1)
+            prm, motor, bodies = self.params, p.setJointMotorControl2, self.bodies
             torque_max, kp, kd = prm.caudal_max_torque, prm.caudal_position_gain, prm.caudal_velocity_gain
-            for i, a, v in zip(idx.tolist(), angle, velocity):
+            for i, a, v in zip(self._oscillating.tolist(), angles[0].tolist(), velocities[0].tolist()):
                 motor(bodies[i], LINK_CAUDAL, p.POSITION_CONTROL, targetPosition=a, targetVelocity=v, force=torque_max,
                       positionGain=kp, velocityGain=kd, physicsClientId=c)
         p.stepSimulation(physicsClientId=c)

@@ -30,7 +30,7 @@ __all__ = ["LIBRARY", "NativeStep", "NativeUnavailable", "available", "client_ha
 
 #: The plugin built by :mod:`aquafish_gym.native.build`.
 LIBRARY = Path(__file__).with_name("_aquafish_step.so")
-_VERSION = 1
+_VERSION = 2  # af_run's signature; the library must match
 _POSTFIX = "_aquafish"
 
 _lib: ctypes.CDLL | None = None
@@ -148,7 +148,7 @@ class NativeStep:
         self.drag_c = (-0.5 * prm.drag_coefficient * prm.fluid_density) if self.quadratic else -prm.drag_coefficient
         self.current = np.ascontiguousarray(prm.water_current, dtype=np.float64)
         info = p.getJointInfo(world.bodies[0], LINK_CAUDAL, physicsClientId=world.client)
-        self.caudal_joint, self.caudal_q, self.caudal_u = LINK_CAUDAL, info[3], info[4]
+        self.caudal_q, self.caudal_u = info[3], info[4]  # the caudal joint's position and velocity indices
 
     def run(self, steps: int, caudal_angle: np.ndarray, caudal_velocity: np.ndarray, oscillating: np.ndarray,
             log: bool) -> np.ndarray | None:
@@ -179,7 +179,7 @@ class NativeStep:
             _doubles(self.box_offsets), _doubles(self.axis_areas), _doubles(self.righting_w),
             _doubles(self.caudal_half), _doubles(self.caudal_mass), ctypes.c_double(self.drag_c),
             ctypes.c_int(self.quadratic), _doubles(self.current), ctypes.c_int(bool(prm.reactive_thrust)),
-            ctypes.c_int(self.caudal_joint), ctypes.c_int(self.caudal_q), ctypes.c_int(self.caudal_u),
+            ctypes.c_int(self.caudal_q), ctypes.c_int(self.caudal_u),
             ctypes.c_double(prm.caudal_position_gain), ctypes.c_double(prm.caudal_velocity_gain),
             ctypes.c_double(prm.caudal_max_torque), ctypes.c_int(len(osc)), _ints(osc), _doubles(angle),
             _doubles(velocity), *(_doubles(a) for a in state), _doubles(quats) if log else None)

@@ -25,7 +25,7 @@
 #include "PhysicsClientC_API.h"
 #include "plugins/b3PluginContext.h"
 
-#define AF_VERSION 1
+#define AF_VERSION 2 /* bump whenever af_run's signature changes */
 #define AF_API extern "C" __attribute__((visibility("default")))
 
 /* ---- PyBullet C API, resolved at run time --------------------------------------------- */
@@ -170,7 +170,7 @@ static void box_drag(double r[3][3], const double* v, const double* w, const dou
  */
 AF_API int af_run(void* client_handle, int n, int steps, const int* bodies, const int* active, const double* box_offsets,
            const double* axis_areas, const double* righting_w, const double* caudal_half, const double* caudal_mass,
-           double drag_c, int quadratic, const double* current, int reactive, int caudal_joint, int caudal_q,
+           double drag_c, int quadratic, const double* current, int reactive, int caudal_q,
            int caudal_u, double kp, double kd, double max_force, int n_osc, const int* osc_index,
            const double* caudal_angle, const double* caudal_velocity, double* position, double* orientation,
            double* linear_velocity, double* angular_velocity, double* body_quaternions)
@@ -194,9 +194,7 @@ AF_API int af_run(void* client_handle, int n, int steps, const int* bodies, cons
                     const double* v3 = linear_velocity + 12 * i + 9;
                     const double* w3 = angular_velocity + 12 * i + 9;
                     double rel[3] = {v3[0] - current[0], v3[1] - current[1], v3[2] - current[2]};
-                    double vx = rot[3][0][0] * rel[0] + rot[3][1][0] * rel[1] + rot[3][2][0] * rel[2];
-                    double vy = rot[3][0][1] * rel[0] + rot[3][1][1] * rel[1] + rot[3][2][1] * rel[2];
-                    double wz = rot[3][0][2] * w3[0] + rot[3][1][2] * w3[1] + rot[3][2][2] * w3[2];
+                    double vx = rt_dot(rot[3], 0, rel), vy = rt_dot(rot[3], 1, rel), wz = rt_dot(rot[3], 2, w3);
                     double wv = vx + caudal_half[i] * wz;
                     double mw = caudal_mass[i] * wv;
                     double fx = -mw * vy, fy = 0.5 * mw * wv;
@@ -207,7 +205,7 @@ AF_API int af_run(void* client_handle, int n, int steps, const int* bodies, cons
                     for (int k = 0; k < 3; ++k) righting[k] += rot[3][k][2] * tz;
                 }
                 for (int k = 0; k < 3; ++k)  /* world -> body frame */
-                    torque[k] += rot[0][0][k] * righting[0] + rot[0][1][k] * righting[1] + rot[0][2][k] * righting[2];
+                    torque[k] += rt_dot(rot[0], k, righting);
                 for (int k = 0; k < 4; ++k) {
                     if (!act[k]) continue;
                     b3SharedMemoryCommandHandle cmd = api.force_init(client);
