@@ -18,7 +18,6 @@ import platform
 
 import numpy as np
 
-from eea.behaviour import behaviour_summary
 from eea.config import EEAConfig
 from eea.encoding import ACTION_BITS, decode_actions
 from eea.evaluation import Evaluator
@@ -30,10 +29,8 @@ def recorded_experiments(parts: RoundParts, n: int, rng: np.random.Generator) ->
     """``n`` experiments with random actions on the target, contexts locked as after their rounds."""
     experiments = []
     for i in range(n):
-        action = decode_actions(rng.integers(0, 2, ACTION_BITS, dtype=np.uint8))
-        log, true = parts.target.perform(action)
-        ctx = parts.strategy.new_context(true).with_confidence(1.0)
-        experiments.append(Experiment(i, action, log, behaviour_summary(log), true, ctx))
+        experiment = parts.perform(i, decode_actions(rng.integers(0, 2, ACTION_BITS, dtype=np.uint8)))
+        experiments.append(experiment.with_context(experiment.context.with_confidence(1.0)))
     return tuple(experiments)
 
 

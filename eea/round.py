@@ -66,6 +66,13 @@ class RoundParts:
         return cls(config, Target(config.damage, config.steps, rng), make_inference(config.inference, config),
                    Exploration.from_config(config), estimation, evaluator)
 
+    def perform(self, index: int, action) -> Experiment:
+        """Experiment ``index``: ``action`` ``(3,)`` performed on the target from fresh random
+        initial angles, its behaviour summary, and the strategy's context for it."""
+        imu_log, true_angles = self.target.perform(action)
+        return Experiment(index, action, imu_log, behaviour_summary(imu_log), true_angles,
+                          self.strategy.new_context(true_angles))
+
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class RoundRecord:
@@ -131,9 +138,7 @@ def run_round(number: int, experiments: Sequence[Experiment], parts: RoundParts,
         models, evaluator, rng, report("exploration", config.exploration_generations))
     explored, exploration_sims = time.perf_counter(), evaluator.simulations - before
     report("target", None)
-    imu_log, true_angles = parts.target.perform(action)
-    experiment = Experiment(len(experiments), action, imu_log, behaviour_summary(imu_log), true_angles,
-                            parts.strategy.new_context(true_angles))
+    experiment = parts.perform(len(experiments), action)
     performed = time.perf_counter()
     result = parts.estimation.run((*experiments, experiment), parts.strategy, evaluator, rng,
                                   config.estimation_generations,
