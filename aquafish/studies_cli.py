@@ -58,11 +58,12 @@ def _diagnose(args: argparse.Namespace) -> int:
     from eea.plot import find_runs
 
     print(f"{'run':<40} {'inference':<12} {'E':>3} {'final@inf':>9} {'true@inf':>9} {'final@true':>10} "
-          f"{'true@true':>9}  failure")
+          f"{'true@true':>9} {'final@own':>9} {'true@own':>9}  failure")
     for result in find_runs(args.dirs):
-        d = diagnose_run(result.out_dir, workers=args.workers)
+        d = diagnose_run(result.out_dir, workers=args.workers, profile_generations=args.profile_generations)
         print(f"{str(d.out_dir):<40} {d.inference:<12} {d.experiments:>3} {d.final_inferred:>9.4f} "
-              f"{d.true_inferred:>9.4f} {d.final_true_angles:>10.4f} {d.true_true_angles:>9.4f}  {d.verdict}")
+              f"{d.true_inferred:>9.4f} {d.final_true_angles:>10.4f} {d.true_true_angles:>9.4f} "
+              f"{d.final_profiled:>9.4f} {d.true_profiled:>9.4f}  {d.verdict}")
     return 0
 
 
@@ -103,10 +104,13 @@ def add_commands(sub) -> None:
     p.add_argument("--output", "-o", default=None, help="PNG path (default: FIRST_DIR/objective_fitness.png)")
     p.set_defaults(func=_plot)
 
-    d = sub.add_parser("diagnose", help="search or inference failure? MOD_FIT of the final and the true morphology "
-                                        "under the inferred and the true initial angles, per run (eea.diagnosis)")
+    d = sub.add_parser("diagnose", help="search, inference or identifiability failure? MOD_FIT of the final and the "
+                                        "true morphology under the inferred, the true and their own fitted initial "
+                                        "angles, per run (eea.diagnosis)")
     d.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
     d.add_argument("--workers", type=int, default=1, help="simulation processes (default: 1)")
+    d.add_argument("--profile-generations", type=int, default=40,
+                   help="generations of the per-model angle fit of both models (eea.profile.Profile.fit; default: 40)")
     d.set_defaults(func=_diagnose)
 
     t = sub.add_parser("damages", help="which damages a gait must adapt to: healthy gait vs a gait evolved on the "

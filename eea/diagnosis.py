@@ -1,16 +1,23 @@
-"""Why did a run end where it did: a search failure or an inference failure?
+"""Why did a run end where it did: a search, an inference or an identifiability failure?
 
 A run's final model is the fittest one the estimation found *under the initial angles its
 inference strategy chose*. Scoring the true morphology (an oracle, like OBJ_FIT) on the
-same experiments separates two failures:
+same experiments separates three failures:
 
-* the true morphology fits the run's experiments better than the final model does: the
-  estimation search missed it (a search failure);
-* the final model fits better: the inferred angles favour a wrong morphology, and no
-  search, however good, would move to the truth (an inference failure, a trap).
+* ``search``: the true morphology fits the run's experiments better than the final model
+  does under the angles the run would give it; the estimation search missed it;
+* ``inference``: under those angles the final model fits better, but with each model's own
+  best angles (fitted equally hard for both, :meth:`eea.profile.Profile.fit`) the truth
+  fits better: the inferred angles favour a wrong morphology (a trap), and no search,
+  however good, would move to the truth;
+* ``identifiability``: even with its own best angles the truth fits no better than the
+  final model: once the angles are free, these experiments cannot tell the two apart.
 
-Scoring both models under the *true* angles as well shows what exact inference would have
-given. :func:`diagnose_run` computes the four numbers (MOD_FIT, paper eq. 3) from a run's
+"The angles the run would give" the truth are the inferred ones (the middle of each
+experiment's context) for the paper's strategies, which give every model the same angles,
+and the truth's own fitted angles for ``profile``, which gives every model its own. Scoring
+both models under the *true* angles as well shows what exact inference would have given.
+:func:`diagnose_run` computes the six numbers (MOD_FIT, paper eq. 3) from a run's
 checkpoint; ``aquafish diagnose DIR...`` prints them per run.
 """
 
@@ -28,6 +35,7 @@ from eea.encoding import encode_models
 from eea.fitness import model_fitness_from_similarities
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
+from eea.profile import Profile
 from eea.record import load_result
 
 __all__ = ["RunDiagnosis", "diagnose_run"]
@@ -47,6 +55,11 @@ class RunDiagnosis:
         final_true_angles: the final model under the true angles.
         true_true_angles: the true morphology under the true angles (1.0 unless the
             damage has servo faults, which models do not simulate).
+        final_profiled: the final model under its own best angles
+            (:meth:`eea.profile.Profile.fit`, started from the inferred angles too).
+        true_profiled: the true morphology under its own best angles, fitted as hard.
+        per_model: whether the run's strategy gives every model its own angles
+            (``profile``); then the truth's angles in the run are its profiled ones.
     """
 
     out_dir: Path
@@ -56,22 +69,33 @@ class RunDiagnosis:
     true_inferred: float
     final_true_angles: float
     true_true_angles: float
+    final_profiled: float
+    true_profiled: float
+    per_model: bool = False
 
     @property
     def verdict(self) -> str:
-        """``"search"`` if the truth fits the inferred angles better than the final model, else ``"inference"``."""
-        return "search" if self.true_inferred > self.final_inferred else "inference"
+        """``"search"``, ``"inference"`` or ``"identifiability"`` (see the module docstring)."""
+        final_in_run = self.final_profiled if self.per_model else self.final_inferred
+        true_in_run = self.true_profiled if self.per_model else self.true_inferred
+        if true_in_run > final_in_run:
+            return "search"
+        return "inference" if self.true_profiled > self.final_profiled else "identifiability"
 
 
-def diagnose_run(out_dir: str | os.PathLike, workers: int = 1) -> RunDiagnosis:
+def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_generations: int = 40,
+                 seed: int = 0) -> RunDiagnosis:
     """Score the final and the true morphology on a finished (or partial) run's experiments.
 
-    Runs ``4 E`` simulations at most (fewer when models coincide), ``E`` = the number of
-    experiments in the run's checkpoint.
+    Runs ``4 E`` simulations, plus about ``2 E (18 + 5 G)`` to fit both models' own angles
+    (:class:`~eea.profile.Profile` with 4 proposals and 16 random starts, ``G =
+    profile_generations``), ``E`` = the number of experiments in the run's checkpoint.
 
     Args:
         out_dir: an EEA run directory with a checkpoint (``state.pkl``).
         workers: simulation processes.
+        profile_generations: generations of the per-model angle fit, >= 0.
+        seed: seeds the angle fit.
 
     Returns:
         The :class:`RunDiagnosis`.
@@ -92,5 +116,13 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1) -> RunDiagnosis:
         def fit(genome, angles):
             return float(model_fitness_from_similarities(ev.similarities(genome, experiments, angles))[0])
 
-        return RunDiagnosis(Path(out_dir), result.config.inference, len(experiments), fit(final, inferred),
-                            fit(truth, inferred), fit(final, true), fit(truth, true))
+        scores = [fit(final, inferred), fit(truth, inferred), fit(final, true), fit(truth, true)]
+        both = np.concatenate([final, truth])
+        if (both[0] == both[1]).all():  # the run found the truth
+            profiled = [scores[0]] * 2
+        else:
+            _, profiled = Profile(proposals=4, initial=16).fit(
+                both, experiments, ev, np.random.default_rng(seed), profile_generations,
+                start=np.repeat(inferred, 2, axis=0))
+        return RunDiagnosis(Path(out_dir), result.config.inference, len(experiments), *scores,
+                            float(profiled[0]), float(profiled[1]), per_model=result.config.inference == "profile")

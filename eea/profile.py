@@ -39,6 +39,7 @@ import numpy as np
 
 from eea.arc import TWO_PI
 from eea.experiment import CAUDAL_LIMIT_RAD, Context, random_angles
+from eea.fitness import model_fitness_from_similarities
 from eea.strategy import Experiments, InferenceStrategy
 
 __all__ = ["Profile"]
@@ -159,6 +160,53 @@ class Profile(InferenceStrategy):
         best = int(np.argmax(fitness))
         self._best = np.asarray(genomes[best], dtype=np.uint8).tobytes()
         return tuple(e.with_context(Context.exact(angles[best, i])) for i, e in enumerate(experiments))
+
+    # -- a fit on its own -----------------------------------------------------------------
+    def fit(self, genomes, experiments: Experiments, evaluator, rng: np.random.Generator, generations: int,
+            start=None) -> tuple[np.ndarray, np.ndarray]:
+        """Fit every model's own initial angles, equally hard for all, outside any EEA run.
+
+        Forgets what was remembered and runs ``generations`` generations of the per-model
+        search described in the module docstring, without the shared best-model candidate:
+        the first tries ``initial`` random angle sets per model and experiment (and then
+        ``start``, if given). Used by :mod:`eea.diagnosis` and
+        ``examples/angle_identifiability.py``. Costs about
+        ``P E (initial + 1 + generations proposals)`` simulations.
+
+        Args:
+            genomes: ``(P, 45)`` distinct model genomes.
+            experiments: the target experiments (E >= 1).
+            evaluator: an :class:`eea.evaluation.Evaluator` of the experiments' length.
+            rng: draws the random starts and perturbations.
+            generations: search generations, >= 1.
+            start: optional ``(P, E, 3)`` angles (rad) tried beside the random starts.
+
+        Returns:
+            ``(angles, fitness)``: ``(P, E, 3)`` each model's best angles (rad) and ``(P,)``
+            its MOD_FIT (eq. 3) under them.
+
+        Raises:
+            ValueError: if ``experiments`` is empty, the genomes repeat or
+                ``generations < 1``.
+        """
+        genomes = np.asarray(genomes, dtype=np.uint8)
+        if not len(experiments):
+            raise ValueError("Profile.fit needs at least one experiment")
+        if len(np.unique(genomes, axis=0)) != len(genomes):
+            raise ValueError("Profile.fit needs distinct genomes")
+        if generations < 1:
+            raise ValueError(f"generations must be >= 1, got {generations}")
+        self._memory, self._best = {}, None
+        keys = _keys(genomes)
+        for generation in range(generations):
+            self.before_generation(generation, genomes, experiments, evaluator, rng, genomes=genomes)
+            if generation == 0 and start is not None:
+                angles = np.stack([self._memory[k][0] for k in keys])
+                sims = np.stack([self._memory[k][1] for k in keys])
+                self._try(np.asarray(start, dtype=np.float64)[None], genomes, angles, sims, experiments, evaluator)
+                self._memory = {key: (angles[u], sims[u]) for u, key in enumerate(keys)}
+        angles = np.stack([self._memory[k][0] for k in keys])
+        return angles, model_fitness_from_similarities(np.stack([self._memory[k][1] for k in keys]))
 
     # -- checkpoint -----------------------------------------------------------------------
     def state_dict(self) -> dict:

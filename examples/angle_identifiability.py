@@ -56,12 +56,9 @@ def main(argv=None) -> None:
         near[k, models_rng.choice(45, 3, replace=False)] ^= 1
     genomes = np.concatenate([truth, near, models_rng.integers(0, 2, (8, 45), dtype=np.uint8)])
     obj = objective_fitness(decode_models(genomes), target.morphology.to_array())
-    profile, fit_rng = Profile(proposals=4, initial=16), np.random.default_rng(0)
     with Evaluator(steps) as evaluator:
-        for generation in range(args.generations):
-            experiments = profile.before_generation(generation, genomes, experiments, evaluator, fit_rng, genomes=genomes)
-        angles = profile.angles(experiments, genomes, fit_rng)
-        fitted = model_fitness_from_similarities(evaluator.similarities(genomes, experiments, angles))
+        _, fitted = Profile(proposals=4, initial=16).fit(genomes, experiments, evaluator, np.random.default_rng(0),
+                                                         args.generations)
         true_angles = np.stack([e.true_angles for e in experiments])[None]
         at_truth = model_fitness_from_similarities(evaluator.similarities(truth, experiments, true_angles))[0]
     print(f"{args.damage}, {args.experiments} {args.actions} actions of {args.duration} s; the truth at its true angles: MOD_FIT {at_truth:.4f}")

@@ -18,18 +18,27 @@ def test_truth_reproduces_the_target_exactly_under_true_angles(tmp_path, tiny_co
     # the final model's fitness under the inferred angles is what the run recorded as MOD_FIT
     # when the final model is that round's best (it is: one GA, best of the last generation)
     assert d.final_inferred == pytest.approx(result.rounds[-1]["model_fitness"], abs=1e-12)
+    # own fitted angles, started from the inferred ones: never worse than those
+    assert d.final_profiled >= d.final_inferred and d.true_profiled >= d.true_inferred
     if inference == "known":                          # inferred = true angles
         assert d.true_inferred == 1.0 and d.final_true_angles == d.final_inferred
+        assert d.true_profiled == 1.0
     else:                                             # zero state: the truth no longer fits exactly
         assert d.true_inferred < 1.0
 
 
 def test_verdict_names_the_failure():
-    trapped = RunDiagnosis(Path("r"), "out_of_band", 10, final_inferred=0.985, true_inferred=0.976,
-                           final_true_angles=0.976, true_true_angles=1.0)
-    missed = RunDiagnosis(Path("r"), "known", 10, final_inferred=0.988, true_inferred=1.0,
-                          final_true_angles=0.988, true_true_angles=1.0)
-    assert trapped.verdict == "inference" and missed.verdict == "search"
+    def diagnosis(inference, final_inferred, true_inferred, final_profiled, true_profiled):
+        return RunDiagnosis(Path("r"), inference, 10, final_inferred, true_inferred, final_true_angles=0.976,
+                            true_true_angles=1.0, final_profiled=final_profiled, true_profiled=true_profiled,
+                            per_model=inference == "profile")
+
+    assert diagnosis("known", 0.988, 1.0, 0.99, 1.0).verdict == "search"
+    assert diagnosis("out_of_band", 0.985, 0.976, 0.986, 0.996).verdict == "inference"        # a trap
+    assert diagnosis("out_of_band", 0.985, 0.976, 0.990, 0.989).verdict == "identifiability"
+    # profile gives every model its own angles: the truth under the final model's angles does not count
+    assert diagnosis("profile", 0.985, 0.96, 0.986, 0.996).verdict == "search"
+    assert diagnosis("profile", 0.985, 0.96, 0.986, 0.980).verdict == "identifiability"
 
 
 def test_cli_prints_one_line_per_run(tmp_path, tiny_config, capsys):
@@ -38,7 +47,7 @@ def test_cli_prints_one_line_per_run(tmp_path, tiny_config, capsys):
     assert main(["diagnose", str(tmp_path)]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert len(lines) == 3 and lines[0].split()[:3] == ["run", "inference", "E"]
-    assert all(line.split()[1:3] == ["none", "2"] and line.split()[-2] == "1.0000" for line in lines[1:])
+    assert all(line.split()[1:3] == ["none", "2"] and line.split()[6] == "1.0000" for line in lines[1:])
 
 
 def test_no_finished_round_raises(tmp_path):

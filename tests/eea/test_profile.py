@@ -92,3 +92,30 @@ def test_bad_settings_raise(tiny_config):
         tiny_config(inference="profile", profile_initial=0)
     with pytest.raises(ValueError, match="unknown keys"):
         Profile().load_state_dict({"memo": {}})
+
+
+def test_fit_finds_each_models_own_peak_and_keeps_a_perfect_start(make_experiment):
+    exps = (make_experiment(0), make_experiment(1), make_experiment(2))
+    genomes = np.random.default_rng(3).integers(0, 2, (3, 45), dtype=np.uint8)
+    fake = PeakPerModel()
+    angles, fitness = Profile(proposals=3, initial=8).fit(genomes, exps, fake, np.random.default_rng(0), 40)
+    assert angles.shape == (3, 3, 3) and fitness.shape == (3,)
+    # fitness is eq. 3 of the returned angles, and every model sits near its own peak
+    np.testing.assert_allclose(fitness, fake.similarities(genomes, exps, angles).mean(axis=1))
+    assert fitness.min() > 0.97
+    # a start at the exact peaks scores 1 and is kept whatever the search tries after it
+    peaks = np.array([[fake.peak(g, e.index) for e in exps] for g in genomes])
+    peaks[..., :2] %= TWO_PI
+    angles, fitness = Profile(proposals=3, initial=8).fit(genomes, exps, fake, np.random.default_rng(0), 5, start=peaks)
+    np.testing.assert_array_equal(fitness, 1.0)
+    np.testing.assert_array_equal(angles, peaks)
+
+
+def test_fit_rejects_bad_input(make_experiment):
+    genomes = np.zeros((2, 45), np.uint8)
+    with pytest.raises(ValueError, match="distinct genomes"):
+        Profile().fit(genomes, (make_experiment(0),), PeakPerModel(), np.random.default_rng(0), 1)
+    with pytest.raises(ValueError, match="at least one experiment"):
+        Profile().fit(genomes[:1], (), PeakPerModel(), np.random.default_rng(0), 1)
+    with pytest.raises(ValueError, match="generations must be >= 1"):
+        Profile().fit(genomes[:1], (make_experiment(0),), PeakPerModel(), np.random.default_rng(0), 0)
