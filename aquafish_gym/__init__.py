@@ -3,7 +3,12 @@
 A capsule body with two continuous-rotation pectoral flippers and an oscillating caudal fin
 on PyBullet with a vectorised fluid-drag model; morphology and damage are parameters. It is
 both the *target* (the damaged robot) and the *candidate model* of the self-modeling
-algorithm, and the Gymnasium env ``AquaFish-v0`` (registered on import).
+algorithm, and a Gymnasium env family registered on import (``aquafish envs`` lists it):
+
+* ``AquaFish-v0``: swim forward (the paper's task; :mod:`aquafish_gym.env`);
+* ``AquaFishStationKeeping-v0``: hold position and heading in a water current
+  (:mod:`aquafish_gym.station_keeping`);
+* ``AquaFishHeading-v0``: turn to and hold a target heading (:mod:`aquafish_gym.heading`).
 """
 
 from aquafish_gym.damage import DAMAGES, Damage, ServoFaults, get_damage, register_damage
@@ -13,11 +18,18 @@ from aquafish_gym.simulator import ACTION_BOUNDS, ACTION_FIELDS, BatchWorld, sim
 
 import gymnasium as _gym
 
-if "AquaFish-v0" not in _gym.registry:
-    _gym.register(id="AquaFish-v0", entry_point="aquafish_gym.env:AquaFishEnv", kwargs={})
+#: The registered tasks: env id -> entry point.
+ENV_IDS: dict[str, str] = {
+    "AquaFish-v0": "aquafish_gym.env:AquaFishEnv",
+    "AquaFishStationKeeping-v0": "aquafish_gym.station_keeping:StationKeepingEnv",
+    "AquaFishHeading-v0": "aquafish_gym.heading:HeadingEnv",
+}
+for _id, _entry_point in ENV_IDS.items():
+    if _id not in _gym.registry:
+        _gym.register(id=_id, entry_point=_entry_point, kwargs={})
 
 __all__ = [
-    "ACTION_BOUNDS", "ACTION_FIELDS", "DAMAGES", "DT_S", "MORPHOLOGY_BOUNDS", "MORPHOLOGY_FIELDS",
+    "ACTION_BOUNDS", "ACTION_FIELDS", "DAMAGES", "DT_S", "ENV_IDS", "MORPHOLOGY_BOUNDS", "MORPHOLOGY_FIELDS",
     "BatchWorld", "Damage", "Morphology", "ServoFaults", "SimParams",
     "get_damage", "register_damage", "simulate_batch",
 ]

@@ -1,4 +1,4 @@
-"""``aquafish swim``, the sub-command of the simulator package (``aquafish bench`` is in :mod:`aquafish.bench_cli`)."""
+"""``aquafish swim`` and ``aquafish envs``, the simulator package's sub-commands (``aquafish bench`` is in :mod:`aquafish.bench_cli`)."""
 
 from __future__ import annotations
 
@@ -21,8 +21,28 @@ def _swim(args: argparse.Namespace) -> int:
     return 0
 
 
+def env_lines() -> list[str]:
+    """One line per registered task: id, observation and action sizes, the class's summary."""
+    import gymnasium as gym
+
+    from aquafish_gym import ENV_IDS
+
+    lines = []
+    for env_id in ENV_IDS:
+        env = gym.make(env_id)
+        summary = (type(env.unwrapped).__doc__ or "").strip().splitlines()[0]
+        lines.append(f"{env_id:<27} obs {env.observation_space.shape[0]:>2}  act {env.action_space.shape[0]}  {summary}")
+        env.close()
+    return lines
+
+
+def _envs(args: argparse.Namespace) -> int:
+    print("\n".join(env_lines()))
+    return 0
+
+
 def add_commands(sub) -> None:
-    """Add the ``swim`` sub-command to an argparse ``subparsers`` object."""
+    """Add the ``swim`` and ``envs`` sub-commands to an argparse ``subparsers`` object."""
     p = sub.add_parser("swim", help="swim the healthy and damaged robots with a fixed gait; plot trajectories")
     p.add_argument("--damages", default="none,left_pectoral_half,caudal_half,caudal_missing",
                    help="comma-separated damage names (default none,left_pectoral_half,caudal_half,caudal_missing)")
@@ -30,3 +50,6 @@ def add_commands(sub) -> None:
     p.add_argument("--duration", type=float, default=20.0, help="seconds of simulated swimming")
     p.add_argument("--out", default="demo_out", help="output directory")
     p.set_defaults(func=_swim)
+
+    e = sub.add_parser("envs", help="list the registered Gymnasium tasks (gym.make ids), one line each")
+    e.set_defaults(func=_envs)

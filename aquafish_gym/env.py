@@ -15,12 +15,45 @@ from gymnasium import spaces
 
 from aquafish_gym.checks import check_int
 from aquafish_gym.bullet import p
-from aquafish_gym.damage import ServoFaults, get_damage
+from aquafish_gym.damage import DAMAGES, ServoFaults, get_damage
 from aquafish_gym.morphology import Morphology
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.simulator import ACTION_BOUNDS, BatchWorld
 
 OBS_VELOCITY_LIMIT = 100.0  #: bound of the velocity entries of the observation (rad/s, units/s)
+
+
+def _damage_names(damage) -> tuple[str, ...]:
+    """The damage presets an env draws from: one name, ``"random"`` (every preset) or a list."""
+    if isinstance(damage, str):
+        names = tuple(sorted(DAMAGES)) if damage == "random" else (damage,)
+    elif isinstance(damage, (list, tuple)) and damage and all(isinstance(d, str) for d in damage):
+        names = tuple(damage)
+    else:
+        raise ValueError(f"damage must be a preset name, 'random' or a non-empty list of names, got {damage!r}")
+    for name in names:
+        get_damage(name)  # raises on an unknown name, listing the valid ones
+    return names
+
+
+def check_task_value(name: str, value, low: float, high: float) -> tuple[float, float]:
+    """A task setting given as a number or as a ``(lo, hi)`` range drawn per episode.
+
+    Returns:
+        ``(lo, hi)`` (``lo == hi`` for a fixed number).
+
+    Raises:
+        ValueError: not a finite number or pair with ``low <= lo <= hi <= high``.
+    """
+    pair = (value, value) if isinstance(value, (int, float)) and not isinstance(value, bool) else value
+    try:
+        lo, hi = (float(v) for v in pair)
+        valid = math.isfinite(lo) and math.isfinite(hi) and low <= lo <= hi <= high
+    except (TypeError, ValueError):
+        valid = False
+    if not valid:
+        raise ValueError(f"{name} must be a number or a (lo, hi) range within [{low:g}, {high:g}], got {value!r}")
+    return lo, hi
 
 
 def _as_morphology(morphology) -> Morphology:
@@ -76,6 +109,7 @@ class AquaFishEnv(gym.Env):
     The body at the origin, level, heading +y, at rest. Initial flipper angles: uniform
     on [0, 2 pi) (pectorals) and [-30, 30] degrees (caudal) from ``reset(seed=...)``'s
     generator, unless given by ``initial_angles`` or ``options={"initial_angles": ...}``.
+    ``options={"damage": name}`` sets the episode's damage preset.
 
     ## Episode End
     Never terminated; truncated after ``episode_duration_s`` of simulated time.
@@ -84,7 +118,7 @@ class AquaFishEnv(gym.Env):
     | Parameter            | Default             | Description                                   |
     |----------------------|---------------------|-----------------------------------------------|
     | `morphology`         | healthy             | `Morphology`, or 9 numbers (simulator units)  |
-    | `damage`             | `"none"`            | name in `aquafish_gym.DAMAGES`, applied to the morphology |
+    | `damage`             | `"none"`            | name in `aquafish_gym.DAMAGES` applied to the morphology; `"random"` or a list of names draws one per episode (damage randomisation, reported as `info["damage"]`) |
     | `faults`             | from `damage`       | `ServoFaults` overriding the damage's faults  |
     | `initial_angles`     | random              | (3,) left, right pectoral, caudal (rad)       |
     | `frame_skip`         | 10                  | 0.01 s physics steps per control step         |
@@ -118,11 +152,12 @@ class AquaFishEnv(gym.Env):
         if unknown:
             raise ValueError(f"unknown AquaFish-v0 argument(s) {sorted(unknown)}; simulator parameters are {list(SimParams.field_names())}")
         self.params = SimParams(**sim_params)
-        self.damage = get_damage(damage)
-        self.morphology = self.damage.apply(_as_morphology(morphology))
-        self.faults = faults if faults is not None else self.damage.faults
-        if not isinstance(self.faults, ServoFaults):
-            raise ValueError(f"faults must be a ServoFaults, got {type(self.faults).__name__}")
+        self.damage_names = _damage_names(damage)
+        self.base_morphology = _as_morphology(morphology)
+        if faults is not None and not isinstance(faults, ServoFaults):
+            raise ValueError(f"faults must be a ServoFaults, got {type(faults).__name__}")
+        self.fixed_faults = faults
+        self._set_damage(self.damage_names[0])
         check_int(f"frame_skip (physics steps of {DT_S} s)", frame_skip, 1)
         if not (isinstance(episode_duration_s, (int, float)) and math.isfinite(episode_duration_s) and episode_duration_s > 0):
             raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
@@ -139,14 +174,38 @@ class AquaFishEnv(gym.Env):
         self.width, self.height = int(width), int(height)
 
         self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
-        high = np.concatenate([np.ones(6), np.full(6, OBS_VELOCITY_LIMIT)])
+        task_high = self._task_observation_high()
+        high = np.concatenate([np.ones(6), np.full(6, OBS_VELOCITY_LIMIT), task_high])
         self.observation_space = spaces.Box(-high, high, dtype=np.float64)
         self._world: BatchWorld | None = None
         self._steps = 0
         self._distance = 0.0
         self._heading = np.array([0.0, 1.0, 0.0])
 
+    # -- task hooks (overridden by the other tasks of the family) ---------------------
+    def _task_observation_high(self) -> np.ndarray:
+        """Bounds (+-) of the task's entries appended to the 12 IMU entries (none here)."""
+        return np.empty(0)
+
+    def _task_observation(self) -> np.ndarray:
+        """The task's entries of the observation (none here)."""
+        return np.empty(0)
+
+    def _reset_task(self, options: dict | None) -> SimParams:
+        """Draw the episode's task variables from ``self.np_random``; return its simulator parameters."""
+        return self.params
+
+    def _task_info(self) -> dict[str, Any]:
+        """The task's entries of ``info`` (none here)."""
+        return {}
+
     # -- helpers ---------------------------------------------------------------------
+    def _set_damage(self, name: str) -> None:
+        self.damage_name = name
+        self.damage = get_damage(name)
+        self.morphology = self.damage.apply(self.base_morphology)
+        self.faults = self.fixed_faults if self.fixed_faults is not None else self.damage.faults
+
     def _check_angles(self, angles) -> np.ndarray:
         arr = np.asarray(angles, dtype=np.float64)
         amp = self.params.caudal_amplitude_rad
@@ -174,7 +233,7 @@ class AquaFishEnv(gym.Env):
         ang = rot.T @ w.angular_velocity[0, 0]
         lin = rot.T @ w.linear_velocity[0, 0]
         vel = np.clip(np.concatenate([ang, lin]), -OBS_VELOCITY_LIMIT, OBS_VELOCITY_LIMIT)
-        return np.concatenate([np.sin(rpy), np.cos(rpy), vel])
+        return np.concatenate([np.sin(rpy), np.cos(rpy), vel, self._task_observation()])
 
     def _position(self) -> np.ndarray:
         return self.world.position[0, 0].copy()
@@ -188,7 +247,8 @@ class AquaFishEnv(gym.Env):
             "distance": float(self._distance),
             "time_s": float(self._steps * self.frame_skip * DT_S),
             "initial_angles": self._initial_angles.copy(),
-        }
+            "damage": self.damage_name,
+        } | self._task_info()
 
     def _get_rew(self, displacement: np.ndarray, action: np.ndarray) -> tuple[float, dict[str, float]]:
         forward = float(displacement @ self._heading)
@@ -198,6 +258,10 @@ class AquaFishEnv(gym.Env):
     # -- gymnasium API ---------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
+        if options and "damage" in options:
+            self._set_damage(_damage_names(options["damage"])[0])
+        elif len(self.damage_names) > 1:
+            self._set_damage(self.damage_names[int(self.np_random.integers(len(self.damage_names)))])
         if options and "initial_angles" in options:
             angles = self._check_angles(options["initial_angles"])
         elif self.fixed_initial_angles is not None:
@@ -206,10 +270,11 @@ class AquaFishEnv(gym.Env):
             amp = self.params.caudal_amplitude_rad
             angles = np.array([self.np_random.uniform(0, 2 * np.pi), self.np_random.uniform(0, 2 * np.pi), self.np_random.uniform(-amp, amp)])
         self._initial_angles = np.asarray(angles, dtype=np.float64)
+        params = self._reset_task(options)
         if self._world is None:
-            self._world = BatchWorld(self.morphology.to_array()[None], self.params, self.faults, visual=self.render_mode is not None)
+            self._world = BatchWorld(self.morphology.to_array()[None], params, self.faults, visual=self.render_mode is not None)
         else:  # rebuild: a fresh world makes every episode bit-for-bit reproducible
-            self._world = BatchWorld(self.morphology.to_array()[None], self.params, self.faults,
+            self._world = BatchWorld(self.morphology.to_array()[None], params, self.faults,
                                      visual=self.render_mode is not None, client=self._world.client)
             self._world._owns_client = True
         self._world.reset(self._initial_angles[None])
@@ -229,8 +294,8 @@ class AquaFishEnv(gym.Env):
         before = self._position()
         w.advance(self.frame_skip)
         displacement = self._position() - before
+        self._distance += float(displacement @ self._heading)
         reward, reward_info = self._get_rew(displacement, action)
-        self._distance += reward_info["reward_forward"]
         self._steps += 1
         truncated = self._steps >= self.max_control_steps
         info = self._get_info() | reward_info

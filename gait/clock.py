@@ -21,7 +21,7 @@ from gymnasium import spaces
 CLOCK_PERIOD_S = 1.0
 #: Number of entries the clock adds to the observation.
 CLOCK_DIM = 2
-#: Size of the env observation (IMU) without the clock.
+#: Size of the AquaFish-v0 observation (IMU) without the clock (other tasks append entries).
 OBS_DIM = 12
 
 
@@ -46,42 +46,42 @@ def with_clock(obs, time_s: float, period_s: float = CLOCK_PERIOD_S) -> np.ndarr
     """Append the clock to an observation.
 
     Args:
-        obs: ``(12,)`` AquaFish-v0 observation.
+        obs: ``(n,)`` observation of an AquaFish task (n = 12 for AquaFish-v0).
         time_s: simulated time of the observation (s), ``info["time_s"]``.
         period_s: clock period (s).
 
     Returns:
-        ``(14,)`` float64: the observation, then sin and cos of the clock phase.
+        ``(n + 2,)`` float64: the observation, then sin and cos of the clock phase.
 
     Raises:
-        ValueError: ``obs`` does not have shape ``(12,)``.
+        ValueError: ``obs`` is not a non-empty 1-D array.
     """
     obs = np.asarray(obs, dtype=np.float64)
-    if obs.shape != (OBS_DIM,):
-        raise ValueError(f"observation must have shape ({OBS_DIM},) (AquaFish-v0), got {obs.shape}")
+    if obs.ndim != 1 or not obs.size:
+        raise ValueError(f"observation must be a non-empty 1-D array, got shape {obs.shape}")
     return np.concatenate([obs, clock_features(time_s, period_s)])
 
 
 class ClockObservation(gym.ObservationWrapper):
-    """Append ``sin`` and ``cos`` of the clock phase to AquaFish-v0's observation.
+    """Append ``sin`` and ``cos`` of the clock phase to an AquaFish task's observation.
 
-    The observation space becomes ``Box((14,), float64)``: the env's 12 entries, then the
-    clock in [-1, 1]. The time is the env's ``info["time_s"]``.
+    The observation space becomes ``Box((n + 2,), float64)``: the env's n entries (12 for
+    AquaFish-v0), then the clock in [-1, 1]. The time is the env's ``info["time_s"]``.
 
     Args:
-        env: an AquaFish-v0 env (possibly wrapped) whose ``info`` carries ``time_s``.
+        env: an env of the AquaFish family (possibly wrapped) whose ``info`` carries ``time_s``.
         period_s: clock period (s).
 
     Raises:
-        ValueError: a non-positive period or an observation space that is not ``(12,)``.
+        ValueError: a non-positive period or an observation space that is not a 1-D Box.
     """
 
     def __init__(self, env: gym.Env, period_s: float = CLOCK_PERIOD_S):
         super().__init__(env)
         self.period_s = check_clock_period(period_s)
         space = env.observation_space
-        if not isinstance(space, spaces.Box) or space.shape != (OBS_DIM,):
-            raise ValueError(f"ClockObservation needs a Box({OBS_DIM},) observation space, got {space}")
+        if not isinstance(space, spaces.Box) or len(space.shape) != 1:
+            raise ValueError(f"ClockObservation needs a 1-D Box observation space, got {space}")
         low = np.concatenate([space.low, -np.ones(CLOCK_DIM)])
         high = np.concatenate([space.high, np.ones(CLOCK_DIM)])
         self.observation_space = spaces.Box(low, high, dtype=np.float64)

@@ -8,7 +8,7 @@ import pytest
 
 from aquafish.cli import build_parser, main
 
-COMMANDS = ["swim", "bench", "eea", "gait", "transfer", "rl", "case-study", "study", "plot", "diagnose", "damages"]
+COMMANDS = ["swim", "envs", "bench", "eea", "gait", "transfer", "rl", "case-study", "study", "plot", "diagnose", "damages"]
 
 
 def test_every_command_is_registered_in_help_order():
@@ -72,3 +72,13 @@ def test_study_command_line_of_the_readme(monkeypatch, tmp_path):
 def test_study_rejects_per_run_settings(flag, tmp_path):
     with pytest.raises(SystemExit):
         build_parser().parse_args(["study", "--out", str(tmp_path), flag, "1"])
+
+
+def test_envs_lists_every_registered_task_once(capsys):
+    from aquafish_gym import ENV_IDS
+
+    assert main(["envs"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in lines] == list(ENV_IDS)
+    heading = lines[list(ENV_IDS).index("AquaFishHeading-v0")].split()
+    assert heading[1:5] == ["obs", "14", "act", "3"]

@@ -10,16 +10,21 @@ import yaml
 pytestmark = pytest.mark.rl
 pytest.importorskip("stable_baselines3")
 
-import aquafish_gym  # noqa: E402,F401
+import aquafish_gym  # noqa: E402
 from stable_baselines3.common.env_checker import check_env  # noqa: E402
 
 from gait import ClockObservation, SB3PolicyController, load_controller, rollout, score_transfer, train_rl, with_clock  # noqa: E402
 from gait.rl import load_hyperparams  # noqa: E402
 
 
-def test_sb3_check_env_passes():
-    check_env(gym.make("AquaFish-v0", episode_duration_s=1.0).unwrapped, warn=True)
-    check_env(ClockObservation(gym.make("AquaFish-v0", episode_duration_s=1.0)), warn=True)
+@pytest.mark.parametrize("env_id", sorted(aquafish_gym.ENV_IDS))
+def test_sb3_check_env_passes_with_warnings_as_errors(env_id):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        check_env(gym.make(env_id, episode_duration_s=1.0).unwrapped, warn=True)
+        check_env(ClockObservation(gym.make(env_id, episode_duration_s=1.0)), warn=True)
 
 
 @pytest.mark.parametrize("algo", ["ppo", "sac"])

@@ -1,0 +1,132 @@
+"""The Gymnasium env ``AquaFishStationKeeping-v0``: hold position and heading in a current.
+
+The task of the paper's lab (Moore, Clark & McKinley, GECCO 2013, "Evolution of station
+keeping as a response to flows in an aquatic robot") on the same robot, morphology, damage
+and simulator parameters as ``AquaFish-v0`` (:class:`~aquafish_gym.env.AquaFishEnv`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any
+
+import numpy as np
+
+from aquafish_gym.env import AquaFishEnv, check_task_value
+from aquafish_gym.params import SimParams
+
+__all__ = ["StationKeepingEnv"]
+
+
+class StationKeepingEnv(AquaFishEnv):
+    """Stay at the start position and heading while a uniform water current pushes the robot.
+
+    ## Description
+    The robot of ``AquaFish-v0`` in a uniform, horizontal water current (the fluid model's
+    ``water_current``, DESIGN.md section 3). Speed and direction are fixed or drawn per
+    episode. Like the real robot, the controller senses only its IMU: the observation does
+    not contain the current, which it must infer from how the water moves the body.
+
+    ## Action Space
+    As ``AquaFish-v0``: ``Box(-1, 1, (3,), float32)`` mapped onto left and right pectoral
+    speed (rev/s, [-0.5, 0.5]) and caudal frequency (Hz, [0, 1]).
+
+    ## Observation Space
+    As ``AquaFish-v0``: ``Box(12,), float64``, the IMU (sin and cos of roll, pitch, yaw;
+    body-frame angular velocity in rad/s; body-frame linear velocity over ground in units/s).
+
+    ## Rewards
+    ``reward = reward_position + reward_heading + reward_ctrl`` per 0.1 s control step, each
+    term in ``info``:
+
+    | term              | value                                              | unit     |
+    |-------------------|----------------------------------------------------|----------|
+    | `reward_position` | `-position_cost_weight * d`, d = horizontal distance of the body from its start | units |
+    | `reward_heading`  | `-heading_cost_weight * (1 - cos(yaw))`, yaw from the start heading | - |
+    | `reward_ctrl`     | `-ctrl_cost_weight * sum(action**2)`               | -        |
+
+    A robot that holds perfectly scores 0; one carried off at the current's speed ``u``
+    for an episode of ``T`` seconds scores about ``-position_cost_weight * u T^2 / 0.2``.
+
+    ## Starting State
+    As ``AquaFish-v0`` (origin, level, heading +y, at rest; random initial flipper
+    angles). The current is drawn at reset: ``options={"current_speed": ...,
+    "current_direction_deg": ...}`` fixes it for one episode.
+
+    ## Episode End
+    Never terminated; truncated after ``episode_duration_s``.
+
+    ## Arguments
+    Every ``AquaFish-v0`` argument (morphology, damage incl. ``"random"``, faults, frame
+    skip, episode length, control cost, rendering, every ``SimParams`` field except
+    ``water_current``), and:
+
+    | Parameter               | Default | Description                                            |
+    |-------------------------|---------|--------------------------------------------------------|
+    | `current_speed`         | 0.2     | units/s (1 unit = 8 cm), or a `(lo, hi)` range drawn per episode; in [0, 5] |
+    | `current_direction_deg` | 180.0   | where the water flows, counter-clockwise from the initial heading seen from above (0: from behind, 180: head-on, 90: towards the robot's left); a `(lo, hi)` range or `None` (uniform on [0, 360)) draws it per episode |
+    | `position_cost_weight`  | 1.0     | weight of the distance term (>= 0)                     |
+    | `heading_cost_weight`   | 1.0     | weight of the heading term (>= 0)                      |
+
+    ``info`` adds ``current`` (the episode's ``(3,)`` world-frame water velocity, units/s;
+    for analysis, not for the controller), ``distance_from_start`` (units) and
+    ``heading_error_rad``.
+
+    Raises:
+        ValueError: an unknown keyword, ``water_current`` (set the current with the
+            arguments above), or a value out of range (named in the message).
+    """
+
+    def __init__(self, current_speed=0.2, current_direction_deg=180.0, position_cost_weight: float = 1.0,
+                 heading_cost_weight: float = 1.0, **kwargs: Any):
+        if "water_current" in kwargs:
+            raise ValueError("AquaFishStationKeeping-v0 sets the water current itself; "
+                             "use current_speed and current_direction_deg instead of water_current")
+        self.current_speed_range = check_task_value("current_speed (units/s)", current_speed, 0.0, 5.0)
+        self.current_direction_range = (0.0, 360.0) if current_direction_deg is None else check_task_value(
+            "current_direction_deg", current_direction_deg, -360.0, 360.0)
+        for name, value in (("position_cost_weight", position_cost_weight), ("heading_cost_weight", heading_cost_weight)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a number >= 0, got {value!r}")
+        self.position_cost_weight = float(position_cost_weight)
+        self.heading_cost_weight = float(heading_cost_weight)
+        self._current = np.zeros(3)
+        self._start = np.zeros(3)
+        super().__init__(**kwargs)
+
+    def _reset_task(self, options: dict | None) -> SimParams:
+        options = options or {}
+        speed_range = check_task_value("current_speed (units/s)", options["current_speed"], 0.0, 5.0) \
+            if "current_speed" in options else self.current_speed_range
+        direction_range = check_task_value("current_direction_deg", options["current_direction_deg"], -360.0, 360.0) \
+            if "current_direction_deg" in options else self.current_direction_range
+        speed = float(self.np_random.uniform(*speed_range))
+        direction = math.radians(float(self.np_random.uniform(*direction_range)))
+        self._current = np.array([-math.sin(direction), math.cos(direction), 0.0]) * speed
+        return dataclasses.replace(self.params, water_current=tuple(self._current.tolist()))
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        obs, info = super().reset(seed=seed, options=options)
+        self._start = self._position()
+        return obs, info | self._task_info()
+
+    def _yaw_rad(self) -> float:
+        return math.radians(float(self.world.imu_rpy_deg()[0, 2]))
+
+    def _offset(self) -> float:
+        return float(np.hypot(*(self._position() - self._start)[:2]))
+
+    def _task_info(self) -> dict[str, Any]:
+        if self._world is None:
+            return {}
+        return {"current": self._current.copy(), "distance_from_start": self._offset(),
+                "heading_error_rad": self._yaw_rad()}
+
+    def _get_rew(self, displacement: np.ndarray, action: np.ndarray) -> tuple[float, dict[str, float]]:
+        terms = {
+            "reward_position": -self.position_cost_weight * self._offset(),
+            "reward_heading": -self.heading_cost_weight * (1.0 - math.cos(self._yaw_rad())),
+            "reward_ctrl": -self.ctrl_cost_weight * float(np.sum(np.square(action))),
+        }
+        return sum(terms.values()), terms
