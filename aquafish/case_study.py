@@ -117,7 +117,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, workers: int
         gait_dir = out / ("gait_" + label.split()[0].replace("-", "_"))
         controllers[label] = gait.evolve_or_load_gait(  # a finished gait is reused, an interrupted one resumed
             morphology, gait_dir, generations=settings.gait_generations, population_size=settings.gait_population,
-            seed=seed, workers=workers, episodes_per_genome=settings.gait_episodes, verbose=progress)
+            seed=seed, workers=workers, episodes_per_genome=settings.gait_episodes, progress=progress)
     if settings.rl_timesteps and _rl_available():
         rl_dir = out / "rl_ppo_out_of_band"
         path = rl_dir / "model.zip"

@@ -31,7 +31,8 @@ def add_commands(subparsers) -> None:
     p.add_argument("--episodes-per-genome", type=int, default=1,
                    help="episodes per evaluation from different initial angles (seeds seed, seed+1, ...); fitness is their mean (default 1)")
     p.add_argument("--checkpoint-every", type=int, default=5, help="generations between checkpoints (default 5)")
-    p.add_argument("--quiet", action="store_true", help="no per-generation report")
+    p.add_argument("--verbose", action="store_true", help="NEAT's per-generation report (species, fitness statistics)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run_gait)
 
     p = subparsers.add_parser("transfer", help="score controllers on their native robot and on a target (Figure 12)",
@@ -71,7 +72,8 @@ def run_gait(args: argparse.Namespace) -> int:
     result = evolve_gait(args.morphology, damage=args.damage, generations=args.generations,
                          population_size=args.population_size, seed=args.seed, out_dir=args.out, workers=args.workers,
                          config_path=args.config, resume=resume, episode_duration_s=args.episode_duration_s,
-                         episodes_per_genome=args.episodes_per_genome, checkpoint_every=args.checkpoint_every, verbose=not args.quiet)
+                         episodes_per_genome=args.episodes_per_genome, checkpoint_every=args.checkpoint_every, verbose=args.verbose,
+                         progress=not args.quiet)
     print(f"best forward distance {result.best_fitness:.3f} units ({result.best_fitness * 8:.1f} cm) in "
           f"{args.episode_duration_s:g} s on {result.robot.label}; {result.generations} generations, "
           f"{result.wall_time_s:.0f} s wall; wrote {args.out}")

@@ -1,9 +1,10 @@
 """Evolve a swimming gait with NEAT (neat-python 2.x), paper section 5.
 
 ``evolve_gait`` runs ``neat.Population`` on the config in ``gait/neat_config.ini`` with
-``StdOutReporter``, ``Checkpointer`` and a :class:`HistoryReporter` (fitness per generation,
-best controller), evaluating genomes with ``neat.ParallelEvaluator`` (or in-process for one
-worker).
+a ``Checkpointer``, a :class:`HistoryReporter` (fitness per generation, best controller), a
+tqdm bar over generations (:class:`gait.neat_progress.GenerationBar`) and, with
+``verbose``, NEAT's ``StdOutReporter``; genomes are evaluated on a process pool
+(:class:`gait.neat_progress.PoolEvaluator`) or in-process for one worker.
 
 Fitness: :func:`gait.rollout.rollout`'s forward distance (units) in 20 s of swimming on the
 given robot. Every genome of the run is evaluated with the same initial flipper angles:
@@ -39,6 +40,7 @@ from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from gait.clock import CLOCK_PERIOD_S, check_clock_period
 from gait.controller import NEAT_CONTROLLER_FILE, NEATController, load_controller
+from gait.neat_progress import GenerationBar, PoolEvaluator, QuietCheckpointer
 from gait.plots import plot_fitness_history
 from gait.robots import Robot, as_robot
 from gait.rollout import EPISODE_DURATION_S, Rollout, check_episodes, rollout
@@ -272,7 +274,7 @@ def _attach_reporters(population: neat.Population, task: FitnessTask, out_dir: P
     population.add_reporter(recorder)
     if out_dir is None:
         return recorder, None
-    checkpointer = neat.Checkpointer(checkpoint_every, None, str(out_dir / CHECKPOINT_DIR / CHECKPOINT_PREFIX))
+    checkpointer = QuietCheckpointer(checkpoint_every, None, str(out_dir / CHECKPOINT_DIR / CHECKPOINT_PREFIX))
     checkpointer.last_generation_checkpoint = population.generation
     population.add_reporter(checkpointer)
     return recorder, checkpointer
@@ -282,7 +284,7 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
                 seed: int = 0, out_dir=None, workers: int | None = None, config_path=None, resume=None,
                 initial_angles=None, episode_duration_s: float = EPISODE_DURATION_S,
                 clock_period_s: float = CLOCK_PERIOD_S, episodes_per_genome: int = 1, checkpoint_every: int = 5,
-                verbose: bool = True) -> GaitResult:
+                verbose: bool = False, progress: bool = True) -> GaitResult:
     """Evolve a NEAT controller that swims forward on a robot.
 
     Args:
@@ -305,7 +307,8 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
             the mean distance (see :class:`FitnessTask`).
         checkpoint_every: generations between checkpoints (needs ``out_dir``); the final
             generation is always checkpointed, so ``resume=latest_checkpoint(out_dir)`` extends a run.
-        verbose: print NEAT's per-generation report.
+        verbose: print NEAT's per-generation report (species, fitness statistics).
+        progress: show a tqdm bar over generations with the best and mean fitness.
 
     Returns:
         :class:`GaitResult`.
@@ -342,15 +345,20 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
         atomic_write(out_dir / "neat_config.ini", config_text.encode())
 
     evaluate = functools.partial(evaluate_genome, task=task)
-    if workers == 1:
-        def serial(genomes, config):
-            for _, genome in genomes:
-                genome.fitness = evaluate(genome, config)
+    bar = GenerationBar(generations, population.generation, desc=f"NEAT gait on {robot.label}", disable=not progress)
+    population.add_reporter(bar)
+    try:
+        if workers == 1:
+            def serial(genomes, config):
+                for _, genome in genomes:
+                    genome.fitness = evaluate(genome, config)
 
-        population.run(serial, remaining)
-    else:
-        with neat.ParallelEvaluator(workers, evaluate, seed=seed) as evaluator:
-            population.run(evaluator.evaluate, remaining)
+            population.run(serial, remaining)
+        else:
+            with PoolEvaluator(workers, evaluate) as evaluator:
+                population.run(evaluator, remaining)
+    finally:
+        bar.close()
 
     if checkpointer is not None and checkpointer.last_generation_checkpoint != population.generation:
         # always leave a checkpoint of the final state, so a finished run can be extended

@@ -1,0 +1,91 @@
+"""What a NEAT run shows while it runs: one tqdm bar over generations, and a quiet pool.
+
+neat-python's ``ParallelEvaluator`` draws a tqdm bar over the genomes of every generation
+(one screen line per generation), its ``StdOutReporter`` prints a report per generation
+and its ``Checkpointer`` a line per checkpoint. :func:`gait.evolve_gait` uses the classes
+here instead, and adds ``StdOutReporter`` only when asked (``verbose``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor
+
+import neat
+import numpy as np
+from tqdm.auto import tqdm
+
+__all__ = ["GenerationBar", "PoolEvaluator", "QuietCheckpointer"]
+
+
+class GenerationBar(neat.reporting.BaseReporter):
+    """A tqdm bar over generations; its postfix shows the best and mean fitness so far.
+
+    Args:
+        total: the run's total generations.
+        initial: generations already done (a resumed run).
+        desc: the bar's label.
+        disable: no bar at all.
+    """
+
+    def __init__(self, total: int, initial: int = 0, desc: str = "NEAT generations", disable: bool = False):
+        self.bar = tqdm(total=total, initial=initial, desc=desc, unit="gen", disable=disable)
+        self.best = -np.inf
+
+    def post_evaluate(self, config, population, species, best_genome) -> None:
+        self.best = max(self.best, float(best_genome.fitness))
+        mean = float(np.mean([g.fitness for g in population.values()]))
+        self.bar.set_postfix(best=f"{self.best:.3f}", mean=f"{mean:.3f}", species=len(species.species))
+
+    def end_generation(self, config, population, species_set) -> None:
+        self.bar.update(1)
+
+    def close(self) -> None:
+        """Close the bar (leaves its last line on screen)."""
+        self.bar.close()
+
+    def __getstate__(self) -> dict:
+        # NEAT checkpoints pickle the species set, which holds the reporters: the bar stays here
+        return {"best": self.best}
+
+    def __setstate__(self, state: dict) -> None:
+        self.best = state["best"]
+        self.bar = tqdm(disable=True)
+
+
+class QuietCheckpointer(neat.Checkpointer):
+    """``neat.Checkpointer`` without its "Saving checkpoint to ..." line (the bar shows progress)."""
+
+    def save_checkpoint(self, config, population, species_set, generation):
+        with contextlib.redirect_stdout(io.StringIO()):
+            super().save_checkpoint(config, population, species_set, generation)
+
+
+class PoolEvaluator:
+    """Evaluate a generation's genomes on a process pool, in order, without a bar of its own.
+
+    Args:
+        workers: processes (>= 2; evaluate in-process for one).
+        evaluate: ``evaluate(genome, config) -> fitness``, a picklable top-level callable.
+
+    Use as a context manager; the pool ("spawn" start method: PyBullet clients must not be
+    forked) lives until exit.
+    """
+
+    def __init__(self, workers: int, evaluate):
+        self.evaluate = evaluate
+        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+
+    def __call__(self, genomes, config) -> None:
+        genomes = list(genomes)
+        fitnesses = self.pool.map(self.evaluate, [g for _, g in genomes], [config] * len(genomes))
+        for (_, genome), fitness in zip(genomes, fitnesses):
+            genome.fitness = fitness
+
+    def __enter__(self) -> "PoolEvaluator":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.pool.shutdown()
