@@ -17,7 +17,9 @@ ROBOT_HELP = "'healthy', a damage name (the healthy robot with that damage), 9 c
 def add_commands(subparsers) -> None:
     """Register the gait sub-commands on the ``aquafish`` parser's ``subparsers``."""
     p = subparsers.add_parser("gait", help="evolve a swimming controller with NEAT (paper section 5)",
-                              description="Evolve a NEAT controller that swims forward as far as possible in 20 s.")
+                              description="Evolve a NEAT controller that swims forward as far as possible in 20 s "
+                                          "(or maximises the return of another AquaFish task, --env).")
+    p.add_argument("--env", default="AquaFish-v0", help="task (`aquafish envs` lists them; default AquaFish-v0)")
     p.add_argument("--morphology", default="healthy", help=f"robot to evolve for: {ROBOT_HELP} (default healthy)")
     p.add_argument("--damage", default="none", help="damage applied to --morphology (default none)")
     p.add_argument("--generations", type=int, default=30, help="total generations (default 30)")
@@ -53,6 +55,7 @@ def add_commands(subparsers) -> None:
     p = subparsers.add_parser("rl", help="train a stable-baselines3 PPO/SAC baseline (needs the [rl] extra)",
                               description="Train PPO or SAC on AquaFish-v0 (clock appended to the observation).")
     p.add_argument("--algo", choices=("ppo", "sac"), default="ppo", help="algorithm (default ppo)")
+    p.add_argument("--env", default="AquaFish-v0", help="task (`aquafish envs` lists them; default AquaFish-v0)")
     p.add_argument("--morphology", default="healthy", help=f"robot: {ROBOT_HELP} (default healthy)")
     p.add_argument("--damage", default="none", help="damage applied to --morphology (default none)")
     p.add_argument("--timesteps", type=int, default=None, help="env steps of 0.1 s (default: the YAML's n_timesteps)")
@@ -73,9 +76,10 @@ def run_gait(args: argparse.Namespace) -> int:
                          population_size=args.population_size, seed=args.seed, out_dir=args.out, workers=args.workers,
                          config_path=args.config, resume=resume, episode_duration_s=args.episode_duration_s,
                          episodes_per_genome=args.episodes_per_genome, checkpoint_every=args.checkpoint_every, verbose=args.verbose,
-                         progress=not args.quiet)
-    print(f"best forward distance {result.best_fitness:.3f} units ({result.best_fitness * 8:.1f} cm) in "
-          f"{args.episode_duration_s:g} s on {result.robot.label}; {result.generations} generations, "
+                         progress=not args.quiet, env_id=args.env)
+    score = (f"forward distance {result.best_fitness:.3f} units ({result.best_fitness * 8:.1f} cm)" if args.env == "AquaFish-v0"
+             else f"{args.env} return {result.best_fitness:.3f}")
+    print(f"best {score} in {args.episode_duration_s:g} s on {result.robot.label}; {result.generations} generations, "
           f"{result.wall_time_s:.0f} s wall; wrote {args.out}")
     return 0
 
@@ -124,8 +128,9 @@ def run_rl(args: argparse.Namespace) -> int:
 
     path = train_rl(args.algo, args.morphology, args.timesteps, args.seed, args.out, damage=args.damage,
                     hyperparams_path=args.hyperparams, episode_duration_s=args.episode_duration_s,
-                    num_threads=args.num_threads, verbose=args.verbose)
+                    num_threads=args.num_threads, verbose=args.verbose, env_id=args.env)
     meta = json.loads(path.with_suffix(".json").read_text())
-    print(f"{args.algo.upper()} {meta['timesteps']} steps in {meta['wall_time_s']:.0f} s; forward distance "
-          f"{meta['eval_distance']:.3f} units in 20 s (seed {meta['eval_seed']}); wrote {path}")
+    print(f"{args.algo.upper()} on {args.env}: {meta['timesteps']} steps in {meta['wall_time_s']:.0f} s; forward distance "
+          f"{meta['eval_distance']:.3f} units, return {meta['eval_return']:.3f} in 20 s (seed {meta['eval_seed']}); "
+          f"wrote {path}")
     return 0

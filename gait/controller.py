@@ -78,18 +78,21 @@ class NEATController:
 
     Args:
         genome: a ``neat.DefaultGenome`` evolved with ``config``.
-        config: the ``neat.Config`` (14 inputs, 3 outputs).
+        config: the ``neat.Config``: one input per observation entry plus the clock (14
+            for AquaFish-v0), 3 outputs.
         clock_period_s: period of the clock input (s).
 
     Raises:
-        ValueError: the config's inputs/outputs do not match (14, 3), or a bad period.
+        ValueError: the config has no observation inputs besides the clock or not 3
+            outputs, or a bad period.
     """
 
     def __init__(self, genome, config: neat.Config, clock_period_s: float = CLOCK_PERIOD_S):
         gc = config.genome_config
-        if gc.num_inputs != OBS_DIM + CLOCK_DIM or gc.num_outputs != 3:
-            raise ValueError(f"NEAT config must have num_inputs = {OBS_DIM + CLOCK_DIM} (observation + clock) and "
-                             f"num_outputs = 3 (servo commands), got {gc.num_inputs} and {gc.num_outputs}")
+        if gc.num_inputs <= CLOCK_DIM or gc.num_outputs != 3:
+            raise ValueError(f"NEAT config must have num_inputs = observation size + {CLOCK_DIM} (clock; "
+                             f"{OBS_DIM + CLOCK_DIM} for AquaFish-v0) and num_outputs = 3 (servo commands), "
+                             f"got {gc.num_inputs} and {gc.num_outputs}")
         self.genome = genome
         self.config = config
         self.clock_period_s = check_clock_period(clock_period_s)
@@ -111,11 +114,15 @@ class NEATController:
         """Return the action ``(3,)`` float64 in [-1, 1] (network outputs, clipped).
 
         Raises:
-            ValueError: ``obs`` is not ``(12,)``.
+            ValueError: ``obs`` is not ``(num_inputs - 2,)``.
         """
         if self._net is None:
             self.reset()
-        out = self._net.activate(with_clock(obs, time_s, self.clock_period_s).tolist())
+        inputs = with_clock(obs, time_s, self.clock_period_s)
+        if len(inputs) != self.config.genome_config.num_inputs:
+            raise ValueError(f"this network takes {self.config.genome_config.num_inputs - CLOCK_DIM} observation "
+                             f"entries, got {len(inputs) - CLOCK_DIM}")
+        out = self._net.activate(inputs.tolist())
         return np.clip(np.asarray(out, dtype=np.float64), -1.0, 1.0)
 
     def save(self, path) -> Path:
@@ -142,21 +149,23 @@ class NEATController:
 
 
 class SB3PolicyController:
-    """A stable-baselines3 policy trained on AquaFish-v0 with the clock appended.
+    """A stable-baselines3 policy trained on an AquaFish task with the clock appended.
 
     Args:
-        model: a loaded ``stable_baselines3`` model whose observation space is ``(14,)``.
+        model: a loaded ``stable_baselines3`` model whose observation space is
+            ``(n + 2,)`` (``(14,)`` for AquaFish-v0).
         clock_period_s: the clock period used in training (s).
         deterministic: use the policy's mean action (True) or sample it.
 
     Raises:
-        ValueError: the model's observation space is not ``(14,)``.
+        ValueError: the model's observation space is not 1-D with more than 2 entries.
     """
 
     def __init__(self, model, clock_period_s: float = CLOCK_PERIOD_S, deterministic: bool = True):
         shape = tuple(model.observation_space.shape)
-        if shape != (OBS_DIM + CLOCK_DIM,):
-            raise ValueError(f"the policy must observe {OBS_DIM + CLOCK_DIM} values (observation + clock), got shape {shape}")
+        if len(shape) != 1 or shape[0] <= CLOCK_DIM:
+            raise ValueError(f"the policy must observe an observation plus the {CLOCK_DIM} clock entries "
+                             f"({OBS_DIM + CLOCK_DIM} for AquaFish-v0), got shape {shape}")
         self.model = model
         self.clock_period_s = check_clock_period(clock_period_s)
         self.deterministic = bool(deterministic)

@@ -38,12 +38,12 @@ import numpy as np
 
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
-from gait.clock import CLOCK_PERIOD_S, check_clock_period
+from gait.clock import CLOCK_DIM, CLOCK_PERIOD_S, check_clock_period
 from gait.controller import NEAT_CONTROLLER_FILE, NEATController, load_controller
 from gait.neat_progress import GenerationBar, PoolEvaluator, QuietCheckpointer
 from gait.plots import plot_fitness_history
 from gait.robots import Robot, as_robot
-from gait.rollout import EPISODE_DURATION_S, Rollout, check_episodes, rollout
+from gait.rollout import DEFAULT_ENV_ID, EPISODE_DURATION_S, Rollout, check_env_id, check_episodes, make_env, rollout
 
 #: The documented NEAT config kept next to this module.
 DEFAULT_CONFIG = Path(__file__).with_name("neat_config.ini")
@@ -87,6 +87,17 @@ def load_neat_config(path=None, *, population_size: int | None = None) -> neat.C
     return config
 
 
+def set_num_inputs(config: neat.Config, num_inputs: int) -> None:
+    """Give ``config``'s genomes ``num_inputs`` input nodes (keys -1 .. -num_inputs), in place.
+
+    The INI file is written for AquaFish-v0 (12 observation entries + 2 clock = 14); a
+    task with a larger observation needs more inputs.
+    """
+    genome_config = config.genome_config
+    genome_config.num_inputs = int(num_inputs)
+    genome_config.input_keys = [-i - 1 for i in range(int(num_inputs))]
+
+
 @dataclasses.dataclass(frozen=True)
 class FitnessTask:
     """Everything a worker needs to score a genome (picklable).
@@ -100,9 +111,11 @@ class FitnessTask:
         episodes: episodes per genome, with seeds ``seed, seed + 1, ...`` (different initial
             angles); the fitness is their mean distance. 1 (the default) is the paper's
             single 20 s trial; more episodes favour gaits that work from any start.
+        env_id: the task (``aquafish_gym.ENV_IDS``). On ``"AquaFish-v0"`` (the paper's)
+            the fitness is the forward distance, on the others the episode return.
 
     Raises:
-        ValueError: ``episodes`` < 1, or > 1 with fixed ``initial_angles``.
+        ValueError: ``episodes`` < 1, or > 1 with fixed ``initial_angles``; an unknown env id.
     """
 
     robot: Robot
@@ -111,9 +124,11 @@ class FitnessTask:
     episode_duration_s: float = EPISODE_DURATION_S
     clock_period_s: float = CLOCK_PERIOD_S
     episodes: int = 1
+    env_id: str = DEFAULT_ENV_ID
 
     def __post_init__(self) -> None:
         check_episodes(self.episodes, self.initial_angles)
+        check_env_id(self.env_id)
 
     def controller(self, genome, config) -> NEATController:
         return NEATController(genome, config, self.clock_period_s)
@@ -121,11 +136,15 @@ class FitnessTask:
     def run(self, controller, episode: int = 0) -> Rollout:
         """Episode ``episode`` (seed ``seed + episode``) of ``controller``."""
         return rollout(controller, self.robot, seed=self.seed + episode, initial_angles=self.initial_angles,
-                       episode_duration_s=self.episode_duration_s)
+                       episode_duration_s=self.episode_duration_s, env_id=self.env_id)
+
+    def score(self, episode: Rollout) -> float:
+        """An episode's fitness: forward distance (units) on AquaFish-v0, the return on other tasks."""
+        return episode.distance if self.env_id == DEFAULT_ENV_ID else episode.episode_return
 
     def fitness(self, controller) -> float:
-        """Mean forward distance (units) over the task's episodes."""
-        return float(np.mean([self.run(controller, k).distance for k in range(self.episodes)]))
+        """Mean score over the task's episodes."""
+        return float(np.mean([self.score(self.run(controller, k)) for k in range(self.episodes)]))
 
 
 def evaluate_genome(genome, config, *, task: FitnessTask) -> float:
@@ -247,9 +266,10 @@ def _previous_run(out_dir: Path | None, generation: int) -> tuple[list[dict], NE
 
 def _settings(task: FitnessTask) -> dict[str, Any]:
     """What defines a run's fitness (a resumed run must not change it)."""
-    return {"robot": task.robot.to_dict(), "seed": task.seed, "initial_angles": task.initial_angles,
-            "episode_duration_s": task.episode_duration_s, "clock_period_s": task.clock_period_s,
-            "episodes": task.episodes}
+    settings = {"robot": task.robot.to_dict(), "seed": task.seed, "initial_angles": task.initial_angles,
+                "episode_duration_s": task.episode_duration_s, "clock_period_s": task.clock_period_s,
+                "episodes": task.episodes}
+    return settings if task.env_id == DEFAULT_ENV_ID else settings | {"env_id": task.env_id}
 
 
 def _attach_reporters(population: neat.Population, task: FitnessTask, out_dir: Path | None, resuming: bool,
@@ -284,8 +304,8 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
                 seed: int = 0, out_dir=None, workers: int | None = None, config_path=None, resume=None,
                 initial_angles=None, episode_duration_s: float = EPISODE_DURATION_S,
                 clock_period_s: float = CLOCK_PERIOD_S, episodes_per_genome: int = 1, checkpoint_every: int = 5,
-                verbose: bool = False, progress: bool = True) -> GaitResult:
-    """Evolve a NEAT controller that swims forward on a robot.
+                verbose: bool = False, progress: bool = True, env_id: str = DEFAULT_ENV_ID) -> GaitResult:
+    """Evolve a NEAT controller that swims forward on a robot (or solves another AquaFish task).
 
     Args:
         morphology: the robot (``Morphology``, 9 numbers, a ``Robot`` or a robot string;
@@ -309,6 +329,8 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
             generation is always checkpointed, so ``resume=latest_checkpoint(out_dir)`` extends a run.
         verbose: print NEAT's per-generation report (species, fitness statistics).
         progress: show a tqdm bar over generations with the best and mean fitness.
+        env_id: the task (default the paper's ``"AquaFish-v0"``); the network gets one
+            input per observation entry of the task, plus the clock.
 
     Returns:
         :class:`GaitResult`.
@@ -324,7 +346,7 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
     checkpoint_every = check_int("checkpoint_every", checkpoint_every, 1)
     angles = None if initial_angles is None else tuple(float(a) for a in np.asarray(initial_angles, dtype=float).reshape(3))
     task = FitnessTask(robot, seed, angles, float(episode_duration_s), check_clock_period(clock_period_s),
-                       check_int("episodes_per_genome", episodes_per_genome, 1))
+                       check_int("episodes_per_genome", episodes_per_genome, 1), env_id)
     out_dir = Path(out_dir) if out_dir is not None else None
 
     random.seed(seed)
@@ -335,6 +357,8 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
     else:
         config = load_neat_config(config_path, population_size=population_size)
         config_text = Path(config_path or DEFAULT_CONFIG).read_text()
+        with make_env(robot, env_id=env_id) as env:
+            set_num_inputs(config, env.observation_space.shape[0] + CLOCK_DIM)
         population = neat.Population(config, seed=seed)
     remaining = generations - population.generation
     if remaining < 1:
@@ -403,6 +427,7 @@ def _write_outputs(result: GaitResult, task: FitnessTask, config: neat.Config) -
     plot_fitness_history(result.history, out / HISTORY_PLOT, title=f"NEAT gait: {result.robot.label}, seed {result.seed}")
     summary: dict[str, Any] = {
         "robot": result.robot.to_dict(),
+        "env_id": task.env_id,
         "seed": result.seed,
         "population_size": config.pop_size,
         "generations": result.generations,

@@ -24,19 +24,19 @@ from gait.clock import CLOCK_PERIOD_S, ClockObservation, check_clock_period
 from gait.controller import SB3_ALGOS, SB3_MODEL_FILE, SB3PolicyController, sb3_algorithm, sb3_sidecar
 from gait.plots import plot_learning_curve
 from gait.robots import Robot, as_robot
-from gait.rollout import EPISODE_DURATION_S, make_env, rollout
+from gait.rollout import DEFAULT_ENV_ID, EPISODE_DURATION_S, check_env_id, make_env, rollout
 
 #: The hyperparameter file kept next to this module.
 HYPERPARAMS_FILE = Path(__file__).with_name("rl_hyperparams.yml")
-ENV_ID = "AquaFish-v0"
+ENV_ID = DEFAULT_ENV_ID
 #: Zoo keys interpreted here; every other key goes to the algorithm's constructor.
 _ZOO_KEYS = ("n_timesteps", "policy", "n_envs", "normalize", "policy_kwargs")
 #: Zoo keys this loader does not implement (rejected rather than silently ignored).
 _UNSUPPORTED = ("frame_stack", "env_wrapper", "vec_env_wrapper", "callback", "normalize_kwargs", "monitor_kwargs")
 
 
-def read_hyperparams_section(algo: str, path=None) -> dict[str, Any]:
-    """The raw ``algo -> AquaFish-v0`` mapping of an RL-Zoo-style YAML file (a fresh copy).
+def read_hyperparams_section(algo: str, path=None, env_id: str = ENV_ID) -> dict[str, Any]:
+    """The raw ``algo -> env_id`` mapping of an RL-Zoo-style YAML file (a fresh copy).
 
     Raises:
         ValueError: unknown algorithm, missing file or section.
@@ -48,16 +48,16 @@ def read_hyperparams_section(algo: str, path=None) -> dict[str, Any]:
         raise ValueError(f"no hyperparameter file {path}")
     data = yaml.safe_load(path.read_text()) or {}
     try:
-        section = data[algo][ENV_ID]
+        section = data[algo][env_id]
     except (KeyError, TypeError):
-        raise ValueError(f"{path}: no section {algo} -> {ENV_ID}") from None
+        raise ValueError(f"{path}: no section {algo} -> {env_id}") from None
     if not isinstance(section, dict):
-        raise ValueError(f"{path}: {algo} -> {ENV_ID} must be a mapping")
+        raise ValueError(f"{path}: {algo} -> {env_id} must be a mapping")
     return copy.deepcopy(section)
 
 
-def load_hyperparams(algo: str, path=None) -> dict[str, Any]:
-    """Read and check the settings of ``algo`` for AquaFish-v0 (RL Zoo conventions).
+def load_hyperparams(algo: str, path=None, env_id: str = ENV_ID) -> dict[str, Any]:
+    """Read and check the settings of ``algo`` for the task ``env_id`` (RL Zoo conventions).
 
     Returns:
         A fresh dict with ``n_timesteps`` (int), ``policy``, ``n_envs`` (int),
@@ -67,8 +67,8 @@ def load_hyperparams(algo: str, path=None) -> dict[str, Any]:
     Raises:
         ValueError: unknown algorithm, missing file/section/keys, or an unsupported key.
     """
-    hp = read_hyperparams_section(algo, path)
-    where = f"{path or HYPERPARAMS_FILE}: {algo}"
+    hp = read_hyperparams_section(algo, path, env_id)
+    where = f"{path or HYPERPARAMS_FILE}: {algo} -> {env_id}"
     bad = sorted(set(hp) & set(_UNSUPPORTED))
     if bad:
         raise ValueError(f"{where}: Zoo key(s) {bad} are not supported by gait.rl")
@@ -93,16 +93,17 @@ def _linear_schedule(initial: float) -> Callable[[float], float]:
     return schedule
 
 
-def make_rl_env(robot: Robot, *, episode_duration_s: float = EPISODE_DURATION_S, clock_period_s: float = CLOCK_PERIOD_S):
-    """AquaFish-v0 for ``robot`` with the clock appended: observation ``(14,)``."""
-    return ClockObservation(make_env(robot, episode_duration_s=episode_duration_s), clock_period_s)
+def make_rl_env(robot: Robot, *, episode_duration_s: float = EPISODE_DURATION_S, clock_period_s: float = CLOCK_PERIOD_S,
+                env_id: str = ENV_ID):
+    """The task ``env_id`` for ``robot`` with the clock appended: observation ``(n + 2,)`` (14 for AquaFish-v0)."""
+    return ClockObservation(make_env(robot, episode_duration_s=episode_duration_s, env_id=env_id), clock_period_s)
 
 
 def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int = 0, out_dir="runs/rl", *,
              damage: str = "none", hyperparams_path=None, episode_duration_s: float = EPISODE_DURATION_S,
              clock_period_s: float = CLOCK_PERIOD_S, eval_seed: int = 0, num_threads: int | None = None,
-             verbose: int = 0) -> Path:
-    """Train a PPO or SAC policy on AquaFish-v0, save it, and score it.
+             verbose: int = 0, env_id: str = ENV_ID) -> Path:
+    """Train a PPO or SAC policy on an AquaFish task (default AquaFish-v0), save it, and score it.
 
     Args:
         algo: "ppo" or "sac".
@@ -119,6 +120,7 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
         eval_seed: episode seed of the final score (the deterministic policy, 20 s).
         num_threads: torch CPU threads (None: torch's default).
         verbose: SB3 verbosity (0, 1, 2).
+        env_id: the task (``aquafish_gym.ENV_IDS``); its section of the YAML file is used.
 
     Returns:
         Path of ``model.zip`` (load it with :func:`gait.load_controller`).
@@ -136,7 +138,8 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
 
     robot = as_robot(morphology if morphology is not None else "healthy", damage=damage)
     clock_period_s = check_clock_period(clock_period_s)
-    hp = load_hyperparams(algo, hyperparams_path)
+    env_id = check_env_id(env_id)
+    hp = load_hyperparams(algo, hyperparams_path, env_id)
     n_timesteps = hp.pop("n_timesteps") if timesteps is None else timesteps
     check_int("timesteps", n_timesteps, 1)
     hp.pop("n_timesteps", None)
@@ -148,7 +151,8 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
 
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    venv = make_vec_env(lambda: make_rl_env(robot, episode_duration_s=episode_duration_s, clock_period_s=clock_period_s),
+    venv = make_vec_env(lambda: make_rl_env(robot, episode_duration_s=episode_duration_s, clock_period_s=clock_period_s,
+                                            env_id=env_id),
                         n_envs=n_envs, seed=seed, monitor_dir=str(out_dir / "monitor"))
     model = algo_cls(policy, venv, seed=seed, device="cpu", verbose=verbose, **hp)
     start = time.perf_counter()
@@ -158,15 +162,16 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
     model_path = out_dir / SB3_MODEL_FILE
     model.save(model_path)
 
-    score = rollout(SB3PolicyController(model, clock_period_s), robot, seed=eval_seed)
+    score = rollout(SB3PolicyController(model, clock_period_s), robot, seed=eval_seed, env_id=env_id)
     meta = {
-        "algo": algo, "clock_period_s": clock_period_s, "robot": robot.to_dict(), "seed": seed,
+        "algo": algo, "env_id": env_id, "clock_period_s": clock_period_s, "robot": robot.to_dict(), "seed": seed,
         "timesteps": int(n_timesteps), "episode_duration_s": episode_duration_s, "wall_time_s": wall_time_s,
-        "eval_seed": eval_seed, "eval_distance": score.distance, "eval_initial_angles_rad": score.initial_angles.tolist(),
+        "eval_seed": eval_seed, "eval_distance": score.distance, "eval_return": score.episode_return,
+        "eval_initial_angles_rad": score.initial_angles.tolist(),
     }
     atomic_write(sb3_sidecar(model_path), json.dumps(meta, indent=1).encode())
-    used = read_hyperparams_section(algo, hyperparams_path) | {"n_timesteps": int(n_timesteps)}
-    atomic_write(out_dir / "hyperparams.yml", yaml.safe_dump({algo: {ENV_ID: used}}, sort_keys=False).encode())
+    used = read_hyperparams_section(algo, hyperparams_path, env_id) | {"n_timesteps": int(n_timesteps)}
+    atomic_write(out_dir / "hyperparams.yml", yaml.safe_dump({algo: {env_id: used}}, sort_keys=False).encode())
     # return, length and wall time (s since the first env started) of every episode, in time order
     curve = load_results(str(out_dir / "monitor"))[["r", "l", "t"]].to_numpy(dtype=np.float64)
     if len(curve):

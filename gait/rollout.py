@@ -1,4 +1,4 @@
-"""Run a controller for one episode of AquaFish-v0: forward distance and trajectory.
+"""Run a controller for one episode of an AquaFish task: forward distance, return and trajectory.
 
 This is the gait fitness of paper section 5 ("swimming as far forward as possible in
 20 seconds of simulation time"): the env's summed ``reward_forward``, i.e. the body's
@@ -19,13 +19,26 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-import aquafish_gym  # noqa: F401  (registers AquaFish-v0)
+import aquafish_gym  # registers the AquaFish tasks
 from aquafish_gym.checks import check_int
 from gait.controller import Controller
 from gait.robots import Robot, as_robot
 
 #: The paper's gait episode: 20 s of simulated swimming.
 EPISODE_DURATION_S = 20.0
+#: The paper's task (swim forward); ``env_id`` arguments take any id of ``aquafish_gym.ENV_IDS``.
+DEFAULT_ENV_ID = "AquaFish-v0"
+
+
+def check_env_id(env_id: str) -> str:
+    """Return ``env_id`` if it names a registered AquaFish task.
+
+    Raises:
+        ValueError: another id; the message lists the registered tasks.
+    """
+    if env_id not in aquafish_gym.ENV_IDS:
+        raise ValueError(f"unknown env id {env_id!r}; the AquaFish tasks are {list(aquafish_gym.ENV_IDS)}")
+    return env_id
 
 
 @dataclasses.dataclass(frozen=True)
@@ -52,14 +65,14 @@ class Rollout:
 
 
 def make_env(robot=None, *, damage: str = "none", initial_angles=None,
-             episode_duration_s: float = EPISODE_DURATION_S, **env_kwargs: Any) -> gym.Env:
-    """``gym.make("AquaFish-v0")`` for a robot (anything :func:`gait.robots.as_robot` takes).
+             episode_duration_s: float = EPISODE_DURATION_S, env_id: str = DEFAULT_ENV_ID, **env_kwargs: Any) -> gym.Env:
+    """``gym.make(env_id)`` (default ``"AquaFish-v0"``) for a robot (anything :func:`gait.robots.as_robot` takes).
 
     Raises:
-        ValueError: an invalid robot, damage, angles or env argument.
+        ValueError: an invalid robot, damage, angles, env id or env argument.
     """
     robot = as_robot(robot if robot is not None else "healthy", damage=damage)
-    return gym.make("AquaFish-v0", **robot.env_kwargs(), initial_angles=initial_angles,
+    return gym.make(check_env_id(env_id), **robot.env_kwargs(), initial_angles=initial_angles,
                     episode_duration_s=episode_duration_s, **env_kwargs)
 
 
@@ -77,7 +90,7 @@ def check_episodes(episodes, initial_angles=None) -> int:
 
 
 def rollout(controller: Controller, robot=None, *, damage: str = "none", seed: int = 0, initial_angles=None,
-            episode_duration_s: float = EPISODE_DURATION_S, **env_kwargs: Any) -> Rollout:
+            episode_duration_s: float = EPISODE_DURATION_S, env_id: str = DEFAULT_ENV_ID, **env_kwargs: Any) -> Rollout:
     """Run ``controller`` for one episode and record its distance and trajectory.
 
     Args:
@@ -88,7 +101,8 @@ def rollout(controller: Controller, robot=None, *, damage: str = "none", seed: i
         seed: ``reset(seed=)``; draws the initial flipper angles unless ``initial_angles``.
         initial_angles: ``(3,)`` left, right pectoral, caudal angles (rad), or None.
         episode_duration_s: simulated seconds (20 s is the paper's gait fitness).
-        **env_kwargs: further AquaFish-v0 arguments (e.g. ``frame_skip``, fluid parameters).
+        env_id: the task (``aquafish_gym.ENV_IDS``; default the paper's ``"AquaFish-v0"``).
+        **env_kwargs: further env arguments (e.g. ``frame_skip``, fluid parameters).
 
     Returns:
         The :class:`Rollout`.
@@ -98,7 +112,7 @@ def rollout(controller: Controller, robot=None, *, damage: str = "none", seed: i
     """
     check_int("seed", seed)
     robot = as_robot(robot if robot is not None else "healthy", damage=damage)
-    env = make_env(robot, initial_angles=initial_angles, episode_duration_s=episode_duration_s, **env_kwargs)
+    env = make_env(robot, initial_angles=initial_angles, episode_duration_s=episode_duration_s, env_id=env_id, **env_kwargs)
     try:
         controller.reset()
         obs, info = env.reset(seed=int(seed))

@@ -117,3 +117,20 @@ def test_evolve_or_load_gait_reuses_a_finished_run_and_resumes_an_interrupted_on
     resumed = evolve_or_load_gait(None, tmp_path / "b", generations=3, **TINY)
     assert json.loads((tmp_path / "b" / "run.json").read_text())["best_fitness"] == full.best_fitness
     assert rollout(resumed, seed=3, episode_duration_s=1.0).distance == pytest.approx(full.best_fitness)
+
+
+def test_neat_on_another_task_gets_its_inputs_and_scores_its_return(tmp_path):
+    result = evolve_gait(None, generations=1, env_id="AquaFishHeading-v0", episodes_per_genome=2,
+                         out_dir=tmp_path, **(TINY | dict(population_size=4)))
+    c = result.best_controller
+    assert c.config.genome_config.num_inputs == 16                     # 14 task observations + the clock
+    kw = dict(episode_duration_s=TINY["episode_duration_s"], env_id="AquaFishHeading-v0")
+    returns = [rollout(c, seed=TINY["seed"] + k, **kw).episode_return for k in range(2)]
+    assert result.best_fitness == pytest.approx(np.mean(returns), abs=1e-12)   # the return, not the distance
+    assert json.loads((tmp_path / "run.json").read_text())["env_id"] == "AquaFishHeading-v0"
+    # the evolved network can be reloaded, and refuses an observation of another task
+    loaded = load_controller(tmp_path / "best_controller.pkl")
+    with pytest.raises(ValueError, match="takes 14 observation entries, got 12"):
+        loaded.act(np.zeros(12), 0.0)
+    with pytest.raises(ValueError, match="unknown env id"):
+        evolve_gait(None, generations=1, env_id="CartPole-v1", **TINY)

@@ -69,3 +69,22 @@ def test_short_ppo_trains_saves_loads_and_scores(tmp_path):
     t = score_transfer(controller, "healthy", "left_pectoral_half", seed=0, episode_duration_s=2.0)
     assert np.isfinite(t.native_distance) and np.isfinite(t.target_distance)
     assert t.target_trajectory.shape == (21, 2)
+
+
+def test_ppo_on_another_task_uses_its_section_and_reports_its_return(tmp_path):
+    hp = tmp_path / "hp.yml"
+    section = {"n_timesteps": 128, "policy": "MlpPolicy", "n_envs": 1, "n_steps": 64, "batch_size": 32, "n_epochs": 1,
+               "policy_kwargs": {"net_arch": [8]}}
+    hp.write_text(yaml.safe_dump({"ppo": {"AquaFishStationKeeping-v0": section}}))
+    with pytest.raises(ValueError, match="no section ppo -> AquaFish-v0"):
+        train_rl("ppo", "healthy", 128, 0, tmp_path / "fwd", hyperparams_path=hp, episode_duration_s=1.0)
+    path = train_rl("ppo", "healthy", 128, 0, tmp_path / "sk", hyperparams_path=hp, episode_duration_s=1.0,
+                    num_threads=1, env_id="AquaFishStationKeeping-v0")
+    meta = json.loads(path.with_suffix(".json").read_text())
+    controller = load_controller(path)
+    again = rollout(controller, seed=meta["eval_seed"], env_id="AquaFishStationKeeping-v0")
+    assert meta["env_id"] == "AquaFishStationKeeping-v0"
+    assert meta["eval_return"] == pytest.approx(again.episode_return, abs=1e-9) and meta["eval_return"] < 0
+    for algo in ("ppo", "sac"):  # the shipped file has a section for every task
+        for env_id in aquafish_gym.ENV_IDS:
+            assert load_hyperparams(algo, env_id=env_id)["policy"] == "MlpPolicy"
