@@ -1,4 +1,4 @@
-"""``aquafish case-study``, ``aquafish study``, ``aquafish plot``, ``aquafish diagnose`` and ``aquafish damages``."""
+"""``aquafish case-study``, ``study``, ``plot``, ``diagnose``, ``damages`` and ``baselines``."""
 
 from __future__ import annotations
 
@@ -67,6 +67,17 @@ def _diagnose(args: argparse.Namespace) -> int:
     return 0
 
 
+def _baselines(args: argparse.Namespace) -> int:
+    from aquafish.task_table import BaselineBudget, format_table, task_table
+
+    budget = BaselineBudget(args.neat_generations, args.neat_population, args.neat_episodes, args.ppo_timesteps,
+                            args.seed, args.workers)
+    rows = task_table(args.out, env_ids=args.envs, budget=budget, starts=args.starts, eval_seed=args.eval_seed)
+    print(format_table(rows, args.starts))
+    print(f"wrote {args.out}/task_table.md and task_table.json")
+    return 0
+
+
 def _damages(args: argparse.Namespace) -> int:
     from aquafish.damage_table import GaitBudget, damage_table, format_table
 
@@ -126,3 +137,17 @@ def add_commands(sub) -> None:
     t.add_argument("--workers", type=int, default=1, help="NEAT evaluation processes (default 1)")
     t.add_argument("--verbose", action="store_true", help="NEAT's per-generation report")
     t.set_defaults(func=_damages)
+
+    b = sub.add_parser("baselines", help="random policy, NEAT and PPO on every task of the env family "
+                                         "(aquafish.task_table)")
+    b.add_argument("--out", required=True, help="output directory (learners are trained once and reused)")
+    b.add_argument("--envs", type=_csv(str), default=None, help="task ids (default: every registered task)")
+    b.add_argument("--neat-generations", type=int, default=10, help="NEAT generations per task (default 10)")
+    b.add_argument("--neat-population", type=int, default=30, help="NEAT genomes per generation (default 30)")
+    b.add_argument("--neat-episodes", type=int, default=3, help="NEAT training starts per genome (default 3)")
+    b.add_argument("--ppo-timesteps", type=int, default=100_000, help="PPO env steps per task; 0: no PPO (default 1e5)")
+    b.add_argument("--starts", type=int, default=10, help="fresh starts per task and learner (default 10)")
+    b.add_argument("--seed", type=int, default=0, help="training seed (default 0)")
+    b.add_argument("--eval-seed", type=int, default=1000, help="seed of the first fresh start (default 1000)")
+    b.add_argument("--workers", type=int, default=1, help="NEAT evaluation processes (default 1)")
+    b.set_defaults(func=_baselines)

@@ -1,8 +1,9 @@
 """Gait controllers: map the IMU observation and the clock to AquaFish-v0's action.
 
 A :class:`Controller` has ``reset()`` (start of an episode) and
-``act(obs (12,), time_s) -> action (3,) in [-1, 1]``. :class:`ConstantController` is the
-open-loop baseline (one fixed action); two kinds are learned:
+``act(obs (12,), time_s) -> action (3,) in [-1, 1]`` (another task's observation may be
+longer). :class:`RandomController` is the random-policy baseline and
+:class:`ConstantController` the open-loop one (one fixed action); two kinds are learned:
 
 * :class:`NEATController`: a neat-python genome decoded to ``neat.nn.FeedForwardNetwork``
   (or ``neat.nn.RecurrentNetwork`` when the config has ``feed_forward = False``; the CTRNN
@@ -71,6 +72,30 @@ class ConstantController:
 
     def __repr__(self) -> str:
         return f"ConstantController({self.action.tolist()})"
+
+
+class RandomController:
+    """Uniform random actions in [-1, 1]^3: the "learned nothing" baseline of every task.
+
+    Args:
+        seed: seeds the action stream; :meth:`reset` restarts it, so every episode of one
+            controller sees the same actions (comparable across starts and robots).
+    """
+
+    def __init__(self, seed: int = 0) -> None:
+        self.seed = int(seed)
+        self.reset()
+
+    def reset(self) -> None:
+        """Restart the action stream from ``seed``."""
+        self._rng = np.random.default_rng(self.seed)
+
+    def act(self, obs: np.ndarray, time_s: float) -> np.ndarray:
+        """A fresh uniform action ``(3,)`` float64 in [-1, 1]."""
+        return self._rng.uniform(-1.0, 1.0, 3)
+
+    def __repr__(self) -> str:
+        return f"RandomController(seed={self.seed})"
 
 
 class NEATController:
