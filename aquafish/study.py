@@ -138,6 +138,8 @@ def _write_spec(spec: StudySpec, out_dir: Path) -> None:
     path = out_dir / "study.json"
     if path.exists():
         old = json.loads(path.read_text())
+        # through EEAConfig: a spec written before a field was added gets its default
+        old["base"] = EEAConfig.from_dict(old["base"]).to_dict()
         old["base"].pop("workers", None)
         if old != data:
             raise ValueError(f"{path} describes a different study; use another --out or delete it")

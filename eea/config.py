@@ -42,6 +42,9 @@ FIELD_HELP: dict[str, str] = {
     "exploration_generations": "exploration GA generations per round (paper: 25)",
     "exploration_models": "at most this many distinct candidate models, best first, whose "
                           "disagreement scores an action (eq. 1)",
+    "exploration_angles": "0: every model is simulated from the zero state during exploration (the paper's); "
+                          "K >= 2: from K random angle sets per round, and an action scores the models' "
+                          "disagreement minus the spread the angles cause (eq. 1 with an angle term; not the paper's)",
     "estimation_population": "models per estimation GA generation (paper: 25)",
     "estimation_generations": "estimation GA generations per round (paper: 100)",
     "estimation_search": "estimation search: ga (the paper's bit-string GA) or cma (CMA-ES over the nine "
@@ -96,6 +99,7 @@ class EEAConfig:
     exploration_population: int = 25
     exploration_generations: int = 25
     exploration_models: int = 25
+    exploration_angles: int = 0
     estimation_population: int = 25
     estimation_generations: int = 100
     estimation_search: str = "ga"
@@ -141,6 +145,10 @@ class EEAConfig:
         }
         for name, low in minimum.items():
             check_int(f"EEAConfig.{name}", getattr(self, name), low, 30 if name == "oob_bits" else None)
+        check_int("EEAConfig.exploration_angles", self.exploration_angles, 0)
+        if self.exploration_angles == 1:
+            raise ValueError("EEAConfig.exploration_angles must be 0 (the zero state) or >= 2 (a spread needs "
+                             "two angle sets), got 1")
         for name, population in (("elitism", "exploration_population"), ("elitism", "estimation_population"),
                                  ("k_best", "estimation_population"), ("oob_sample", "estimation_population")):
             if getattr(self, name) > getattr(self, population):

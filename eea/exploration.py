@@ -14,6 +14,11 @@ Choices the paper leaves open, made here:
 * Context: the next experiment's initial angles are unknown when its action is chosen, so
   every model is simulated from the zero state (pectorals arms-back, caudal 0). A fixed
   context keeps ACT_FIT deterministic and comparable between actions.
+* Not the paper's, with ``angle_sets = K >= 2`` (``EEAConfig.exploration_angles``): every
+  model is simulated from K random angle sets, drawn once per round from the run's
+  generator and shared by all actions, and an action scores
+  :func:`eea.fitness.robust_action_fitness` (the disagreement minus the spread the angles
+  cause). It costs K times the simulations of the paper's exploration.
 * A new action GA starts every round (actions do not carry over).
 """
 
@@ -24,7 +29,8 @@ from typing import Callable
 import numpy as np
 
 from eea.encoding import ACTION_BITS, decode_actions
-from eea.fitness import action_fitness
+from eea.experiment import random_angles
+from eea.fitness import action_fitness, robust_action_fitness
 from eea.ga import BitGA
 
 __all__ = ["EXPLORATION_ANGLES_RAD", "Exploration"]
@@ -41,23 +47,30 @@ class Exploration:
         generations: generations per round (paper: 25).
         ga_options: keyword arguments of :class:`~eea.ga.BitGA` (crossover_rate,
             mutation_rate, tournament_size, elitism).
+        angle_sets: 0 for the paper's zero state, or K >= 2 random angle sets per round
+            (the angle-robust action fitness, see the module docstring).
 
     Raises:
-        ValueError: if ``population`` or ``generations`` is < 1.
+        ValueError: if ``population`` or ``generations`` is < 1, or ``angle_sets`` is 1 or < 0.
     """
 
-    def __init__(self, population: int = 25, generations: int = 25, ga_options: dict | None = None) -> None:
+    def __init__(self, population: int = 25, generations: int = 25, ga_options: dict | None = None,
+                 angle_sets: int = 0) -> None:
         if population < 1 or generations < 1:
             raise ValueError(f"population and generations must be >= 1, got {population}, {generations}")
+        if angle_sets < 0 or angle_sets == 1:
+            raise ValueError(f"angle_sets must be 0 (zero state) or >= 2, got {angle_sets}")
         self.population, self.generations = int(population), int(generations)
         self.ga_options = dict(ga_options or {})
+        self.angle_sets = int(angle_sets)
 
     @classmethod
     def from_config(cls, config) -> "Exploration":
         """Sized and tuned by an :class:`eea.config.EEAConfig`."""
         return cls(config.exploration_population, config.exploration_generations,
                    {"crossover_rate": config.crossover_rate, "mutation_rate": config.mutation_bits / ACTION_BITS,
-                    "tournament_size": config.tournament_size, "elitism": config.elitism})
+                    "tournament_size": config.tournament_size, "elitism": config.elitism},
+                   config.exploration_angles)
 
     def run(self, models: np.ndarray, evaluator, rng: np.random.Generator,
             on_generation: Callable[[int, float], None] | None = None) -> tuple[np.ndarray, np.ndarray, float]:
@@ -83,11 +96,17 @@ class Exploration:
             genome = ga.ask()[0]
             return genome, decode_actions(genome), 0.0
         evaluator.clear_summaries()
+        angle_sets = random_angles(rng, self.angle_sets) if self.angle_sets else None
         for generation in range(self.generations):
             genomes = ga.ask()
             actions = decode_actions(genomes)
-            summaries = evaluator.summaries(models, genomes, actions, EXPLORATION_ANGLES_RAD)  # (A, M, 3, F)
-            ga.tell(np.atleast_1d(action_fitness(summaries)))
+            if angle_sets is None:
+                summaries = evaluator.summaries(models, genomes, actions, EXPLORATION_ANGLES_RAD)  # (A, M, 3, F)
+                ga.tell(np.atleast_1d(action_fitness(summaries)))
+            else:
+                summaries = np.stack([evaluator.summaries(models, genomes, actions, angles) for angles in angle_sets],
+                                     axis=1)                                                # (A, K, M, 3, F)
+                ga.tell(np.atleast_1d(robust_action_fitness(summaries)))
             if on_generation is not None:
                 on_generation(generation, ga.best_fitness)
         evaluator.clear_summaries()

@@ -18,7 +18,8 @@ import numpy as np
 from aquafish_gym import MORPHOLOGY_BOUNDS
 from eea.behaviour import MAX_COEFFICIENT, similarity
 
-__all__ = ["action_fitness", "model_fitness", "model_fitness_from_similarities", "objective_fitness"]
+__all__ = ["action_fitness", "model_fitness", "model_fitness_from_similarities", "objective_fitness",
+           "robust_action_fitness"]
 
 
 def action_fitness(summaries, max_coefficient: float = MAX_COEFFICIENT):
@@ -51,6 +52,40 @@ def action_fitness(summaries, max_coefficient: float = MAX_COEFFICIENT):
                                           max_coefficient)).sum(axis=-1)
     result = total / (m * (m - 1) / 2)
     return float(result) if result.ndim == 0 else result
+
+
+def robust_action_fitness(summaries, max_coefficient: float = MAX_COEFFICIENT):
+    """Disagreement among models that the unknown initial angles do not explain (not the paper's).
+
+    Equation 1 scores an action by how much the candidate models disagree from one fixed
+    (zero) state, but the target starts from unknown angles, and a response that changes
+    as much with the angles as with the morphology tells the models apart only in
+    appearance. With the models simulated from K angle sets::
+
+        ACT_FIT_robust(a) = 1/K sum_k ACT_FIT_k(a) - 1/M sum_i SPREAD_i(a)
+
+    where ``ACT_FIT_k`` is equation 1 over the M models from angle set k (between-model
+    disagreement) and ``SPREAD_i`` is equation 1 over model i's K responses (the
+    disagreement of a model with itself caused by the angles alone).
+
+    Args:
+        summaries: ``(K, M, 3, F)`` summaries of M models from K angle sets under one
+            action, or ``(A, K, M, 3, F)`` (any leading dimensions) for A actions; K, M >= 2.
+        max_coefficient: MAX of equation 2.
+
+    Returns:
+        A float in [-1, 1] for one action; ``(A,)`` float64 for several.
+
+    Raises:
+        ValueError: if ``summaries`` is not ``(..., K, M, 3, F)`` with K, M >= 2.
+    """
+    s = np.asarray(summaries, dtype=np.float64)
+    if s.ndim < 4 or s.shape[-4] < 2:
+        raise ValueError(f"summaries must have shape (..., K, M, 3, F) with K >= 2 angle sets, got {s.shape}")
+    between = np.mean(action_fitness(s, max_coefficient), axis=-1)                        # over K
+    spread = np.mean(action_fitness(np.swapaxes(s, -4, -3), max_coefficient), axis=-1)    # over M
+    result = between - spread
+    return float(result) if np.ndim(result) == 0 else result
 
 
 def model_fitness(model_summaries, target_summaries, max_coefficient: float = MAX_COEFFICIENT):

@@ -5,7 +5,7 @@ import pytest
 
 from eea.behaviour import similarity
 from aquafish_gym import MORPHOLOGY_BOUNDS as MODEL_BOUNDS
-from eea.fitness import action_fitness, model_fitness, objective_fitness
+from eea.fitness import action_fitness, model_fitness, objective_fitness, robust_action_fitness
 
 
 def _three_models():
@@ -104,3 +104,18 @@ def test_objective_fitness_rejects_bad_input(model, target, match):
 def test_objective_fitness_rejects_degenerate_bounds():
     with pytest.raises(ValueError, match="bounds"):
         objective_fitness(np.zeros(2), np.zeros(2), np.array([[0.0, 1.0], [1.0, 1.0]]))
+
+
+def test_robust_action_fitness_hand_computed():
+    # K = 2 angle sets x M = 2 models, one coefficient per channel (MAX = 100)
+    s = np.array([[0.0, 50.0], [20.0, 50.0]])[:, :, None, None] * np.ones((2, 2, 3, 1))
+    # between models: set 0 |0 - 50| -> 0.5, set 1 |20 - 50| -> 0.3, mean 0.4;
+    # spread over angles: model 0 |0 - 20| -> 0.2, model 1 |50 - 50| -> 0, mean 0.1
+    assert robust_action_fitness(s) == pytest.approx(0.4 - 0.1)
+    batched = robust_action_fitness(np.stack([s, s[:, ::-1], np.zeros_like(s)]))
+    np.testing.assert_allclose(batched, [0.3, 0.3, 0.0])
+    # a response the angles change as much as the morphology scores <= 0
+    assert robust_action_fitness(np.array([[0.0, 40.0], [40.0, 0.0]])[:, :, None, None] * np.ones((2, 2, 3, 1))) \
+        == pytest.approx(0.0)
+    with pytest.raises(ValueError, match="K >= 2"):
+        robust_action_fitness(np.zeros((1, 3, 3, 4)))

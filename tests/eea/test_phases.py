@@ -7,7 +7,7 @@ from eea.encoding import decode_actions
 from eea.estimation import Estimation, distinct_ranked
 from eea.evaluation import Evaluator
 from eea.exploration import Exploration
-from eea.fitness import action_fitness
+from eea.fitness import action_fitness, robust_action_fitness
 from eea.inference import make_inference
 
 
@@ -101,6 +101,29 @@ def test_exploration_picks_the_action_models_disagree_on_most():
     assert hz >= first_gen[:, 2].max()
     assert len(ev.angles) == 6 and all(np.all(a == 0) for a in ev.angles)   # zero state, one call per generation
     assert ev.cleared >= 1
+
+
+class AngleSpreadEvaluator(SpreadEvaluator):
+    """Fake: as SpreadEvaluator, plus a response to the initial left angle that grows with |left speed|."""
+
+    def summaries(self, genomes, action_genomes, actions, angles):
+        base = super().summaries(genomes, action_genomes, actions, angles)
+        return base + 30.0 * angles[0] * np.abs(actions[:, 0])[:, None, None, None]
+
+
+def test_angle_robust_exploration_discounts_what_the_angles_explain():
+    models = np.zeros((3, 45), np.uint8) + np.eye(3, 45, dtype=np.uint8)
+    ev = AngleSpreadEvaluator()
+    genome, action, fit = Exploration(population=8, generations=6, angle_sets=3).run(models, ev, np.random.default_rng(0))
+    sets = np.array(ev.angles).reshape(6, 3, 3)
+    assert np.all(sets == sets[0]) and len(np.unique(sets[0][:, 0])) == 3      # 3 sets per round, the same each generation
+    expected = np.stack([AngleSpreadEvaluator().summaries(models, None, action[None], a)[0] for a in sets[0]])
+    assert fit == pytest.approx(robust_action_fitness(expected))
+    # the paper's fitness from the zero state does not see the angle term: the choices differ
+    _, paper_action, _ = Exploration(population=8, generations=6).run(models, AngleSpreadEvaluator(), np.random.default_rng(0))
+    assert abs(action[0]) <= abs(paper_action[0]) and fit <= action_fitness(expected[0])
+    with pytest.raises(ValueError, match="angle_sets"):
+        Exploration(angle_sets=1)
 
 
 def test_exploration_without_two_models_simulates_nothing():
