@@ -122,7 +122,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, workers: int
         rl_dir = out / "rl_ppo_out_of_band"
         path = rl_dir / "model.zip"
         if not (rl_dir / "model.json").exists():
-            path = gait.train_rl("ppo", models["out_of_band"], settings.rl_timesteps, seed, rl_dir)
+            path = gait.train_rl("ppo", models["out_of_band"], settings.rl_timesteps, seed, rl_dir, progress=progress)
         controllers["PPO on out-of-band model"] = gait.load_controller(path)
         natives["PPO on out-of-band model"] = models["out_of_band"]
 

@@ -74,12 +74,13 @@ def _neat(env_id: str, budget: BaselineBudget, out: Path, progress: bool):
     return controller, json.loads((out / RUN_FILE).read_text())["wall_time_s"]
 
 
-def _ppo(env_id: str, budget: BaselineBudget, out: Path):
+def _ppo(env_id: str, budget: BaselineBudget, out: Path, progress: bool):
     from gait.rl import train_rl
 
     path = out / "model.zip"
     if not path.with_suffix(".json").is_file():
-        path = train_rl("ppo", "healthy", budget.ppo_timesteps, budget.seed, out, env_id=env_id, num_threads=1)
+        path = train_rl("ppo", "healthy", budget.ppo_timesteps, budget.seed, out, env_id=env_id, num_threads=1,
+                        progress=progress)
     return load_controller(path), json.loads(path.with_suffix(".json").read_text())["wall_time_s"]
 
 
@@ -111,7 +112,7 @@ def task_table(out, *, env_ids=None, budget: BaselineBudget = BaselineBudget(), 
         learners = {"random policy": (RandomController(budget.seed), 0.0),
                     "NEAT": _neat(env_id, budget, out / env_id / "neat", progress)}
         if with_ppo:
-            learners["PPO"] = _ppo(env_id, budget, out / env_id / "ppo")
+            learners["PPO"] = _ppo(env_id, budget, out / env_id / "ppo", progress)
         for learner, (controller, wall) in learners.items():
             rows.append({"env_id": env_id, "learner": learner, "train_wall_s": float(wall),
                          **_scores(controller, env_id, eval_seed, starts)})

@@ -93,6 +93,35 @@ def _linear_schedule(initial: float) -> Callable[[float], float]:
     return schedule
 
 
+def training_bar(total_timesteps: int, desc: str, disable: bool = False):
+    """An SB3 callback drawing one tqdm bar over env steps, the mean return of the last 100
+    episodes (SB3's ``ep_info_buffer``) and the best such mean in its postfix.
+
+    (SB3's own ``progress_bar=True`` needs the ``rich`` package; this needs only tqdm.)
+    """
+    from stable_baselines3.common.callbacks import BaseCallback
+    from tqdm.auto import tqdm
+
+    class TrainingBar(BaseCallback):
+        def _on_training_start(self) -> None:
+            self.bar = tqdm(total=total_timesteps, desc=desc, unit="step", disable=disable)
+            self.best = -np.inf
+
+        def _on_step(self) -> bool:
+            self.bar.update(self.training_env.num_envs)
+            episodes = self.model.ep_info_buffer
+            if episodes and self.n_calls % 50 == 0:
+                mean = float(np.mean([e["r"] for e in episodes]))
+                self.best = max(self.best, mean)
+                self.bar.set_postfix(mean_return=f"{mean:.3f}", best=f"{self.best:.3f}")
+            return True
+
+        def _on_training_end(self) -> None:
+            self.bar.close()
+
+    return TrainingBar()
+
+
 def make_rl_env(robot: Robot, *, episode_duration_s: float = EPISODE_DURATION_S, clock_period_s: float = CLOCK_PERIOD_S,
                 env_id: str = ENV_ID):
     """The task ``env_id`` for ``robot`` with the clock appended: observation ``(n + 2,)`` (14 for AquaFish-v0)."""
@@ -102,7 +131,7 @@ def make_rl_env(robot: Robot, *, episode_duration_s: float = EPISODE_DURATION_S,
 def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int = 0, out_dir="runs/rl", *,
              damage: str = "none", hyperparams_path=None, episode_duration_s: float = EPISODE_DURATION_S,
              clock_period_s: float = CLOCK_PERIOD_S, eval_seed: int = 0, num_threads: int | None = None,
-             verbose: int = 0, env_id: str = ENV_ID) -> Path:
+             verbose: int = 0, env_id: str = ENV_ID, progress: bool = True) -> Path:
     """Train a PPO or SAC policy on an AquaFish task (default AquaFish-v0), save it, and score it.
 
     Args:
@@ -121,6 +150,7 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
         num_threads: torch CPU threads (None: torch's default).
         verbose: SB3 verbosity (0, 1, 2).
         env_id: the task (``aquafish_gym.ENV_IDS``); its section of the YAML file is used.
+        progress: show a tqdm bar over env steps with the mean and best episode return.
 
     Returns:
         Path of ``model.zip`` (load it with :func:`gait.load_controller`).
@@ -156,7 +186,8 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
                         n_envs=n_envs, seed=seed, monitor_dir=str(out_dir / "monitor"))
     model = algo_cls(policy, venv, seed=seed, device="cpu", verbose=verbose, **hp)
     start = time.perf_counter()
-    model.learn(total_timesteps=int(n_timesteps))
+    model.learn(total_timesteps=int(n_timesteps),
+                callback=training_bar(int(n_timesteps), f"{algo.upper()} on {env_id}", disable=not progress))
     wall_time_s = time.perf_counter() - start
     venv.close()
     model_path = out_dir / SB3_MODEL_FILE
