@@ -1,11 +1,18 @@
 """The damage-recovery case study (paper section 5, Figures 11 and 12).
 
 1. The target is the healthy robot with a named damage.
-2. It self-models twice with the EEA: ``none`` (plain EEA) and ``out_of_band``.
-3. NEAT gaits are evolved for (a) the healthy morphology, (b) the plain-EEA model and
-   (c) the out-of-band model; with the ``[rl]`` extra, PPO is also trained on (c).
-4. Each controller swims on its native morphology and on the damaged target.
+2. It self-models with the EEA: ``none`` (plain EEA) and the self-model's inference
+   (default ``out_of_band``, the paper's; when another is chosen, ``out_of_band`` runs too
+   and stays a row).
+3. NEAT gaits are evolved for the healthy morphology, every EEA model, and the true
+   damaged robot (the oracle: what recovery could reach at best); with the ``[rl]`` extra,
+   PPO is also trained on the self-model.
+4. Each controller swims on its native robot and on the damaged target, from the same
+   starts.
 5. ``report.md`` / ``report.json`` and the figures are written to the output directory.
+   The controllers have stable keys (:data:`CONTROLLER_KEYS`), and :func:`verdict` says
+   whether the damage breaks the healthy gait and how much of the oracle the self-model
+   gait recovers.
 
 Every step writes into its own sub-directory and is skipped when its result exists, so an
 interrupted case study resumes where it stopped.
@@ -51,6 +58,20 @@ class CaseStudyPreset:
     transfer_episodes: int = 1
 
 
+#: ``report.json`` keys of the controllers: gait evolved on ... (``ppo``: PPO on the self-model).
+CONTROLLER_KEYS: dict[str, str] = {
+    "healthy": "the healthy robot",
+    "plain_eea": "the plain-EEA model (`none`)",
+    "self_model": "the self-model",
+    "out_of_band": "the out-of-band model (paper)",
+    "true_damaged": "the true damaged robot (oracle)",
+    "ppo": "PPO on the self-model",
+}
+#: Goals of the verdict: the healthy gait keeps at most this share of the oracle on the
+#: target (the damage breaks it), and the self-model gait reaches at least this share of
+#: the oracle and this multiple of the healthy gait (it recovers).
+BREAKS_SHARE, RECOVERS_SHARE, RECOVERS_OVER_HEALTHY = 0.5, 0.8, 1.5
+
 PRESETS: dict[str, CaseStudyPreset] = {
     # about 10-15 minutes on 2 cores
     "quick": CaseStudyPreset(
@@ -66,6 +87,11 @@ PRESETS: dict[str, CaseStudyPreset] = {
                  k_best=2, oob_period=2, oob_sample=2, oob_population=3, oob_generations=2),
         gait_population=6, gait_generations=2, rl_timesteps=256, gait_episodes=2, transfer_episodes=2,
     ),
+    # about an hour on 2 cores: the paper's EEA populations and generations, 10 rounds
+    "medium": CaseStudyPreset(
+        eea=dict(duration_s=1.28, rounds=10), gait_population=50, gait_generations=20, rl_timesteps=100_000,
+        gait_episodes=3, transfer_episodes=10,
+    ),
     # the paper's settings (section 4 and 5): hours per EEA run
     "paper": CaseStudyPreset(eea=dict(duration_s=1.28, rounds=25), gait_population=150, gait_generations=100,
                              rl_timesteps=1_000_000, gait_episodes=3, transfer_episodes=10),
@@ -76,88 +102,96 @@ def _rl_available() -> bool:
     return importlib.util.find_spec("stable_baselines3") is not None
 
 
-def run_case_study(preset: str, damage: str, seed: int, out_dir, *, workers: int | None = None, progress: bool = True) -> dict:
+def run_case_study(preset: str, damage: str, seed: int, out_dir, *, inference: str = "out_of_band",
+                   workers: int | None = None, progress: bool = True) -> dict:
     """Run the case study and write its report; return the report as a dict.
 
     Args:
-        preset: ``"quick"`` or ``"paper"`` (:data:`PRESETS`).
+        preset: ``"smoke"``, ``"quick"``, ``"medium"`` or ``"paper"`` (:data:`PRESETS`).
         damage: damage name applied to the healthy robot to make the target.
         seed: seeds every EEA run, gait evolution and RL run.
         out_dir: output directory (created; finished steps found there are reused).
+        inference: the self-model's inference strategy (:data:`eea.INFERENCE_NAMES`).
         workers: processes for evaluation (default: all cores).
         progress: show progress bars.
 
     Raises:
-        ValueError: unknown preset or damage.
+        ValueError: unknown preset, damage or inference.
     """
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; valid: {sorted(PRESETS)}")
     settings = PRESETS[preset]
-    target_damage = get_damage(damage)
-    target = target_damage.apply(Morphology.healthy())
+    target = get_damage(damage).apply(Morphology.healthy())
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
 
-    # 2. self-model twice
-    models, eea_results = {}, {}
-    for inference in ("none", "out_of_band"):
-        config = EEAConfig(inference=inference, damage=damage, seed=seed, **settings.eea,
+    # 2. self-model
+    runs = {"plain_eea": "none", "self_model": inference}
+    if inference != "out_of_band":
+        runs["out_of_band"] = "out_of_band"
+    eea_results = {}
+    for key, strategy in runs.items():
+        config = EEAConfig(inference=strategy, damage=damage, seed=seed, **settings.eea,
                            **({"workers": workers} if workers else {}))
-        run_dir = out / f"eea_{inference}"
+        run_dir = out / f"eea_{strategy}"
         eea.run(config, run_dir, progress=progress)
-        result = eea.load_result(run_dir)
-        models[inference] = result.best_morphology
-        eea_results[inference] = result
+        eea_results[key] = eea.load_result(run_dir)
+    models = {key: result.best_morphology for key, result in eea_results.items()}
 
-    # 3. gaits
-    natives = {"healthy": Morphology.healthy(), "plain EEA model": models["none"], "out-of-band EEA model": models["out_of_band"]}
+    # 3. gaits: native robots are morphologies, the oracle's is the damaged robot (faults included)
+    natives = {"healthy": Morphology.healthy(), **models, "true_damaged": gait.as_robot(damage)}
     controllers = {}
-    for label, morphology in natives.items():
-        gait_dir = out / ("gait_" + label.split()[0].replace("-", "_"))
-        controllers[label] = gait.evolve_or_load_gait(  # a finished gait is reused, an interrupted one resumed
-            morphology, gait_dir, generations=settings.gait_generations, population_size=settings.gait_population,
-            seed=seed, workers=workers, episodes_per_genome=settings.gait_episodes, progress=progress)
+    for key, native in natives.items():
+        controllers[key] = gait.evolve_or_load_gait(  # a finished gait is reused, an interrupted one resumed
+            native, out / f"gait_{key}", generations=settings.gait_generations,
+            population_size=settings.gait_population, seed=seed, workers=workers,
+            episodes_per_genome=settings.gait_episodes, progress=progress)
     if settings.rl_timesteps and _rl_available():
-        rl_dir = out / "rl_ppo_out_of_band"
+        rl_dir = out / "rl_ppo_self_model"
         path = rl_dir / "model.zip"
         if not (rl_dir / "model.json").exists():
-            path = gait.train_rl("ppo", models["out_of_band"], settings.rl_timesteps, seed, rl_dir, progress=progress)
-        controllers["PPO on out-of-band model"] = gait.load_controller(path)
-        natives["PPO on out-of-band model"] = models["out_of_band"]
+            path = gait.train_rl("ppo", models["self_model"], settings.rl_timesteps, seed, rl_dir, progress=progress)
+        controllers["ppo"] = gait.load_controller(path)
+        natives["ppo"] = models["self_model"]
 
     # 4. transfer to the damaged target
     target_robot = gait.as_robot(damage)
-    transfers = {label: gait.score_transfer(controllers[label], natives[label], target_robot, seed=seed,
-                                            episodes=settings.transfer_episodes) for label in controllers}
+    transfers = {key: gait.score_transfer(controllers[key], natives[key], target_robot, seed=seed,
+                                          episodes=settings.transfer_episodes) for key in controllers}
 
     # 5. report
+    panels = [(target, f"(a) target: {damage}")] + [
+        (models[key], f"({chr(98 + i)}) {CONTROLLER_KEYS[key].removeprefix('the ')}") for i, key in enumerate(models)]
     figures = {
-        "morphologies": plot_morphologies([target, models["none"], models["out_of_band"]],
-                                          [f"(a) target: {damage}", "(b) plain EEA (none)", "(c) out-of-band EEA"],
+        "morphologies": plot_morphologies([m for m, _ in panels], [t for _, t in panels],
                                           out / "fig11_morphologies.png").name,
         "trajectories": gait.plot_transfer(list(transfers.values()), out / "fig12_trajectories.png",
-                                           titles=[f"({chr(97 + i)}) {label}" for i, label in enumerate(transfers)]).name,
+                                           titles=[f"({chr(97 + i)}) gait of {CONTROLLER_KEYS[key].removeprefix('the ')}"
+                                                   for i, key in enumerate(transfers)]).name,
+    }
+    controllers_report = {
+        key: {"native_distance": t.native_distance, "target_distance": t.target_distance,
+              "native_distances": t.native_distances.tolist(), "target_distances": t.target_distances.tolist()}
+        for key, t in transfers.items()
     }
     report = {
-        "preset": preset, "damage": damage, "seed": seed,
+        "preset": preset, "damage": damage, "seed": seed, "inference": inference,
         "settings": dataclasses.asdict(settings),
         "target_morphology": _dims(target),
         "models": {
-            inference: {
-                "morphology": _dims(models[inference]),
-                "objective_fitness": float(eea_results[inference].rounds[-1]["objective_fitness"]),
+            key: {
+                "inference": runs[key],
+                "morphology": _dims(models[key]),
+                "objective_fitness": float(result.rounds[-1]["objective_fitness"]),
                 "initial_angle_error_deg": dict(zip(("left", "right", "caudal"),
-                                                    eea_results[inference].inference_error_deg[-1].round(2).tolist())),
-                "target_experiments": int(eea_results[inference].rounds[-1]["target_experiments"]),
+                                                    result.inference_error_deg[-1].round(2).tolist())),
+                "target_experiments": int(result.rounds[-1]["target_experiments"]),
             }
-            for inference in models
+            for key, result in eea_results.items()
         },
-        "controllers": {
-            label: {"native_distance": t.native_distance, "target_distance": t.target_distance,
-                    "native_distances": t.native_distances.tolist(), "target_distances": t.target_distances.tolist()}
-            for label, t in transfers.items()
-        },
+        "controllers": controllers_report,
+        "verdict": verdict(controllers_report),
         "figures": figures,
         "wall_seconds": time.perf_counter() - t0,
     }
@@ -166,34 +200,82 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, workers: int
     return report
 
 
+def verdict(controllers: dict) -> dict:
+    """Does the damage break the healthy gait, and how much of it does the self-model gait recover?
+
+    From the mean distances on the damaged target (``target_distance``) of the
+    ``healthy``, ``plain_eea``, ``self_model`` and ``true_damaged`` (oracle) controllers.
+
+    Returns:
+        ``breaks`` (the oracle swims forward and the healthy gait keeps at most
+        :data:`BREAKS_SHARE` of it), ``self_model_share`` and ``plain_eea_share`` (share
+        of the oracle's distance; None when the oracle does not swim forward),
+        ``recovers`` (share >= :data:`RECOVERS_SHARE` and at least
+        :data:`RECOVERS_OVER_HEALTHY` times the healthy gait), ``plain_eea_below``
+        (the plain-EEA gait does worse than the self-model gait) and ``line``, one
+        sentence for the report.
+
+    Raises:
+        KeyError: a controller is missing.
+    """
+    d = {key: float(controllers[key]["target_distance"]) for key in ("healthy", "plain_eea", "self_model", "true_damaged")}
+    oracle = d["true_damaged"]
+    swims = oracle > 0
+    share = {key: d[key] / oracle if swims else None for key in ("healthy", "plain_eea", "self_model")}
+    breaks = swims and share["healthy"] <= BREAKS_SHARE
+    recovers = swims and share["self_model"] >= RECOVERS_SHARE and d["self_model"] >= RECOVERS_OVER_HEALTHY * d["healthy"] \
+        and d["self_model"] > d["healthy"]
+    plain_below = d["plain_eea"] < d["self_model"]
+    if not swims:
+        line = (f"The oracle gait does not swim forward on the damaged robot ({oracle:.2f} units): "
+                "there is nothing to recover.")
+    else:
+        line = (f"The damage {'breaks' if breaks else 'does not break'} the healthy gait (it keeps "
+                f"{share['healthy']:.0%} of the oracle gait's {oracle:.2f} units on the damaged robot). "
+                f"The self-model gait {'recovers' if recovers else 'does not recover'}: "
+                f"{share['self_model']:.0%} of the oracle, {_times(d['self_model'], d['healthy'])} the healthy gait; "
+                f"the plain-EEA gait reaches {share['plain_eea']:.0%} "
+                f"({'less than' if plain_below else 'at least as much as'} the self-model gait).")
+    return {"breaks": bool(breaks), "recovers": bool(recovers), "plain_eea_below": bool(plain_below),
+            "self_model_share": share["self_model"], "plain_eea_share": share["plain_eea"],
+            "healthy_share": share["healthy"], "line": line}
+
+
+def _times(a: float, b: float) -> str:
+    return f"{a / b:.1f}x" if b > 0 else f"{a:.2f} units against {b:.2f} for"
+
+
 def _dims(m: Morphology) -> dict[str, float]:
     return dict(zip(MORPHOLOGY_FIELDS, m.to_array().round(4).tolist()))
 
 
 def render_report(report: dict) -> str:
-    """Markdown report: the recovered morphologies beside the target, and the transfer table."""
-    lines = [f"# Damage-recovery case study: `{report['damage']}` ({report['preset']} preset, seed {report['seed']})", ""]
+    """Markdown report: the verdict, the recovered morphologies beside the target, and the transfer table."""
+    lines = [f"# Damage-recovery case study: `{report['damage']}` ({report['preset']} preset, seed {report['seed']})", "",
+             f"**Verdict.** {report['verdict']['line']}", ""]
     lines += ["## Recovered morphologies (paper Figure 11)", "", "![morphologies](" + report["figures"]["morphologies"] + ")", ""]
-    header = "| dimension | range | target | plain EEA (`none`) | out-of-band EEA |"
-    lines += [header, "|---|---|---|---|---|"]
+    m = report["models"]
+    keys = list(m)
+    lines += ["| dimension | range | target | " + " | ".join(f"{CONTROLLER_KEYS[k].removeprefix('the ')} "
+                                                           f"(`{m[k]['inference']}`)" for k in keys) + " |",
+              "|---|---|---|" + "---|" * len(keys)]
     for name, (lo, hi) in zip(MORPHOLOGY_FIELDS, MORPHOLOGY_BOUNDS):
         lines.append(f"| {name} | [{lo:g}, {hi:g}] | {report['target_morphology'][name]:.3f} | "
-                     f"{report['models']['none']['morphology'][name]:.3f} | {report['models']['out_of_band']['morphology'][name]:.3f} |")
-    m = report["models"]
-    lines.append(f"| **objective fitness** (eq. 4) | | 1.000 | {m['none']['objective_fitness']:.3f} | {m['out_of_band']['objective_fitness']:.3f} |")
-    lines.append(f"| target experiments used | | | {m['none']['target_experiments']} | {m['out_of_band']['target_experiments']} |")
-    err = m["out_of_band"]["initial_angle_error_deg"]
-    if err:
-        lines.append(f"| initial-angle error, last experiment (deg: left, right, caudal) | | | (not inferred) | "
-                     f"{err['left']:.1f}, {err['right']:.1f}, {err['caudal']:.1f} |")
+                     + " | ".join(f"{m[k]['morphology'][name]:.3f}" for k in keys) + " |")
+    lines.append("| **objective fitness** (eq. 4) | | 1.000 | " + " | ".join(f"{m[k]['objective_fitness']:.3f}" for k in keys) + " |")
+    lines.append("| target experiments used | | | " + " | ".join(str(m[k]["target_experiments"]) for k in keys) + " |")
+    errors = [m[k]["initial_angle_error_deg"] for k in keys]
+    if any(errors):
+        lines.append("| initial-angle error, last experiment (deg: left, right, caudal) | | | " + " | ".join(
+            f"{e['left']:.1f}, {e['right']:.1f}, {e['caudal']:.1f}" if e else "(not inferred)" for e in errors) + " |")
     lines += ["", "## Gait transfer (paper Figure 12)", "", "![trajectories](" + report["figures"]["trajectories"] + ")", ""]
     episodes = report["settings"]["transfer_episodes"]
     lines += [f"Forward distance in 20 s along the initial heading (units; 1 unit = 8 cm): mean over {episodes} "
               f"starts (initial flipper angles of seeds {report['seed']}..{report['seed'] + episodes - 1}, the same "
               "on both robots), with the range over starts; the figure shows the first start.", ""]
-    lines += ["| controller evolved on | on its native morphology | on the damaged target |", "|---|---|---|"]
-    for label, c in report["controllers"].items():
+    lines += ["| gait evolved on (`report.json` key) | on its native robot | on the damaged target |", "|---|---|---|"]
+    for key, c in report["controllers"].items():
         cells = [f"{np.mean(d):.2f} ({min(d):.2f} to {max(d):.2f})" for d in (c["native_distances"], c["target_distances"])]
-        lines.append(f"| {label} | {cells[0]} | {cells[1]} |")
+        lines.append(f"| {CONTROLLER_KEYS[key]} (`{key}`) | {cells[0]} | {cells[1]} |")
     lines += ["", f"Wall time: {report['wall_seconds'] / 60:.1f} min.", ""]
     return "\n".join(lines)

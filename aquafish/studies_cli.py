@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from eea.cli import add_config_flags, config_flag_names
-from eea.config import EEAConfig
+from eea.config import INFERENCE_NAMES, EEAConfig
 
 #: EEA settings that are no flags of ``aquafish study``: the study sets them per run
 #: (``--conditions``, ``--durations``, ``--replicates`` give inference, duration and seed)
@@ -28,7 +28,8 @@ def _csv(kind):
 def _case_study(args: argparse.Namespace) -> int:
     from aquafish.case_study import run_case_study
 
-    report = run_case_study(args.preset, args.damage, args.seed, args.out, workers=args.workers)
+    report = run_case_study(args.preset, args.damage, args.seed, args.out, inference=args.inference,
+                            workers=args.workers)
     print((Path(args.out) / "report.md").read_text())
     print(f"wrote {Path(args.out) / 'report.md'} and report.json ({report['wall_seconds'] / 60:.1f} min)")
     return 0
@@ -91,8 +92,11 @@ def _damages(args: argparse.Namespace) -> int:
 
 def add_commands(sub) -> None:
     c = sub.add_parser("case-study", help="damage-recovery case study (paper section 5): self-model, evolve gaits, transfer")
-    c.add_argument("--preset", default="quick", choices=["smoke", "quick", "paper"],
-                   help="smoke (a pipeline check), quick (~15 min on 2 cores) or the paper's settings")
+    c.add_argument("--preset", default="quick", choices=["smoke", "quick", "medium", "paper"],
+                   help="smoke (a pipeline check), quick (~15 min on 2 cores), medium (~1 h) or the paper's settings")
+    c.add_argument("--inference", default="out_of_band", choices=INFERENCE_NAMES,
+                   help="the self-model's inference strategy (default out_of_band, the paper's; "
+                        "another one adds out_of_band as a row)")
     c.add_argument("--damage", default="left_pectoral_half", help="damage of the target robot")
     c.add_argument("--seed", type=int, default=0)
     c.add_argument("--out", default="case_study_out", help="output directory (finished steps are reused)")
