@@ -96,7 +96,8 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
             ``"ray"`` (Ray tasks; ``address`` as for ``ray.init``, e.g. ``"auto"`` or
             ``"ray://head:10001"``; ``None`` starts a local Ray instance).
         processes: local pool size (default ``os.cpu_count()``).
-        progress: show a tqdm bar over runs.
+        progress: show a tqdm bar over runs, with the best final objective fitness per
+            condition among the runs finished so far in its postfix.
 
     Raises:
         ValueError: unknown backend, or ``study.json`` exists with a different spec.
@@ -110,12 +111,21 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
     runs = spec.runs(out_dir)
     todo = [(c, d) for c, d in runs if rounds_done(d) < c.rounds]
     bar = tqdm(total=len(runs), initial=len(runs) - len(todo), desc="study runs", unit="run", disable=not progress)
+    best = {}
+
+    def finished(run_dir: str) -> None:
+        rows = read_rounds(Path(run_dir))
+        if rows:  # the best final objective fitness so far, per condition
+            condition = Path(run_dir).parts[-3]
+            best[condition] = max(best.get(condition, 0.0), float(rows[-1]["objective_fitness"]))
+            bar.set_postfix_str(", ".join(f"{c} {v:.3f}" for c, v in best.items()))
+        bar.update()
+
     if backend == "local":
         with ProcessPoolExecutor(max_workers=processes or os.cpu_count()) as pool:
             futures = [pool.submit(_run_one, c.to_dict(), str(d)) for c, d in todo]
             for future in as_completed(futures):
-                future.result()
-                bar.update()
+                finished(future.result())
     else:
         import ray
 
@@ -125,8 +135,8 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
         pending = [remote.remote(c.to_dict(), str(d)) for c, d in todo]
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
-            ray.get(done)
-            bar.update(len(done))
+            for run_dir in ray.get(done):
+                finished(run_dir)
     bar.close()
     return [d for _, d in runs]
 
