@@ -61,7 +61,7 @@ class CaseStudyPreset:
 #: ``report.json`` keys of the controllers: gait evolved on ... (``ppo``: PPO on the self-model).
 CONTROLLER_KEYS: dict[str, str] = {
     "healthy": "the healthy robot",
-    "plain_eea": "the plain-EEA model (`none`)",
+    "plain_eea": "the plain-EEA model",
     "self_model": "the self-model",
     "out_of_band": "the out-of-band model (paper)",
     "true_damaged": "the true damaged robot (oracle)",
@@ -257,7 +257,7 @@ def render_report(report: dict) -> str:
     m = report["models"]
     keys = list(m)
     lines += ["| dimension | range | target | " + " | ".join(f"{CONTROLLER_KEYS[k].removeprefix('the ')} "
-                                                           f"(`{m[k]['inference']}`)" for k in keys) + " |",
+                                                           f"(inference `{m[k]['inference']}`)" for k in keys) + " |",
               "|---|---|---|" + "---|" * len(keys)]
     for name, (lo, hi) in zip(MORPHOLOGY_FIELDS, MORPHOLOGY_BOUNDS):
         lines.append(f"| {name} | [{lo:g}, {hi:g}] | {report['target_morphology'][name]:.3f} | "
