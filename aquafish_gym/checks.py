@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-__all__ = ["check_int"]
+__all__ = ["check_int", "check_weight"]
 
 
 def check_int(name: str, value, minimum: int | None = None, maximum: int | None = None) -> int:
@@ -29,3 +31,14 @@ def check_int(name: str, value, minimum: int | None = None, maximum: int | None 
                                           f"<= {maximum}" if maximum is not None else "") if b)
         raise ValueError(f"{name} must be an int{' ' + bounds if bounds else ''}, got {value!r}")
     return int(value)
+
+
+def check_weight(name: str, value) -> float:
+    """``value`` as a ``float`` if it is a finite number >= 0 (a reward or cost weight).
+
+    Raises:
+        ValueError: ``"<name> must be a number >= 0, got <value!r>"`` otherwise.
+    """
+    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+        raise ValueError(f"{name} must be a number >= 0, got {value!r}")
+    return float(value)

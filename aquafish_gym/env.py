@@ -13,7 +13,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from aquafish_gym.checks import check_int
+from aquafish_gym.checks import check_int, check_weight
 from aquafish_gym.bullet import p
 from aquafish_gym.damage import DAMAGES, ServoFaults, get_damage
 from aquafish_gym.morphology import Morphology
@@ -161,15 +161,13 @@ class AquaFishEnv(gym.Env):
         check_int(f"frame_skip (physics steps of {DT_S} s)", frame_skip, 1)
         if not (isinstance(episode_duration_s, (int, float)) and math.isfinite(episode_duration_s) and episode_duration_s > 0):
             raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
-        if not (isinstance(ctrl_cost_weight, (int, float)) and math.isfinite(ctrl_cost_weight) and ctrl_cost_weight >= 0):
-            raise ValueError(f"ctrl_cost_weight must be >= 0, got {ctrl_cost_weight!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}")
         self.fixed_initial_angles = None if initial_angles is None else self._check_angles(initial_angles)
         self.frame_skip = int(frame_skip)
         self.episode_duration_s = float(episode_duration_s)
         self.max_control_steps = int(round(self.episode_duration_s / (DT_S * self.frame_skip)))
-        self.ctrl_cost_weight = float(ctrl_cost_weight)
+        self.ctrl_cost_weight = check_weight("ctrl_cost_weight", ctrl_cost_weight)
         self.render_mode = render_mode
         self.width, self.height = int(width), int(height)
 
@@ -198,6 +196,14 @@ class AquaFishEnv(gym.Env):
     def _task_info(self) -> dict[str, Any]:
         """The task's entries of ``info`` (none here)."""
         return {}
+
+    def _draw_task_value(self, options: dict | None, key: str, default: tuple[float, float],
+                         bounds: tuple[float, float], name: str | None = None) -> float:
+        """Draw a task variable uniformly from ``options[key]`` (a number or a ``(lo, hi)``
+        range, checked as :func:`check_task_value` does) or else from ``default``."""
+        if options and key in options:
+            default = check_task_value(name or key, options[key], *bounds)
+        return float(self.np_random.uniform(*default))
 
     # -- helpers ---------------------------------------------------------------------
     def _set_damage(self, name: str) -> None:

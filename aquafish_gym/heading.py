@@ -12,9 +12,12 @@ from typing import Any
 
 import numpy as np
 
+from aquafish_gym.checks import check_weight
 from aquafish_gym.env import AquaFishEnv, check_task_value
 
 __all__ = ["HeadingEnv"]
+
+_HEADING_BOUNDS = (-180.0, 180.0)
 
 
 class HeadingEnv(AquaFishEnv):
@@ -73,12 +76,9 @@ class HeadingEnv(AquaFishEnv):
 
     def __init__(self, target_heading_deg=(-180.0, 180.0), heading_reward_weight: float = 1.0,
                  forward_reward_weight: float = 0.0, **kwargs: Any):
-        self.target_heading_range = check_task_value("target_heading_deg", target_heading_deg, -180.0, 180.0)
-        for name, value in (("heading_reward_weight", heading_reward_weight), ("forward_reward_weight", forward_reward_weight)):
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a number >= 0, got {value!r}")
-        self.heading_reward_weight = float(heading_reward_weight)
-        self.forward_reward_weight = float(forward_reward_weight)
+        self.target_heading_range = check_task_value("target_heading_deg", target_heading_deg, *_HEADING_BOUNDS)
+        self.heading_reward_weight = check_weight("heading_reward_weight", heading_reward_weight)
+        self.forward_reward_weight = check_weight("forward_reward_weight", forward_reward_weight)
         self._target = 0.0
         super().__init__(**kwargs)
 
@@ -86,10 +86,8 @@ class HeadingEnv(AquaFishEnv):
         return np.ones(2)
 
     def _reset_task(self, options):
-        options = options or {}
-        target_range = check_task_value("target_heading_deg", options["target_heading_deg"], -180.0, 180.0) \
-            if "target_heading_deg" in options else self.target_heading_range
-        self._target = math.radians(float(self.np_random.uniform(*target_range)))
+        self._target = math.radians(self._draw_task_value(options, "target_heading_deg", self.target_heading_range,
+                                                          _HEADING_BOUNDS))
         return self.params
 
     def _error(self) -> float:

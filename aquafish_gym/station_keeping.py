@@ -13,10 +13,14 @@ from typing import Any
 
 import numpy as np
 
+from aquafish_gym.checks import check_weight
 from aquafish_gym.env import AquaFishEnv, check_task_value
 from aquafish_gym.params import SimParams
 
 __all__ = ["StationKeepingEnv"]
+
+_SPEED_NAME, _SPEED_BOUNDS = "current_speed (units/s)", (0.0, 5.0)
+_DIRECTION_BOUNDS = (-360.0, 360.0)
 
 
 class StationKeepingEnv(AquaFishEnv):
@@ -83,26 +87,19 @@ class StationKeepingEnv(AquaFishEnv):
         if "water_current" in kwargs:
             raise ValueError("AquaFishStationKeeping-v0 sets the water current itself; "
                              "use current_speed and current_direction_deg instead of water_current")
-        self.current_speed_range = check_task_value("current_speed (units/s)", current_speed, 0.0, 5.0)
+        self.current_speed_range = check_task_value(_SPEED_NAME, current_speed, *_SPEED_BOUNDS)
         self.current_direction_range = (0.0, 360.0) if current_direction_deg is None else check_task_value(
-            "current_direction_deg", current_direction_deg, -360.0, 360.0)
-        for name, value in (("position_cost_weight", position_cost_weight), ("heading_cost_weight", heading_cost_weight)):
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"{name} must be a number >= 0, got {value!r}")
-        self.position_cost_weight = float(position_cost_weight)
-        self.heading_cost_weight = float(heading_cost_weight)
+            "current_direction_deg", current_direction_deg, *_DIRECTION_BOUNDS)
+        self.position_cost_weight = check_weight("position_cost_weight", position_cost_weight)
+        self.heading_cost_weight = check_weight("heading_cost_weight", heading_cost_weight)
         self._current = np.zeros(3)
         self._start = np.zeros(3)
         super().__init__(**kwargs)
 
     def _reset_task(self, options: dict | None) -> SimParams:
-        options = options or {}
-        speed_range = check_task_value("current_speed (units/s)", options["current_speed"], 0.0, 5.0) \
-            if "current_speed" in options else self.current_speed_range
-        direction_range = check_task_value("current_direction_deg", options["current_direction_deg"], -360.0, 360.0) \
-            if "current_direction_deg" in options else self.current_direction_range
-        speed = float(self.np_random.uniform(*speed_range))
-        direction = math.radians(float(self.np_random.uniform(*direction_range)))
+        speed = self._draw_task_value(options, "current_speed", self.current_speed_range, _SPEED_BOUNDS, _SPEED_NAME)
+        direction = math.radians(self._draw_task_value(options, "current_direction_deg", self.current_direction_range,
+                                                       _DIRECTION_BOUNDS))
         self._current = np.array([-math.sin(direction), math.cos(direction), 0.0]) * speed
         return dataclasses.replace(self.params, water_current=tuple(self._current.tolist()))
 
