@@ -148,10 +148,8 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, inference: s
             population_size=settings.gait_population, seed=seed, workers=workers,
             episodes_per_genome=settings.gait_episodes, progress=progress)
     if settings.rl_timesteps and _rl_available():
-        rl_dir = out / "rl_ppo_self_model"
-        path = rl_dir / "model.zip"
-        if not (rl_dir / "model.json").exists():
-            path = gait.train_rl("ppo", models["self_model"], settings.rl_timesteps, seed, rl_dir, progress=progress)
+        path = gait.train_or_load_rl("ppo", models["self_model"], settings.rl_timesteps, seed, out / "rl_ppo_self_model",
+                                     progress=progress)
         controllers["ppo"] = gait.load_controller(path)
         natives["ppo"] = models["self_model"]
 

@@ -28,8 +28,9 @@ import numpy as np
 from aquafish_gym import ENV_IDS
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
-from gait.controller import RandomController, load_controller
+from gait.controller import RandomController, load_controller, sb3_sidecar
 from gait.neat_evolution import RUN_FILE, evolve_or_load_gait
+from gait.rl import train_or_load_rl
 from gait.rollout import check_env_id, rollout
 
 
@@ -75,13 +76,9 @@ def _neat(env_id: str, budget: BaselineBudget, out: Path, progress: bool):
 
 
 def _ppo(env_id: str, budget: BaselineBudget, out: Path, progress: bool):
-    from gait.rl import train_rl
-
-    path = out / "model.zip"
-    if not path.with_suffix(".json").is_file():
-        path = train_rl("ppo", "healthy", budget.ppo_timesteps, budget.seed, out, env_id=env_id, num_threads=1,
-                        progress=progress)
-    return load_controller(path), json.loads(path.with_suffix(".json").read_text())["wall_time_s"]
+    path = train_or_load_rl("ppo", "healthy", budget.ppo_timesteps, budget.seed, out, env_id=env_id, num_threads=1,
+                            progress=progress)
+    return load_controller(path), json.loads(sb3_sidecar(path).read_text())["wall_time_s"]
 
 
 def task_table(out, *, env_ids=None, budget: BaselineBudget = BaselineBudget(), starts: int = 10,

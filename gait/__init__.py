@@ -15,6 +15,7 @@ Public API:
     plot_transfer(results, path, titles=None) -> Path
     rollout(controller, robot, *, seed, initial_angles) -> Rollout
     train_rl(algo, morphology, timesteps, seed, out_dir) -> Path      (needs the [rl] extra)
+    train_or_load_rl(...) -> Path: train_rl unless out_dir holds a finished run
 """
 
 from gait.clock import CLOCK_PERIOD_S, ClockObservation, clock_features, with_clock
@@ -25,12 +26,12 @@ from gait.plots import plot_fitness_history, plot_transfer
 from gait.robots import Robot, as_robot, parse_robot
 from gait.rollout import EPISODE_DURATION_S, Rollout, make_env, rollout
 from gait.transfer import TransferResult, save_transfer, score_transfer
-from gait.rl import train_rl  # stable-baselines3 is imported only when training (the [rl] extra)
+from gait.rl import train_or_load_rl, train_rl  # stable-baselines3 is imported only when training (the [rl] extra)
 
 
 __all__ = [
     "CLOCK_PERIOD_S", "EPISODE_DURATION_S", "ClockObservation", "ConstantController", "Controller", "GaitResult",
     "NEATController", "RandomController", "Robot", "Rollout", "SB3PolicyController", "TransferResult", "as_robot", "clock_features",
     "evolve_gait", "evolve_or_load_gait", "latest_checkpoint", "load_controller", "load_neat_config", "make_env", "parse_robot", "plot_fitness_history",
-    "plot_transfer", "rollout", "save_transfer", "score_transfer", "train_rl", "with_clock",
+    "plot_transfer", "rollout", "save_transfer", "score_transfer", "train_or_load_rl", "train_rl", "with_clock",
 ]

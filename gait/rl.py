@@ -28,14 +28,13 @@ from gait.rollout import DEFAULT_ENV_ID, EPISODE_DURATION_S, check_env_id, make_
 
 #: The hyperparameter file kept next to this module.
 HYPERPARAMS_FILE = Path(__file__).with_name("rl_hyperparams.yml")
-ENV_ID = DEFAULT_ENV_ID
 #: Zoo keys interpreted here; every other key goes to the algorithm's constructor.
 _ZOO_KEYS = ("n_timesteps", "policy", "n_envs", "normalize", "policy_kwargs")
 #: Zoo keys this loader does not implement (rejected rather than silently ignored).
 _UNSUPPORTED = ("frame_stack", "env_wrapper", "vec_env_wrapper", "callback", "normalize_kwargs", "monitor_kwargs")
 
 
-def read_hyperparams_section(algo: str, path=None, env_id: str = ENV_ID) -> dict[str, Any]:
+def read_hyperparams_section(algo: str, path=None, env_id: str = DEFAULT_ENV_ID) -> dict[str, Any]:
     """The raw ``algo -> env_id`` mapping of an RL-Zoo-style YAML file (a fresh copy).
 
     Raises:
@@ -56,7 +55,7 @@ def read_hyperparams_section(algo: str, path=None, env_id: str = ENV_ID) -> dict
     return copy.deepcopy(section)
 
 
-def load_hyperparams(algo: str, path=None, env_id: str = ENV_ID) -> dict[str, Any]:
+def load_hyperparams(algo: str, path=None, env_id: str = DEFAULT_ENV_ID) -> dict[str, Any]:
     """Read and check the settings of ``algo`` for the task ``env_id`` (RL Zoo conventions).
 
     Returns:
@@ -123,7 +122,7 @@ def training_bar(total_timesteps: int, desc: str, disable: bool = False):
 
 
 def make_rl_env(robot: Robot, *, episode_duration_s: float = EPISODE_DURATION_S, clock_period_s: float = CLOCK_PERIOD_S,
-                env_id: str = ENV_ID):
+                env_id: str = DEFAULT_ENV_ID):
     """The task ``env_id`` for ``robot`` with the clock appended: observation ``(n + 2,)`` (14 for AquaFish-v0)."""
     return ClockObservation(make_env(robot, episode_duration_s=episode_duration_s, env_id=env_id), clock_period_s)
 
@@ -131,7 +130,7 @@ def make_rl_env(robot: Robot, *, episode_duration_s: float = EPISODE_DURATION_S,
 def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int = 0, out_dir="runs/rl", *,
              damage: str = "none", hyperparams_path=None, episode_duration_s: float = EPISODE_DURATION_S,
              clock_period_s: float = CLOCK_PERIOD_S, eval_seed: int = 0, num_threads: int | None = None,
-             verbose: int = 0, env_id: str = ENV_ID, progress: bool = True) -> Path:
+             verbose: int = 0, env_id: str = DEFAULT_ENV_ID, progress: bool = True) -> Path:
     """Train a PPO or SAC policy on an AquaFish task (default AquaFish-v0), save it, and score it.
 
     Args:
@@ -208,3 +207,22 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
     if len(curve):
         plot_learning_curve(curve, out_dir / "learning_curve.png", title=f"{algo.upper()} on {robot.label}")
     return model_path
+
+
+def train_or_load_rl(algo: str, morphology, timesteps: int | None, seed: int, out_dir, **kwargs: Any) -> Path:
+    """``out_dir/model.zip``, trained by :func:`train_rl` unless a finished one is there.
+
+    A run is finished when its ``model.json`` exists (:func:`train_rl` writes it after the
+    model). The case study and the task table train through this, so repeating a command
+    reuses its policies (the RL counterpart of :func:`gait.evolve_or_load_gait`).
+
+    Args:
+        algo, morphology, timesteps, seed, out_dir, **kwargs: as :func:`train_rl`.
+
+    Raises:
+        As :func:`train_rl` (only when training).
+    """
+    model_path = Path(out_dir) / SB3_MODEL_FILE
+    if sb3_sidecar(model_path).is_file():
+        return model_path
+    return train_rl(algo, morphology, timesteps, seed, out_dir, **kwargs)

@@ -13,7 +13,8 @@ pytest.importorskip("stable_baselines3")
 import aquafish_gym  # noqa: E402
 from stable_baselines3.common.env_checker import check_env  # noqa: E402
 
-from gait import ClockObservation, SB3PolicyController, load_controller, rollout, score_transfer, train_rl, with_clock  # noqa: E402
+from gait import (ClockObservation, SB3PolicyController, load_controller, rollout, score_transfer, train_or_load_rl,  # noqa: E402
+                  train_rl, with_clock)
 from gait.rl import load_hyperparams  # noqa: E402
 
 
@@ -85,6 +86,11 @@ def test_ppo_on_another_task_uses_its_section_and_reports_its_return(tmp_path):
     again = rollout(controller, seed=meta["eval_seed"], env_id="AquaFishStationKeeping-v0")
     assert meta["env_id"] == "AquaFishStationKeeping-v0"
     assert meta["eval_return"] == pytest.approx(again.episode_return, abs=1e-9) and meta["eval_return"] < 0
+    # a finished run is reused, not trained again (train_rl would rewrite model.json)
+    written = path.with_suffix(".json").stat().st_mtime_ns
+    assert train_or_load_rl("ppo", "healthy", 128, 0, tmp_path / "sk", hyperparams_path=hp, episode_duration_s=1.0,
+                            env_id="AquaFishStationKeeping-v0") == path
+    assert path.with_suffix(".json").stat().st_mtime_ns == written
     for algo in ("ppo", "sac"):  # the shipped file has a section for every task
         for env_id in aquafish_gym.ENV_IDS:
             assert load_hyperparams(algo, env_id=env_id)["policy"] == "MlpPolicy"
