@@ -87,21 +87,22 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
                  seed: int = 0) -> RunDiagnosis:
     """Score the final and the true morphology on a finished (or partial) run's experiments.
 
-    Runs ``4 E`` simulations, plus about ``2 E (18 + 5 G)`` to fit both models' own angles
+    Runs ``4 E`` simulations, plus about ``2 E (17 + 4 G)`` to fit both models' own angles
     (:class:`~eea.profile.Profile` with 4 proposals and 16 random starts, ``G =
     profile_generations``), ``E`` = the number of experiments in the run's checkpoint.
 
     Args:
         out_dir: an EEA run directory with a checkpoint (``state.pkl``).
         workers: simulation processes.
-        profile_generations: generations of the per-model angle fit, >= 0.
+        profile_generations: generations of the per-model angle fit, >= 1.
         seed: seeds the angle fit.
 
     Returns:
         The :class:`RunDiagnosis`.
 
     Raises:
-        ValueError: if ``out_dir`` is not a run directory or has no finished round.
+        ValueError: if ``out_dir`` is not a run directory or has no finished round, or
+            ``profile_generations < 1``.
     """
     result = load_result(out_dir)
     state = load_state(out_dir)
@@ -118,11 +119,10 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
 
         scores = [fit(final, inferred), fit(truth, inferred), fit(final, true), fit(truth, true)]
         both = np.concatenate([final, truth])
-        if (both[0] == both[1]).all():  # the run found the truth
-            profiled = [scores[0]] * 2
-        else:
-            _, profiled = Profile(proposals=4, initial=16).fit(
-                both, experiments, ev, np.random.default_rng(seed), profile_generations,
-                start=np.repeat(inferred, 2, axis=0))
+        distinct = both[:1] if (both[0] == both[1]).all() else both  # the run may have found the truth
+        _, fitted = Profile(proposals=4, initial=16).fit(
+            distinct, experiments, ev, np.random.default_rng(seed), profile_generations,
+            start=np.repeat(inferred, len(distinct), axis=0))
+        profiled = np.resize(fitted, 2)  # (final, truth): one fit serves both when they coincide
         return RunDiagnosis(Path(out_dir), result.config.inference, len(experiments), *scores,
                             float(profiled[0]), float(profiled[1]), per_model=result.config.inference == "profile")

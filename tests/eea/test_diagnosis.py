@@ -53,3 +53,16 @@ def test_cli_prints_one_line_per_run(tmp_path, tiny_config, capsys):
 def test_no_finished_round_raises(tmp_path):
     with pytest.raises(ValueError, match="not an EEA run directory"):
         diagnose_run(tmp_path)
+
+
+def test_a_run_that_found_the_truth_gets_one_fit_for_both(tmp_path, tiny_config, monkeypatch):
+    from aquafish_gym import Morphology, get_damage
+    from eea.record import RunResult
+
+    config = tiny_config(inference="none")
+    run(config, tmp_path, progress=False)
+    truth = get_damage(config.damage).apply(Morphology.healthy())
+    monkeypatch.setattr(RunResult, "best_morphology", property(lambda self: truth))
+    d = diagnose_run(tmp_path)
+    assert d.final_inferred == d.true_inferred and d.final_true_angles == d.true_true_angles == 1.0
+    assert d.final_profiled == d.true_profiled >= d.true_inferred
