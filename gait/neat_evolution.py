@@ -10,7 +10,8 @@ Fitness: :func:`gait.rollout.rollout`'s forward distance (units) in 20 s of swim
 given robot. Every genome of the run is evaluated with the same initial flipper angles:
 ``initial_angles`` if given, else the angles ``AquaFish-v0``'s ``reset(seed=seed)`` draws.
 Fitness is therefore a deterministic function of the genome; with elitism, the best fitness
-per generation never decreases, and serial and parallel runs with one seed agree.
+per generation never decreases, and serial and parallel runs with one seed agree (genome for
+genome: :class:`_GenomeConfig` works around a neat-python 2.0.0 pickling side effect).
 A gait evolved from one start may rely on it (the servos have no position feedback, so the
 start is unknown on the real robot): ``episodes_per_genome = K`` scores each genome as the
 mean over the starts of seeds ``seed ... seed + K - 1`` instead, at K times the cost.
@@ -25,6 +26,7 @@ from __future__ import annotations
 import configparser
 import dataclasses
 import functools
+import itertools
 import json
 import os
 import random
@@ -56,6 +58,31 @@ SETTINGS_FILE = "fitness_settings.json"
 RUN_FILE = "run.json"
 
 
+class _GenomeConfig(neat.genome.DefaultGenomeConfig):
+    """neat-python's genome config, pickled without skipping a node id.
+
+    neat-python 2.0.0's ``DefaultGenomeConfig.__getstate__`` calls ``next()`` on the
+    counter that hands out new node ids. Every pickle of the config (a checkpoint, a saved
+    controller, a genome batch sent to a worker) therefore skips an id, and the genomes a
+    run evolves depended on how often it was pickled: a run on two workers, or one with an
+    ``out_dir``, diverged from the same run serial and in memory after a few generations.
+    This pickles the same state and leaves the counter where it was.
+    """
+
+    def __getstate__(self) -> dict:
+        state = super().__getstate__()
+        if state["_node_indexer_next_value"] is not None:
+            self.node_indexer = itertools.count(state["_node_indexer_next_value"])
+        return state
+
+
+def _pickle_safe(config: neat.Config) -> neat.Config:
+    """Give ``config`` the :class:`_GenomeConfig` pickling (in place; no state is added)."""
+    if type(config.genome_config) is neat.genome.DefaultGenomeConfig:
+        config.genome_config.__class__ = _GenomeConfig
+    return config
+
+
 def load_neat_config(path=None, *, population_size: int | None = None) -> neat.Config:
     """Load a NEAT config (default :data:`DEFAULT_CONFIG`).
 
@@ -84,7 +111,7 @@ def load_neat_config(path=None, *, population_size: int | None = None) -> neat.C
     if population_size is not None:
         check_int("population_size", population_size, 2)
         config.pop_size = population_size
-    return config
+    return _pickle_safe(config)
 
 
 def set_num_inputs(config: neat.Config, num_inputs: int) -> None:
@@ -249,6 +276,7 @@ def _restore(resume, population_size: int | None) -> neat.Population:
     if not path.is_file():
         raise ValueError(f"no NEAT checkpoint {path}")
     population = neat.Checkpointer.restore_checkpoint(str(path))
+    _pickle_safe(population.config)
     if population_size is not None and population_size != population.config.pop_size:
         raise ValueError(f"population_size {population_size} differs from the checkpoint's {population.config.pop_size}")
     return population

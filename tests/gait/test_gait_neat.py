@@ -1,6 +1,7 @@
 """NEAT gait evolution: config, monotone best fitness, outputs, checkpoint resume."""
 
 import json
+import pickle
 import shutil
 
 import numpy as np
@@ -22,6 +23,20 @@ def test_default_config():
     assert config.pop_size == 50 and config.no_fitness_termination
     assert config.reproduction_config.elitism >= 1
     assert load_neat_config(population_size=7).pop_size == 7
+
+
+def test_pickling_the_config_does_not_skip_node_ids():
+    """neat-python 2.0.0's genome config advanced its node-id counter on every pickle, so a
+    checkpoint, a saved controller or a batch sent to a worker changed the genomes that
+    followed (a parallel run drifted from the serial one after ~6 generations)."""
+    config = load_neat_config()
+    nodes = {0: None, 1: None, 2: None}
+    assert config.genome_config.get_new_node_key(nodes) == 3
+    copy = pickle.loads(pickle.dumps(config))
+    pickle.dumps(config)
+    assert config.genome_config.get_new_node_key(nodes) == 4
+    assert copy.genome_config.get_new_node_key(nodes) == 4
+    assert pickle.loads(pickle.dumps(copy)).genome_config.get_new_node_key(nodes) == 5
 
 
 @pytest.mark.parametrize("section, line, match", [
