@@ -71,7 +71,7 @@ class _GenomeConfig(neat.genome.DefaultGenomeConfig):
 
     def __getstate__(self) -> dict:
         state = super().__getstate__()
-        if state["_node_indexer_next_value"] is not None:
+        if state.get("_node_indexer_next_value") is not None:  # a private key of neat-python 2.0.0
             self.node_indexer = itertools.count(state["_node_indexer_next_value"])
         return state
 
