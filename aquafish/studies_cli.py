@@ -59,12 +59,13 @@ def _diagnose(args: argparse.Namespace) -> int:
     from eea.plot import find_runs
 
     print(f"{'run':<40} {'inference':<12} {'E':>3} {'final@inf':>9} {'true@inf':>9} {'final@true':>10} "
-          f"{'true@true':>9} {'final@own':>9} {'true@own':>9}  failure")
+          f"{'true@true':>9} {'final@own':>9} {'true@own':>9} {'true@new':>9}  failure")
     for result in find_runs(args.dirs):
         d = diagnose_run(result.out_dir, workers=args.workers, profile_generations=args.profile_generations)
+        new = "-" if d.true_proposed is None else f"{d.true_proposed:.4f}"
         print(f"{str(d.out_dir):<40} {d.inference:<12} {d.experiments:>3} {d.final_inferred:>9.4f} "
               f"{d.true_inferred:>9.4f} {d.final_true_angles:>10.4f} {d.true_true_angles:>9.4f} "
-              f"{d.final_profiled:>9.4f} {d.true_profiled:>9.4f}  {d.verdict}")
+              f"{d.final_profiled:>9.4f} {d.true_profiled:>9.4f} {new:>9}  {d.verdict}")
     return 0
 
 
@@ -121,7 +122,8 @@ def add_commands(sub) -> None:
 
     d = sub.add_parser("diagnose", help="search, inference or identifiability failure? MOD_FIT of the final and the "
                                         "true morphology under the inferred, the true and their own fitted initial "
-                                        "angles, per run (eea.diagnosis)")
+                                        "angles, per run; for profile runs also the truth under the angles it would start from if "
+                                        "proposed (true@new) (eea.diagnosis)")
     d.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
     d.add_argument("--workers", type=int, default=1, help="simulation processes (default: 1)")
     d.add_argument("--profile-generations", type=int, default=40,

@@ -45,6 +45,9 @@ FIELD_HELP: dict[str, str] = {
     "exploration_angles": "0: every model is simulated from the zero state during exploration (the paper's); "
                           "K >= 2: from K random angle sets per round, and an action scores the models' "
                           "disagreement minus the spread the angles cause (eq. 1 with an angle term; not the paper's)",
+    "exploration_diversity": "0: the exploration's candidate models are the distinct models of the last "
+                             "estimation generation (the paper's); d > 0: the fittest models the whole round "
+                             "evaluated, each at least d apart (1 - OBJ_FIT between them; not the paper's)",
     "estimation_population": "models per estimation GA generation (paper: 25)",
     "estimation_generations": "estimation GA generations per round (paper: 100)",
     "estimation_search": "estimation search: ga (the paper's bit-string GA) or cma (CMA-ES over the nine "
@@ -100,6 +103,7 @@ class EEAConfig:
     exploration_generations: int = 25
     exploration_models: int = 25
     exploration_angles: int = 0
+    exploration_diversity: float = 0.0
     estimation_population: int = 25
     estimation_generations: int = 100
     estimation_search: str = "ga"
@@ -160,6 +164,10 @@ class EEAConfig:
             if not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:  # NaN fails
                 raise ValueError(f"EEAConfig.{name} must be in [0, 1], got {value!r}")
             object.__setattr__(self, name, float(value))
+        value = self.exploration_diversity
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value < 1.0:
+            raise ValueError(f"EEAConfig.exploration_diversity must be in [0, 1), got {value!r}")
+        object.__setattr__(self, "exploration_diversity", float(value))
         for name, high in (("mutation_bits", float(min(18, 3 * self.oob_bits))), ("in_band_widen", math.inf)):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not 0.0 <= value <= high:

@@ -19,6 +19,12 @@ and the truth's own fitted angles for ``profile``, which gives every model its o
 both models under the *true* angles as well shows what exact inference would have given.
 :func:`diagnose_run` computes the six numbers (MOD_FIT, paper eq. 3) from a run's
 checkpoint; ``aquafish diagnose DIR...`` prints them per run.
+
+For a ``profile`` run a seventh number says why the search misses the truth: the truth
+scored under the angles it would start from if the search proposed it at the end of the
+run (its nearest remembered model's, :meth:`eea.profile.Profile.starting_angles`). Below
+the final model's MOD_FIT, the truth would be rejected on sight: the incumbents' angles
+have been refined for many generations, a newcomer's not at all.
 """
 
 from __future__ import annotations
@@ -60,6 +66,9 @@ class RunDiagnosis:
         true_profiled: the true morphology under its own best angles, fitted as hard.
         per_model: whether the run's strategy gives every model its own angles
             (``profile``); then the truth's angles in the run are its profiled ones.
+        true_proposed: ``profile`` runs only (else None): the true morphology under the
+            angles it would start from if proposed at the end of the run (see the module
+            docstring).
     """
 
     out_dir: Path
@@ -72,6 +81,7 @@ class RunDiagnosis:
     final_profiled: float
     true_profiled: float
     per_model: bool = False
+    true_proposed: float | None = None
 
     @property
     def verdict(self) -> str:
@@ -87,15 +97,17 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
                  seed: int = 0) -> RunDiagnosis:
     """Score the final and the true morphology on a finished (or partial) run's experiments.
 
-    Runs ``4 E`` simulations, plus about ``2 E (17 + 4 G)`` to fit both models' own angles
-    (:class:`~eea.profile.Profile` with 4 proposals and 16 random starts, ``G =
-    profile_generations``), ``E`` = the number of experiments in the run's checkpoint.
+    Runs ``4 E`` simulations (``5 E`` for a ``profile`` run), plus about ``2 E (17 + 4 G)``
+    to fit both models' own angles (:class:`~eea.profile.Profile` with 4 proposals and 16
+    random starts, ``G = profile_generations``), ``E`` = the number of experiments in the
+    run's checkpoint.
 
     Args:
         out_dir: an EEA run directory with a checkpoint (``state.pkl``).
         workers: simulation processes.
         profile_generations: generations of the per-model angle fit, >= 1.
-        seed: seeds the angle fit.
+        seed: seeds the angle fit (and the random angles of a ``profile`` run's proposed
+            truth for experiments nobody has angles for).
 
     Returns:
         The :class:`RunDiagnosis`.
@@ -118,6 +130,11 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
             return float(model_fitness_from_similarities(ev.similarities(genome, experiments, angles))[0])
 
         scores = [fit(final, inferred), fit(truth, inferred), fit(final, true), fit(truth, true)]
+        proposed = None
+        if result.config.inference == "profile" and state.inference:
+            remembered = Profile()
+            remembered.load_state_dict(state.inference)
+            proposed = fit(truth, remembered.starting_angles(truth, len(experiments), np.random.default_rng(seed)))
         both = np.concatenate([final, truth])
         distinct = both[:1] if (both[0] == both[1]).all() else both  # the run may have found the truth
         _, fitted = Profile(proposals=4, initial=16).fit(
@@ -125,4 +142,5 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
             start=np.repeat(inferred, len(distinct), axis=0))
         profiled = np.resize(fitted, 2)  # (final, truth): one fit serves both when they coincide
         return RunDiagnosis(Path(out_dir), result.config.inference, len(experiments), *scores,
-                            float(profiled[0]), float(profiled[1]), per_model=result.config.inference == "profile")
+                            float(profiled[0]), float(profiled[1]), per_model=result.config.inference == "profile",
+                            true_proposed=proposed)

@@ -8,6 +8,15 @@ lives for the whole run: each round continues from where the previous round ende
 GA's models carry over; CMA-ES restarts its distribution at the best model, since a new
 experiment changes the landscape it had converged on), and the final hypothesis of a round
 is the fittest model of its last generation.
+
+The phase also hands the exploration its candidate models (:meth:`Estimation.ranked_models`):
+the paper's are the distinct models of the last generation, best first. With a minimum
+distance (``EEAConfig.exploration_diversity``, not the paper's) they are picked instead from
+every model the round evaluated, best first, skipping any closer than that to one already
+picked (:func:`diverse_ranked`). Why: a converged CMA-ES population is one hypothesis in 25
+near-copies; its models disagree less under any action than each disagrees with itself
+across initial angles, so the angle-robust exploration (eq. 1 with an angle term) scores
+every action below zero and picks actions in which hardly anything moves.
 """
 
 from __future__ import annotations
@@ -17,13 +26,14 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from eea.encoding import MODEL_BITS
+from aquafish_gym import MORPHOLOGY_BOUNDS
+from eea.encoding import MODEL_BITS, decode_models
 from eea.experiment import Experiment
 from eea.fitness import model_fitness_from_similarities
 from eea.strategy import InferenceStrategy
 from eea.model_search import ModelSearch, check_model_search, make_model_search, model_search_from_state
 
-__all__ = ["Estimation", "EstimationResult", "distinct_ranked"]
+__all__ = ["Estimation", "EstimationResult", "distinct_ranked", "diverse_ranked", "model_distance"]
 
 
 def distinct_ranked(genomes: np.ndarray, fitness: np.ndarray | None) -> np.ndarray:
@@ -41,6 +51,58 @@ def distinct_ranked(genomes: np.ndarray, fitness: np.ndarray | None) -> np.ndarr
             seen.add(key)
             rows.append(i)
     return genomes[rows]
+
+
+def model_distance(a, b) -> np.ndarray:
+    """Mean range-normalised absolute difference of decoded model genomes: ``1 - OBJ_FIT``.
+
+    The distance of eq. 4 between two models (one as the other's target), in [0, 1).
+
+    Args:
+        a: ``(..., 45)`` model genomes.
+        b: ``(..., 45)`` model genomes, broadcasting with ``a``.
+
+    Returns:
+        ``(...)`` float64 distances.
+    """
+    span = MORPHOLOGY_BOUNDS[:, 1] - MORPHOLOGY_BOUNDS[:, 0]
+    return np.mean(np.abs(decode_models(a) - decode_models(b)) / span, axis=-1)
+
+
+def diverse_ranked(genomes: np.ndarray, fitness: np.ndarray, limit: int, min_distance: float) -> np.ndarray:
+    """The fittest genomes, greedily skipping any within ``min_distance`` of one already kept.
+
+    Genomes are visited best first (ties: row order); a genome is kept if its
+    :func:`model_distance` to every kept one is at least ``min_distance``. The first is
+    always kept; duplicates never are (distance 0).
+
+    Args:
+        genomes: ``(N, 45)`` model genomes.
+        fitness: ``(N,)`` their fitness, higher is better.
+        limit: at most this many are returned, >= 1.
+        min_distance: the minimum distance, in [0, 1); 0 keeps distinct genomes only.
+
+    Returns:
+        ``(R, 45)`` uint8, best first, R <= limit.
+
+    Raises:
+        ValueError: if the shapes disagree, ``limit < 1`` or ``min_distance`` is outside [0, 1).
+    """
+    genomes = np.asarray(genomes, dtype=np.uint8)
+    fitness = np.asarray(fitness, dtype=np.float64)
+    if genomes.ndim != 2 or fitness.shape != (len(genomes),):
+        raise ValueError(f"genomes (N, 45) and fitness (N,) must agree, got {genomes.shape} and {fitness.shape}")
+    if limit < 1:
+        raise ValueError(f"limit must be >= 1, got {limit}")
+    if not 0.0 <= min_distance < 1.0:
+        raise ValueError(f"min_distance must be in [0, 1), got {min_distance!r}")
+    kept: list[int] = []
+    for i in np.argsort(-fitness, kind="stable"):
+        if len(kept) == limit:
+            break
+        if not kept or np.min(model_distance(genomes[kept], genomes[i])) >= max(min_distance, 1e-12):
+            kept.append(int(i))
+    return genomes[kept]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -76,6 +138,7 @@ class Estimation:
         self.search = search
         self._genomes: np.ndarray | None = None  # last evaluated generation (P, 45)
         self._fitness: np.ndarray | None = None  # and its fitness (P,)
+        self._round: dict[bytes, float] = {}     # every model this round evaluated -> its best fitness
 
     @classmethod
     def from_config(cls, config, rng: np.random.Generator) -> "Estimation":
@@ -116,6 +179,7 @@ class Estimation:
             raise ValueError(f"generations must be >= 1, got {generations}")
         experiments = strategy.begin_round(tuple(experiments))
         self.search.restart()
+        self._round = {}
         for generation in range(generations):
             ranked = self.ranked_models()
             genomes = self.search.ask()
@@ -125,19 +189,38 @@ class Estimation:
             experiments = strategy.after_generation(genomes, angles, fitness, experiments)
             self.search.tell(fitness)
             self._genomes, self._fitness = genomes, fitness
+            for key, f in zip((g.tobytes() for g in np.asarray(genomes, dtype=np.uint8)), fitness):
+                self._round[key] = max(float(f), self._round.get(key, -np.inf))
             if on_generation is not None:
                 on_generation(generation, self.search.best_fitness)
         experiments = strategy.end_round(experiments)
         return EstimationResult(tuple(experiments), self.search.best_genome, self.search.best_fitness)
 
-    def ranked_models(self, limit: int | None = None) -> np.ndarray:
-        """Distinct models of the last evaluated generation, best first, at most ``limit``.
+    def ranked_models(self, limit: int | None = None, min_distance: float = 0.0) -> np.ndarray:
+        """Candidate models for the exploration, best first, at most ``limit``.
 
-        Before any evaluation: the distinct genomes of the initial population, in order.
+        With ``min_distance`` 0 (the paper's): the distinct models of the last evaluated
+        generation. Otherwise: :func:`diverse_ranked` over every model the last round
+        evaluated (at its best fitness of the round). Before any evaluation, either way:
+        the distinct genomes of the initial population, in order.
+
+        Args:
+            limit: at most this many models (None: no limit).
+            min_distance: in [0, 1), see :func:`diverse_ranked`.
 
         Returns:
             ``(R, 45)`` uint8.
+
+        Raises:
+            ValueError: if ``min_distance`` is outside [0, 1) or ``limit < 1``.
         """
+        if min_distance and self._round:
+            keys = list(self._round)
+            genomes = np.frombuffer(b"".join(keys), dtype=np.uint8).reshape(len(keys), MODEL_BITS)
+            return diverse_ranked(genomes, np.fromiter(self._round.values(), float, len(keys)),
+                                  len(keys) if limit is None else limit, min_distance)
+        if not 0.0 <= min_distance < 1.0:
+            raise ValueError(f"min_distance must be in [0, 1), got {min_distance!r}")
         if self._genomes is None:
             ranked = distinct_ranked(self.search.population, None)
         else:
@@ -145,8 +228,10 @@ class Estimation:
         return ranked if limit is None else ranked[:limit]
 
     def state_dict(self) -> dict:
-        """Search state and the last evaluated generation, for the run checkpoint."""
-        return {"search": self.search.state_dict(), "genomes": self._genomes, "fitness": self._fitness}
+        """Search state, the last evaluated generation and every model of the last round
+        with its fitness, for the run checkpoint."""
+        return {"search": self.search.state_dict(), "genomes": self._genomes, "fitness": self._fitness,
+                "round": dict(self._round)}
 
     @classmethod
     def from_state_dict(cls, state: dict, rng: np.random.Generator) -> "Estimation":
@@ -158,4 +243,5 @@ class Estimation:
         search = state["search"] if "search" in state else state["ga"]  # "ga": checkpoints before issue 12
         estimation = cls(model_search_from_state(search, rng))
         estimation._genomes, estimation._fitness = state["genomes"], state["fitness"]
+        estimation._round = dict(state.get("round", {}))  # absent in checkpoints before exploration_diversity
         return estimation

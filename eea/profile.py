@@ -149,6 +149,24 @@ class Profile(InferenceStrategy):
         self._memory = {key: (angles[u].copy(), sims[u].copy()) for u, key in enumerate(_keys(distinct))}
         return experiments
 
+    def starting_angles(self, genomes, n_experiments: int, rng: np.random.Generator) -> np.ndarray:
+        """The angles models would start from if the search proposed them now, before any fit.
+
+        A remembered model's own angles; any other model's are those of the nearest (Hamming)
+        remembered model, as in :meth:`before_generation`; random angles for experiments
+        nobody has angles for yet. :mod:`eea.diagnosis` scores the truth under them: what it
+        would be judged by the moment the search proposed it.
+
+        Args:
+            genomes: ``(P, 45)`` model genomes.
+            n_experiments: E >= 0, the number of experiments.
+            rng: draws the random angles.
+
+        Returns:
+            ``(P, E, 3)`` angles (rad).
+        """
+        return self._recall(np.atleast_2d(np.asarray(genomes, dtype=np.uint8)), int(n_experiments), rng)[0]
+
     def angles(self, experiments: Experiments, genomes: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Each model's remembered angles ``(P, E, 3)`` (the contexts' for a model not profiled yet)."""
         rows = [self._memory.get(key) for key in _keys(genomes)]

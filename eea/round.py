@@ -133,7 +133,7 @@ def run_round(number: int, experiments: Sequence[Experiment], parts: RoundParts,
     config, evaluator = parts.config, parts.evaluator
     report = on_phase or (lambda name, generations: None)
     started, before = time.perf_counter(), evaluator.simulations
-    models = parts.estimation.ranked_models(config.exploration_models)
+    models = parts.estimation.ranked_models(config.exploration_models, config.exploration_diversity)
     action_genome, action, action_fitness = parts.exploration.run(
         models, evaluator, rng, report("exploration", config.exploration_generations))
     explored, exploration_sims = time.perf_counter(), evaluator.simulations - before

@@ -66,3 +66,36 @@ def test_a_run_that_found_the_truth_gets_one_fit_for_both(tmp_path, tiny_config,
     d = diagnose_run(tmp_path)
     assert d.final_inferred == d.true_inferred and d.final_true_angles == d.true_true_angles == 1.0
     assert d.final_profiled == d.true_profiled >= d.true_inferred
+
+
+def test_profile_run_scores_the_truth_under_the_angles_it_would_start_from(tmp_path, tiny_config):
+    import numpy as np
+
+    from aquafish_gym import Morphology, get_damage
+    from eea.checkpoint import load_state
+    from eea.encoding import encode_models
+    from eea.evaluation import Evaluator
+    from eea.experiment import Experiment
+    from eea.fitness import model_fitness_from_similarities
+
+    config = tiny_config(inference="profile")
+    run(config, tmp_path, progress=False)
+    d = diagnose_run(tmp_path)
+    state = load_state(tmp_path)
+    experiments = [Experiment.from_state_dict(e) for e in state.experiments]
+    truth = encode_models(get_damage(config.damage).apply(Morphology.healthy()).to_array()[None])
+    memory = state.inference["memory"]
+    keys = list(memory)
+    remembered = np.frombuffer(b"".join(keys), dtype=np.uint8).reshape(len(keys), -1)
+    nearest = keys[int(np.argmin((remembered != truth).sum(axis=1)))]  # the truth is not remembered here
+    assert truth[0].tobytes() not in memory
+    with Evaluator(config.steps) as ev:
+        expected = model_fitness_from_similarities(ev.similarities(truth, experiments, memory[nearest][0][None]))[0]
+    assert d.true_proposed == pytest.approx(float(expected), abs=1e-12)
+    assert d.true_proposed < d.true_true_angles == 1.0
+    assert d.per_model
+
+
+def test_shared_angle_runs_have_no_proposed_truth(tmp_path, tiny_config):
+    run(tiny_config(inference="known"), tmp_path, progress=False)
+    assert diagnose_run(tmp_path).true_proposed is None

@@ -73,6 +73,69 @@ def test_distinct_ranked():
     np.testing.assert_array_equal(distinct_ranked(g, None), [[0, 0], [1, 1], [1, 0]])
 
 
+def test_model_distance_is_one_minus_objective_fitness():
+    from aquafish_gym import MORPHOLOGY_BOUNDS
+    from eea.encoding import decode_models, encode_models
+    from eea.estimation import model_distance
+    from eea.fitness import objective_fitness
+
+    genomes = np.random.default_rng(3).integers(0, 2, (6, 45), dtype=np.uint8)
+    dims = decode_models(genomes)
+    for i in range(6):
+        np.testing.assert_allclose(model_distance(genomes, genomes[i]), 1 - objective_fitness(dims, dims[i]), atol=1e-12)
+    lo, hi = MORPHOLOGY_BOUNDS[:, 0], MORPHOLOGY_BOUNDS[:, 1]
+    one_field = encode_models(np.stack([lo, np.where(np.arange(9) == 4, lo + (hi - lo) / 2, lo)]))
+    assert model_distance(one_field[0], one_field[1]) == pytest.approx(0.5 / 9)  # half of one range of nine
+
+
+def test_diverse_ranked_keeps_the_fittest_far_enough_apart():
+    from aquafish_gym import MORPHOLOGY_BOUNDS
+    from eea.encoding import encode_models
+    from eea.estimation import diverse_ranked
+
+    lo, hi = MORPHOLOGY_BOUNDS[:, 0], MORPHOLOGY_BOUNDS[:, 1]
+
+    def model(shift):  # every dimension moved by `shift` of its range: distance = |shift difference|
+        return lo + (hi - lo) * shift
+
+    genomes = encode_models(np.stack([model(x) for x in (0.0, 0.03125, 0.5, 0.25, 0.0)]))
+    fitness = np.array([0.9, 0.95, 0.5, 0.6, 0.99])                    # the last duplicates the first
+    np.testing.assert_array_equal(diverse_ranked(genomes, fitness, 10, 0.1), genomes[[4, 3, 2]])
+    np.testing.assert_array_equal(diverse_ranked(genomes, fitness, 10, 0.0), genomes[[4, 1, 3, 2]])
+    np.testing.assert_array_equal(diverse_ranked(genomes, fitness, 2, 0.0), genomes[[4, 1]])
+    for bad in (-0.1, 1.0):
+        with pytest.raises(ValueError, match="min_distance"):
+            diverse_ranked(genomes, fitness, 3, bad)
+    with pytest.raises(ValueError, match="limit"):
+        diverse_ranked(genomes, fitness, 0, 0.1)
+
+
+def test_diverse_exploration_models_come_from_the_whole_round_and_survive_a_checkpoint(tiny_config, make_experiment):
+    from eea.estimation import model_distance
+
+    est = Estimation.from_config(tiny_config(estimation_population=8), np.random.default_rng(0))
+    seen = []
+    ev = TableEvaluator()
+    ev.similarities = (lambda f: lambda g, e, a: (seen.append(g.copy()), f(g, e, a))[1])(ev.similarities)
+    est.run([make_experiment(0)], make_inference("known"), ev, np.random.default_rng(1), 5)
+    models = est.ranked_models(6, 0.05)
+    everything = np.concatenate(seen)
+    assert models[0].sum() == everything.sum(axis=1).max()              # the round's fittest (ones / 45) first
+    assert {m.tobytes() for m in models} <= {g.tobytes() for g in everything}
+    assert len(models) >= 2 and all(model_distance(models[i], models[j]) >= 0.05
+                                    for i in range(len(models)) for j in range(i))
+    np.testing.assert_array_equal(est.ranked_models(6), distinct_ranked(seen[-1], seen[-1].sum(axis=1))[:6])
+    restored = Estimation.from_state_dict(est.state_dict(), np.random.default_rng(2))
+    np.testing.assert_array_equal(restored.ranked_models(6, 0.05), models)
+
+
+def test_exploration_diversity_must_be_a_distance(tiny_config):
+    assert tiny_config(exploration_diversity=0.05).exploration_diversity == 0.05
+    for bad in (-0.01, 1.0, True, float("nan")):
+        with pytest.raises(ValueError, match="exploration_diversity"):
+            tiny_config(exploration_diversity=bad)
+
+
 class SpreadEvaluator:
     """Fake evaluator: model m's summary is m * 100 * caudal frequency: disagreement grows with Hz."""
 

@@ -72,6 +72,22 @@ def test_a_new_model_inherits_its_nearest_parent_angles(make_experiment):
     assert fake.similarities(child, exps, child_angles)[0, 0] >= fake.similarities(parent, exps, remembered)[0, 0]
 
 
+def test_starting_angles_are_own_then_nearest_remembered_then_random():
+    s = Profile()
+    near, far = np.zeros(45, np.uint8), np.ones(45, np.uint8)
+    a_near, a_far = np.full((2, 3), 0.25), np.full((2, 3), 1.5)
+    s.load_state_dict({"memory": {near.tobytes(): (a_near, np.ones(2)), far.tobytes(): (a_far, np.ones(2))}})
+    newcomer = near.copy()
+    newcomer[:3] = 1                                              # 3 bits from `near`, 42 from `far`
+    rng = np.random.default_rng(0)
+    got = s.starting_angles(np.stack([far, newcomer]), 3, rng)    # a third experiment nobody has angles for
+    assert got.shape == (2, 3, 3)
+    np.testing.assert_array_equal(got[0, :2], a_far)              # its own
+    np.testing.assert_array_equal(got[1, :2], a_near)             # the nearest remembered model's
+    assert not np.allclose(got[:, 2], got[0, 0])                  # new experiment: drawn, not copied
+    assert np.all((got[:, 2, :2] >= 0) & (got[:, 2, :2] < TWO_PI))
+
+
 def test_profile_run_resumes_exactly(tmp_path, tiny_config, monkeypatch):
     import csv
     config = tiny_config(inference="profile", rounds=3, profile_proposals=1, profile_initial=2)
