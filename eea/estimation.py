@@ -214,6 +214,8 @@ class Estimation:
         Raises:
             ValueError: if ``min_distance`` is outside [0, 1) or ``limit < 1``.
         """
+        if limit is not None and limit < 1:
+            raise ValueError(f"limit must be >= 1 or None, got {limit}")
         if min_distance and self._round:
             keys = list(self._round)
             genomes = np.frombuffer(b"".join(keys), dtype=np.uint8).reshape(len(keys), MODEL_BITS)
