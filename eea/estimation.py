@@ -26,10 +26,9 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from aquafish_gym import MORPHOLOGY_BOUNDS
 from eea.encoding import MODEL_BITS, decode_models
 from eea.experiment import Experiment
-from eea.fitness import model_fitness_from_similarities
+from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.strategy import InferenceStrategy
 from eea.model_search import ModelSearch, check_model_search, make_model_search, model_search_from_state
 
@@ -54,19 +53,18 @@ def distinct_ranked(genomes: np.ndarray, fitness: np.ndarray | None) -> np.ndarr
 
 
 def model_distance(a, b) -> np.ndarray:
-    """Mean range-normalised absolute difference of decoded model genomes: ``1 - OBJ_FIT``.
+    """``1 - OBJ_FIT`` (eq. 4) of model genomes ``a`` against model genome ``b`` as the target.
 
-    The distance of eq. 4 between two models (one as the other's target), in [0, 1).
+    The mean range-normalised absolute difference of the decoded dimensions, in [0, 1).
 
     Args:
         a: ``(..., 45)`` model genomes.
-        b: ``(..., 45)`` model genomes, broadcasting with ``a``.
+        b: ``(45,)`` one model genome.
 
     Returns:
         ``(...)`` float64 distances.
     """
-    span = MORPHOLOGY_BOUNDS[:, 1] - MORPHOLOGY_BOUNDS[:, 0]
-    return np.mean(np.abs(decode_models(a) - decode_models(b)) / span, axis=-1)
+    return 1.0 - objective_fitness(decode_models(a), decode_models(b))
 
 
 def diverse_ranked(genomes: np.ndarray, fitness: np.ndarray, limit: int, min_distance: float) -> np.ndarray:
@@ -216,13 +214,13 @@ class Estimation:
         """
         if limit is not None and limit < 1:
             raise ValueError(f"limit must be >= 1 or None, got {limit}")
+        if not 0.0 <= min_distance < 1.0:
+            raise ValueError(f"min_distance must be in [0, 1), got {min_distance!r}")
         if min_distance and self._round:
             keys = list(self._round)
             genomes = np.frombuffer(b"".join(keys), dtype=np.uint8).reshape(len(keys), MODEL_BITS)
             return diverse_ranked(genomes, np.fromiter(self._round.values(), float, len(keys)),
                                   len(keys) if limit is None else limit, min_distance)
-        if not 0.0 <= min_distance < 1.0:
-            raise ValueError(f"min_distance must be in [0, 1), got {min_distance!r}")
         if self._genomes is None:
             ranked = distinct_ranked(self.search.population, None)
         else:
