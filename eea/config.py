@@ -69,6 +69,9 @@ FIELD_HELP: dict[str, str] = {
     "oob_bits": "out_of_band: bits per angle in the inner GA genome (3 angles)",
     "profile_proposals": "profile: perturbed angle sets tried per model, experiment and generation (not the paper's)",
     "profile_initial": "profile: random angle sets tried per model for a new experiment",
+    "profile_refine": "profile: extra perturbation rounds of the angles of each contender, a model new this "
+                      "generation, before it is scored (0 = off; not the paper's)",
+    "profile_contenders": "profile: the fittest new models refined per generation (with profile_refine > 0)",
     "oob_experiments": "out_of_band: angles refined by each inference: newest (the paper's: only the newest "
                        "experiment) or all (also every older experiment at generation 0 of each round; not the paper's)",
     "workers": "worker processes for simulations (1 = serial); never changes results",
@@ -123,6 +126,8 @@ class EEAConfig:
     oob_experiments: str = "newest"
     profile_proposals: int = 2
     profile_initial: int = 8
+    profile_refine: int = 0
+    profile_contenders: int = 3
     workers: int = dataclasses.field(default_factory=_default_workers)
     max_batch_robots: int = 64
 
@@ -144,7 +149,7 @@ class EEAConfig:
             "exploration_models": 2, "estimation_population": 2, "estimation_generations": 1,
             "tournament_size": 1, "elitism": 0, "k_best": 1, "oob_period": 1, "oob_sample": 1,
             "oob_population": 1, "oob_generations": 1, "oob_bits": 2, "workers": 1,
-            "profile_proposals": 1, "profile_initial": 1,
+            "profile_proposals": 1, "profile_initial": 1, "profile_refine": 0, "profile_contenders": 1,
             "max_batch_robots": 1,
         }
         for name, low in minimum.items():

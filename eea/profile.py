@@ -19,13 +19,21 @@ experiment, :class:`Profile` tries
 
 in one batched :meth:`Evaluator.similarities` call (every candidate row carries one
 candidate for every experiment: an experiment's similarity depends only on its own
-angles), and keeps the best per experiment. A model never seen before inherits the memory
+angles), and keeps the best per experiment.
+
+Contender refinement (``refine`` > 0, off by default): a model's angles improve with every
+generation it survives, so an incumbent's have had many steps and a newly proposed model's
+one; the truth, proposed late, loses to a wrong incumbent although it wins when both are
+fitted as hard (README, "Where the best variant stops"). With ``refine`` R, the
+``contenders`` K fittest models that are new this generation get R more rounds of
+``proposals`` perturbations each before the generation is scored. A model never seen before inherits the memory
 of the nearest (Hamming) model of the previous generation, i.e. of its parent. A new
 experiment is first tried from ``initial`` random angle sets per model. The estimation
 generation itself then simulates nothing new: its angles are the remembered ones.
 
 Cost: about ``U (proposals + 1) E`` simulations per generation for U distinct models and E
-experiments, plus ``U initial`` at the first generation of a round; 3-4 times the
+experiments, plus ``U initial`` at the first generation of a round and ``K R proposals E``
+for the contenders; 3-4 times the
 estimation cost of ``known`` with the defaults.
 
 The memory is the strategy's state (:meth:`Profile.state_dict`); the run checkpoints it.
@@ -59,23 +67,28 @@ class Profile(InferenceStrategy):
     Args:
         proposals: perturbed angle sets tried per model, experiment and generation (>= 1).
         initial: random angle sets tried per model for a new experiment (>= 1).
+        refine: extra perturbation rounds for each contender (>= 0; 0 = off).
+        contenders: new models refined per generation, the fittest first (>= 1).
 
     Raises:
-        ValueError: if a count is < 1.
+        ValueError: if ``proposals``, ``initial`` or ``contenders`` is < 1 or ``refine`` < 0.
     """
 
     name = "profile"
 
-    def __init__(self, proposals: int = 2, initial: int = 8) -> None:
-        if proposals < 1 or initial < 1:
-            raise ValueError(f"Profile needs proposals >= 1 and initial >= 1, got {proposals}, {initial}")
+    def __init__(self, proposals: int = 2, initial: int = 8, refine: int = 0, contenders: int = 3) -> None:
+        if proposals < 1 or initial < 1 or contenders < 1 or refine < 0:
+            raise ValueError(f"Profile needs proposals >= 1, initial >= 1, refine >= 0 and contenders >= 1, "
+                             f"got {proposals}, {initial}, {refine}, {contenders}")
         self.proposals, self.initial = int(proposals), int(initial)
+        self.refine, self.contenders = int(refine), int(contenders)
         self._memory: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}  # genome -> ((E, 3) angles, (E,) sims)
         self._best: bytes | None = None                                 # the best genome of the last generation
 
     @classmethod
     def from_config(cls, config):
-        return cls(config.profile_proposals, config.profile_initial)
+        return cls(config.profile_proposals, config.profile_initial, config.profile_refine,
+                   config.profile_contenders)
 
     def new_context(self, true_angles):
         return Context.exact(np.zeros(3))  # replaced by the best model's angles after each generation
@@ -134,6 +147,7 @@ class Profile(InferenceStrategy):
             return experiments
         distinct = np.unique(np.asarray(genomes, dtype=np.uint8), axis=0)
         n_exp = len(experiments)
+        new = np.array([key not in self._memory for key in _keys(distinct)])
         angles, sims, fresh = self._recall(distinct, n_exp, rng)
         if np.isnan(sims).any():  # score inherited angles; random starts where there are none
             starts = np.repeat(angles[None], self.initial if fresh.any() else 1, axis=0)
@@ -146,8 +160,20 @@ class Profile(InferenceStrategy):
             if len(shared) == n_exp:
                 candidates.append(np.broadcast_to(shared, angles.shape))
         self._try(np.stack(candidates), distinct, angles, sims, experiments, evaluator)
+        if self.refine and new.any():
+            self._refine(np.flatnonzero(new), distinct, angles, sims, experiments, evaluator, rng)
         self._memory = {key: (angles[u].copy(), sims[u].copy()) for u, key in enumerate(_keys(distinct))}
         return experiments
+
+    def _refine(self, rows: np.ndarray, genomes, angles, sims, experiments, evaluator, rng) -> None:
+        """``refine`` more perturbation rounds for the ``contenders`` fittest of ``rows`` (in place)."""
+        fitness = model_fitness_from_similarities(sims[rows])
+        top = rows[np.argsort(-fitness, kind="stable")[: self.contenders]]
+        a, s = angles[top], sims[top]
+        for _ in range(self.refine):
+            self._try(np.stack([self._perturb(a, rng) for _ in range(self.proposals)]), genomes[top], a, s,
+                      experiments, evaluator)
+        angles[top], sims[top] = a, s
 
     def starting_angles(self, genomes, n_experiments: int, rng: np.random.Generator) -> np.ndarray:
         """The angles models would start from if the search proposed them now, before any fit.
@@ -185,7 +211,8 @@ class Profile(InferenceStrategy):
         """Fit every model's own initial angles, equally hard for all, outside any EEA run.
 
         Forgets what was remembered and runs ``generations`` generations of the per-model
-        search described in the module docstring, without the shared best-model candidate:
+        search described in the module docstring, without the shared best-model candidate
+        and without contender refinement:
         the first tries ``initial`` random angle sets per model and experiment (and then
         ``start``, if given). Used by :mod:`eea.diagnosis` and
         ``examples/angle_identifiability.py``. Costs about
@@ -216,13 +243,17 @@ class Profile(InferenceStrategy):
             raise ValueError(f"generations must be >= 1, got {generations}")
         self._memory, self._best = {}, None
         keys = _keys(genomes)
-        for generation in range(generations):
-            self.before_generation(generation, genomes, experiments, evaluator, rng, genomes=genomes)
-            if generation == 0 and start is not None:
-                angles = np.stack([self._memory[k][0] for k in keys])
-                sims = np.stack([self._memory[k][1] for k in keys])
-                self._try(np.asarray(start, dtype=np.float64)[None], genomes, angles, sims, experiments, evaluator)
-                self._memory = {key: (angles[u], sims[u]) for u, key in enumerate(keys)}
+        refine, self.refine = self.refine, 0  # every model fitted as hard: no contenders
+        try:
+            for generation in range(generations):
+                self.before_generation(generation, genomes, experiments, evaluator, rng, genomes=genomes)
+                if generation == 0 and start is not None:
+                    angles = np.stack([self._memory[k][0] for k in keys])
+                    sims = np.stack([self._memory[k][1] for k in keys])
+                    self._try(np.asarray(start, dtype=np.float64)[None], genomes, angles, sims, experiments, evaluator)
+                    self._memory = {key: (angles[u], sims[u]) for u, key in enumerate(keys)}
+        finally:
+            self.refine = refine
         angles = np.stack([self._memory[k][0] for k in keys])
         return angles, model_fitness_from_similarities(np.stack([self._memory[k][1] for k in keys]))
 

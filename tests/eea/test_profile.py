@@ -72,6 +72,32 @@ def test_a_new_model_inherits_its_nearest_parent_angles(make_experiment):
     assert fake.similarities(child, exps, child_angles)[0, 0] >= fake.similarities(parent, exps, remembered)[0, 0]
 
 
+def test_contender_refinement_climbs_only_the_fittest_new_model(make_experiment):
+    exps = (make_experiment(0), make_experiment(1))
+    parent = np.zeros((1, 45), np.uint8)
+    fake = PeakPerModel()
+    trained = Profile(proposals=2, initial=4)
+    rng = np.random.default_rng(0)
+    for g in range(30):
+        exps = trained.before_generation(g, parent, exps, fake, rng, genomes=parent)
+    children = np.repeat(parent, 3, axis=0)
+    children[1, 0], children[2, 1] = 1, 1                         # bits the fake reads: their own peaks
+    results = {}
+    for refine in (0, 25):
+        s = Profile(proposals=2, initial=4, refine=refine, contenders=1)
+        s.load_state_dict(trained.state_dict())
+        rows = fake.rows
+        s.before_generation(30, children, exps, fake, np.random.default_rng(5), genomes=children)
+        angles = s.angles(exps, children, rng)
+        results[refine] = (fake.rows - rows, fake.similarities(children, exps, angles).mean(axis=1))
+    (rows0, fit0), (rows25, fit25) = results[0], results[25]
+    assert rows25 - rows0 == 25 * 2 * len(exps)                  # K R proposals E extra simulations
+    newcomer = 1 + int(np.argmax(fit0[1:]))                       # the fittest new model before refinement
+    assert fit25[newcomer] > max(fit0[newcomer], 0.97)            # ... climbs near its own peak
+    others = [m for m in range(3) if m != newcomer]               # the incumbent and the other newcomer: untouched
+    np.testing.assert_array_equal(fit25[others], fit0[others])
+
+
 def test_starting_angles_are_own_then_nearest_remembered_then_random():
     s = Profile()
     near, far = np.zeros(45, np.uint8), np.ones(45, np.uint8)
@@ -104,6 +130,10 @@ def test_profile_run_resumes_exactly(tmp_path, tiny_config, monkeypatch):
 def test_bad_settings_raise(tiny_config):
     with pytest.raises(ValueError, match="proposals"):
         Profile(proposals=0)
+    with pytest.raises(ValueError, match="refine >= 0"):
+        Profile(refine=-1)
+    with pytest.raises(ValueError, match="profile_contenders"):
+        tiny_config(inference="profile", profile_contenders=0)
     with pytest.raises(ValueError, match="profile_initial"):
         tiny_config(inference="profile", profile_initial=0)
     with pytest.raises(ValueError, match="unknown keys"):
