@@ -47,6 +47,8 @@ __all__ = [
     "encode_actions",
     "encode_fields",
     "encode_models",
+    "genome_keys",
+    "genomes_from_keys",
 ]
 
 MODEL_FIELD_BITS: tuple[int, ...] = (5, 6, 4) * 3
@@ -231,3 +233,27 @@ def encode_actions(actions) -> np.ndarray:
         ValueError: if the width is not 3, a value is NaN or outside its range.
     """
     return encode_fields(actions, ACTION_FIELD_BITS, ACTION_BOUNDS)
+
+
+def genome_keys(genomes) -> list[bytes]:
+    """One hashable key per genome row (its bytes), for caches and memories keyed by model.
+
+    Args:
+        genomes: ``(P, n_bits)`` genomes of 0/1 values.
+
+    Returns:
+        P ``bytes`` objects of ``n_bits`` bytes each; :func:`genomes_from_keys` inverts it.
+    """
+    return [row.tobytes() for row in np.asarray(genomes, dtype=np.uint8)]
+
+
+def genomes_from_keys(keys, n_bits: int) -> np.ndarray:
+    """The ``(N, n_bits)`` uint8 genomes of :func:`genome_keys` keys (read-only view).
+
+    Raises:
+        ValueError: if a key is not ``n_bits`` bytes long.
+    """
+    keys = list(keys)
+    if any(len(k) != n_bits for k in keys):
+        raise ValueError(f"every genome key must be {n_bits} bytes long")
+    return np.frombuffer(b"".join(keys), dtype=np.uint8).reshape(len(keys), n_bits)

@@ -26,7 +26,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from eea.encoding import MODEL_BITS, decode_models
+from eea.encoding import MODEL_BITS, decode_models, genome_keys, genomes_from_keys
 from eea.experiment import Experiment
 from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.strategy import InferenceStrategy
@@ -187,7 +187,7 @@ class Estimation:
             experiments = strategy.after_generation(genomes, angles, fitness, experiments)
             self.search.tell(fitness)
             self._genomes, self._fitness = genomes, fitness
-            for key, f in zip((g.tobytes() for g in np.asarray(genomes, dtype=np.uint8)), fitness):
+            for key, f in zip(genome_keys(genomes), fitness):
                 self._round[key] = max(float(f), self._round.get(key, -np.inf))
             if on_generation is not None:
                 on_generation(generation, self.search.best_fitness)
@@ -218,7 +218,7 @@ class Estimation:
             raise ValueError(f"min_distance must be in [0, 1), got {min_distance!r}")
         if min_distance and self._round:
             keys = list(self._round)
-            genomes = np.frombuffer(b"".join(keys), dtype=np.uint8).reshape(len(keys), MODEL_BITS)
+            genomes = genomes_from_keys(keys, MODEL_BITS)
             return diverse_ranked(genomes, np.fromiter(self._round.values(), float, len(keys)),
                                   len(keys) if limit is None else limit, min_distance)
         if self._genomes is None:

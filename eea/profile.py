@@ -46,6 +46,7 @@ from __future__ import annotations
 import numpy as np
 
 from eea.arc import TWO_PI
+from eea.encoding import MODEL_BITS, genome_keys, genomes_from_keys
 from eea.experiment import CAUDAL_LIMIT_RAD, Context, random_angles
 from eea.fitness import model_fitness_from_similarities
 from eea.strategy import Experiments, InferenceStrategy
@@ -55,10 +56,6 @@ __all__ = ["Profile"]
 #: Normal step sizes of a perturbation (rad): pectorals, caudal fin; one pair drawn per candidate.
 _STEPS_RAD = np.array([[0.1, 0.02], [0.4, 0.08], [1.2, 0.2]])
 _RANDOM_SHARE = 0.25
-
-
-def _keys(genomes: np.ndarray) -> list[bytes]:
-    return [g.tobytes() for g in np.asarray(genomes, dtype=np.uint8)]
 
 
 class Profile(InferenceStrategy):
@@ -101,8 +98,8 @@ class Profile(InferenceStrategy):
         sims = np.full((len(genomes), n_experiments), np.nan)
         fresh = np.zeros((len(genomes), n_experiments), dtype=bool)
         known = list(self._memory)
-        parents = np.frombuffer(b"".join(known), dtype=np.uint8).reshape(len(known), -1) if known else None
-        for u, key in enumerate(_keys(genomes)):
+        parents = genomes_from_keys(known, MODEL_BITS) if known else None
+        for u, key in enumerate(genome_keys(genomes)):
             entry = self._memory.get(key)
             if entry is None and parents is not None:  # the nearest model of the last generation
                 nearest = int(np.argmin((parents != genomes[u]).sum(axis=1)))
@@ -147,7 +144,7 @@ class Profile(InferenceStrategy):
             return experiments
         distinct = np.unique(np.asarray(genomes, dtype=np.uint8), axis=0)
         n_exp = len(experiments)
-        new = np.array([key not in self._memory for key in _keys(distinct)])
+        new = np.array([key not in self._memory for key in genome_keys(distinct)])
         angles, sims, fresh = self._recall(distinct, n_exp, rng)
         if np.isnan(sims).any():  # score inherited angles; random starts where there are none
             starts = np.repeat(angles[None], self.initial if fresh.any() else 1, axis=0)
@@ -162,7 +159,7 @@ class Profile(InferenceStrategy):
         self._try(np.stack(candidates), distinct, angles, sims, experiments, evaluator)
         if self.refine and new.any():
             self._refine(np.flatnonzero(new), distinct, angles, sims, experiments, evaluator, rng)
-        self._memory = {key: (angles[u].copy(), sims[u].copy()) for u, key in enumerate(_keys(distinct))}
+        self._memory = {key: (angles[u].copy(), sims[u].copy()) for u, key in enumerate(genome_keys(distinct))}
         return experiments
 
     def _refine(self, rows: np.ndarray, genomes, angles, sims, experiments, evaluator, rng) -> None:
@@ -195,7 +192,7 @@ class Profile(InferenceStrategy):
 
     def angles(self, experiments: Experiments, genomes: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Each model's remembered angles ``(P, E, 3)`` (the contexts' for a model not profiled yet)."""
-        rows = [self._memory.get(key) for key in _keys(genomes)]
+        rows = [self._memory.get(key) for key in genome_keys(genomes)]
         if any(r is None or len(r[1]) != len(experiments) for r in rows):
             return super().angles(experiments, genomes, rng)
         return np.stack([r[0] for r in rows])
@@ -242,7 +239,7 @@ class Profile(InferenceStrategy):
         if generations < 1:
             raise ValueError(f"generations must be >= 1, got {generations}")
         self._memory, self._best = {}, None
-        keys = _keys(genomes)
+        keys = genome_keys(genomes)
         refine, self.refine = self.refine, 0  # every model fitted as hard: no contenders
         try:
             for generation in range(generations):

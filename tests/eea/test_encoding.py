@@ -16,6 +16,8 @@ from eea.encoding import (
     decode_models,
     encode_actions,
     encode_models,
+    genome_keys,
+    genomes_from_keys,
 )
 
 
@@ -133,3 +135,14 @@ def test_encode_models_rejects_bad_dims(dims, match):
 def test_encode_actions_rejects_out_of_range_speed():
     with pytest.raises(ValueError, match="outside"):
         encode_actions([0.6, 0.0, 0.5])
+
+
+def test_genome_keys_round_trip_and_tell_genomes_apart():
+    genomes = np.random.default_rng(0).integers(0, 2, (6, MODEL_BITS), dtype=np.uint8)
+    genomes[5] = genomes[0]
+    keys = genome_keys(genomes)
+    assert len(set(keys)) == 5 and keys[5] == keys[0]
+    np.testing.assert_array_equal(genomes_from_keys(keys, MODEL_BITS), genomes)
+    assert genomes_from_keys([], MODEL_BITS).shape == (0, MODEL_BITS)
+    with pytest.raises(ValueError, match="must be 44 bytes"):
+        genomes_from_keys(keys, 44)
