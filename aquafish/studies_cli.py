@@ -59,13 +59,14 @@ def _diagnose(args: argparse.Namespace) -> int:
     from eea.plot import find_runs
 
     print(f"{'run':<40} {'inference':<12} {'E':>3} {'final@inf':>9} {'true@inf':>9} {'final@true':>10} "
-          f"{'true@true':>9} {'final@own':>9} {'true@own':>9} {'true@new':>9}  failure")
+          f"{'true@true':>9} {'final@own':>9} {'true@own':>9} {'true@new':>9} {f'true@+{args.refine}':>9}  failure")
     for result in find_runs(args.dirs):
-        d = diagnose_run(result.out_dir, workers=args.workers, profile_generations=args.profile_generations)
-        new = "-" if d.true_proposed is None else f"{d.true_proposed:.4f}"
+        d = diagnose_run(result.out_dir, workers=args.workers, profile_generations=args.profile_generations,
+                         refine=args.refine)
+        new, refined = ("-" if v is None else f"{v:.4f}" for v in (d.true_proposed, d.true_refined))
         print(f"{str(d.out_dir):<40} {d.inference:<12} {d.experiments:>3} {d.final_inferred:>9.4f} "
               f"{d.true_inferred:>9.4f} {d.final_true_angles:>10.4f} {d.true_true_angles:>9.4f} "
-              f"{d.final_profiled:>9.4f} {d.true_profiled:>9.4f} {new:>9}  {d.verdict}")
+              f"{d.final_profiled:>9.4f} {d.true_profiled:>9.4f} {new:>9} {refined:>9}  {d.verdict}")
     return 0
 
 
@@ -128,6 +129,9 @@ def add_commands(sub) -> None:
     d.add_argument("--workers", type=int, default=1, help="simulation processes (default: 1)")
     d.add_argument("--profile-generations", type=int, default=40,
                    help="generations of the per-model angle fit of both models (eea.profile.Profile.fit; default: 40)")
+    d.add_argument("--refine", type=int, default=0,
+                   help="profile runs: also the proposed truth after this many rounds of contender refinement "
+                        "(column +R; what --profile-refine R would buy; default: 0 = not computed)")
     d.set_defaults(func=_diagnose)
 
     t = sub.add_parser("damages", help="which damages a gait must adapt to: healthy gait vs a gait evolved on the "

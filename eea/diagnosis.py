@@ -24,7 +24,9 @@ For a ``profile`` run a seventh number says why the search misses the truth: the
 scored under the angles it would start from if the search proposed it at the end of the
 run (its nearest remembered model's, :meth:`eea.profile.Profile.starting_angles`). Below
 the final model's MOD_FIT, the truth would be rejected on sight: the incumbents' angles
-have been refined for many generations, a newcomer's not at all.
+have been refined for many generations, a newcomer's not at all. With ``refine`` R > 0 an
+eighth: the same proposed truth after R rounds of contender refinement (``Profile`` with
+``refine=R``, the run's proposals), which tells what ``--profile-refine R`` would buy.
 """
 
 from __future__ import annotations
@@ -69,6 +71,8 @@ class RunDiagnosis:
         true_proposed: ``profile`` runs only (else None): the true morphology under the
             angles it would start from if proposed at the end of the run (see the module
             docstring).
+        true_refined: ``profile`` runs with ``refine`` > 0 only (else None): the proposed
+            truth after ``refine`` rounds of contender refinement.
     """
 
     out_dir: Path
@@ -82,6 +86,7 @@ class RunDiagnosis:
     true_profiled: float
     per_model: bool = False
     true_proposed: float | None = None
+    true_refined: float | None = None
 
     @property
     def verdict(self) -> str:
@@ -94,13 +99,13 @@ class RunDiagnosis:
 
 
 def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_generations: int = 40,
-                 seed: int = 0) -> RunDiagnosis:
+                 seed: int = 0, refine: int = 0) -> RunDiagnosis:
     """Score the final and the true morphology on a finished (or partial) run's experiments.
 
     Runs ``4 E`` simulations (``5 E`` for a ``profile`` run), plus about ``2 E (17 + 4 G)``
     to fit both models' own angles (:class:`~eea.profile.Profile` with 4 proposals and 16
     random starts, ``G = profile_generations``), ``E`` = the number of experiments in the
-    run's checkpoint.
+    run's checkpoint; ``2 E (proposals + 1) + refine proposals E`` more with ``refine``.
 
     Args:
         out_dir: an EEA run directory with a checkpoint (``state.pkl``).
@@ -108,14 +113,18 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
         profile_generations: generations of the per-model angle fit, >= 1.
         seed: seeds the angle fit (and the random angles of a ``profile`` run's proposed
             truth for experiments nobody has angles for).
+        refine: ``profile`` runs: contender-refinement rounds for ``true_refined``, >= 0
+            (0: not computed).
 
     Returns:
         The :class:`RunDiagnosis`.
 
     Raises:
         ValueError: if ``out_dir`` is not a run directory or has no finished round, or
-            ``profile_generations < 1``.
+            ``profile_generations < 1`` or ``refine < 0``.
     """
+    if refine < 0:
+        raise ValueError(f"refine must be >= 0, got {refine}")
     result = load_result(out_dir)
     state = load_state(out_dir)
     if state is None or not result.rounds:
@@ -130,11 +139,13 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
             return float(model_fitness_from_similarities(ev.similarities(genome, experiments, angles))[0])
 
         scores = [fit(final, inferred), fit(truth, inferred), fit(final, true), fit(truth, true)]
-        proposed = None
+        proposed = refined = None
         if result.config.inference == "profile" and state.inference:
             remembered = Profile()
             remembered.load_state_dict(state.inference)
             proposed = fit(truth, remembered.starting_angles(truth, len(experiments), np.random.default_rng(seed)))
+            if refine:
+                refined = _refined_truth(state.inference, final, truth, experiments, ev, result.config, refine, seed)
         both = np.concatenate([final, truth])
         distinct = both[:1] if (both[0] == both[1]).all() else both  # the run may have found the truth
         _, fitted = Profile(proposals=4, initial=16).fit(
@@ -143,4 +154,16 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
         profiled = np.resize(fitted, 2)  # (final, truth): one fit serves both when they coincide
         return RunDiagnosis(Path(out_dir), result.config.inference, len(experiments), *scores,
                             float(profiled[0]), float(profiled[1]), per_model=result.config.inference == "profile",
-                            true_proposed=proposed)
+                            true_proposed=proposed, true_refined=refined)
+
+
+def _refined_truth(memory: dict, final, truth, experiments, evaluator, config, refine: int, seed: int) -> float:
+    """The truth's MOD_FIT after one generation beside the final model with contender refinement."""
+    profile = Profile(config.profile_proposals, config.profile_initial, refine=refine, contenders=1)
+    profile.load_state_dict(memory)
+    genomes = np.concatenate([final, truth])
+    if (genomes[0] == genomes[1]).all():  # the run found the truth: nothing new to refine
+        genomes = genomes[1:]
+    profile.before_generation(0, genomes, experiments, evaluator, np.random.default_rng(seed), genomes=genomes)
+    angles = profile.angles(experiments, genomes[-1:], None)
+    return float(model_fitness_from_similarities(evaluator.similarities(genomes[-1:], experiments, angles))[0])

@@ -93,9 +93,15 @@ def test_profile_run_scores_the_truth_under_the_angles_it_would_start_from(tmp_p
         expected = model_fitness_from_similarities(ev.similarities(truth, experiments, memory[nearest][0][None]))[0]
     assert d.true_proposed == pytest.approx(float(expected), abs=1e-12)
     assert d.true_proposed < d.true_true_angles == 1.0
-    assert d.per_model
+    assert d.per_model and d.true_refined is None
+    # contender refinement starts from those angles and keeps only improvements
+    refined = diagnose_run(tmp_path, refine=20).true_refined
+    assert d.true_proposed < refined <= 1.0
+    with pytest.raises(ValueError, match="refine must be >= 0"):
+        diagnose_run(tmp_path, refine=-1)
 
 
 def test_shared_angle_runs_have_no_proposed_truth(tmp_path, tiny_config):
     run(tiny_config(inference="known"), tmp_path, progress=False)
-    assert diagnose_run(tmp_path).true_proposed is None
+    d = diagnose_run(tmp_path, refine=5)
+    assert d.true_proposed is None and d.true_refined is None
