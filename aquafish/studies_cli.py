@@ -131,7 +131,7 @@ def add_commands(sub) -> None:
                    help="generations of the per-model angle fit of both models (eea.profile.Profile.fit; default: 40)")
     d.add_argument("--refine", type=int, default=0,
                    help="profile runs: also the proposed truth after this many rounds of contender refinement "
-                        "(column +R; what --profile-refine R would buy; default: 0 = not computed)")
+                        "(column true@+R; what --profile-refine R would buy; default: 0 = not computed)")
     d.set_defaults(func=_diagnose)
 
     t = sub.add_parser("damages", help="which damages a gait must adapt to: healthy gait vs a gait evolved on the "
