@@ -139,15 +139,15 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
             return float(model_fitness_from_similarities(ev.similarities(genome, experiments, angles))[0])
 
         scores = [fit(final, inferred), fit(truth, inferred), fit(final, true), fit(truth, true)]
+        both = np.concatenate([final, truth])
+        distinct = both[:1] if (both[0] == both[1]).all() else both  # the run may have found the truth
         proposed = refined = None
         if result.config.inference == "profile" and state.inference:
             remembered = Profile()
             remembered.load_state_dict(state.inference)
             proposed = fit(truth, remembered.starting_angles(truth, len(experiments), np.random.default_rng(seed)))
             if refine:
-                refined = _refined_truth(state.inference, final, truth, experiments, ev, result.config, refine, seed)
-        both = np.concatenate([final, truth])
-        distinct = both[:1] if (both[0] == both[1]).all() else both  # the run may have found the truth
+                refined = _refined_truth(state.inference, distinct, experiments, ev, result.config, refine, seed)
         _, fitted = Profile(proposals=4, initial=16).fit(
             distinct, experiments, ev, np.random.default_rng(seed), profile_generations,
             start=np.repeat(inferred, len(distinct), axis=0))
@@ -157,13 +157,11 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
                             true_proposed=proposed, true_refined=refined)
 
 
-def _refined_truth(memory: dict, final, truth, experiments, evaluator, config, refine: int, seed: int) -> float:
-    """The truth's MOD_FIT after one generation beside the final model with contender refinement."""
+def _refined_truth(memory: dict, genomes, experiments, evaluator, config, refine: int, seed: int) -> float:
+    """The truth's MOD_FIT after one generation with contender refinement; ``genomes`` are the
+    distinct (final, truth) models, the truth last (alone if the run found it)."""
     profile = Profile(config.profile_proposals, config.profile_initial, refine=refine, contenders=1)
     profile.load_state_dict(memory)
-    genomes = np.concatenate([final, truth])
-    if (genomes[0] == genomes[1]).all():  # the run found the truth: nothing new to refine
-        genomes = genomes[1:]
     profile.before_generation(0, genomes, experiments, evaluator, np.random.default_rng(seed), genomes=genomes)
     angles = profile.angles(experiments, genomes[-1:], None)
     return float(model_fitness_from_similarities(evaluator.similarities(genomes[-1:], experiments, angles))[0])

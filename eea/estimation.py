@@ -43,9 +43,10 @@ def distinct_ranked(genomes: np.ndarray, fitness: np.ndarray | None) -> np.ndarr
     """
     genomes = np.asarray(genomes, dtype=np.uint8)
     order = np.arange(len(genomes)) if fitness is None else np.argsort(-np.asarray(fitness), kind="stable")
+    keys = genome_keys(genomes)
     seen, rows = set(), []
     for i in order:
-        key = genomes[i].tobytes()
+        key = keys[i]
         if key not in seen:
             seen.add(key)
             rows.append(i)

@@ -144,7 +144,8 @@ class Profile(InferenceStrategy):
             return experiments
         distinct = np.unique(np.asarray(genomes, dtype=np.uint8), axis=0)
         n_exp = len(experiments)
-        new = np.array([key not in self._memory for key in genome_keys(distinct)])
+        keys = genome_keys(distinct)
+        new = np.array([key not in self._memory for key in keys])
         angles, sims, fresh = self._recall(distinct, n_exp, rng)
         if np.isnan(sims).any():  # score inherited angles; random starts where there are none
             starts = np.repeat(angles[None], self.initial if fresh.any() else 1, axis=0)
@@ -159,7 +160,7 @@ class Profile(InferenceStrategy):
         self._try(np.stack(candidates), distinct, angles, sims, experiments, evaluator)
         if self.refine and new.any():
             self._refine(np.flatnonzero(new), distinct, angles, sims, experiments, evaluator, rng)
-        self._memory = {key: (angles[u].copy(), sims[u].copy()) for u, key in enumerate(genome_keys(distinct))}
+        self._memory = {key: (angles[u].copy(), sims[u].copy()) for u, key in enumerate(keys)}
         return experiments
 
     def _refine(self, rows: np.ndarray, genomes, angles, sims, experiments, evaluator, rng) -> None:
@@ -199,7 +200,7 @@ class Profile(InferenceStrategy):
 
     def after_generation(self, genomes, angles, fitness, experiments):
         best = int(np.argmax(fitness))
-        self._best = np.asarray(genomes[best], dtype=np.uint8).tobytes()
+        self._best = genome_keys(genomes[best : best + 1])[0]
         return tuple(e.with_context(Context.exact(angles[best, i])) for i, e in enumerate(experiments))
 
     # -- a fit on its own -----------------------------------------------------------------

@@ -73,7 +73,7 @@ def test_profile_run_scores_the_truth_under_the_angles_it_would_start_from(tmp_p
 
     from aquafish_gym import Morphology, get_damage
     from eea.checkpoint import load_state
-    from eea.encoding import encode_models
+    from eea.encoding import MODEL_BITS, encode_models, genomes_from_keys
     from eea.evaluation import Evaluator
     from eea.experiment import Experiment
     from eea.fitness import model_fitness_from_similarities
@@ -86,7 +86,7 @@ def test_profile_run_scores_the_truth_under_the_angles_it_would_start_from(tmp_p
     truth = encode_models(get_damage(config.damage).apply(Morphology.healthy()).to_array()[None])
     memory = state.inference["memory"]
     keys = list(memory)
-    remembered = np.frombuffer(b"".join(keys), dtype=np.uint8).reshape(len(keys), -1)
+    remembered = genomes_from_keys(keys, MODEL_BITS)
     nearest = keys[int(np.argmin((remembered != truth).sum(axis=1)))]  # the truth is not remembered here
     assert truth[0].tobytes() not in memory
     with Evaluator(config.steps) as ev:
