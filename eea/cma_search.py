@@ -15,6 +15,15 @@ level ``floor(x_d * 2**bits_d)`` (the top level for ``x_d = 1``), i.e. the cell 
 half-open model grid that contains it. ``ask`` returns those genomes, so the rest of the
 EEA (evaluation cache, inference, records) sees ordinary 45-bit model genomes.
 
+Global restarts (``global_period`` k > 0, off by default): every k-th :meth:`restart`
+starts a fresh distribution at a uniformly random point of the cube instead of at the best
+point, so a run whose incumbent sits in a wrong basin gets to propose models far from it
+(README, "Where the best variant stops"). The incumbent is not lost: during that round it is
+evaluated beside the P - 1 sampled points in every generation (its fitness tracks the grown
+experiment set, its angles keep improving under profile inference) but is never told to
+CMA-ES, so it does not pull the fresh distribution back; the next restart starts at
+whichever is better at the end of the round. The cost per generation is unchanged (P models).
+
 Randomness: CMA-ES draws its normal samples from a child ``numpy.random.Generator``
 spawned from the run's generator at construction and saved with the search state, so a run
 is reproducible and resumes bit-for-bit.
@@ -83,24 +92,33 @@ class CMAModelSearch(TellRecord):
             stream.
         sigma0: initial step size as a fraction of every dimension's range, in (0, 1].
         elitism: 0 or 1, whether the best point of a generation is carried into the next.
+        global_period: k >= 0; every k-th restart is a global one (module docstring), 0 = never.
 
     Raises:
-        ValueError: if an argument is outside the ranges above.
+        ValueError: if an argument is outside the ranges above, or ``global_period`` > 0 with
+            ``population_size`` < 3 (a global round samples P - 1 >= 2 points).
     """
 
     name: ClassVar[str] = "cma"
     n_bits: int = MODEL_BITS
 
     def __init__(self, population_size: int, rng: np.random.Generator, *, sigma0: float = 0.3,
-                 elitism: int = 1) -> None:
+                 elitism: int = 1, global_period: int = 0) -> None:
         check_int("population_size", population_size, 2)
+        check_int("global_period", global_period, 0)
+        if global_period and population_size < 3:
+            raise ValueError(f"global restarts need population_size >= 3 (P - 1 sampled points and the incumbent), "
+                             f"got {population_size}")
         if not (isinstance(sigma0, (int, float)) and 0.0 < sigma0 <= 1.0):
             raise ValueError(f"sigma0 must be in (0, 1], got {sigma0!r}")
         if elitism not in (0, 1):
             raise ValueError(f"elitism must be 0 or 1 for CMA-ES, got {elitism!r}")
         self.population_size, self.sigma0, self.elitism = population_size, float(sigma0), int(elitism)
+        self.global_period = int(global_period)
         self._stream = np.random.default_rng(int(rng.integers(2**63)))
-        self._es = self._new_strategy(self._stream.random(len(_LEVELS)))
+        self._es = self._new_strategy(self._stream.random(len(_LEVELS)), population_size)
+        self._restarts = 0                         # restarts so far (every global_period-th is global)
+        self._incumbent: np.ndarray | None = None  # (9,) evaluated beside a global round's samples, else None
         self._x: np.ndarray | None = None          # sampled points (P, 9), None after tell
         self._asked = False
         self._best_x: np.ndarray | None = None     # best point of the last told generation (9,)
@@ -111,32 +129,46 @@ class CMAModelSearch(TellRecord):
     @classmethod
     def from_config(cls, config, rng: np.random.Generator) -> "CMAModelSearch":
         """Sized and tuned by an :class:`eea.config.EEAConfig` (``estimation_population``,
-        ``cma_sigma``; any ``elitism`` >= 1 carries the one best point)."""
-        return cls(config.estimation_population, rng, sigma0=config.cma_sigma, elitism=1 if config.elitism else 0)
+        ``cma_sigma``, ``cma_global_period``; any ``elitism`` >= 1 carries the one best point)."""
+        return cls(config.estimation_population, rng, sigma0=config.cma_sigma, elitism=1 if config.elitism else 0,
+                   global_period=config.cma_global_period)
 
-    def _new_strategy(self, mean: np.ndarray):
+    def _new_strategy(self, mean: np.ndarray, popsize: int):
         import cma  # here, not at module level: importing cma takes ~1.5 s, and only cma runs need it
 
         return cma.CMAEvolutionStrategy(
             mean, self.sigma0,
-            {"popsize": self.population_size, "bounds": [0.0, 1.0], "randn": _StandardNormal(self._stream),
+            {"popsize": popsize, "bounds": [0.0, 1.0], "randn": _StandardNormal(self._stream),
              "verbose": -9, "seed": np.nan, "tolfun": 0.0, "tolx": 0.0, "tolfunhist": 0.0,
              "tolstagnation": np.inf, "tolflatfitness": np.inf, "maxiter": np.inf, "maxfevals": np.inf})
 
     def restart(self) -> None:
-        """Restart the distribution at the best point so far with the initial step size.
+        """Restart the distribution with the initial step size, at the best point of the last
+        generation or, every ``global_period``-th time, at a uniformly random point.
 
         Called by the estimation phase at the start of every round: a new experiment
         changes MOD_FIT, and a distribution that converged on the old one cannot move.
-        The best point is injected into the first population (elitism). No-op before the
-        first ``tell``.
+        At the best point, that point is injected into the first population (elitism); at a
+        random point, it is evaluated beside the samples for the whole round instead (the
+        module docstring). No-op before the first ``tell``.
         """
         if self._best_x is None:
             return
-        self._es = self._new_strategy(self._best_x)
-        if self.elitism:
-            self._es.inject([self._best_x], force=True)
+        self._restarts += 1
+        if self.global_period and self._restarts % self.global_period == 0:
+            self._incumbent = self._best_x.copy()
+            self._es = self._new_strategy(self._stream.random(len(_LEVELS)), self.population_size - 1)
+        else:
+            self._incumbent = None
+            self._es = self._new_strategy(self._best_x, self.population_size)
+            if self.elitism:
+                self._es.inject([self._best_x], force=True)
         self._x, self._asked = None, False
+
+    @property
+    def global_round(self) -> bool:
+        """Whether the current round started from a global restart (the incumbent rides along)."""
+        return self._incumbent is not None
 
     @property
     def population(self) -> np.ndarray:
@@ -147,6 +179,8 @@ class CMAModelSearch(TellRecord):
         """
         if self._x is None:
             self._x = np.clip(np.asarray(self._es.ask(), dtype=np.float64), 0.0, 1.0)
+            if self._incumbent is not None:  # the last row: evaluated, never told to CMA-ES
+                self._x = np.vstack([self._x, self._incumbent])
         return unit_to_genomes(self._x)
 
     def ask(self) -> np.ndarray:
@@ -179,9 +213,11 @@ class CMAModelSearch(TellRecord):
         self._best_x = self._x[best].copy()
         self._best_genome = unit_to_genomes(self._x[best : best + 1])[0]
         self._best_fitness = float(f[best])
-        self._es.tell(list(self._x), list(-f))  # cma minimises
-        if self.elitism:
-            self._es.inject([self._x[best]], force=True)
+        sampled = len(self._x) - (self._incumbent is not None)
+        self._es.tell(list(self._x[:sampled]), list(-f[:sampled]))  # cma minimises
+        if self.elitism:  # the best of the distribution's own points
+            own = int(np.argmax(f[:sampled]))
+            self._es.inject([self._x[own]], force=True)
         self._x, self._asked = None, False
         self._generation += 1
 
@@ -203,4 +239,6 @@ class CMAModelSearch(TellRecord):
             raise ValueError("state holds no CMAModelSearch")
         if not hasattr(search, "_asked"):  # checkpoints written before ask/tell misuse was checked
             search._asked = search._x is not None
+        if not hasattr(search, "global_period"):  # checkpoints written before global restarts
+            search.global_period, search._restarts, search._incumbent = 0, 0, None
         return search

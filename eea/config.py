@@ -53,6 +53,8 @@ FIELD_HELP: dict[str, str] = {
     "estimation_search": "estimation search: ga (the paper's bit-string GA) or cma (CMA-ES over the nine "
                          "dimensions, eea.cma_search; not the paper's)",
     "cma_sigma": "cma: initial step size as a fraction of each dimension's range, in (0, 1]",
+    "cma_global_period": "cma: every this many rounds the search restarts at a uniformly random point, the "
+                         "incumbent evaluated beside it (0 = always at the best model; not the paper's)",
     "crossover_rate": "probability that a parent pair is recombined (paper: 0.75)",
     "tournament_size": "entrants per tournament (paper: 2)",
     "mutation_bits": "mean number of flipped bits per genome of every GA (paper: 1); at most 18",
@@ -111,6 +113,7 @@ class EEAConfig:
     estimation_generations: int = 100
     estimation_search: str = "ga"
     cma_sigma: float = 0.3
+    cma_global_period: int = 0
     crossover_rate: float = 0.75
     tournament_size: int = 2
     mutation_bits: float = 1.0
@@ -150,7 +153,7 @@ class EEAConfig:
             "tournament_size": 1, "elitism": 0, "k_best": 1, "oob_period": 1, "oob_sample": 1,
             "oob_population": 1, "oob_generations": 1, "oob_bits": 2, "workers": 1,
             "profile_proposals": 1, "profile_initial": 1, "profile_refine": 0, "profile_contenders": 1,
-            "max_batch_robots": 1,
+            "max_batch_robots": 1, "cma_global_period": 0,
         }
         for name, low in minimum.items():
             check_int(f"EEAConfig.{name}", getattr(self, name), low, 30 if name == "oob_bits" else None)
@@ -162,6 +165,9 @@ class EEAConfig:
                                  ("k_best", "estimation_population"), ("oob_sample", "estimation_population")):
             if getattr(self, name) > getattr(self, population):
                 raise ValueError(f"EEAConfig.{name} ({getattr(self, name)}) must be <= {population} ({getattr(self, population)})")
+        if self.cma_global_period and self.estimation_population < 3:
+            raise ValueError(f"EEAConfig.cma_global_period > 0 needs estimation_population >= 3, "
+                             f"got {self.estimation_population}")
         if self.elitism > self.oob_population:
             raise ValueError(f"EEAConfig.elitism ({self.elitism}) must be <= oob_population ({self.oob_population})")
         for name in ("crossover_rate", "in_band_confidence"):

@@ -142,3 +142,42 @@ def test_restart_reopens_the_distribution_around_the_best_point():
     reopened = search.ask()
     np.testing.assert_array_equal(reopened[0], best)                  # the best point is kept
     assert len({g.tobytes() for g in reopened}) > len(converged)      # and the spread is back
+
+
+def test_every_kth_restart_is_global_and_carries_the_incumbent_without_telling_it():
+    fitness = _ridge_fitness(np.full(9, 0.25))
+    search = CMAModelSearch(8, np.random.default_rng(4), global_period=2)
+    for _ in range(40):
+        search.tell(fitness(search.ask()))
+    incumbent, incumbent_fitness = search.best_genome, search.best_fitness
+    search.restart()                                                   # restart 1: at the best point
+    assert not search.global_round
+    np.testing.assert_array_equal(search.ask()[0], incumbent)
+    search.tell(fitness(search.population))
+    incumbent = search.best_genome
+    search.restart()                                                   # restart 2: global
+    assert search.global_round
+    for _ in range(3):
+        genomes = search.ask()
+        assert genomes.shape == (8, 45)
+        np.testing.assert_array_equal(genomes[-1], incumbent)          # evaluated every generation
+        f = fitness(genomes)
+        search.tell(f)
+        assert search.best_fitness == f.max()                          # the best of all P rows
+    # CMA-ES saw only the 7 sampled points: its mean is still far from the incumbent
+    span = MODEL_BOUNDS[:, 1] - MODEL_BOUNDS[:, 0]
+    mean_dims = MODEL_BOUNDS[:, 0] + span * search._es.mean
+    assert np.abs((mean_dims - decode_models(incumbent[None])[0]) / span).max() > 0.05
+    assert search.best_fitness >= incumbent_fitness                    # the incumbent is never lost
+    resumed = CMAModelSearch.from_state_dict(pickle.loads(pickle.dumps(search.state_dict())))
+    np.testing.assert_array_equal(resumed.ask(), search.ask())
+    search.tell(fitness(search.population))
+    search.restart()                                                   # restart 3: at the best point again
+    assert not search.global_round and len(search.ask()) == 8
+
+
+def test_global_restarts_need_three_models():
+    with pytest.raises(ValueError, match="population_size >= 3"):
+        CMAModelSearch(2, np.random.default_rng(0), global_period=1)
+    with pytest.raises(ValueError, match="estimation_population >= 3"):
+        EEAConfig(cma_global_period=2, estimation_population=2, elitism=1, k_best=1, oob_sample=1)
