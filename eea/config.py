@@ -165,6 +165,9 @@ class EEAConfig:
                                  ("k_best", "estimation_population"), ("oob_sample", "estimation_population")):
             if getattr(self, name) > getattr(self, population):
                 raise ValueError(f"EEAConfig.{name} ({getattr(self, name)}) must be <= {population} ({getattr(self, population)})")
+        if self.cma_global_period and self.estimation_search != "cma":
+            raise ValueError(f"EEAConfig.cma_global_period > 0 needs estimation_search='cma', "
+                             f"got {self.estimation_search!r}")
         if self.cma_global_period and self.estimation_population < 3:
             raise ValueError(f"EEAConfig.cma_global_period > 0 needs estimation_population >= 3, "
                              f"got {self.estimation_population}")

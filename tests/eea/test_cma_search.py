@@ -180,4 +180,6 @@ def test_global_restarts_need_three_models():
     with pytest.raises(ValueError, match="population_size >= 3"):
         CMAModelSearch(2, np.random.default_rng(0), global_period=1)
     with pytest.raises(ValueError, match="estimation_population >= 3"):
-        EEAConfig(cma_global_period=2, estimation_population=2, elitism=1, k_best=1, oob_sample=1)
+        EEAConfig(cma_global_period=2, estimation_search="cma", estimation_population=2, k_best=1, oob_sample=1)
+    with pytest.raises(ValueError, match="needs estimation_search='cma'"):
+        EEAConfig(cma_global_period=2)
