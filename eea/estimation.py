@@ -7,8 +7,8 @@ the initial angles the inference strategy chooses for each (model, experiment). 
 lives for the whole run: each round continues from where the previous round ended (the
 GA's models carry over; CMA-ES restarts its distribution at the best model, since a new
 experiment changes the landscape it had converged on, or with ``EEAConfig.cma_global_period``
-every k-th round at a random point with the best model carried beside it), and the final hypothesis of a round
-is the fittest model of its last generation.
+every k-th round at a random point with the best model carried beside it), and the final
+hypothesis of a round is the fittest model of its last generation.
 
 The phase also hands the exploration its candidate models (:meth:`Estimation.ranked_models`):
 the paper's are the distinct models of the last generation, best first. With a minimum
