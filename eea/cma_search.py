@@ -24,6 +24,15 @@ experiment set, its angles keep improving under profile inference) but is never 
 CMA-ES, so it does not pull the fresh distribution back; the next restart starts at
 whichever is better at the end of the round. The cost per generation is unchanged (P models).
 
+Local and global search in the same round (``global_share`` G > 0, off by default; exclusive
+with ``global_period``): every round two distributions share the P points of a generation.
+The local one restarts at the best point with P - G samples, as without; the global one
+restarts at a uniformly random point with G samples. Each is told its own points. The
+generation's best point, from either, is injected into the local one (elitism), and the
+global one's own best into it, so a better basin found globally pulls the local search there
+within the round, while runs that are climbing keep most of their local search every round
+(README: global rounds alone cost seeds that were climbing a round of local search each time).
+
 Randomness: CMA-ES draws its normal samples from a child ``numpy.random.Generator``
 spawned from the run's generator at construction and saved with the search state, so a run
 is reproducible and resumes bit-for-bit.
@@ -93,19 +102,28 @@ class CMAModelSearch(TellRecord):
         sigma0: initial step size as a fraction of every dimension's range, in (0, 1].
         elitism: 0 or 1, whether the best point of a generation is carried into the next.
         global_period: k >= 0; every k-th restart is a global one (module docstring), 0 = never.
+        global_share: G = 0 (off) or 2 <= G <= P - 2, points per generation sampled by a second,
+            global distribution restarted every round (module docstring).
 
     Raises:
-        ValueError: if an argument is outside the ranges above, or ``global_period`` > 0 with
-            ``population_size`` < 3 (a global round samples P - 1 >= 2 points).
+        ValueError: if an argument is outside the ranges above, ``global_period`` > 0 with
+            ``population_size`` < 3 (a global round samples P - 1 >= 2 points), or both
+            ``global_period`` and ``global_share`` > 0.
     """
 
     name: ClassVar[str] = "cma"
     n_bits: int = MODEL_BITS
 
     def __init__(self, population_size: int, rng: np.random.Generator, *, sigma0: float = 0.3,
-                 elitism: int = 1, global_period: int = 0) -> None:
+                 elitism: int = 1, global_period: int = 0, global_share: int = 0) -> None:
         check_int("population_size", population_size, 2)
         check_int("global_period", global_period, 0)
+        check_int("global_share", global_share, 0)
+        if global_share and not 2 <= global_share <= population_size - 2:
+            raise ValueError(f"global_share must be 0 or in [2, population_size - 2] = [2, {population_size - 2}] "
+                             f"(each distribution samples at least 2 points), got {global_share}")
+        if global_share and global_period:
+            raise ValueError(f"set global_period or global_share, not both (got {global_period} and {global_share})")
         if global_period and population_size < 3:
             raise ValueError(f"global restarts need population_size >= 3 (P - 1 sampled points and the incumbent), "
                              f"got {population_size}")
@@ -114,9 +132,10 @@ class CMAModelSearch(TellRecord):
         if elitism not in (0, 1):
             raise ValueError(f"elitism must be 0 or 1 for CMA-ES, got {elitism!r}")
         self.population_size, self.sigma0, self.elitism = population_size, float(sigma0), int(elitism)
-        self.global_period = int(global_period)
+        self.global_period, self.global_share = int(global_period), int(global_share)
         self._stream = np.random.default_rng(int(rng.integers(2**63)))
         self._es = self._new_strategy(self._stream.random(len(_LEVELS)), population_size)
+        self._global_es = None                     # the second, global distribution (global_share > 0, after round 1)
         self._restarts = 0                         # restarts so far (every global_period-th is global)
         self._incumbent: np.ndarray | None = None  # (9,) evaluated beside a global round's samples, else None
         self._x: np.ndarray | None = None          # sampled points (P, 9), None after tell
@@ -129,9 +148,9 @@ class CMAModelSearch(TellRecord):
     @classmethod
     def from_config(cls, config, rng: np.random.Generator) -> "CMAModelSearch":
         """Sized and tuned by an :class:`eea.config.EEAConfig` (``estimation_population``,
-        ``cma_sigma``, ``cma_global_period``; any ``elitism`` >= 1 carries the one best point)."""
+        ``cma_sigma``, ``cma_global_period``, ``cma_global_share``; any ``elitism`` >= 1 carries the one best point)."""
         return cls(config.estimation_population, rng, sigma0=config.cma_sigma, elitism=1 if config.elitism else 0,
-                   global_period=config.cma_global_period)
+                   global_period=config.cma_global_period, global_share=config.cma_global_share)
 
     def _new_strategy(self, mean: np.ndarray, popsize: int):
         import cma  # here, not at module level: importing cma takes ~1.5 s, and only cma runs need it
@@ -160,9 +179,11 @@ class CMAModelSearch(TellRecord):
             self._es = self._new_strategy(self._stream.random(len(_LEVELS)), self.population_size - 1)
         else:
             self._incumbent = None
-            self._es = self._new_strategy(self._best_x, self.population_size)
+            self._es = self._new_strategy(self._best_x, self.population_size - self.global_share)
             if self.elitism:
                 self._es.inject([self._best_x], force=True)
+            if self.global_share:
+                self._global_es = self._new_strategy(self._stream.random(len(_LEVELS)), self.global_share)
         self._x, self._asked = None, False
 
     @property
@@ -179,6 +200,8 @@ class CMAModelSearch(TellRecord):
         """
         if self._x is None:
             self._x = np.clip(np.asarray(self._es.ask(), dtype=np.float64), 0.0, 1.0)
+            if self._global_es is not None:  # the last G rows: the global distribution's
+                self._x = np.vstack([self._x, np.clip(np.asarray(self._global_es.ask(), dtype=np.float64), 0.0, 1.0)])
             if self._incumbent is not None:  # the last row: evaluated, never told to CMA-ES
                 self._x = np.vstack([self._x, self._incumbent])
         return unit_to_genomes(self._x)
@@ -213,11 +236,19 @@ class CMAModelSearch(TellRecord):
         self._best_x = self._x[best].copy()
         self._best_genome = unit_to_genomes(self._x[best : best + 1])[0]
         self._best_fitness = float(f[best])
-        sampled = len(self._x) - (self._incumbent is not None)
-        self._es.tell(list(self._x[:sampled]), list(-f[:sampled]))  # cma minimises
-        if self.elitism:  # the best of the distribution's own points
-            own = int(np.argmax(f[:sampled]))
-            self._es.inject([self._x[own]], force=True)
+        if self._global_es is not None:  # local rows first, then the global distribution's G rows
+            local = self.population_size - self.global_share
+            self._es.tell(list(self._x[:local]), list(-f[:local]))  # cma minimises
+            self._global_es.tell(list(self._x[local:]), list(-f[local:]))
+            if self.elitism:  # the generation's best into the local one, the global one's own best into it
+                self._es.inject([self._x[best]], force=True)
+                self._global_es.inject([self._x[local + int(np.argmax(f[local:]))]], force=True)
+        else:
+            sampled = len(self._x) - (self._incumbent is not None)
+            self._es.tell(list(self._x[:sampled]), list(-f[:sampled]))  # cma minimises
+            if self.elitism:  # the best of the distribution's own points
+                own = int(np.argmax(f[:sampled]))
+                self._es.inject([self._x[own]], force=True)
         self._x, self._asked = None, False
         self._generation += 1
 
@@ -241,4 +272,6 @@ class CMAModelSearch(TellRecord):
             search._asked = search._x is not None
         if not hasattr(search, "global_period"):  # checkpoints written before global restarts
             search.global_period, search._restarts, search._incumbent = 0, 0, None
+        if not hasattr(search, "global_share"):  # checkpoints written before the global share
+            search.global_share, search._global_es = 0, None
         return search

@@ -55,6 +55,8 @@ FIELD_HELP: dict[str, str] = {
     "cma_sigma": "cma: initial step size as a fraction of each dimension's range, in (0, 1]",
     "cma_global_period": "cma: every this many rounds the search restarts at a uniformly random point, the "
                          "incumbent evaluated beside it (0 = always at the best model; not the paper's)",
+    "cma_global_share": "cma: G >= 2 of the estimation_population models of every generation come from a second "
+                        "CMA-ES that starts every round at a uniformly random point (0 = off; not the paper's)",
     "crossover_rate": "probability that a parent pair is recombined (paper: 0.75)",
     "tournament_size": "entrants per tournament (paper: 2)",
     "mutation_bits": "mean number of flipped bits per genome of every GA (paper: 1); at most 18",
@@ -74,6 +76,8 @@ FIELD_HELP: dict[str, str] = {
     "profile_refine": "profile: extra perturbation rounds of the angles of each contender, a model new this "
                       "generation, before it is scored (0 = off; not the paper's)",
     "profile_contenders": "profile: the fittest new models refined per generation (with profile_refine > 0)",
+    "profile_contender_distance": "profile: 0: the contenders are the fittest new models; d > 0: the fittest new "
+                                  "models at least d apart (1 - OBJ_FIT between them; not the paper's)",
     "oob_experiments": "out_of_band: angles refined by each inference: newest (the paper's: only the newest "
                        "experiment) or all (also every older experiment at generation 0 of each round; not the paper's)",
     "workers": "worker processes for simulations (1 = serial); never changes results",
@@ -114,6 +118,7 @@ class EEAConfig:
     estimation_search: str = "ga"
     cma_sigma: float = 0.3
     cma_global_period: int = 0
+    cma_global_share: int = 0
     crossover_rate: float = 0.75
     tournament_size: int = 2
     mutation_bits: float = 1.0
@@ -131,6 +136,7 @@ class EEAConfig:
     profile_initial: int = 8
     profile_refine: int = 0
     profile_contenders: int = 3
+    profile_contender_distance: float = 0.0
     workers: int = dataclasses.field(default_factory=_default_workers)
     max_batch_robots: int = 64
 
@@ -153,7 +159,7 @@ class EEAConfig:
             "tournament_size": 1, "elitism": 0, "k_best": 1, "oob_period": 1, "oob_sample": 1,
             "oob_population": 1, "oob_generations": 1, "oob_bits": 2, "workers": 1,
             "profile_proposals": 1, "profile_initial": 1, "profile_refine": 0, "profile_contenders": 1,
-            "max_batch_robots": 1, "cma_global_period": 0,
+            "max_batch_robots": 1, "cma_global_period": 0, "cma_global_share": 0,
         }
         for name, low in minimum.items():
             check_int(f"EEAConfig.{name}", getattr(self, name), low, 30 if name == "oob_bits" else None)
@@ -171,6 +177,16 @@ class EEAConfig:
         if self.cma_global_period and self.estimation_population < 3:
             raise ValueError(f"EEAConfig.cma_global_period > 0 needs estimation_population >= 3, "
                              f"got {self.estimation_population}")
+        if self.cma_global_share and self.estimation_search != "cma":
+            raise ValueError(f"EEAConfig.cma_global_share > 0 needs estimation_search='cma', "
+                             f"got {self.estimation_search!r}")
+        if self.cma_global_share and not 2 <= self.cma_global_share <= self.estimation_population - 2:
+            raise ValueError(f"EEAConfig.cma_global_share must be 0 or in [2, estimation_population - 2] "
+                             f"= [2, {self.estimation_population - 2}] (each CMA-ES needs 2 points), "
+                             f"got {self.cma_global_share}")
+        if self.cma_global_share and self.cma_global_period:
+            raise ValueError("EEAConfig.cma_global_share and cma_global_period are two ways to search globally; "
+                             f"set one of them, got {self.cma_global_share} and {self.cma_global_period}")
         if self.elitism > self.oob_population:
             raise ValueError(f"EEAConfig.elitism ({self.elitism}) must be <= oob_population ({self.oob_population})")
         for name in ("crossover_rate", "in_band_confidence"):
@@ -178,10 +194,11 @@ class EEAConfig:
             if not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:  # NaN fails
                 raise ValueError(f"EEAConfig.{name} must be in [0, 1], got {value!r}")
             object.__setattr__(self, name, float(value))
-        value = self.exploration_diversity
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value < 1.0:
-            raise ValueError(f"EEAConfig.exploration_diversity must be in [0, 1), got {value!r}")
-        object.__setattr__(self, "exploration_diversity", float(value))
+        for name in ("exploration_diversity", "profile_contender_distance"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value < 1.0:
+                raise ValueError(f"EEAConfig.{name} must be in [0, 1), got {value!r}")
+            object.__setattr__(self, name, float(value))
         for name, high in (("mutation_bits", float(min(18, 3 * self.oob_bits))), ("in_band_widen", math.inf)):
             value = getattr(self, name)
             if not isinstance(value, (int, float)) or not 0.0 <= value <= high:

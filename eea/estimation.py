@@ -14,7 +14,7 @@ The phase also hands the exploration its candidate models (:meth:`Estimation.ran
 the paper's are the distinct models of the last generation, best first. With a minimum
 distance (``EEAConfig.exploration_diversity``, not the paper's) they are picked instead from
 every model the round evaluated, best first, skipping any closer than that to one already
-picked (:func:`diverse_ranked`). Why: a converged CMA-ES population is one hypothesis in 25
+picked (:func:`eea.diversity.diverse_ranked`). Why: a converged CMA-ES population is one hypothesis in 25
 near-copies; its models disagree less under any action than each disagrees with itself
 across initial angles, so the angle-robust exploration (eq. 1 with an angle term) scores
 every action below zero and picks actions in which hardly anything moves.
@@ -27,13 +27,14 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from eea.encoding import MODEL_BITS, decode_models, genome_keys, genomes_from_keys
+from eea.diversity import diverse_ranked
+from eea.encoding import MODEL_BITS, genome_keys, genomes_from_keys
 from eea.experiment import Experiment
-from eea.fitness import model_fitness_from_similarities, objective_fitness
+from eea.fitness import model_fitness_from_similarities
 from eea.strategy import InferenceStrategy
 from eea.model_search import ModelSearch, check_model_search, make_model_search, model_search_from_state
 
-__all__ = ["Estimation", "EstimationResult", "distinct_ranked", "diverse_ranked", "model_distance"]
+__all__ = ["Estimation", "EstimationResult", "distinct_ranked"]
 
 
 def distinct_ranked(genomes: np.ndarray, fitness: np.ndarray | None) -> np.ndarray:
@@ -52,57 +53,6 @@ def distinct_ranked(genomes: np.ndarray, fitness: np.ndarray | None) -> np.ndarr
             seen.add(key)
             rows.append(i)
     return genomes[rows]
-
-
-def model_distance(a, b) -> np.ndarray:
-    """``1 - OBJ_FIT`` (eq. 4) of model genomes ``a`` against model genome ``b`` as the target.
-
-    The mean range-normalised absolute difference of the decoded dimensions, in [0, 1).
-
-    Args:
-        a: ``(..., 45)`` model genomes.
-        b: ``(45,)`` one model genome.
-
-    Returns:
-        ``(...)`` float64 distances.
-    """
-    return 1.0 - objective_fitness(decode_models(a), decode_models(b))
-
-
-def diverse_ranked(genomes: np.ndarray, fitness: np.ndarray, limit: int, min_distance: float) -> np.ndarray:
-    """The fittest genomes, greedily skipping any within ``min_distance`` of one already kept.
-
-    Genomes are visited best first (ties: row order); a genome is kept if its
-    :func:`model_distance` to every kept one is at least ``min_distance``. The first is
-    always kept; duplicates never are (distance 0).
-
-    Args:
-        genomes: ``(N, 45)`` model genomes.
-        fitness: ``(N,)`` their fitness, higher is better.
-        limit: at most this many are returned, >= 1.
-        min_distance: the minimum distance, in [0, 1); 0 keeps distinct genomes only.
-
-    Returns:
-        ``(R, 45)`` uint8, best first, R <= limit.
-
-    Raises:
-        ValueError: if the shapes disagree, ``limit < 1`` or ``min_distance`` is outside [0, 1).
-    """
-    genomes = np.asarray(genomes, dtype=np.uint8)
-    fitness = np.asarray(fitness, dtype=np.float64)
-    if genomes.ndim != 2 or fitness.shape != (len(genomes),):
-        raise ValueError(f"genomes (N, 45) and fitness (N,) must agree, got {genomes.shape} and {fitness.shape}")
-    if limit < 1:
-        raise ValueError(f"limit must be >= 1, got {limit}")
-    if not 0.0 <= min_distance < 1.0:
-        raise ValueError(f"min_distance must be in [0, 1), got {min_distance!r}")
-    kept: list[int] = []
-    for i in np.argsort(-fitness, kind="stable"):
-        if len(kept) == limit:
-            break
-        if not kept or np.min(model_distance(genomes[kept], genomes[i])) >= max(min_distance, 1e-12):
-            kept.append(int(i))
-    return genomes[kept]
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -200,13 +150,13 @@ class Estimation:
         """Candidate models for the exploration, best first, at most ``limit``.
 
         With ``min_distance`` 0 (the paper's): the distinct models of the last evaluated
-        generation. Otherwise: :func:`diverse_ranked` over every model the last round
+        generation. Otherwise: :func:`eea.diversity.diverse_ranked` over every model the last round
         evaluated (at its best fitness of the round). Before any evaluation, either way:
         the distinct genomes of the initial population, in order.
 
         Args:
             limit: at most this many models (None: no limit).
-            min_distance: in [0, 1), see :func:`diverse_ranked`.
+            min_distance: in [0, 1), see :func:`eea.diversity.diverse_ranked`.
 
         Returns:
             ``(R, 45)`` uint8.

@@ -12,7 +12,7 @@ Choices the paper leaves open, made here:
   whole population) - duplicates would only add zero-disagreement pairs. Before the first
   estimation they are the distinct genomes of the random initial population. Not the
   paper's: with ``EEAConfig.exploration_diversity = d > 0`` they are the fittest models of
-  the whole last round, each at least d apart (:func:`eea.estimation.diverse_ranked`).
+  the whole last round, each at least d apart (:func:`eea.diversity.diverse_ranked`).
 * Context: the next experiment's initial angles are unknown when its action is chosen, so
   every model is simulated from the zero state (pectorals arms-back, caudal 0). A fixed
   context keeps ACT_FIT deterministic and comparable between actions.

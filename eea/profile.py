@@ -29,7 +29,11 @@ generation it survives, so an incumbent's have had many steps and a newly propos
 one; the truth, proposed late, loses to a wrong incumbent although it wins when both are
 fitted as hard (README, "Where the best variant stops"). With ``refine`` R, the
 ``contenders`` K fittest models that are new this generation get R more rounds of
-``proposals`` perturbations each before the generation is scored.
+``proposals`` perturbations each before the generation is scored. With
+``contender_distance`` d > 0 the contenders are picked greedily, fittest first, skipping any
+new model within d (1 - OBJ_FIT, :func:`eea.diversity.model_distance`) of one already
+picked: the fittest new models are mostly near-copies of the incumbent whose inherited
+angles already fit, while a model far from its parent gains the most from refinement.
 
 Cost: about ``U (proposals + 1) E`` simulations per generation for U distinct models and E
 experiments, plus ``U initial`` at the first generation of a round (3-4 times the
@@ -46,6 +50,7 @@ from __future__ import annotations
 import numpy as np
 
 from eea.arc import TWO_PI
+from eea.diversity import diverse_indices
 from eea.encoding import MODEL_BITS, genome_keys, genomes_from_keys
 from eea.experiment import CAUDAL_LIMIT_RAD, Context, random_angles
 from eea.fitness import model_fitness_from_similarities
@@ -66,26 +71,34 @@ class Profile(InferenceStrategy):
         initial: random angle sets tried per model for a new experiment (>= 1).
         refine: extra perturbation rounds for each contender (>= 0; 0 = off).
         contenders: new models refined per generation, the fittest first (>= 1).
+        contender_distance: minimum distance between contenders, in [0, 1) (0: the fittest
+            new models, whatever their distance).
 
     Raises:
-        ValueError: if ``proposals``, ``initial`` or ``contenders`` is < 1 or ``refine`` < 0.
+        ValueError: if ``proposals``, ``initial`` or ``contenders`` is < 1, ``refine`` < 0 or
+            ``contender_distance`` is outside [0, 1).
     """
 
     name = "profile"
 
-    def __init__(self, proposals: int = 2, initial: int = 8, refine: int = 0, contenders: int = 3) -> None:
+    def __init__(self, proposals: int = 2, initial: int = 8, refine: int = 0, contenders: int = 3,
+                 contender_distance: float = 0.0) -> None:
         if proposals < 1 or initial < 1 or contenders < 1 or refine < 0:
             raise ValueError(f"Profile needs proposals >= 1, initial >= 1, refine >= 0 and contenders >= 1, "
                              f"got {proposals}, {initial}, {refine}, {contenders}")
+        if isinstance(contender_distance, bool) or not isinstance(contender_distance, (int, float)) \
+                or not 0.0 <= contender_distance < 1.0:
+            raise ValueError(f"Profile needs contender_distance in [0, 1), got {contender_distance!r}")
         self.proposals, self.initial = int(proposals), int(initial)
         self.refine, self.contenders = int(refine), int(contenders)
+        self.contender_distance = float(contender_distance)
         self._memory: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}  # genome -> ((E, 3) angles, (E,) sims)
         self._best: bytes | None = None                                 # the best genome of the last generation
 
     @classmethod
     def from_config(cls, config):
         return cls(config.profile_proposals, config.profile_initial, config.profile_refine,
-                   config.profile_contenders)
+                   config.profile_contenders, config.profile_contender_distance)
 
     def new_context(self, true_angles):
         return Context.exact(np.zeros(3))  # replaced by the best model's angles after each generation
@@ -164,9 +177,10 @@ class Profile(InferenceStrategy):
         return experiments
 
     def _refine(self, rows: np.ndarray, genomes, angles, sims, experiments, evaluator, rng) -> None:
-        """``refine`` more perturbation rounds for the ``contenders`` fittest of ``rows`` (in place)."""
+        """``refine`` more perturbation rounds for the ``contenders`` fittest of ``rows``, at least
+        ``contender_distance`` apart (in place)."""
         fitness = model_fitness_from_similarities(sims[rows])
-        top = rows[np.argsort(-fitness, kind="stable")[: self.contenders]]
+        top = rows[diverse_indices(genomes[rows], fitness, self.contenders, self.contender_distance)]
         a, s = angles[top], sims[top]
         for _ in range(self.refine):
             self._try(np.stack([self._perturb(a, rng) for _ in range(self.proposals)]), genomes[top], a, s,

@@ -176,6 +176,51 @@ def test_every_kth_restart_is_global_and_carries_the_incumbent_without_telling_i
     assert not search.global_round and len(search.ask()) == 8
 
 
+def test_a_global_share_samples_beside_the_local_search_and_pulls_it_to_a_better_point():
+    fitness = _ridge_fitness(np.full(9, 0.25))
+    search = CMAModelSearch(10, np.random.default_rng(3), global_share=4)
+    for _ in range(30):
+        search.tell(fitness(search.ask()))
+    incumbent = search.best_genome
+    for round_ in range(2):
+        search.restart()                                               # every restart: local + global
+        genomes = search.ask()
+        assert genomes.shape == (10, 45) and not search.global_round
+        np.testing.assert_array_equal(genomes[0], incumbent)           # local: at the best point
+        span = MODEL_BOUNDS[:, 1] - MODEL_BOUNDS[:, 0]
+        global_mean = MODEL_BOUNDS[:, 0] + span * search._global_es.mean
+        assert np.abs((global_mean - decode_models(incumbent[None])[0]) / span).max() > 0.1  # elsewhere
+        assert search._es.popsize == 6 and search._global_es.popsize == 4
+        f = fitness(genomes)
+        f[8] = f.max() + 1.0                                           # a global point is the best
+        search.tell(f)
+        assert search.best_fitness == f[8]
+        nxt = search.ask()
+        assert (nxt[:6] == genomes[8]).all(axis=1).any()               # injected into the local distribution
+        assert (nxt[6:] == genomes[8]).all(axis=1).any()               # and the global one's own best
+        assert search._es.countiter == search._global_es.countiter == 1  # each told its own points once
+        search.tell(fitness(nxt))
+        incumbent = search.best_genome
+    resumed = CMAModelSearch.from_state_dict(pickle.loads(pickle.dumps(search.state_dict())))
+    np.testing.assert_array_equal(resumed.ask(), search.ask())
+
+
+def test_a_global_share_leaves_two_points_to_each_distribution():
+    for share in (1, 9):
+        with pytest.raises(ValueError, match=r"global_share must be 0 or in .* = \[2, 8\]"):
+            CMAModelSearch(10, np.random.default_rng(0), global_share=share)
+    with pytest.raises(ValueError, match="not both"):
+        CMAModelSearch(10, np.random.default_rng(0), global_share=2, global_period=2)
+    with pytest.raises(ValueError, match="cma_global_share must be 0 or in"):
+        EEAConfig(cma_global_share=24, estimation_search="cma")
+    with pytest.raises(ValueError, match="needs estimation_search='cma'"):
+        EEAConfig(cma_global_share=8)
+    with pytest.raises(ValueError, match="set one of them"):
+        EEAConfig(cma_global_share=8, cma_global_period=2, estimation_search="cma")
+    assert CMAModelSearch.from_config(EEAConfig(cma_global_share=8, estimation_search="cma"),
+                                      np.random.default_rng(0)).global_share == 8
+
+
 def test_global_restarts_need_three_models():
     with pytest.raises(ValueError, match="population_size >= 3"):
         CMAModelSearch(2, np.random.default_rng(0), global_period=1)

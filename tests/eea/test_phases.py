@@ -76,7 +76,7 @@ def test_distinct_ranked():
 def test_model_distance_is_one_minus_objective_fitness():
     from aquafish_gym import MORPHOLOGY_BOUNDS
     from eea.encoding import decode_models, encode_models
-    from eea.estimation import model_distance
+    from eea.diversity import model_distance
     from eea.fitness import objective_fitness
 
     genomes = np.random.default_rng(3).integers(0, 2, (6, 45), dtype=np.uint8)
@@ -91,7 +91,7 @@ def test_model_distance_is_one_minus_objective_fitness():
 def test_diverse_ranked_keeps_the_fittest_far_enough_apart():
     from aquafish_gym import MORPHOLOGY_BOUNDS
     from eea.encoding import encode_models
-    from eea.estimation import diverse_ranked
+    from eea.diversity import diverse_ranked
 
     lo, hi = MORPHOLOGY_BOUNDS[:, 0], MORPHOLOGY_BOUNDS[:, 1]
 
@@ -111,7 +111,7 @@ def test_diverse_ranked_keeps_the_fittest_far_enough_apart():
 
 
 def test_diverse_exploration_models_come_from_the_whole_round_and_survive_a_checkpoint(tiny_config, make_experiment):
-    from eea.estimation import model_distance
+    from eea.diversity import model_distance
 
     est = Estimation.from_config(tiny_config(estimation_population=8), np.random.default_rng(0))
     seen = []

@@ -98,6 +98,38 @@ def test_contender_refinement_climbs_only_the_fittest_new_model(make_experiment)
     np.testing.assert_array_equal(fit25[others], fit0[others])
 
 
+def test_contenders_at_a_distance_skip_near_copies_of_the_fittest(make_experiment):
+    from eea.diversity import diverse_indices, model_distance
+
+    exps = (make_experiment(0), make_experiment(1))
+    parent = np.zeros((1, 45), np.uint8)
+    fake = PeakPerModel()
+    trained = Profile(proposals=2, initial=4)
+    rng = np.random.default_rng(0)
+    for g in range(30):
+        exps = trained.before_generation(g, parent, exps, fake, rng, genomes=parent)
+    children = np.repeat(parent, 6, axis=0)                       # row 0: the incumbent
+    for row, bit in ((1, 3), (2, 4), (3, 8), (4, 9)):             # near-copies: 0.003-0.007 from it
+        children[row, bit] = 1
+    children[5, [0, 5, 11, 16]] = 1                               # far: 0.19 from it
+    children = np.unique(children, axis=0)                        # the row order before_generation uses
+    new = np.flatnonzero(children.any(axis=1))
+    assert model_distance(children[new], parent[0]).max() > 0.15 > 0.01 > np.sort(model_distance(children[new], parent[0]))[-2]
+    refined = {}
+    for distance in (0.0, 0.05):
+        fits = []
+        for refine in (0, 25):
+            s = Profile(proposals=2, initial=4, refine=refine, contenders=2, contender_distance=distance)
+            s.load_state_dict(trained.state_dict())
+            s.before_generation(30, children, exps, fake, np.random.default_rng(5), genomes=children)
+            fits.append(fake.similarities(children, exps, s.angles(exps, children, rng)).mean(axis=1))
+        refined[distance] = set(np.flatnonzero(fits[1] != fits[0]).tolist())
+        expected = new[diverse_indices(children[new], fits[0][new], 2, distance)]
+        assert refined[distance] == set(expected.tolist())        # exactly the chosen contenders change
+    far = int(np.argmax(model_distance(children, parent[0])))
+    assert far not in refined[0.0] and far in refined[0.05]       # the near-copies no longer crowd it out
+
+
 def test_starting_angles_are_own_then_nearest_remembered_then_random():
     s = Profile()
     near, far = np.zeros(45, np.uint8), np.ones(45, np.uint8)
@@ -132,6 +164,11 @@ def test_bad_settings_raise(tiny_config):
         Profile(proposals=0)
     with pytest.raises(ValueError, match="refine >= 0"):
         Profile(refine=-1)
+    for bad in (-0.1, 1.0, True):
+        with pytest.raises(ValueError, match="contender_distance"):
+            Profile(contender_distance=bad)
+    with pytest.raises(ValueError, match="profile_contender_distance"):
+        tiny_config(inference="profile", profile_contender_distance=1.0)
     with pytest.raises(ValueError, match="profile_contenders"):
         tiny_config(inference="profile", profile_contenders=0)
     with pytest.raises(ValueError, match="profile_initial"):
