@@ -29,7 +29,7 @@ with ``global_period``): every round two distributions share the P points of a g
 The local one restarts at the best point with P - G samples, as without; the global one
 restarts at a uniformly random point with G samples. Each is told its own points. The
 generation's best point, from either, is injected into the local one (elitism), and the
-global one's own best into it, so a better basin found globally pulls the local search there
+global one's own best into the global one, so a better basin found globally pulls the local search there
 within the round, while runs that are climbing keep most of their local search every round
 (README: global rounds alone cost seeds that were climbing a round of local search each time).
 
@@ -148,7 +148,8 @@ class CMAModelSearch(TellRecord):
     @classmethod
     def from_config(cls, config, rng: np.random.Generator) -> "CMAModelSearch":
         """Sized and tuned by an :class:`eea.config.EEAConfig` (``estimation_population``,
-        ``cma_sigma``, ``cma_global_period``, ``cma_global_share``; any ``elitism`` >= 1 carries the one best point)."""
+        ``cma_sigma``, ``cma_global_period``, ``cma_global_share``; any ``elitism`` >= 1 carries
+        the one best point)."""
         return cls(config.estimation_population, rng, sigma0=config.cma_sigma, elitism=1 if config.elitism else 0,
                    global_period=config.cma_global_period, global_share=config.cma_global_share)
 
@@ -240,7 +241,7 @@ class CMAModelSearch(TellRecord):
             local = self.population_size - self.global_share
             self._es.tell(list(self._x[:local]), list(-f[:local]))  # cma minimises
             self._global_es.tell(list(self._x[local:]), list(-f[local:]))
-            if self.elitism:  # the generation's best into the local one, the global one's own best into it
+            if self.elitism:  # the generation's best into the local distribution, the global one's best into it
                 self._es.inject([self._x[best]], force=True)
                 self._global_es.inject([self._x[local + int(np.argmax(f[local:]))]], force=True)
         else:
