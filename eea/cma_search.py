@@ -33,6 +33,15 @@ global one's own best into the global one, so a better basin found globally pull
 within the round, while runs that are climbing keep most of their local search every round
 (README: global rounds alone cost seeds that were climbing a round of local search each time).
 
+Carried covariance (``carry_condition`` c >= 1, off by default): a restart at the best point
+keeps the shape of the covariance the previous round's distribution learned, not only its
+best point. MOD_FIT's ridges are long and narrow (a trapped ``known`` run's model sits
+0.003 below the truth on a ridge whose ends differ by up to 0.4 of a pectoral dimension's
+range), and an isotropic restart throws away the directions the last round found. The
+carried matrix is scaled so that its longest axis has the initial step size, and its
+eigenvalues are floored at 1/c of the largest (axes at least 1/sqrt(c) as long), so the new
+distribution still samples across the ridge, which a new experiment may have moved.
+
 Randomness: CMA-ES draws its normal samples from a child ``numpy.random.Generator``
 spawned from the run's generator at construction and saved with the search state, so a run
 is reproducible and resumes bit-for-bit.
@@ -50,7 +59,7 @@ from aquafish_gym.checks import check_int
 from eea.encoding import MODEL_BITS, MODEL_FIELD_BITS, encode_models
 from eea.ga import TellRecord
 
-__all__ = ["CMAModelSearch", "unit_to_genomes"]
+__all__ = ["CMAModelSearch", "carried_shape", "unit_to_genomes"]
 
 _LEVELS = 2 ** np.asarray(MODEL_FIELD_BITS)
 
@@ -75,6 +84,33 @@ def unit_to_genomes(x) -> np.ndarray:
     levels = np.minimum(np.floor(x * _LEVELS), _LEVELS - 1)
     lo, hi = MORPHOLOGY_BOUNDS[:, 0], MORPHOLOGY_BOUNDS[:, 1]
     return encode_models(lo + (hi - lo) * levels / _LEVELS)
+
+
+def carried_shape(covariance, condition: float) -> np.ndarray:
+    """The covariance shape a restart carries over (see the module docstring).
+
+    Args:
+        covariance: ``(n, n)`` symmetric positive semi-definite matrix (CMA-ES's ``C``).
+        condition: c >= 1, the largest condition number of the result.
+
+    Returns:
+        ``(n, n)`` the matrix with the same eigenvectors, its eigenvalues divided by the largest
+        and floored at 1/c: the largest is 1, the smallest >= 1/c.
+
+    Raises:
+        ValueError: if ``covariance`` is not a finite square matrix with a positive eigenvalue,
+            or ``condition`` < 1.
+    """
+    c = np.asarray(covariance, dtype=np.float64)
+    if c.ndim != 2 or c.shape[0] != c.shape[1] or not np.all(np.isfinite(c)):
+        raise ValueError(f"covariance must be a finite square matrix, got shape {c.shape}")
+    if not condition >= 1:
+        raise ValueError(f"condition must be >= 1, got {condition!r}")
+    values, vectors = np.linalg.eigh((c + c.T) / 2)
+    if values[-1] <= 0:
+        raise ValueError("covariance has no positive eigenvalue")
+    values = np.maximum(values / values[-1], 1.0 / condition)
+    return (vectors * values) @ vectors.T
 
 
 class _StandardNormal:
@@ -104,6 +140,9 @@ class CMAModelSearch(TellRecord):
         global_period: k >= 0; every k-th restart is a global one (module docstring), 0 = never.
         global_share: G = 0 (off) or 2 <= G <= P - 2, points per generation sampled by a second,
             global distribution restarted every round (module docstring).
+        carry_condition: c = 0 (off: every restart is isotropic) or c >= 1, the largest
+            condition number of the covariance carried into a restart at the best point
+            (module docstring).
 
     Raises:
         ValueError: if an argument is outside the ranges above, ``global_period`` > 0 with
@@ -115,7 +154,8 @@ class CMAModelSearch(TellRecord):
     n_bits: int = MODEL_BITS
 
     def __init__(self, population_size: int, rng: np.random.Generator, *, sigma0: float = 0.3,
-                 elitism: int = 1, global_period: int = 0, global_share: int = 0) -> None:
+                 elitism: int = 1, global_period: int = 0, global_share: int = 0,
+                 carry_condition: float = 0.0) -> None:
         check_int("population_size", population_size, 2)
         check_int("global_period", global_period, 0)
         check_int("global_share", global_share, 0)
@@ -131,6 +171,10 @@ class CMAModelSearch(TellRecord):
             raise ValueError(f"sigma0 must be in (0, 1], got {sigma0!r}")
         if elitism not in (0, 1):
             raise ValueError(f"elitism must be 0 or 1 for CMA-ES, got {elitism!r}")
+        if isinstance(carry_condition, bool) or not isinstance(carry_condition, (int, float)) \
+                or not (carry_condition == 0 or 1 <= carry_condition < np.inf):
+            raise ValueError(f"carry_condition must be 0 (off) or a finite number >= 1, got {carry_condition!r}")
+        self.carry_condition = float(carry_condition)
         self.population_size, self.sigma0, self.elitism = population_size, float(sigma0), int(elitism)
         self.global_period, self.global_share = int(global_period), int(global_share)
         self._stream = np.random.default_rng(int(rng.integers(2**63)))
@@ -148,10 +192,11 @@ class CMAModelSearch(TellRecord):
     @classmethod
     def from_config(cls, config, rng: np.random.Generator) -> "CMAModelSearch":
         """Sized and tuned by an :class:`eea.config.EEAConfig` (``estimation_population``,
-        ``cma_sigma``, ``cma_global_period``, ``cma_global_share``; any ``elitism`` >= 1 carries
-        the one best point)."""
+        ``cma_sigma``, ``cma_global_period``, ``cma_global_share``, ``cma_carry_condition``; any
+        ``elitism`` >= 1 carries the one best point)."""
         return cls(config.estimation_population, rng, sigma0=config.cma_sigma, elitism=1 if config.elitism else 0,
-                   global_period=config.cma_global_period, global_share=config.cma_global_share)
+                   global_period=config.cma_global_period, global_share=config.cma_global_share,
+                   carry_condition=config.cma_carry_condition)
 
     def _new_strategy(self, mean: np.ndarray, popsize: int):
         import cma  # here, not at module level: importing cma takes ~1.5 s, and only cma runs need it
@@ -180,7 +225,11 @@ class CMAModelSearch(TellRecord):
             self._es = self._new_strategy(self._stream.random(len(_LEVELS)), self.population_size - 1)
         else:
             self._incumbent = None
+            shape = carried_shape(self._es.sm.C, self.carry_condition) if self.carry_condition else None
             self._es = self._new_strategy(self._best_x, self.population_size - self.global_share)
+            if shape is not None:
+                self._es.sm.C = shape
+                self._es.sm._decompose_C()  # pycma's sampler: eigen-decompose the matrix just set
             if self.elitism:
                 self._es.inject([self._best_x], force=True)
             if self.global_share:
@@ -275,4 +324,6 @@ class CMAModelSearch(TellRecord):
             search.global_period, search._restarts, search._incumbent = 0, 0, None
         if not hasattr(search, "global_share"):  # checkpoints written before the global share
             search.global_share, search._global_es = 0, None
+        if not hasattr(search, "carry_condition"):  # checkpoints written before the carried covariance
+            search.carry_condition = 0.0
         return search

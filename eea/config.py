@@ -55,6 +55,8 @@ FIELD_HELP: dict[str, str] = {
     "cma_sigma": "cma: initial step size as a fraction of each dimension's range, in (0, 1]",
     "cma_global_period": "cma: every this many rounds the search restarts at a uniformly random point, the "
                          "incumbent evaluated beside it (0 = always at the best model; not the paper's)",
+    "cma_carry_condition": "cma: 0: every restart at the best model is isotropic; c >= 1: it keeps the shape of "
+                           "the covariance the last round learned, condition number capped at c (not the paper's)",
     "cma_global_share": "cma: G >= 2 of the estimation_population models of every generation come from a second "
                         "CMA-ES that starts every round at a uniformly random point (0 = off; not the paper's)",
     "crossover_rate": "probability that a parent pair is recombined (paper: 0.75)",
@@ -119,6 +121,7 @@ class EEAConfig:
     cma_sigma: float = 0.3
     cma_global_period: int = 0
     cma_global_share: int = 0
+    cma_carry_condition: float = 0.0
     crossover_rate: float = 0.75
     tournament_size: int = 2
     mutation_bits: float = 1.0
@@ -153,6 +156,13 @@ class EEAConfig:
                 or not 0.0 < self.cma_sigma <= 1.0:
             raise ValueError(f"EEAConfig.cma_sigma must be in (0, 1], got {self.cma_sigma!r}")
         object.__setattr__(self, "cma_sigma", float(self.cma_sigma))
+        value = self.cma_carry_condition
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (value == 0 or 1 <= value < math.inf):
+            raise ValueError(f"EEAConfig.cma_carry_condition must be 0 (off) or a finite number >= 1, got {value!r}")
+        object.__setattr__(self, "cma_carry_condition", float(value))
+        if self.cma_carry_condition and self.estimation_search != "cma":
+            raise ValueError(f"EEAConfig.cma_carry_condition > 0 needs estimation_search='cma', "
+                             f"got {self.estimation_search!r}")
         minimum = {
             "rounds": 1, "seed": 0, "exploration_population": 1, "exploration_generations": 1,
             "exploration_models": 2, "estimation_population": 2, "estimation_generations": 1,

@@ -5,7 +5,7 @@ import pickle
 import numpy as np
 import pytest
 
-from eea.cma_search import CMAModelSearch, unit_to_genomes
+from eea.cma_search import CMAModelSearch, carried_shape, unit_to_genomes
 from eea.config import EEAConfig
 from aquafish_gym import MORPHOLOGY_BOUNDS as MODEL_BOUNDS
 from eea.encoding import decode_models, encode_models
@@ -219,6 +219,49 @@ def test_a_global_share_leaves_two_points_to_each_distribution():
         EEAConfig(cma_global_share=8, cma_global_period=2, estimation_search="cma")
     assert CMAModelSearch.from_config(EEAConfig(cma_global_share=8, estimation_search="cma"),
                                       np.random.default_rng(0)).global_share == 8
+
+
+def test_carried_shape_keeps_the_axes_scales_the_longest_to_one_and_floors_the_rest():
+    rng = np.random.default_rng(0)
+    axes, _ = np.linalg.qr(rng.standard_normal((4, 4)))
+    covariance = 3.0 * (axes * np.array([1e-8, 1e-3, 0.1, 1.0])) @ axes.T
+    shape = carried_shape(covariance, 100.0)
+    values, vectors = np.linalg.eigh(shape)
+    np.testing.assert_allclose(values, [0.01, 0.01, 0.1, 1.0], atol=1e-9)   # / 3, floored at 1 / 100
+    np.testing.assert_allclose(shape @ axes, axes * np.array([0.01, 0.01, 0.1, 1.0]), atol=1e-9)  # same axes
+    np.testing.assert_allclose(carried_shape(covariance, 1.0), np.eye(4), atol=1e-9)  # c = 1: isotropic
+    for bad, match in ((np.ones((2, 3)), "square"), (np.full((2, 2), np.nan), "finite"), (-np.eye(2), "positive")):
+        with pytest.raises(ValueError, match=match):
+            carried_shape(bad, 10.0)
+    with pytest.raises(ValueError, match="condition"):
+        carried_shape(np.eye(2), 0.5)
+
+
+def test_a_restart_with_carry_condition_samples_along_the_learned_ridge():
+    fitness = _ridge_fitness(np.full(9, 0.25))
+    searches = {c: CMAModelSearch(25, np.random.default_rng(2), carry_condition=c) for c in (0.0, 10.0)}
+    for search in searches.values():
+        for _ in range(40):
+            search.tell(fitness(search.ask()))
+    learned = searches[10.0]._es.sm.C
+    principal = np.linalg.eigh(learned)[1][:, -1]
+    assert abs(principal @ np.ones(9) / 3.0) > 0.9                      # the ridge: the all-ones diagonal
+    assert np.linalg.cond(learned) > 20                                  # elongated beyond the cap below
+    for c, search in searches.items():
+        search.restart()
+        values, vectors = np.linalg.eigh(search._es.sm.C)
+        if c:
+            assert abs(vectors[:, -1] @ principal) > 0.999               # the same longest axis
+            assert values[-1] / values[0] == pytest.approx(10.0, rel=1e-3)  # capped at c
+            assert search._es.sigma == pytest.approx(0.3)
+        else:
+            np.testing.assert_allclose(values, 1.0, rtol=1e-3)          # isotropic, as before
+    with pytest.raises(ValueError, match="carry_condition"):
+        CMAModelSearch(10, np.random.default_rng(0), carry_condition=0.5)
+    with pytest.raises(ValueError, match="cma_carry_condition"):
+        EEAConfig(cma_carry_condition=float("nan"), estimation_search="cma")
+    with pytest.raises(ValueError, match="needs estimation_search='cma'"):
+        EEAConfig(cma_carry_condition=100)
 
 
 def test_global_restarts_need_three_models():
