@@ -72,7 +72,9 @@ def test_a_new_model_inherits_its_nearest_parent_angles(make_experiment):
     assert fake.similarities(child, exps, child_angles)[0, 0] >= fake.similarities(parent, exps, remembered)[0, 0]
 
 
-def test_contender_refinement_climbs_only_the_fittest_new_model(make_experiment):
+def _trained_on_one_parent(make_experiment):
+    """Two experiments, the all-zero parent, a fake evaluator and a Profile that has fitted
+    the parent's angles for 30 generations (the state later Profiles start from)."""
     exps = (make_experiment(0), make_experiment(1))
     parent = np.zeros((1, 45), np.uint8)
     fake = PeakPerModel()
@@ -80,6 +82,11 @@ def test_contender_refinement_climbs_only_the_fittest_new_model(make_experiment)
     rng = np.random.default_rng(0)
     for g in range(30):
         exps = trained.before_generation(g, parent, exps, fake, rng, genomes=parent)
+    return exps, parent, fake, trained, rng
+
+
+def test_contender_refinement_climbs_only_the_fittest_new_model(make_experiment):
+    exps, parent, fake, trained, rng = _trained_on_one_parent(make_experiment)
     children = np.repeat(parent, 3, axis=0)
     children[1, 0], children[2, 1] = 1, 1                         # bits the fake reads: their own peaks
     results = {}
@@ -101,13 +108,7 @@ def test_contender_refinement_climbs_only_the_fittest_new_model(make_experiment)
 def test_contenders_at_a_distance_skip_near_copies_of_the_fittest(make_experiment):
     from eea.diversity import diverse_indices, model_distance
 
-    exps = (make_experiment(0), make_experiment(1))
-    parent = np.zeros((1, 45), np.uint8)
-    fake = PeakPerModel()
-    trained = Profile(proposals=2, initial=4)
-    rng = np.random.default_rng(0)
-    for g in range(30):
-        exps = trained.before_generation(g, parent, exps, fake, rng, genomes=parent)
+    exps, parent, fake, trained, rng = _trained_on_one_parent(make_experiment)
     children = np.repeat(parent, 6, axis=0)                       # row 0: the incumbent
     for row, bit in ((1, 3), (2, 4), (3, 8), (4, 9)):             # near-copies: 0.003-0.007 from it
         children[row, bit] = 1
