@@ -160,9 +160,6 @@ class EEAConfig:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (value == 0 or 1 <= value < math.inf):
             raise ValueError(f"EEAConfig.cma_carry_condition must be 0 (off) or a finite number >= 1, got {value!r}")
         object.__setattr__(self, "cma_carry_condition", float(value))
-        if self.cma_carry_condition and self.estimation_search != "cma":
-            raise ValueError(f"EEAConfig.cma_carry_condition > 0 needs estimation_search='cma', "
-                             f"got {self.estimation_search!r}")
         minimum = {
             "rounds": 1, "seed": 0, "exploration_population": 1, "exploration_generations": 1,
             "exploration_models": 2, "estimation_population": 2, "estimation_generations": 1,
@@ -181,15 +178,12 @@ class EEAConfig:
                                  ("k_best", "estimation_population"), ("oob_sample", "estimation_population")):
             if getattr(self, name) > getattr(self, population):
                 raise ValueError(f"EEAConfig.{name} ({getattr(self, name)}) must be <= {population} ({getattr(self, population)})")
-        if self.cma_global_period and self.estimation_search != "cma":
-            raise ValueError(f"EEAConfig.cma_global_period > 0 needs estimation_search='cma', "
-                             f"got {self.estimation_search!r}")
+        for name in ("cma_global_period", "cma_global_share", "cma_carry_condition"):
+            if getattr(self, name) and self.estimation_search != "cma":
+                raise ValueError(f"EEAConfig.{name} > 0 needs estimation_search='cma', got {self.estimation_search!r}")
         if self.cma_global_period and self.estimation_population < 3:
             raise ValueError(f"EEAConfig.cma_global_period > 0 needs estimation_population >= 3, "
                              f"got {self.estimation_population}")
-        if self.cma_global_share and self.estimation_search != "cma":
-            raise ValueError(f"EEAConfig.cma_global_share > 0 needs estimation_search='cma', "
-                             f"got {self.estimation_search!r}")
         if self.cma_global_share and not 2 <= self.cma_global_share <= self.estimation_population - 2:
             raise ValueError(f"EEAConfig.cma_global_share must be 0 or in [2, estimation_population - 2] "
                              f"= [2, {self.estimation_population - 2}] (each CMA-ES needs 2 points), "
