@@ -29,9 +29,10 @@ with ``global_period``): every round two distributions share the P points of a g
 The local one restarts at the best point with P - G samples, as without; the global one
 restarts at a uniformly random point with G samples. Each is told its own points. The
 generation's best point, from either, is injected into the local one (elitism), and the
-global one's own best into the global one, so a better basin found globally pulls the local search there
-within the round, while runs that are climbing keep most of their local search every round
-(README: global rounds alone cost seeds that were climbing a round of local search each time).
+global one's own best into the global one, so a better basin found globally pulls the local
+search there within the round, while runs that are climbing keep most of their local search
+every round (README: global rounds alone cost seeds that were climbing a round of local
+search each time).
 
 Carried covariance (``carry_condition`` c >= 1, off by default): a restart at the best point
 keeps the shape of the covariance the previous round's distribution learned, not only its
@@ -179,7 +180,7 @@ class CMAModelSearch(TellRecord):
         self.global_period, self.global_share = int(global_period), int(global_share)
         self._stream = np.random.default_rng(int(rng.integers(2**63)))
         self._es = self._new_strategy(self._stream.random(len(_LEVELS)), population_size)
-        self._global_es = None                     # the second, global distribution (global_share > 0, after round 1)
+        self._global_es = None                     # the global distribution (global_share > 0, from round 2)
         self._restarts = 0                         # restarts so far (every global_period-th is global)
         self._incumbent: np.ndarray | None = None  # (9,) evaluated beside a global round's samples, else None
         self._x: np.ndarray | None = None          # sampled points (P, 9), None after tell

@@ -6,16 +6,16 @@ model's mean similarity (eq. 2) to the target over all recorded experiments, sim
 the initial angles the inference strategy chooses for each (model, experiment). One search
 lives for the whole run: each round continues from where the previous round ended (the
 GA's models carry over; CMA-ES restarts its distribution at the best model, since a new
-experiment changes the landscape it had converged on, or with ``EEAConfig.cma_global_period``
-every k-th round at a random point with the best model carried beside it), and the final
-hypothesis of a round is the fittest model of its last generation.
+experiment changes the landscape it had converged on; :mod:`eea.cma_search` describes the
+global restarts, the global share and the carried covariance), and the final hypothesis of a
+round is the fittest model of its last generation.
 
 The phase also hands the exploration its candidate models (:meth:`Estimation.ranked_models`):
 the paper's are the distinct models of the last generation, best first. With a minimum
 distance (``EEAConfig.exploration_diversity``, not the paper's) they are picked instead from
 every model the round evaluated, best first, skipping any closer than that to one already
-picked (:func:`eea.diversity.diverse_ranked`). Why: a converged CMA-ES population is one hypothesis in 25
-near-copies; its models disagree less under any action than each disagrees with itself
+picked (:func:`eea.diversity.diverse_ranked`). Why: a converged CMA-ES population is one
+hypothesis in 25 near-copies; its models disagree less under any action than each disagrees with itself
 across initial angles, so the angle-robust exploration (eq. 1 with an angle term) scores
 every action below zero and picks actions in which hardly anything moves.
 """
@@ -150,8 +150,8 @@ class Estimation:
         """Candidate models for the exploration, best first, at most ``limit``.
 
         With ``min_distance`` 0 (the paper's): the distinct models of the last evaluated
-        generation. Otherwise: :func:`eea.diversity.diverse_ranked` over every model the last round
-        evaluated (at its best fitness of the round). Before any evaluation, either way:
+        generation. Otherwise: :func:`eea.diversity.diverse_ranked` over every model the last
+        round evaluated (at its best fitness of the round). Before any evaluation, either way:
         the distinct genomes of the initial population, in order.
 
         Args:
