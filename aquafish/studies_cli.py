@@ -1,4 +1,4 @@
-"""``aquafish case-study``, ``study``, ``plot``, ``diagnose``, ``damages`` and ``baselines``."""
+"""``aquafish case-study``, ``study``, ``plot``, ``compare``, ``diagnose``, ``damages`` and ``baselines``."""
 
 from __future__ import annotations
 
@@ -51,6 +51,24 @@ def _plot(args: argparse.Namespace) -> int:
     out = Path(args.output) if args.output else Path(args.dirs[0]) / "objective_fitness.png"
     print(plot_runs(args.dirs, out))
     print(f"wrote {out}")
+    return 0
+
+
+def _compare(args: argparse.Namespace) -> int:
+    from eea.compare import compare_variants, comparison_table, parse_variant, plot_variants
+    from eea.plot import find_runs
+
+    variants = dict(parse_variant(v) for v in args.variants)
+    if len(variants) < len(args.variants):
+        raise ValueError("each variant LABEL must be given once")
+    summary = compare_variants({label: find_runs([path]) for label, path in variants.items()},
+                               rounds=args.rounds, level=args.level)
+    print(comparison_table(summary, baseline=args.baseline))
+    left_out = {label: s.left_out for label, s in summary.items() if s.left_out}
+    if left_out:
+        print("runs left out (round not finished): " + ", ".join(f"{k} {v}" for k, v in left_out.items()))
+    if args.output:
+        print(f"wrote {plot_variants(summary, args.output)}")
     return 0
 
 
@@ -120,6 +138,17 @@ def add_commands(sub) -> None:
     p.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
     p.add_argument("--output", "-o", default=None, help="PNG path (default: FIRST_DIR/objective_fitness.png)")
     p.set_defaults(func=_plot)
+
+    m = sub.add_parser("compare", help="variants on the same seeds: final OBJ_FIT, Welch's p against a baseline, "
+                                       "rounds to a level, angle errors, simulations per round (eea.compare)")
+    m.add_argument("variants", nargs="+", metavar="LABEL=DIR",
+                   help="a variant's label and its runs' directory (searched recursively; one run per seed)")
+    m.add_argument("--baseline", default=None, help="label p is computed against (default: the first variant)")
+    m.add_argument("--rounds", type=int, default=None,
+                   help="round compared (default: the shortest planned run); runs short of it are left out")
+    m.add_argument("--level", type=float, default=0.9, help="OBJ_FIT level whose first round is reported (default 0.9)")
+    m.add_argument("--output", "-o", default=None, help="also draw the mean curves to this PNG")
+    m.set_defaults(func=_compare)
 
     d = sub.add_parser("diagnose", help="search, inference or identifiability failure? MOD_FIT of the final and the "
                                         "true morphology under the inferred, the true and their own fitted initial "

@@ -1,0 +1,100 @@
+"""eea.compare: variants paired by seed, Welch's p on the common seeds, rounds to a level."""
+
+import numpy as np
+import pytest
+from scipy.stats import ttest_ind
+
+from aquafish.cli import main
+from eea.compare import compare_variants, comparison_table, parse_variant, plot_variants
+from eea.config import EEAConfig
+from eea.plot import find_runs
+from eea.record import ROUND_COLUMNS, write_config, write_rounds
+
+
+def _fake_run(path, seed, objective, simulations_per_round=10, rounds=None, inference="profile", left_rad=0.0):
+    """A run directory with the given OBJ_FIT per round (true left angle 0, inferred ``left_rad``)."""
+    path.mkdir(parents=True)
+    write_config(path, EEAConfig(inference=inference, seed=seed, rounds=rounds or len(objective), workers=1))
+    write_rounds(path, [{c: 0.0 for c in ROUND_COLUMNS} | {
+        "round": i + 1, "objective_fitness": v, "target_experiments": i + 1, "inferred_left_rad": left_rad,
+        "simulations": simulations_per_round * (i + 1)} for i, v in enumerate(objective)])
+
+
+def test_summary_pairs_seeds_and_counts_the_first_round_at_the_level(tmp_path):
+    _fake_run(tmp_path / "a" / "seed0", 0, [0.7, 0.92, 0.85], simulations_per_round=100, left_rad=np.pi / 2)
+    _fake_run(tmp_path / "a" / "seed1", 1, [0.6, 0.8, 0.96], simulations_per_round=300, left_rad=np.pi / 2)
+    _fake_run(tmp_path / "a" / "seed2", 2, [0.5, 0.6, 0.7])
+    _fake_run(tmp_path / "a" / "seed3", 3, [0.9], rounds=3)  # unfinished: left out
+    s = compare_variants({"a": find_runs([tmp_path / "a"])})["a"]
+    assert s.rounds == 3 and s.left_out == 1
+    np.testing.assert_array_equal(s.seeds, [0, 1, 2])
+    np.testing.assert_allclose(s.final, [0.85, 0.96, 0.7])
+    np.testing.assert_array_equal(s.reached, [2, 3, 0])  # seed 0 reaches 0.9 at round 2 and falls back
+    np.testing.assert_allclose(s.curve, [(0.7 + 0.6 + 0.5) / 3, (0.92 + 0.8 + 0.6) / 3, (0.85 + 0.96 + 0.7) / 3])
+    np.testing.assert_allclose(s.mean, (0.85 + 0.96 + 0.7) / 3)
+    np.testing.assert_allclose(s.std, np.std([0.85, 0.96, 0.7]))
+    assert s.simulations_per_round == pytest.approx((100 + 300 + 10) / 3)
+    assert s.median_error_deg[0] == pytest.approx(90.0)  # 6 of the 9 rounds are off by 90 deg
+
+
+def test_p_value_uses_only_the_seeds_both_variants_ran(tmp_path):
+    base = {0: 0.70, 1: 0.75, 2: 0.80, 3: 0.72}
+    new = {0: 0.90, 1: 0.95, 2: 0.97, 5: 0.10}
+    for s, v in base.items():
+        _fake_run(tmp_path / "base" / f"seed{s}", s, [v], inference="out_of_band")
+    for s, v in new.items():
+        _fake_run(tmp_path / "new" / f"seed{s}", s, [0.5, v])
+    summary = compare_variants({"base": find_runs([tmp_path / "base"]), "new": find_runs([tmp_path / "new"])},
+                               rounds=1)
+    assert summary["new"].final.tolist() == [0.5] * 4  # round 1 of every run
+    with pytest.raises(ValueError, match="variant 'base': none of its 4 runs has finished round 2"):
+        compare_variants({"base": find_runs([tmp_path / "base"]), "new": find_runs([tmp_path / "new"])}, rounds=2)
+    base_runs = find_runs([tmp_path / "base"])
+    for r in base_runs:  # give the baseline a second round with the same final values
+        write_rounds(r.out_dir, r.rounds + [dict(r.rounds[0], round=2)])
+    summary = compare_variants({"base": find_runs([tmp_path / "base"]), "new": find_runs([tmp_path / "new"])},
+                               rounds=2)
+    table = comparison_table(summary, baseline="base").splitlines()
+    expected = ttest_ind([0.90, 0.95, 0.97], [0.70, 0.75, 0.80], equal_var=False).pvalue
+    assert f"| {expected:.2g} (3) |" in table[3]  # seeds 0-2 only: seed 3 and seed 5 are unpaired
+    values = [0.70, 0.75, 0.80, 0.72]
+    assert table[2].startswith(f"| base | 0-3 | {np.mean(values):.3f} ± {np.std(values):.3f} | 0.700 0.750 0.800 0.720 | - |")
+    assert "| new | 0,1,2,5 |" in table[3] and "| 3/4 (2) | 2/4 |" in table[3]  # 0.90 reaches 0.9; 0.95 and 0.97 are >= 0.95
+    with pytest.raises(ValueError, match="baseline 'x' is not a variant; variants: base, new"):
+        comparison_table(summary, baseline="x")
+
+
+def test_bad_input_is_named(tmp_path):
+    _fake_run(tmp_path / "study" / "profile" / "seed0", 0, [0.8])
+    _fake_run(tmp_path / "study" / "known" / "seed0", 0, [0.9], inference="known")
+    with pytest.raises(ValueError, match="two runs with seed 0"):
+        compare_variants({"mixed": find_runs([tmp_path / "study"])})
+    runs = find_runs([tmp_path / "study" / "known"])
+    with pytest.raises(ValueError, match="rounds must be an integer >= 1"):
+        compare_variants({"k": runs}, rounds=0)
+    with pytest.raises(ValueError, match=r"level must be in \(0, 1\]"):
+        compare_variants({"k": runs}, level=1.5)
+    with pytest.raises(ValueError, match="variants without runs: k"):
+        compare_variants({"k": []})
+    assert parse_variant("global restarts=runs/a=b") == ("global restarts", __import__("pathlib").Path("runs/a=b"))
+    for text in ("runs/a", "=runs/a", "label="):
+        with pytest.raises(ValueError, match="a variant is LABEL=DIR"):
+            parse_variant(text)
+
+
+def test_cli_prints_the_table_and_draws_the_curves(tmp_path, capsys):
+    _fake_run(tmp_path / "a" / "seed0", 0, [0.7, 0.8])
+    _fake_run(tmp_path / "a" / "seed1", 1, [0.8, 0.95])
+    _fake_run(tmp_path / "b" / "seed0", 0, [0.6, 0.7])
+    _fake_run(tmp_path / "b" / "seed1", 1, [0.65], rounds=2)  # unfinished
+    png = tmp_path / "fig" / "curves.png"
+    assert main(["compare", f"a={tmp_path / 'a'}", f"b={tmp_path / 'b'}", "-o", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert "| a | 0-1 | 0.875 ± 0.075 | 0.800 0.950 |" in out and "| b | 0 | 0.700 ± 0.000 |" in out
+    assert "runs left out (round not finished): b 1" in out
+    assert png.stat().st_size > 1000 and not list(png.parent.glob("*.tmp*"))
+    with pytest.raises(SystemExit):
+        main(["compare", f"a={tmp_path / 'a'}", f"a={tmp_path / 'b'}"])
+    assert "each variant LABEL must be given once" in capsys.readouterr().err
+    summary = compare_variants({"a": find_runs([tmp_path / "a"])})
+    assert plot_variants(summary, tmp_path / "one.png").exists()
