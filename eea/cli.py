@@ -16,12 +16,14 @@ from typing import Iterable
 
 from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, EEAConfig
 from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
+from eea.profile import INHERIT_RULES
 
 __all__ = ["add_commands", "add_config_flags", "config_flag_names"]
 
 _SHORT_FLAGS = {"duration_s": ("--duration",)}
 #: The allowed values of the fields that take a name.
-_CHOICES = {"inference": INFERENCE_NAMES, "estimation_search": ESTIMATION_SEARCHES, "oob_experiments": OOB_EXPERIMENTS}
+_CHOICES = {"inference": INFERENCE_NAMES, "estimation_search": ESTIMATION_SEARCHES, "oob_experiments": OOB_EXPERIMENTS,
+            "profile_inherit": INHERIT_RULES}
 
 
 def config_flag_names(exclude: Iterable[str] = ()) -> tuple[str, ...]:
@@ -46,7 +48,8 @@ def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = (
     Field ``estimation_population`` becomes ``--estimation-population`` (``duration_s``
     also ``--duration``), stored under the field's name, with the field's type, its
     dataclass default and :data:`eea.config.FIELD_HELP` as help; named settings
-    (``inference``, ``estimation_search``, ``oob_experiments``) list their choices.
+    (``inference``, ``estimation_search``, ``oob_experiments``, ``profile_inherit``) list their
+    choices.
 
     Args:
         parser: the (sub-)command's parser.

@@ -19,6 +19,7 @@ from aquafish_gym import DT_S, get_damage
 from aquafish_gym.checks import check_int
 from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
 from eea.model_search import SEARCH_NAMES
+from eea.profile import INHERIT_RULES
 
 __all__ = ["ESTIMATION_SEARCHES", "EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS"]
 
@@ -80,6 +81,9 @@ FIELD_HELP: dict[str, str] = {
     "profile_contenders": "profile: the fittest new models refined per generation (with profile_refine > 0)",
     "profile_contender_distance": "profile: 0: the contenders are the fittest new models; d > 0: the fittest new "
                                   "models at least d apart (1 - OBJ_FIT between them; not the paper's)",
+    "profile_inherit": "profile: a new model inherits the angles of the nearest remembered model in hamming "
+                       "distance (a GA child's parent) or in morphology (1 - OBJ_FIT; a CMA-ES sample's nearest point; "
+                       "not the paper's)",
     "oob_experiments": "out_of_band: angles refined by each inference: newest (the paper's: only the newest "
                        "experiment) or all (also every older experiment at generation 0 of each round; not the paper's)",
     "workers": "worker processes for simulations (1 = serial); never changes results",
@@ -140,6 +144,7 @@ class EEAConfig:
     profile_refine: int = 0
     profile_contenders: int = 3
     profile_contender_distance: float = 0.0
+    profile_inherit: str = "hamming"
     workers: int = dataclasses.field(default_factory=_default_workers)
     max_batch_robots: int = 64
 
@@ -152,6 +157,8 @@ class EEAConfig:
                              f"valid names: {', '.join(ESTIMATION_SEARCHES)}")
         if self.oob_experiments not in OOB_EXPERIMENTS:
             raise ValueError(f"unknown oob_experiments {self.oob_experiments!r}; valid names: {', '.join(OOB_EXPERIMENTS)}")
+        if self.profile_inherit not in INHERIT_RULES:
+            raise ValueError(f"unknown profile_inherit {self.profile_inherit!r}; valid names: {', '.join(INHERIT_RULES)}")
         if isinstance(self.cma_sigma, bool) or not isinstance(self.cma_sigma, (int, float)) \
                 or not 0.0 < self.cma_sigma <= 1.0:
             raise ValueError(f"EEAConfig.cma_sigma must be in (0, 1], got {self.cma_sigma!r}")

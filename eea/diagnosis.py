@@ -143,7 +143,7 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
         distinct = both[:1] if (both[0] == both[1]).all() else both  # the run may have found the truth
         proposed = refined = None
         if result.config.inference == "profile" and state.inference:
-            remembered = Profile()
+            remembered = Profile.from_config(result.config)  # the run's inherit rule
             remembered.load_state_dict(state.inference)
             proposed = fit(truth, remembered.starting_angles(truth, len(experiments), np.random.default_rng(seed)))
             if refine:

@@ -20,7 +20,11 @@ experiment, :class:`Profile` tries
 in one batched :meth:`Evaluator.similarities` call (every candidate row carries one
 candidate for every experiment: an experiment's similarity depends only on its own
 angles), and keeps the best per experiment. A model never seen before inherits the memory
-of the nearest (Hamming) model of the previous generation, i.e. of its parent. A new
+of the nearest model of the previous generation, i.e. of its parent: nearest in Hamming
+distance between genomes (``inherit="hamming"``, the default: a GA child's parent) or in
+morphology, 1 - OBJ_FIT between the two models (``inherit="morphology"``,
+:func:`eea.diversity.model_distance`: a CMA-ES sample's nearest point; with the binary
+genome a step of one level can flip up to all bits of a field, e.g. level 15 -> 16 flips 5). A new
 experiment is first tried from ``initial`` random angle sets per model. The estimation
 generation itself then simulates nothing new: its angles are the remembered ones.
 
@@ -50,13 +54,16 @@ from __future__ import annotations
 import numpy as np
 
 from eea.arc import TWO_PI
-from eea.diversity import diverse_indices
+from eea.diversity import diverse_indices, model_distance
 from eea.encoding import MODEL_BITS, genome_keys, genomes_from_keys
 from eea.experiment import CAUDAL_LIMIT_RAD, Context, random_angles
 from eea.fitness import model_fitness_from_similarities
 from eea.strategy import Experiments, InferenceStrategy
 
-__all__ = ["Profile"]
+__all__ = ["INHERIT_RULES", "Profile"]
+
+#: How a new model picks the remembered model whose angles it inherits (module docstring).
+INHERIT_RULES: tuple[str, ...] = ("hamming", "morphology")
 
 #: Normal step sizes of a perturbation (rad): pectorals, caudal fin; one pair drawn per candidate.
 _STEPS_RAD = np.array([[0.1, 0.02], [0.4, 0.08], [1.2, 0.2]])
@@ -73,22 +80,27 @@ class Profile(InferenceStrategy):
         contenders: new models refined per generation, the fittest first (>= 1).
         contender_distance: minimum distance between contenders, in [0, 1) (0: the fittest
             new models, whatever their distance).
+        inherit: which remembered model a new one inherits angles from, the nearest in
+            ``"hamming"`` distance or in ``"morphology"`` (:data:`INHERIT_RULES`).
 
     Raises:
-        ValueError: if ``proposals``, ``initial`` or ``contenders`` is < 1, ``refine`` < 0 or
-            ``contender_distance`` is outside [0, 1).
+        ValueError: if ``proposals``, ``initial`` or ``contenders`` is < 1, ``refine`` < 0,
+            ``contender_distance`` is outside [0, 1) or ``inherit`` is not a rule name.
     """
 
     name = "profile"
 
     def __init__(self, proposals: int = 2, initial: int = 8, refine: int = 0, contenders: int = 3,
-                 contender_distance: float = 0.0) -> None:
+                 contender_distance: float = 0.0, inherit: str = "hamming") -> None:
         if proposals < 1 or initial < 1 or contenders < 1 or refine < 0:
             raise ValueError(f"Profile needs proposals >= 1, initial >= 1, refine >= 0 and contenders >= 1, "
                              f"got {proposals}, {initial}, {refine}, {contenders}")
         if isinstance(contender_distance, bool) or not isinstance(contender_distance, (int, float)) \
                 or not 0.0 <= contender_distance < 1.0:
             raise ValueError(f"Profile needs contender_distance in [0, 1), got {contender_distance!r}")
+        if inherit not in INHERIT_RULES:
+            raise ValueError(f"Profile needs inherit in {INHERIT_RULES}, got {inherit!r}")
+        self.inherit = inherit
         self.proposals, self.initial = int(proposals), int(initial)
         self.refine, self.contenders = int(refine), int(contenders)
         self.contender_distance = float(contender_distance)
@@ -98,7 +110,7 @@ class Profile(InferenceStrategy):
     @classmethod
     def from_config(cls, config):
         return cls(config.profile_proposals, config.profile_initial, config.profile_refine,
-                   config.profile_contenders, config.profile_contender_distance)
+                   config.profile_contenders, config.profile_contender_distance, config.profile_inherit)
 
     def new_context(self, true_angles):
         return Context.exact(np.zeros(3))  # replaced by the best model's angles after each generation
@@ -115,7 +127,9 @@ class Profile(InferenceStrategy):
         for u, key in enumerate(genome_keys(genomes)):
             entry = self._memory.get(key)
             if entry is None and parents is not None:  # the nearest model of the last generation
-                nearest = int(np.argmin((parents != genomes[u]).sum(axis=1)))
+                distance = (parents != genomes[u]).sum(axis=1) if self.inherit == "hamming" \
+                    else model_distance(parents, genomes[u])
+                nearest = int(np.argmin(distance))
                 entry = self._memory[known[nearest]]
                 entry = (entry[0], np.full(len(entry[1]), np.nan))  # its angles, not its scores
             m = 0 if entry is None else len(entry[1])
@@ -190,8 +204,8 @@ class Profile(InferenceStrategy):
     def starting_angles(self, genomes, n_experiments: int, rng: np.random.Generator) -> np.ndarray:
         """The angles models would start from if the search proposed them now, before any fit.
 
-        A remembered model's own angles; any other model's are those of the nearest (Hamming)
-        remembered model, as in :meth:`before_generation`; random angles for experiments
+        A remembered model's own angles; any other model's are those of the nearest
+        remembered model (by the ``inherit`` rule), as in :meth:`before_generation`; random angles for experiments
         nobody has angles for yet. :mod:`eea.diagnosis` scores the truth under them: what it
         would be judged by the moment the search proposed it.
 

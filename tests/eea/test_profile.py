@@ -147,6 +147,25 @@ def test_starting_angles_are_own_then_nearest_remembered_then_random():
     assert np.all((got[:, 2, :2] >= 0) & (got[:, 2, :2] < TWO_PI))
 
 
+def test_a_new_model_inherits_from_the_nearest_in_hamming_or_in_morphology():
+    from aquafish_gym import MORPHOLOGY_BOUNDS
+    from eea.encoding import MODEL_FIELD_BITS, decode_models, encode_models
+    lo, hi = MORPHOLOGY_BOUNDS[:, 0], MORPHOLOGY_BOUNDS[:, 1]
+    low, high, new = np.zeros((3, 9))
+    high[1], new[1] = 31, 32                                      # left pectoral y (6 bits): 011111 and 100000
+    low_g, high_g, new_g = (encode_models(lo + (hi - lo) * v / 2.0 ** np.array(MODEL_FIELD_BITS)) for v in (low, high, new))
+    assert (new_g != low_g).sum() == 1 and (new_g != high_g).sum() == 6  # 1 bit from `low`, 1 level from `high`
+    assert decode_models(new_g)[1] - decode_models(high_g)[1] == pytest.approx(2 / 64)
+    a_low, a_high = np.full((1, 3), 0.25), np.full((1, 3), 1.5)
+    memory = {"memory": {low_g.tobytes(): (a_low, np.ones(1)), high_g.tobytes(): (a_high, np.ones(1))}}
+    for inherit, expected in (("hamming", a_low), ("morphology", a_high)):
+        s = Profile(inherit=inherit)
+        s.load_state_dict(memory)
+        np.testing.assert_array_equal(s.starting_angles(new_g, 1, np.random.default_rng(0))[0], expected)
+    with pytest.raises(ValueError, match="inherit in .'hamming', 'morphology'., got 'nearest'"):
+        Profile(inherit="nearest")
+
+
 def test_profile_run_resumes_exactly(tmp_path, tiny_config, monkeypatch):
     import csv
     config = tiny_config(inference="profile", rounds=3, profile_proposals=1, profile_initial=2)
@@ -176,6 +195,8 @@ def test_bad_settings_raise(tiny_config):
         tiny_config(inference="profile", profile_initial=0)
     with pytest.raises(ValueError, match="unknown keys"):
         Profile().load_state_dict({"memo": {}})
+    with pytest.raises(ValueError, match="unknown profile_inherit 'parent'; valid names: hamming, morphology"):
+        tiny_config(inference="profile", profile_inherit="parent")
 
 
 def test_fit_finds_each_models_own_peak_and_keeps_a_perfect_start(make_experiment):
