@@ -162,9 +162,8 @@ def comparison_table(summary: dict[str, VariantSummary], baseline: str | None = 
     if baseline not in summary:
         raise ValueError(f"baseline {baseline!r} is not a variant; variants: {', '.join(summary)}")
     base = summary[baseline]
-    level = next(iter(summary.values())).level
     lines = [f"| variant | seeds | final OBJ_FIT (round {base.rounds}) | per seed | p vs {baseline} (seeds) | "
-             f"reach {level:g} (median round) | >= 0.95 | median angle error L / R / C (°) | simulations per round |",
+             f"reach {base.level:g} (median round) | >= 0.95 | median angle error L / R / C (°) | simulations per round |",
              "|---|---|---|---|---|---|---|---|---|"]
     for label, s in summary.items():
         common = np.intersect1d(s.seeds, base.seeds)
