@@ -27,6 +27,12 @@ the final model's MOD_FIT, the truth would be rejected on sight: the incumbents'
 have been refined for many generations, a newcomer's not at all. With ``refine`` R > 0 an
 eighth: the same proposed truth after R rounds of contender refinement (``Profile`` with
 ``refine=R``, the run's proposals), which tells what ``--profile-refine R`` would buy.
+
+A search failure has two kinds, told apart without a simulation from the models the run
+scored (its estimation cache, :meth:`eea.evaluation.Evaluator.scored_models`): the run
+never proposed a model near the truth (the closest model it scored is far from it), or it
+proposed better models than the one it ended with and rejected them (``better_seen`` > 0:
+that many scored models have a higher OBJ_FIT, eq. 4, than the final one).
 """
 
 from __future__ import annotations
@@ -39,8 +45,8 @@ import numpy as np
 
 from aquafish_gym import Morphology, get_damage
 from eea.checkpoint import load_state
-from eea.encoding import encode_models
-from eea.fitness import model_fitness_from_similarities
+from eea.encoding import decode_models, encode_models
+from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from eea.profile import Profile
@@ -73,6 +79,10 @@ class RunDiagnosis:
             docstring).
         true_refined: ``profile`` runs with ``refine`` > 0 only (else None): the proposed
             truth after ``refine`` rounds of contender refinement.
+        seen: distinct models the run's estimation scored (None: no cache in the checkpoint).
+        closest_seen: the highest OBJ_FIT (eq. 4) among them (None with ``seen``).
+        better_seen: how many of them have a higher OBJ_FIT than the final model (None with
+            ``seen``).
     """
 
     out_dir: Path
@@ -87,6 +97,9 @@ class RunDiagnosis:
     per_model: bool = False
     true_proposed: float | None = None
     true_refined: float | None = None
+    seen: int | None = None
+    closest_seen: float | None = None
+    better_seen: int | None = None
 
     @property
     def verdict(self) -> str:
@@ -133,7 +146,9 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
     inferred = np.stack([e.context.estimate() for e in experiments])[None]   # (1, E, 3)
     true = np.stack([e.true_angles for e in experiments])[None]
     final = encode_models(result.best_morphology.to_array()[None])
-    truth = encode_models(get_damage(result.config.damage).apply(Morphology.healthy()).to_array()[None])
+    true_dims = get_damage(result.config.damage).apply(Morphology.healthy()).to_array()
+    truth = encode_models(true_dims[None])
+    seen = _seen(state.evaluator, result.config.steps, true_dims, result.best_morphology.to_array())
     with Evaluator(result.config.steps, workers=workers, max_batch_robots=result.config.max_batch_robots) as ev:
         def fit(genome, angles):
             return float(model_fitness_from_similarities(ev.similarities(genome, experiments, angles))[0])
@@ -154,7 +169,23 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
         profiled = np.resize(fitted, 2)  # (final, truth): one fit serves both when they coincide
         return RunDiagnosis(Path(out_dir), result.config.inference, len(experiments), *scores,
                             float(profiled[0]), float(profiled[1]), per_model=result.config.inference == "profile",
-                            true_proposed=proposed, true_refined=refined)
+                            true_proposed=proposed, true_refined=refined, **seen)
+
+
+def _seen(cache: dict, steps: int, true_dims: np.ndarray, final_dims: np.ndarray) -> dict:
+    """``seen``, ``closest_seen`` and ``better_seen`` of :class:`RunDiagnosis` from a checkpoint's
+    evaluator state (all None if it has none), before the diagnosis adds the truth to a cache."""
+    if not cache:
+        return {}
+    evaluator = Evaluator(steps)
+    evaluator.load_state_dict(cache)
+    genomes, _ = evaluator.scored_models()
+    if not len(genomes):
+        return {"seen": 0}
+    objective = objective_fitness(decode_models(genomes), true_dims)
+    final = float(objective_fitness(final_dims[None], true_dims)[0])
+    return {"seen": len(genomes), "closest_seen": float(objective.max()),
+            "better_seen": int((objective > final + 1e-12).sum())}
 
 
 def _refined_truth(memory: dict, genomes, experiments, evaluator, config, refine: int, seed: int) -> float:

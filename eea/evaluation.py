@@ -32,7 +32,7 @@ import numpy as np
 from aquafish_gym import SimParams, simulate_batch
 from aquafish_gym.checks import check_int
 from eea.behaviour import behaviour_summary, similarity
-from eea.encoding import decode_models
+from eea.encoding import MODEL_BITS, decode_models
 from eea.experiment import Experiment, check_params, quantise_angles
 
 __all__ = ["Evaluator"]
@@ -217,3 +217,29 @@ class Evaluator:
     def cache_size(self) -> int:
         """Number of cached estimation similarities."""
         return len(self._similarity)
+
+    def scored_models(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every model the estimation cache holds: the models a run has scored, and how well.
+
+        :mod:`eea.diagnosis` asks whether a run ever proposed a model near the truth.
+
+        Returns:
+            ``(genomes, similarities)``: ``(N, 45)`` uint8 distinct model genomes, in the order
+            they were first scored, and ``(N, E)`` float64, each model's best cached similarity
+            (eq. 2) per experiment over the initial angles it was scored under, NaN where it
+            was never scored on that experiment; E is one more than the largest experiment
+            index in the cache (no models: shapes ``(0, 45)`` and ``(0, 0)``).
+        """
+        width = -(-MODEL_BITS // 8)  # bytes of a packed genome key (_genome_keys)
+        rows: dict[bytes, int] = {}
+        entries = []
+        for key, value in self._similarity.items():
+            row = rows.setdefault(key[:width], len(rows))
+            entries.append((row, int.from_bytes(key[width:width + 4], "little"), value))
+        n_exp = 1 + max((e for _, e, _ in entries), default=-1)
+        similarities = np.full((len(rows), n_exp), np.nan)
+        for row, e, value in entries:
+            if not similarities[row, e] >= value:
+                similarities[row, e] = value
+        packed = np.frombuffer(b"".join(rows), dtype=np.uint8).reshape(len(rows), width)
+        return np.unpackbits(packed, axis=1)[:, :MODEL_BITS], similarities

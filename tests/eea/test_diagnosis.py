@@ -20,6 +20,20 @@ def test_truth_reproduces_the_target_exactly_under_true_angles(tmp_path, tiny_co
     assert d.final_inferred == pytest.approx(result.rounds[-1]["model_fitness"], abs=1e-12)
     # own fitted angles, started from the inferred ones: never worse than those
     assert d.final_profiled >= d.final_inferred and d.true_profiled >= d.true_inferred
+    # the models the run scored: its final model among them, none better than it counted wrongly
+    from aquafish_gym import Morphology, get_damage
+    from eea.checkpoint import load_state
+    from eea.evaluation import Evaluator
+    from eea.encoding import decode_models
+    from eea.fitness import objective_fitness
+    ev = Evaluator(tiny_config().steps)
+    ev.load_state_dict(load_state(tmp_path).evaluator)
+    genomes, _ = ev.scored_models()
+    objective = objective_fitness(decode_models(genomes), get_damage(result.config.damage).apply(Morphology.healthy()).to_array())
+    final = result.rounds[-1]["objective_fitness"]
+    assert d.seen == len(genomes) >= tiny_config().estimation_population
+    assert d.closest_seen == objective.max() >= final
+    assert d.better_seen == (objective > final + 1e-12).sum()
     if inference == "known":                          # inferred = true angles
         assert d.true_inferred == 1.0 and d.final_true_angles == d.final_inferred
         assert d.true_profiled == 1.0

@@ -51,6 +51,22 @@ def test_cache_never_simulates_a_key_twice(simulator_spy, make_experiment):
         assert fresh.simulations == 9 and len(simulator_spy.calls) == 3
 
 
+def test_scored_models_lists_every_genome_with_its_best_similarity_per_experiment(make_experiment):
+    exps = [make_experiment(0), make_experiment(1)]
+    genomes = _genomes(3)
+    with Evaluator(16) as ev:
+        assert [x.shape for x in ev.scored_models()] == [(0, 45), (0, 0)]
+        a = ev.similarities(genomes, exps, np.zeros((3, 2, 3)))
+        b = ev.similarities(genomes[:2], exps, np.full((2, 2, 3), 0.4))       # other angles for two of them
+        c = ev.similarities(genomes[2:], [make_experiment(3)], np.zeros((1, 1, 3)))  # experiment index 3 only
+        seen, sims = ev.scored_models()
+    np.testing.assert_array_equal(seen, genomes)                                # first-scored order, exact bits
+    assert sims.shape == (3, 4)
+    np.testing.assert_array_equal(sims[:2, :2], np.maximum(a[:2], b))           # best over the angles tried
+    np.testing.assert_array_equal(sims[2, :2], a[2])
+    assert sims[2, 3] == c[0, 0] and np.isnan(sims[:, 2]).all() and np.isnan(sims[:2, 3]).all()
+
+
 def test_angles_are_snapped_to_the_grid_before_simulating(simulator_spy, make_experiment):
     angles = np.array([[[2 * np.pi + 0.3000004, -0.1, 0.2]]])
     with Evaluator(16) as ev:
