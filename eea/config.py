@@ -84,6 +84,8 @@ FIELD_HELP: dict[str, str] = {
     "profile_inherit": "profile: a new model inherits the angles of the nearest remembered model in hamming "
                        "distance (a GA child's parent) or in morphology (1 - OBJ_FIT; a CMA-ES sample's nearest point; "
                        "not the paper's)",
+    "profile_library": "profile: 0: off; L > 0: every contender (profile_refine > 0) first tries, per experiment, "
+                       "the L best-scoring angle sets any model has tried, at least 0.5 rad apart (not the paper's)",
     "oob_experiments": "out_of_band: angles refined by each inference: newest (the paper's: only the newest "
                        "experiment) or all (also every older experiment at generation 0 of each round; not the paper's)",
     "workers": "worker processes for simulations (1 = serial); never changes results",
@@ -145,6 +147,7 @@ class EEAConfig:
     profile_contenders: int = 3
     profile_contender_distance: float = 0.0
     profile_inherit: str = "hamming"
+    profile_library: int = 0
     workers: int = dataclasses.field(default_factory=_default_workers)
     max_batch_robots: int = 64
 
@@ -173,6 +176,7 @@ class EEAConfig:
             "tournament_size": 1, "elitism": 0, "k_best": 1, "oob_period": 1, "oob_sample": 1,
             "oob_population": 1, "oob_generations": 1, "oob_bits": 2, "workers": 1,
             "profile_proposals": 1, "profile_initial": 1, "profile_refine": 0, "profile_contenders": 1,
+            "profile_library": 0,
             "max_batch_robots": 1, "cma_global_period": 0, "cma_global_share": 0,
         }
         for name, low in minimum.items():

@@ -191,7 +191,8 @@ def _seen(cache: dict, steps: int, true_dims: np.ndarray, final_dims: np.ndarray
 def _refined_truth(memory: dict, genomes, experiments, evaluator, config, refine: int, seed: int) -> float:
     """The truth's MOD_FIT after one generation with contender refinement; ``genomes`` are the
     distinct (final, truth) models, the truth last (alone if the run found it)."""
-    profile = Profile(config.profile_proposals, config.profile_initial, refine=refine, contenders=1)
+    profile = Profile(config.profile_proposals, config.profile_initial, refine=refine, contenders=1,
+                      library=config.profile_library)
     profile.load_state_dict(memory)
     profile.before_generation(0, genomes, experiments, evaluator, np.random.default_rng(seed), genomes=genomes)
     angles = profile.angles(experiments, genomes[-1:], None)

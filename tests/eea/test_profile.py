@@ -166,9 +166,50 @@ def test_a_new_model_inherits_from_the_nearest_in_hamming_or_in_morphology():
         Profile(inherit="nearest")
 
 
-def test_profile_run_resumes_exactly(tmp_path, tiny_config, monkeypatch):
+def test_the_library_keeps_the_best_sets_at_least_the_spacing_apart():
+    from eea.profile import LIBRARY_SPACING_RAD
+    s = Profile(library=3)
+    sets = np.array([[0.0, 0.0, 0.0],          # best
+                     [0.3, 0.1, 0.0],          # within 0.5 rad of it: dropped
+                     [6.2, 1.0, 0.0],          # 1.0 away on the right pectoral (0.08 on the left, across 2 pi)
+                     [0.0, 0.0, 0.2],          # caudal 0.2 counts 0.6: kept
+                     [3.0, 3.0, 0.0]])         # 4th best of the spaced ones: over L
+    scores = np.array([0.99, 0.98, 0.97, 0.96, 0.95])
+    s._add_to_library(sets[:, None, None], scores[:, None, None])   # (C, U = 1, E = 1, 3)
+    angles, sims = s.library_sets(0)
+    np.testing.assert_array_equal(angles, sets[[0, 2, 3]])
+    np.testing.assert_array_equal(sims, scores[[0, 2, 3]])
+    s._add_to_library(np.array([[[[0.1, 0.0, 0.0]]], [[[3.0, 3.0, 0.0]]]]), np.array([[[0.995]], [[0.975]]]))
+    angles, sims = s.library_sets(0)                                   # a better set displaces its near neighbour
+    np.testing.assert_array_equal(angles, [[0.1, 0.0, 0.0], [3.0, 3.0, 0.0], [6.2, 1.0, 0.0]])
+    assert LIBRARY_SPACING_RAD == 0.5 and s.library_sets(1)[0].shape == (0, 3)
+
+
+def test_a_contender_tries_every_library_set_before_its_refinement(make_experiment):
+    exps, parent, fake, trained, rng = _trained_on_one_parent(make_experiment)
+    child = parent.copy()
+    child[0, 2] = 1                                               # its own peaks, far from the parent's
+    peaks = np.stack([fake.peak(child[0], e.index) for e in exps])
+    state = trained.state_dict()
+    decoy = np.array([1.0, 1.0, 0.0])
+    state["library"] = [(np.stack([peaks[e], decoy]), np.array([0.9, 0.8])) for e in range(len(exps))]
+    results = {}
+    for library in (0, 2):
+        s = Profile(proposals=2, initial=4, refine=1, contenders=1, library=library)
+        s.load_state_dict(state)
+        rows = fake.rows
+        s.before_generation(30, child, exps, fake, np.random.default_rng(5), genomes=child)
+        results[library] = (fake.rows - rows, fake.similarities(child, exps, s.angles(exps, child, rng)).mean())
+    (rows0, fit0), (rows2, fit2) = results[0], results[2]
+    assert rows2 - rows0 == 1 * 2 * len(exps)                    # K L E more simulations
+    assert fit2 > 0.999 > 0.9 > fit0                             # the library held its peaks; inherited angles did not
+
+
+@pytest.mark.parametrize("library", [0, 3])
+def test_profile_run_resumes_exactly(tmp_path, tiny_config, library):
     import csv
-    config = tiny_config(inference="profile", rounds=3, profile_proposals=1, profile_initial=2)
+    config = tiny_config(inference="profile", rounds=3, profile_proposals=1, profile_initial=2,
+                         profile_refine=2 if library else 0, profile_library=library)
     eea.run(config, tmp_path / "straight", progress=False)
     eea.run(config.replace(rounds=2), tmp_path / "resumed", progress=False)
     eea.run(config, tmp_path / "resumed", progress=False)
@@ -197,6 +238,10 @@ def test_bad_settings_raise(tiny_config):
         Profile().load_state_dict({"memo": {}})
     with pytest.raises(ValueError, match="unknown profile_inherit 'parent'; valid names: hamming, morphology"):
         tiny_config(inference="profile", profile_inherit="parent")
+    with pytest.raises(ValueError, match="Profile library must be an int >= 0"):
+        Profile(library=-1)
+    with pytest.raises(ValueError, match="profile_library"):
+        tiny_config(inference="profile", profile_library=-1)
 
 
 def test_fit_finds_each_models_own_peak_and_keeps_a_perfect_start(make_experiment):
