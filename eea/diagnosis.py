@@ -174,7 +174,8 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
 
 def _seen(cache: dict, steps: int, true_dims: np.ndarray, final_dims: np.ndarray) -> dict:
     """``seen``, ``closest_seen`` and ``better_seen`` of :class:`RunDiagnosis` from a checkpoint's
-    evaluator state (all None if it has none), before the diagnosis adds the truth to a cache."""
+    evaluator state (all None if it has none), read by an evaluator of its own so that the
+    diagnosis's simulations, the truth's among them, are not counted."""
     if not cache:
         return {}
     evaluator = Evaluator(steps)
