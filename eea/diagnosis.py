@@ -32,7 +32,8 @@ A search failure has two kinds, told apart without a simulation from the models 
 scored (its estimation cache, :meth:`eea.evaluation.Evaluator.scored_models`): the run
 never proposed a model near the truth (the closest model it scored is far from it), or it
 proposed better models than the one it ended with and rejected them (``better_seen`` > 0:
-that many scored models have a higher OBJ_FIT, eq. 4, than the final one).
+that many scored models have a higher OBJ_FIT, eq. 4, than the final one). A run whose final
+model is the truth gets the verdict ``found``.
 """
 
 from __future__ import annotations
@@ -83,6 +84,7 @@ class RunDiagnosis:
         closest_seen: the highest OBJ_FIT (eq. 4) among them (None with ``seen``).
         better_seen: how many of them have a higher OBJ_FIT than the final model (None with
             ``seen``).
+        found: whether the final model is the true morphology (then there is no failure).
     """
 
     out_dir: Path
@@ -100,10 +102,14 @@ class RunDiagnosis:
     seen: int | None = None
     closest_seen: float | None = None
     better_seen: int | None = None
+    found: bool = False
 
     @property
     def verdict(self) -> str:
-        """``"search"``, ``"inference"`` or ``"identifiability"`` (see the module docstring)."""
+        """``"found"`` if the run ended at the truth, else ``"search"``, ``"inference"`` or
+        ``"identifiability"`` (see the module docstring)."""
+        if self.found:
+            return "found"
         final_in_run = self.final_profiled if self.per_model else self.final_inferred
         true_in_run = self.true_profiled if self.per_model else self.true_inferred
         if true_in_run > final_in_run:
@@ -169,7 +175,7 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
         profiled = np.resize(fitted, 2)  # (final, truth): one fit serves both when they coincide
         return RunDiagnosis(Path(out_dir), result.config.inference, len(experiments), *scores,
                             float(profiled[0]), float(profiled[1]), per_model=result.config.inference == "profile",
-                            true_proposed=proposed, true_refined=refined, **seen)
+                            true_proposed=proposed, true_refined=refined, found=len(distinct) == 1, **seen)
 
 
 def _seen(cache: dict, steps: int, true_dims: np.ndarray, final_dims: np.ndarray) -> dict:

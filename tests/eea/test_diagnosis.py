@@ -34,6 +34,7 @@ def test_truth_reproduces_the_target_exactly_under_true_angles(tmp_path, tiny_co
     assert d.seen == len(genomes) >= tiny_config().estimation_population
     assert d.closest_seen == objective.max() >= final
     assert d.better_seen == (objective > final + 1e-12).sum()
+    assert d.found == (final == 1.0) and (d.verdict == "found") == d.found
     if inference == "known":                          # inferred = true angles
         assert d.true_inferred == 1.0 and d.final_true_angles == d.final_inferred
         assert d.true_profiled == 1.0
@@ -52,6 +53,10 @@ def test_verdict_names_the_failure():
     assert diagnosis("out_of_band", 0.985, 0.976, 0.990, 0.989).verdict == "identifiability"
     # profile gives every model its own angles: the truth under the final model's angles does not count
     assert diagnosis("profile", 0.985, 0.96, 0.986, 0.996).verdict == "search"
+    # a run that ended at the truth did not fail, although the truth then fits no better than the final model
+    ended_at_truth = RunDiagnosis(Path("r"), "profile", 10, 0.9998, 0.9998, final_true_angles=1.0, true_true_angles=1.0,
+                                  final_profiled=0.9998, true_profiled=0.9998, per_model=True, found=True)
+    assert ended_at_truth.verdict == "found"
     assert diagnosis("profile", 0.985, 0.96, 0.986, 0.980).verdict == "identifiability"
 
 
