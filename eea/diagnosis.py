@@ -190,7 +190,7 @@ def _seen(cache: dict, steps: int, true_dims: np.ndarray, final_dims: np.ndarray
     if not len(genomes):
         return {"seen": 0}
     objective = objective_fitness(decode_models(genomes), true_dims)
-    final = float(objective_fitness(final_dims[None], true_dims)[0])
+    final = objective_fitness(final_dims, true_dims)
     return {"seen": len(genomes), "closest_seen": float(objective.max()),
             "better_seen": int((objective > final + 1e-12).sum())}
 

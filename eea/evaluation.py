@@ -49,6 +49,12 @@ def _genome_keys(genomes: np.ndarray) -> list[bytes]:
     return [row.tobytes() for row in packed]
 
 
+def _genomes_from_keys(keys: list[bytes], n_bits: int) -> np.ndarray:
+    """The ``(N, n_bits)`` uint8 genomes of :func:`_genome_keys` keys (its inverse)."""
+    packed = np.frombuffer(b"".join(keys), dtype=np.uint8).reshape(len(keys), -(-n_bits // 8))
+    return np.unpackbits(packed, axis=1)[:, :n_bits]
+
+
 class Evaluator:
     """Turns batches of (model genome, action, initial angles) into behaviour results.
 
@@ -230,7 +236,7 @@ class Evaluator:
             was never scored on that experiment; E is one more than the largest experiment
             index in the cache (no models: shapes ``(0, 45)`` and ``(0, 0)``).
         """
-        width = -(-MODEL_BITS // 8)  # bytes of a packed genome key (_genome_keys)
+        width = -(-MODEL_BITS // 8)  # bytes of a genome's key (_genome_keys), then the experiment index
         rows: dict[bytes, int] = {}
         entries = []
         for key, value in self._similarity.items():
@@ -241,5 +247,4 @@ class Evaluator:
         for row, e, value in entries:
             if not similarities[row, e] >= value:
                 similarities[row, e] = value
-        packed = np.frombuffer(b"".join(rows), dtype=np.uint8).reshape(len(rows), width)
-        return np.unpackbits(packed, axis=1)[:, :MODEL_BITS], similarities
+        return _genomes_from_keys(list(rows), MODEL_BITS), similarities

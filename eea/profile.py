@@ -51,7 +51,8 @@ the 10 experiments of a finished run (README, "An angle library"), the truth pro
 inherited angles scores MOD_FIT 0.9976 against the final model's 0.9991. Started from the
 best of a library built the same way from every set the run scored (8 sets 0.7 rad apart,
 or 32 sets 0.4 rad apart) and refined for 10 rounds of 2 proposals, it scores 0.9992
-(0.9994), where the final model gets 0.9991 the same way. Cost: ``K L E`` more simulations per generation with new models.
+(0.9994), where the final model gets 0.9991 the same way. Cost: ``K L E`` more simulations
+per generation with new models.
 
 Cost: about ``U (proposals + 1) E`` simulations per generation for U distinct models and E
 experiments, plus ``U initial`` at the first generation of a round (3-4 times the
