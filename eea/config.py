@@ -86,6 +86,8 @@ FIELD_HELP: dict[str, str] = {
                        "not the paper's)",
     "profile_library": "profile: 0: off; L > 0: every contender (profile_refine > 0) first tries, per experiment, "
                        "the L best-scoring angle sets any model has tried, at least 0.5 rad apart (not the paper's)",
+    "profile_library_newcomers": "profile: 0: off; S in [1, profile_library]: every model new in a generation first "
+                                 "tries, per experiment, the S best sets of the angle library (not the paper's)",
     "oob_experiments": "out_of_band: angles refined by each inference: newest (the paper's: only the newest "
                        "experiment) or all (also every older experiment at generation 0 of each round; not the paper's)",
     "workers": "worker processes for simulations (1 = serial); never changes results",
@@ -148,6 +150,7 @@ class EEAConfig:
     profile_contender_distance: float = 0.0
     profile_inherit: str = "hamming"
     profile_library: int = 0
+    profile_library_newcomers: int = 0
     workers: int = dataclasses.field(default_factory=_default_workers)
     max_batch_robots: int = 64
 
@@ -176,7 +179,7 @@ class EEAConfig:
             "tournament_size": 1, "elitism": 0, "k_best": 1, "oob_period": 1, "oob_sample": 1,
             "oob_population": 1, "oob_generations": 1, "oob_bits": 2, "workers": 1,
             "profile_proposals": 1, "profile_initial": 1, "profile_refine": 0, "profile_contenders": 1,
-            "profile_library": 0,
+            "profile_library": 0, "profile_library_newcomers": 0,
             "max_batch_robots": 1, "cma_global_period": 0, "cma_global_share": 0,
         }
         for name, low in minimum.items():
@@ -202,6 +205,9 @@ class EEAConfig:
         if self.cma_global_share and self.cma_global_period:
             raise ValueError("EEAConfig.cma_global_share and cma_global_period are two ways to search globally; "
                              f"set one of them, got {self.cma_global_share} and {self.cma_global_period}")
+        if self.profile_library_newcomers > self.profile_library:
+            raise ValueError(f"EEAConfig.profile_library_newcomers ({self.profile_library_newcomers}) must be <= "
+                             f"profile_library ({self.profile_library}): a newcomer tries sets of the library")
         if self.elitism > self.oob_population:
             raise ValueError(f"EEAConfig.elitism ({self.elitism}) must be <= oob_population ({self.oob_population})")
         for name in ("crossover_rate", "in_band_confidence"):

@@ -54,6 +54,15 @@ or 32 sets 0.4 rad apart) and refined for 10 rounds of 2 proposals, it scores 0.
 (0.9994), where the final model gets 0.9991 the same way. Cost: ``K L E`` more simulations
 per generation with new models.
 
+Library trial for every newcomer (``library_newcomers`` S > 0, off by default, with
+``library`` >= S): the contenders are the fittest new models under *inherited* angles, so
+nearly always near-copies of the incumbent; a model far from it, e.g. a sample of the
+global CMA-ES share, never reaches the library. With S, every model new this generation
+first tries the S best sets of every experiment's library (after its inherited angles,
+before its perturbations), so it is ranked, and picked as a contender or not, under the
+best angles any model has found. Cost: ``N S E`` more simulations per generation for N
+new models (cached sets are free).
+
 Cost: about ``U (proposals + 1) E`` simulations per generation for U distinct models and E
 experiments, plus ``U initial`` at the first generation of a round (3-4 times the
 estimation cost of ``known`` with the defaults), plus ``K R proposals E`` for the
@@ -103,18 +112,21 @@ class Profile(InferenceStrategy):
         inherit: which remembered model a new one inherits angles from, the nearest in
             ``"hamming"`` distance or in ``"morphology"`` (:data:`INHERIT_RULES`).
         library: L >= 0, angle sets per experiment every contender tries before its
-            refinement (0: off; needs ``refine`` > 0 to matter).
+            refinement (0: off; needs ``refine`` > 0 or ``library_newcomers`` > 0 to matter).
+        library_newcomers: S in [0, ``library``], best library sets per experiment every new
+            model tries before its perturbations (0: off).
 
     Raises:
         ValueError: if ``proposals``, ``initial`` or ``contenders`` is < 1, ``refine`` or
-            ``library`` < 0, ``contender_distance`` is outside [0, 1) or ``inherit`` is not a
-            rule name.
+            ``library`` < 0, ``library_newcomers`` is outside [0, ``library``],
+            ``contender_distance`` is outside [0, 1) or ``inherit`` is not a rule name.
     """
 
     name = "profile"
 
     def __init__(self, proposals: int = 2, initial: int = 8, refine: int = 0, contenders: int = 3,
-                 contender_distance: float = 0.0, inherit: str = "hamming", library: int = 0) -> None:
+                 contender_distance: float = 0.0, inherit: str = "hamming", library: int = 0,
+                 library_newcomers: int = 0) -> None:
         if proposals < 1 or initial < 1 or contenders < 1 or refine < 0:
             raise ValueError(f"Profile needs proposals >= 1, initial >= 1, refine >= 0 and contenders >= 1, "
                              f"got {proposals}, {initial}, {refine}, {contenders}")
@@ -125,6 +137,7 @@ class Profile(InferenceStrategy):
             raise ValueError(f"Profile needs inherit in {INHERIT_RULES}, got {inherit!r}")
         self.inherit = inherit
         self.library = check_int("Profile library", library, 0)
+        self.library_newcomers = check_int("Profile library_newcomers", library_newcomers, 0, self.library)
         self._library: list[tuple[np.ndarray, np.ndarray]] = []        # per experiment: (L_e, 3) angles, (L_e,) sims
         self.proposals, self.initial = int(proposals), int(initial)
         self.refine, self.contenders = int(refine), int(contenders)
@@ -136,7 +149,7 @@ class Profile(InferenceStrategy):
     def from_config(cls, config):
         return cls(config.profile_proposals, config.profile_initial, config.profile_refine,
                    config.profile_contenders, config.profile_contender_distance, config.profile_inherit,
-                   config.profile_library)
+                   config.profile_library, config.profile_library_newcomers)
 
     def new_context(self, true_angles):
         return Context.exact(np.zeros(3))  # replaced by the best model's angles after each generation
@@ -207,6 +220,12 @@ class Profile(InferenceStrategy):
             if fresh.any():
                 starts[:, fresh] = random_angles(rng, self.initial * int(fresh.sum())).reshape(self.initial, -1, 3)
             self._try(starts, distinct, angles, sims, experiments, evaluator)
+        if self.library_newcomers and new.any() and self._library_ready(n_exp):
+            rows = np.flatnonzero(new)
+            a, s = angles[rows], sims[rows]
+            self._try(self._library_candidates(len(rows), n_exp, self.library_newcomers), distinct[rows], a, s,
+                      experiments, evaluator)
+            angles[rows], sims[rows] = a, s
         candidates = [self._perturb(angles, rng) for _ in range(self.proposals)]
         if self._best is not None and self._best in self._memory:
             shared = self._memory[self._best][0]
@@ -238,13 +257,18 @@ class Profile(InferenceStrategy):
                     keep.append(i)
             self._library[e] = (pool[keep], pool_sims[keep])
 
-    def _library_candidates(self, n_models: int, n_experiments: int) -> np.ndarray:
-        """``(L, n_models, E, 3)``: candidate l holds library set l of every experiment (the best
-        set where an experiment has fewer than L)."""
-        out = np.empty((self.library, n_models, n_experiments, 3))
+    def _library_ready(self, n_experiments: int) -> bool:
+        """Whether every one of ``n_experiments`` experiments has at least one library set."""
+        return bool(self.library) and len(self._library) >= n_experiments \
+            and all(len(self._library[e][1]) for e in range(n_experiments))
+
+    def _library_candidates(self, n_models: int, n_experiments: int, count: int) -> np.ndarray:
+        """``(count, n_models, E, 3)``: candidate l holds library set l of every experiment (the
+        best set where an experiment has fewer than ``count``)."""
+        out = np.empty((count, n_models, n_experiments, 3))
         for e in range(n_experiments):
             sets = self._library[e][0]
-            rows = np.minimum(np.arange(self.library), len(sets) - 1)
+            rows = np.minimum(np.arange(count), len(sets) - 1)
             out[:, :, e] = sets[rows][:, None]
         return out
 
@@ -254,9 +278,8 @@ class Profile(InferenceStrategy):
         fitness = model_fitness_from_similarities(sims[rows])
         top = rows[diverse_indices(genomes[rows], fitness, self.contenders, self.contender_distance)]
         a, s = angles[top], sims[top]
-        if self.library and len(self._library) >= len(experiments) \
-                and all(len(self._library[e][1]) for e in range(len(experiments))):
-            self._try(self._library_candidates(len(top), len(experiments)), genomes[top], a, s,
+        if self._library_ready(len(experiments)):
+            self._try(self._library_candidates(len(top), len(experiments), self.library), genomes[top], a, s,
                       experiments, evaluator)
         for _ in range(self.refine):
             self._try(np.stack([self._perturb(a, rng) for _ in range(self.proposals)]), genomes[top], a, s,
@@ -338,7 +361,8 @@ class Profile(InferenceStrategy):
             raise ValueError(f"generations must be >= 1, got {generations}")
         self._memory, self._best, self._library = {}, None, []
         keys = genome_keys(genomes)
-        refine, self.refine = self.refine, 0  # every model fitted as hard: no contenders
+        # every model fitted as hard: no contenders, no library trial for newcomers
+        refine, newcomers, self.refine, self.library_newcomers = self.refine, self.library_newcomers, 0, 0
         try:
             for generation in range(generations):
                 self.before_generation(generation, genomes, experiments, evaluator, rng, genomes=genomes)
@@ -348,7 +372,7 @@ class Profile(InferenceStrategy):
                     self._try(np.asarray(start, dtype=np.float64)[None], genomes, angles, sims, experiments, evaluator)
                     self._memory = {key: (angles[u], sims[u]) for u, key in enumerate(keys)}
         finally:
-            self.refine = refine
+            self.refine, self.library_newcomers = refine, newcomers
         angles = np.stack([self._memory[k][0] for k in keys])
         return angles, model_fitness_from_similarities(np.stack([self._memory[k][1] for k in keys]))
 

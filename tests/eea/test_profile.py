@@ -205,11 +205,35 @@ def test_a_contender_tries_every_library_set_before_its_refinement(make_experime
     assert fit2 > 0.999 > 0.9 > fit0                             # the library held its peaks; inherited angles did not
 
 
-@pytest.mark.parametrize("library", [0, 3])
-def test_profile_run_resumes_exactly(tmp_path, tiny_config, library):
+def test_every_newcomer_tries_the_best_library_sets_and_a_remembered_model_does_not(make_experiment):
+    exps, parent, fake, trained, rng = _trained_on_one_parent(make_experiment)
+    population = np.repeat(parent, 3, axis=0)
+    population[1, 0], population[2, 1] = 1, 1                     # two newcomers with their own peaks
+    peaks = np.stack([[fake.peak(population[m], e.index) for e in exps] for m in (1, 2)])   # (2, E, 3)
+    state = trained.state_dict()
+    state["library"] = [(peaks[:, e], np.array([1.0, 1.0])) for e in range(len(exps))]   # each scored 1 by its model
+    results = {}
+    for newcomers in (0, 2):
+        s = Profile(proposals=2, initial=4, library=2, library_newcomers=newcomers)
+        s.load_state_dict(state)
+        rows = fake.rows
+        s.before_generation(30, population, exps, fake, np.random.default_rng(5), genomes=population)
+        results[newcomers] = (fake.rows - rows, fake.similarities(population, exps, s.angles(exps, population, rng)))
+    (rows0, sims0), (rows2, sims2) = results[0], results[2]
+    assert rows2 - rows0 == 2 * 2 * len(exps)                    # N S E more simulations, N = 2 newcomers
+    np.testing.assert_allclose(sims2[1:], 1.0)                   # each found its own peaks in the library
+    assert sims0[1:].mean(axis=1).max() < 0.9                    # from its parent's angles it did not
+    np.testing.assert_array_equal(sims2[0], sims0[0])            # the remembered parent is not offered the library
+    with pytest.raises(ValueError, match="Profile library_newcomers must be an int >= 0 and <= 2, got 3"):
+        Profile(library=2, library_newcomers=3)
+
+
+@pytest.mark.parametrize("library, newcomers", [(0, 0), (3, 0), (3, 2)])
+def test_profile_run_resumes_exactly(tmp_path, tiny_config, library, newcomers):
     import csv
     config = tiny_config(inference="profile", rounds=3, profile_proposals=1, profile_initial=2,
-                         profile_refine=2 if library else 0, profile_library=library)
+                         profile_refine=2 if library else 0, profile_library=library,
+                         profile_library_newcomers=newcomers)
     eea.run(config, tmp_path / "straight", progress=False)
     eea.run(config.replace(rounds=2), tmp_path / "resumed", progress=False)
     eea.run(config, tmp_path / "resumed", progress=False)
@@ -242,6 +266,8 @@ def test_bad_settings_raise(tiny_config):
         Profile(library=-1)
     with pytest.raises(ValueError, match="profile_library"):
         tiny_config(inference="profile", profile_library=-1)
+    with pytest.raises(ValueError, match=r"profile_library_newcomers \(2\) must be <= profile_library \(1\)"):
+        tiny_config(inference="profile", profile_library=1, profile_library_newcomers=2)
 
 
 def test_fit_finds_each_models_own_peak_and_keeps_a_perfect_start(make_experiment):
