@@ -33,3 +33,22 @@ def test_angle_landscape_peaks_at_the_true_angles(tmp_path, tiny_config, capsys)
     assert "model: truth" in out
     peaks = out.splitlines()[-1]
     assert peaks.strip().startswith("(0, 0): 0.00000")          # the truth reproduces the target exactly there
+
+
+def test_vestigial_flipper_splits_the_objective_error_by_flipper(tmp_path, tiny_config, capsys):
+    from eea.fitness import objective_fitness
+    from eea.run import run
+
+    vestigial = _load("vestigial_flipper")
+    truth = np.array([0.0, 0.0, 0.0, 0.25, 1.0, 0.0625, 0.25, 0.875, 0.375])   # left_pectoral_missing
+    model = truth.copy()
+    model[[0, 2]] = 0.5, 0.25                                   # span half its range, thickness half its range
+    shares = vestigial.error_shares(model, truth)
+    np.testing.assert_allclose(shares, [0.5 / 9, 0, 0.5 / 9, 0, 0, 0, 0, 0, 0])
+    assert np.isclose(1 - shares.sum(), objective_fitness(model, truth))
+    run(tiny_config(inference="none", damage="left_pectoral_missing"), tmp_path, progress=False)
+    vestigial.main([str(tmp_path), "--actions", "2"])
+    rows = capsys.readouterr().out.splitlines()
+    obj, flipper, rest = map(float, rows[1].split()[1:4])
+    assert np.isclose(obj, 1 - flipper - rest, atol=2e-3)       # the two parts are all of the error (3 decimals)
+    assert rows[-1].startswith(f"mean error: {flipper:.3f} on the left_pectoral, {rest:.3f} on the rest")
