@@ -1,8 +1,9 @@
 """How much of a run's OBJ_FIT error is a missing flipper that no response can show (README, issue 14).
 
 On ``left_pectoral_missing`` the truth's left pectoral is 0 x 0 x 0. A model whose left
-flipper has one dimension 0 has no paddle face either, and its other two dimensions barely
-change the response, yet eq. 4 counts their error in full. For every finished run under
+flipper has zero length or span has no paddle face either (zero thickness leaves only the
+paddle), and its other two dimensions barely change the response, yet eq. 4 counts their
+error in full. For every finished run under
 the given directories this prints the final model's OBJ_FIT (eq. 4), the part of its error
 that is the missing flipper's three dimensions, and ``1 - sim`` (eq. 2) between the final
 model's responses with and without that flipper (all three dimensions set to 0) over
