@@ -21,7 +21,7 @@ import argparse
 
 import numpy as np
 
-from aquafish_gym import MORPHOLOGY_BOUNDS, Morphology, get_damage, simulate_batch
+from aquafish_gym import ACTION_BOUNDS, MORPHOLOGY_BOUNDS, Morphology, get_damage, simulate_batch
 from eea.behaviour import behaviour_summary, similarity
 from eea.experiment import random_angles
 from eea.fitness import objective_fitness
@@ -50,7 +50,8 @@ def main(argv=None) -> None:
         parser.error(f"--actions must be >= 1, got {args.actions}")
     rng = np.random.default_rng(args.seed)
     n = args.actions
-    actions = np.column_stack([rng.uniform(-0.5, 0.5, n), rng.uniform(-0.5, 0.5, n), rng.uniform(0.0, 1.0, n)])
+    low, high = np.asarray(ACTION_BOUNDS).T
+    actions = rng.uniform(low, high, (n, len(low)))
     angles = random_angles(rng, n)
     fields = FLIPPER_FIELDS[args.flipper]
     print(f"{'run':<55} {'OBJ_FIT':>7} {'flipper':>7} {'rest':>6}  {args.flipper} (x, y, z)   "
