@@ -18,8 +18,8 @@ EEA (evaluation cache, inference, records) sees ordinary 45-bit model genomes.
 Global restarts (``global_period`` k > 0, off by default): every k-th :meth:`restart`
 starts a fresh distribution at a uniformly random point of the cube instead of at the best
 point, so a run whose incumbent sits in a wrong basin gets to propose models far from it
-(README, "Where the best variant stops"). The incumbent is not lost: during that round it is
-evaluated beside the P - 1 sampled points in every generation (its fitness tracks the grown
+(study record, "Where the best variant stops"). The incumbent is not lost: during that round
+it is evaluated beside the P - 1 sampled points in every generation (its fitness tracks the grown
 experiment set, its angles keep improving under profile inference) but is never told to
 CMA-ES, so it does not pull the fresh distribution back; the next restart starts at
 whichever is better at the end of the round. The cost per generation is unchanged (P models).
@@ -31,8 +31,8 @@ restarts at a uniformly random point with G samples. Each is told its own points
 generation's best point, from either, is injected into the local one (elitism), and the
 global one's own best into the global one, so a better basin found globally pulls the local
 search there within the round, while runs that are climbing keep most of their local search
-every round (README: global rounds alone cost seeds that were climbing a round of local
-search each time).
+every round (study record, "Global restarts": global rounds alone cost seeds that were
+climbing a round of local search each time).
 
 Carried covariance (``carry_condition`` c >= 1, off by default): a restart at the best point
 keeps the shape of the covariance the previous round's distribution learned, not only its
@@ -42,6 +42,8 @@ range), and an isotropic restart throws away the directions the last round found
 carried matrix is scaled so that its longest axis has the initial step size, and its
 eigenvalues are floored at 1/c of the largest (axes at least 1/sqrt(c) as long), so the new
 distribution still samples across the ridge, which a new experiment may have moved.
+
+"Study record" is ``docs/studies/unknown_angles.md``, where every variant was measured.
 
 Randomness: CMA-ES draws its normal samples from a child ``numpy.random.Generator``
 spawned from the run's generator at construction and saved with the search state, so a run

@@ -31,7 +31,7 @@ generation itself then simulates nothing new: its angles are the remembered ones
 Contender refinement (``refine`` > 0, off by default): a model's angles improve with every
 generation it survives, so an incumbent's have had many steps and a newly proposed model's
 one; the truth, proposed late, loses to a wrong incumbent although it wins when both are
-fitted as hard (README, "Where the best variant stops"). With ``refine`` R, the
+fitted as hard (study record, "Where the best variant stops"). With ``refine`` R, the
 ``contenders`` K fittest models that are new this generation get R more rounds of
 ``proposals`` perturbations each before the generation is scored. With
 ``contender_distance`` d > 0 the contenders are picked greedily, fittest first, skipping any
@@ -41,14 +41,14 @@ angles already fit, while a model far from its parent gains the most from refine
 
 Angle library (``library`` L > 0, off by default, with ``refine`` > 0): a contender's
 inherited angles sit in its parent's basin of each experiment's angle landscape, which has
-many local maxima (README, "Where the best variant stops"); a few perturbation rounds
+many local maxima (study record, "Where the best variant stops"); a few perturbation rounds
 rarely leave it, and a model far from the incumbent, the truth included, stays judged in
 the wrong basin. Every angle set the strategy scores feeds, per experiment, a library of
 the L best-scoring sets at least ``LIBRARY_SPACING_RAD`` apart (any model's scores; largest
 flipper difference, pectorals on the circle, the caudal difference counted 3 times), and
 every contender first tries all L sets of every experiment, then refines from the best. On
-the 10 experiments of a finished run (README, "An angle library"), the truth proposed with
-inherited angles scores MOD_FIT 0.9976 against the final model's 0.9991. Started from the
+the 10 experiments of a finished run (study record, "An angle library"), the truth proposed
+with inherited angles scores MOD_FIT 0.9976 against the final model's 0.9991. Started from the
 best of a library built the same way from every set the run scored (8 sets 0.7 rad apart,
 or 32 sets 0.4 rad apart) and refined for 10 rounds of 2 proposals, it scores 0.9992
 (0.9994), where the final model gets 0.9991 the same way. Cost: ``K L E`` more simulations
@@ -62,8 +62,10 @@ first tries the S best sets of every experiment's library (after its inherited a
 before its perturbations), so it is ranked, and picked as a contender or not, under the
 best angles any model has found. Cost: ``N S E`` more simulations per generation for N
 new models (cached sets are free; 1.11x per round with S = 2). On six seeds of
-``left_pectoral_half`` it ends level with the library alone (0.925 against 0.924; README,
+``left_pectoral_half`` it ends level with the library alone (0.925 against 0.924; study record,
 "A library trial for every newcomer").
+
+"Study record" is ``docs/studies/unknown_angles.md``, where each option was measured.
 
 Cost: about ``U (proposals + 1) E`` simulations per generation for U distinct models and E
 experiments, plus ``U initial`` at the first generation of a round (3-4 times the

@@ -1,4 +1,4 @@
-"""How well can free initial angles make a wrong model fit the target? (README, "Per-model angles").
+"""How well can free initial angles make a wrong model fit the target? (docs/studies/unknown_angles.md).
 
 Performs 5 (``--experiments``) experiments on the ``left_pectoral_half`` target, then fits every candidate
 model's initial angles for every experiment equally hard (:class:`eea.profile.Profile`,

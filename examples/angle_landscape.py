@@ -1,4 +1,4 @@
-"""The similarity landscape over one experiment's initial pectoral angles (README, issue 14).
+"""The similarity landscape over one experiment's initial pectoral angles (docs/studies/unknown_angles.md).
 
 Takes a finished EEA run, one of its target experiments and the true (damaged) morphology,
 and simulates the truth from a grid of left x right pectoral initial angles around the

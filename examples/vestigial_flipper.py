@@ -1,4 +1,4 @@
-"""How much of a run's OBJ_FIT error is a missing flipper that no response can show (README, issue 14).
+"""How much of a run's OBJ_FIT error is a missing flipper that no response can show (docs/studies/unknown_angles.md).
 
 On ``left_pectoral_missing`` the truth's left pectoral is 0 x 0 x 0. A model whose left
 flipper has zero length or span has no paddle face either (zero thickness leaves only the
