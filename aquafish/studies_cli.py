@@ -78,17 +78,18 @@ def _diagnose(args: argparse.Namespace) -> int:
 
     print(f"{'run':<40} {'inference':<12} {'E':>3} {'final@inf':>9} {'true@inf':>9} {'final@true':>10} "
           f"{'true@true':>9} {'final@own':>9} {'true@own':>9} {'true@new':>9} {f'true@+{args.refine}':>9} "
-          f"{'seen':>6} {'best OBJ':>8} {'better':>6}  failure")
+          f"{'seen':>6} {'best OBJ':>8} {'better':>6} {'err run L/R/C':>13} {'err floor':>11}  failure")
     for result in find_runs(args.dirs):
         d = diagnose_run(result.out_dir, workers=args.workers, profile_generations=args.profile_generations,
                          refine=args.refine)
         new, refined, closest = ("-" if v is None else f"{v:.4f}" for v in (d.true_proposed, d.true_refined,
                                                                               d.closest_seen))
         seen, better = ("-" if v is None else str(v) for v in (d.seen, d.better_seen))
+        err_run, err_floor = ("/".join(f"{x:.0f}" for x in v) for v in (d.run_error_deg, d.floor_error_deg))
         print(f"{str(d.out_dir):<40} {d.inference:<12} {d.experiments:>3} {d.final_inferred:>9.4f} "
               f"{d.true_inferred:>9.4f} {d.final_true_angles:>10.4f} {d.true_true_angles:>9.4f} "
               f"{d.final_profiled:>9.4f} {d.true_profiled:>9.4f} {new:>9} {refined:>9} "
-              f"{seen:>6} {closest:>8} {better:>6}  {d.verdict}")
+              f"{seen:>6} {closest:>8} {better:>6} {err_run:>13} {err_floor:>11}  {d.verdict}")
     return 0
 
 
@@ -159,7 +160,8 @@ def add_commands(sub) -> None:
                                         "angles, per run; for profile runs also the truth under the angles it would start from if "
                                         "proposed (true@new); how many models the run scored (seen), the "
                                         "closest to the truth (best OBJ) and how many beat the final model "
-                                        "(better) (eea.diagnosis)")
+                                        "(better); the median angle error of the run's final inferred angles and "
+                                        "of the truth's own fitted ones (err run, err floor; degrees) (eea.diagnosis)")
     d.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
     d.add_argument("--workers", type=int, default=1, help="simulation processes (default: 1)")
     d.add_argument("--profile-generations", type=int, default=40,

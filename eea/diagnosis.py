@@ -34,6 +34,16 @@ never proposed a model near the truth (the closest model it scored is far from i
 proposed better models than the one it ended with and rejected them (``better_seen`` > 0:
 that many scored models have a higher OBJ_FIT, eq. 4, than the final one). A run whose final
 model is the truth gets the verdict ``found``.
+
+The angles get the same comparison (issue 14: "initial-angle errors close to what the true
+morphology itself allows"). ``run_error_deg`` is how far the run's final inferred angles are
+from the true ones, median over its experiments; ``floor_error_deg`` is how far the truth's
+own fitted angles are (the fit above, which knows the morphology but not the angles): the
+error that even the true morphology is left with when its angles are fitted to these
+responses. Both are per flipper, in degrees, measured as ``rounds.csv``'s inference error
+(:attr:`eea.record.RunResult.inference_error_deg`). The fit is a local search from random
+starts (and from the inferred angles), so the floor is what this fit attains, not the
+least error any fit could.
 """
 
 from __future__ import annotations
@@ -49,11 +59,12 @@ from eea.checkpoint import load_state
 from eea.encoding import decode_models, encode_models
 from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.evaluation import Evaluator
-from eea.experiment import Experiment
+from eea.arc import angle_distance
+from eea.experiment import PERIODS, Experiment
 from eea.profile import Profile
 from eea.record import load_result
 
-__all__ = ["RunDiagnosis", "diagnose_run"]
+__all__ = ["RunDiagnosis", "diagnose_run", "median_error_deg"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -85,6 +96,12 @@ class RunDiagnosis:
         better_seen: how many of them have a higher OBJ_FIT than the final model (None with
             ``seen``).
         found: whether the final model is the true morphology (then there is no failure).
+        run_error_deg: ``(3,)`` median over the experiments of the distance between the
+            run's final inferred angles and the true ones (degrees; left, right pectoral,
+            caudal; None if not computed).
+        floor_error_deg: ``(3,)`` the same for the truth's own fitted angles (the fit of
+            ``true_profiled``): the error the true morphology itself is left with.
+        true_fitted_angles: ``(E, 3)`` those fitted angles (rad), or None.
     """
 
     out_dir: Path
@@ -103,6 +120,9 @@ class RunDiagnosis:
     closest_seen: float | None = None
     better_seen: int | None = None
     found: bool = False
+    run_error_deg: np.ndarray | None = dataclasses.field(default=None, compare=False)
+    floor_error_deg: np.ndarray | None = dataclasses.field(default=None, compare=False)
+    true_fitted_angles: np.ndarray | None = dataclasses.field(default=None, compare=False)
 
     @property
     def verdict(self) -> str:
@@ -169,13 +189,38 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
             proposed = fit(truth, remembered.starting_angles(truth, len(experiments), np.random.default_rng(seed)))
             if refine:
                 refined = _refined_truth(state.inference, distinct, experiments, ev, result.config, refine, seed)
-        _, fitted = Profile(proposals=4, initial=16).fit(
+        fitted_angles, fitted = Profile(proposals=4, initial=16).fit(
             distinct, experiments, ev, np.random.default_rng(seed), profile_generations,
             start=np.repeat(inferred, len(distinct), axis=0))
         profiled = np.resize(fitted, 2)  # (final, truth): one fit serves both when they coincide
         return RunDiagnosis(Path(out_dir), result.config.inference, len(experiments), *scores,
                             float(profiled[0]), float(profiled[1]), per_model=result.config.inference == "profile",
-                            true_proposed=proposed, true_refined=refined, found=len(distinct) == 1, **seen)
+                            true_proposed=proposed, true_refined=refined, found=len(distinct) == 1, **seen,
+                            run_error_deg=median_error_deg(inferred[0], true[0]),
+                            floor_error_deg=median_error_deg(fitted_angles[-1], true[0]),
+                            true_fitted_angles=fitted_angles[-1])
+
+
+def median_error_deg(angles, true_angles) -> np.ndarray:
+    """Median initial-angle error per flipper over experiments.
+
+    Args:
+        angles, true_angles: ``(E, 3)`` initial angles (rad; left, right pectoral, caudal), E >= 1.
+
+    Returns:
+        ``(3,)`` degrees: the median over the E experiments of the distance, the short way
+        round the circle for the pectorals (at most 180) and on the line for the caudal fin,
+        as :attr:`eea.record.RunResult.inference_error_deg` measures it.
+
+    Raises:
+        ValueError: if the shapes are not both ``(E, 3)`` with E >= 1, or an angle is not finite.
+    """
+    angles, true_angles = np.asarray(angles, dtype=np.float64), np.asarray(true_angles, dtype=np.float64)
+    if angles.ndim != 2 or angles.shape[1] != 3 or angles.shape != true_angles.shape or not len(angles):
+        raise ValueError(f"angles and true_angles must both be (E, 3) with E >= 1, got {angles.shape} and "
+                         f"{true_angles.shape}")
+    return np.degrees([float(np.median(angle_distance(angles[:, i], true_angles[:, i], period)))
+                       for i, period in enumerate(PERIODS)])
 
 
 def _seen(cache: dict, steps: int, true_dims: np.ndarray, final_dims: np.ndarray) -> dict:

@@ -124,3 +124,52 @@ def test_shared_angle_runs_have_no_proposed_truth(tmp_path, tiny_config):
     run(tiny_config(inference="known"), tmp_path, progress=False)
     d = diagnose_run(tmp_path, refine=5)
     assert d.true_proposed is None and d.true_refined is None
+
+
+def test_median_error_by_hand():
+    import numpy as np
+
+    from eea.diagnosis import median_error_deg
+
+    true = np.zeros((3, 3))
+    angles = np.array([[0.1, 6.2, 0.05], [0.3, 0.0, -0.1], [3.0, 0.2, 0.2]])
+    # left |0.1|, |0.3|, |3.0| -> median 0.3; right 6.2 is 0.083 the short way, 0, 0.2 -> 0.083;
+    # caudal on the line: 0.05, 0.1, 0.2 -> 0.1
+    np.testing.assert_allclose(median_error_deg(angles, true),
+                               np.degrees([0.3, 2 * np.pi - 6.2, 0.1]), atol=1e-12)
+    with pytest.raises(ValueError, match=r"\(E, 3\)"):
+        median_error_deg(np.zeros((2, 3)), np.zeros((3, 3)))
+    with pytest.raises(ValueError, match=r"\(E, 3\)"):
+        median_error_deg(np.zeros((0, 3)), np.zeros((0, 3)))
+
+
+@pytest.mark.parametrize("inference", ["known", "profile"])
+def test_angle_errors_of_the_run_and_of_the_truths_own_fit(tmp_path, tiny_config, inference):
+    import numpy as np
+
+    from aquafish_gym import Morphology, get_damage
+    from eea.checkpoint import load_state
+    from eea.diagnosis import median_error_deg
+    from eea.encoding import encode_models
+    from eea.evaluation import Evaluator
+    from eea.experiment import Experiment
+    from eea.fitness import model_fitness_from_similarities
+
+    config = tiny_config(inference=inference)
+    run(config, tmp_path, progress=False)
+    d = diagnose_run(tmp_path)
+    experiments = [Experiment.from_state_dict(e) for e in load_state(tmp_path).experiments]
+    true = np.stack([e.true_angles for e in experiments])
+    inferred = np.stack([e.context.estimate() for e in experiments])
+    np.testing.assert_array_equal(d.run_error_deg, median_error_deg(inferred, true))
+    assert d.true_fitted_angles.shape == (len(experiments), 3)
+    np.testing.assert_array_equal(d.floor_error_deg, median_error_deg(d.true_fitted_angles, true))
+    # the reported angles are the ones the truth's MOD_FIT was fitted under
+    truth = encode_models(get_damage(config.damage).apply(Morphology.healthy()).to_array()[None])
+    with Evaluator(config.steps) as ev:
+        sims = ev.similarities(truth, experiments, d.true_fitted_angles[None])
+    assert float(model_fitness_from_similarities(sims)[0]) == pytest.approx(d.true_profiled, abs=1e-12)
+    if inference == "known":  # the inferred angles are the true ones, and the truth's fit starts there
+        assert (d.run_error_deg == 0).all() and (d.floor_error_deg == 0).all() and d.true_profiled == 1.0
+    else:
+        assert (d.run_error_deg > 0).any()
