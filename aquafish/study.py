@@ -100,7 +100,9 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
             condition among the runs finished so far in its postfix.
 
     Raises:
-        ValueError: unknown backend, or ``study.json`` exists with a different spec.
+        ValueError: unknown backend, or ``study.json`` exists with a different spec (more or
+            fewer replicates of the same spec are the same study: more extend it, and
+            ``study.json`` records the larger count).
         ModuleNotFoundError: ``backend="ray"`` without the ``[cluster]`` extra.
     """
     if backend not in BACKENDS:
@@ -151,7 +153,9 @@ def _write_spec(spec: StudySpec, out_dir: Path) -> None:
         # through EEAConfig: a spec written before a field was added gets its default
         old["base"] = EEAConfig.from_dict(old["base"]).to_dict()
         old["base"].pop("workers", None)
-        if old != data:
+        if {**old, "replicates": 0} != {**data, "replicates": 0}:
             raise ValueError(f"{path} describes a different study; use another --out or delete it")
-        return
+        if data["replicates"] <= old["replicates"]:  # a subset of its seeds: nothing to record
+            return
+        # more replicates of the same study: it grows, its finished seeds are kept
     atomic_write(path, json.dumps(data, indent=2).encode())

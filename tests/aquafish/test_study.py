@@ -47,7 +47,9 @@ def test_local_study_runs_skips_finished_and_plots(tmp_path):
     run_study(spec, tmp_path, processes=2, progress=False)  # everything finished: nothing re-run
     assert [(d / "rounds.csv").stat().st_mtime_ns for d in dirs] == stamps
     with pytest.raises(ValueError, match="different study"):
-        run_study(tiny_spec(replicates=3), tmp_path, progress=False)
+        run_study(tiny_spec(conditions=("known",)), tmp_path, progress=False)
+    with pytest.raises(ValueError, match="different study"):
+        run_study(tiny_spec(base=TINY.replace(rounds=3)), tmp_path, progress=False)
 
     summary = summarise_runs(find_runs([tmp_path]))
     assert sorted(summary) == [("known", 0.16), ("none", 0.16)]
@@ -76,3 +78,16 @@ def test_ray_backend_gives_the_same_results_as_local(tmp_path):
         for a, b in zip(*rows):
             a.pop("wall_seconds"), b.pop("wall_seconds")
             assert a == b
+
+
+def test_more_replicates_extend_a_study_and_keep_its_finished_seeds(tmp_path):
+    spec = tiny_spec(conditions=("none",), replicates=1)
+    (first,) = run_study(spec, tmp_path, processes=1, progress=False)
+    stamp = (first / "rounds.csv").stat().st_mtime_ns
+    dirs = run_study(tiny_spec(conditions=("none",), replicates=2), tmp_path, processes=1, progress=False)
+    assert dirs == [first, tmp_path / "none" / "0.16s" / "seed1"]
+    assert (first / "rounds.csv").stat().st_mtime_ns == stamp            # seed 0 not run again
+    assert rounds_done(dirs[1]) == TINY.rounds
+    assert json.loads((tmp_path / "study.json").read_text())["replicates"] == 2
+    run_study(spec, tmp_path, processes=1, progress=False)                 # a subset: nothing run, nothing rewritten
+    assert json.loads((tmp_path / "study.json").read_text())["replicates"] == 2
