@@ -55,11 +55,11 @@ from pathlib import Path
 import numpy as np
 
 from aquafish_gym import Morphology, get_damage
+from eea.arc import angle_distance
 from eea.checkpoint import load_state
 from eea.encoding import decode_models, encode_models
 from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.evaluation import Evaluator
-from eea.arc import angle_distance
 from eea.experiment import PERIODS, Experiment
 from eea.profile import Profile
 from eea.record import load_result
