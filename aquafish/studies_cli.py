@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from eea.cli import add_config_flags, config_flag_names
+from eea.cli import add_config_flags, config_fields, config_flag_names
 from eea.config import INFERENCE_NAMES, EEAConfig
 
 #: EEA settings that are no flags of ``aquafish study``: the study sets them per run
@@ -38,7 +38,7 @@ def _case_study(args: argparse.Namespace) -> int:
 def _study(args: argparse.Namespace) -> int:
     from aquafish.study import StudySpec, run_study
 
-    base = EEAConfig(workers=1, **{name: getattr(args, name) for name in config_flag_names(STUDY_EXCLUDED)})
+    base = EEAConfig(workers=1, **config_fields(args, config_flag_names(STUDY_EXCLUDED)))
     spec = StudySpec(args.conditions, args.durations, args.replicates, base)
     dirs = run_study(spec, args.out, backend=args.backend, address=args.address, processes=args.processes)
     print(f"{len(dirs)} runs under {args.out}; plot them with: aquafish plot {args.out}")

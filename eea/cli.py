@@ -3,7 +3,9 @@
 ``aquafish eea --inference out_of_band --damage left_pectoral_half --duration 1.28
 --rounds 25 --seed 0 --out DIR`` runs (or resumes) one EEA run; every
 :class:`~eea.config.EEAConfig` field is a flag (``--estimation-population 50``) with the
-dataclass default (:func:`add_config_flags`, which ``aquafish study`` uses too).
+dataclass default, and ``--preset NAME`` (repeatable) applies a named bundle of settings
+(:data:`eea.config.PRESETS`) that the flags given explicitly override
+(:func:`add_config_flags` and :func:`config_fields`, which ``aquafish study`` uses too).
 
 ``aquafish plot`` (:func:`eea.plot.plot_runs`) is added by ``aquafish.studies_cli``.
 """
@@ -14,11 +16,11 @@ import argparse
 import dataclasses
 from typing import Iterable
 
-from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, EEAConfig
+from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, PRESETS, EEAConfig
 from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
 from eea.profile import INHERIT_RULES
 
-__all__ = ["add_commands", "add_config_flags", "config_flag_names"]
+__all__ = ["add_commands", "add_config_flags", "config_fields", "config_flag_names"]
 
 _SHORT_FLAGS = {"duration_s": ("--duration",)}
 #: The allowed values of the fields that take a name.
@@ -46,10 +48,11 @@ def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = (
     """Add one flag per :class:`~eea.config.EEAConfig` field to ``parser``.
 
     Field ``estimation_population`` becomes ``--estimation-population`` (``duration_s``
-    also ``--duration``), stored under the field's name, with the field's type, its
-    dataclass default and :data:`eea.config.FIELD_HELP` as help; named settings
+    also ``--duration``), stored under the field's name, with the field's type and
+    :data:`eea.config.FIELD_HELP` as help (which names the dataclass default); named settings
     (``inference``, ``estimation_search``, ``oob_experiments``, ``profile_inherit``) list their
-    choices.
+    choices. Also adds ``--preset NAME`` (repeatable, :data:`eea.config.PRESETS`). A flag not
+    given parses as None, so that :func:`config_fields` can tell it from one given.
 
     Args:
         parser: the (sub-)command's parser.
@@ -57,7 +60,7 @@ def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = (
 
     Returns:
         The names of the fields that got a flag (:func:`config_flag_names`); read the values
-        back with ``{name: getattr(args, name) for name in names}``.
+        back with ``config_fields(args, names)``.
 
     Raises:
         ValueError: as :func:`config_flag_names`.
@@ -67,16 +70,42 @@ def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = (
     for name in names:
         default = getattr(defaults, name)
         flags = (f"--{name.replace('_', '-')}", *_SHORT_FLAGS.get(name, ()))
-        parser.add_argument(*flags, type=type(default), default=default, dest=name, choices=_CHOICES.get(name),
-                            help=f"{FIELD_HELP[name]} (default: %(default)s)")
+        parser.add_argument(*flags, type=type(default), default=None, dest=name, choices=_CHOICES.get(name),
+                            help=f"{FIELD_HELP[name]} (default: {default})")
+    parser.add_argument("--preset", action="append", default=[], choices=list(PRESETS), dest="preset",
+                        help="a named bundle of settings (eea.config.PRESETS), applied in order; flags given "
+                             "explicitly override it. reduced: the README's reduced setting; library: the best "
+                             "method under unknown initial angles (not the paper's); paper: the defaults")
     return names
+
+
+def config_fields(args: argparse.Namespace, names: Iterable[str]) -> dict:
+    """The :class:`~eea.config.EEAConfig` fields a parsed command line sets, among ``names``.
+
+    The presets' values (``--preset``, in order) first, then every flag given explicitly;
+    a field set by neither is left out (the config's default applies). A preset's field
+    that is not in ``names`` (e.g. ``inference`` in a study, whose conditions name it) is
+    left out too.
+
+    Args:
+        args: parsed by a parser that :func:`add_config_flags` set up.
+        names: the fields that got a flag (its return value).
+
+    Returns:
+        ``{field: value}`` to pass to :class:`~eea.config.EEAConfig`.
+    """
+    names = tuple(names)
+    fields: dict = {}
+    for preset in args.preset:
+        fields.update({k: v for k, v in PRESETS[preset].items() if k in names})
+    fields.update({n: getattr(args, n) for n in names if getattr(args, n) is not None})
+    return fields
 
 
 def _run_eea(args: argparse.Namespace) -> int:
     from eea.run import run
 
-    fields = {name: getattr(args, name) for name in config_flag_names()}
-    result = run(EEAConfig(**fields), args.out, progress=not args.no_progress)
+    result = run(EEAConfig(**config_fields(args, config_flag_names())), args.out, progress=not args.no_progress)
     last = result.rounds[-1]
     print(f"{args.out}: {len(result.rounds)} rounds, objective fitness {last['objective_fitness']:.4f}, "
           f"model fitness {last['model_fitness']:.4f}, {last['simulations']} simulations")

@@ -7,6 +7,11 @@ any simulation runs::
 
     config = EEAConfig(inference="in_band", rounds=10, seed=3)
     config.steps          # 128 (= duration_s / 0.01 s)
+
+Named bundles of settings (:data:`PRESETS`, ``--preset`` on the command line) spell out the
+settings the README's studies use, so a run is one name instead of a dozen flags::
+
+    EEAConfig.from_presets("reduced", "library", damage="caudal_half", seed=3)
 """
 
 from __future__ import annotations
@@ -21,7 +26,7 @@ from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
 from eea.model_search import SEARCH_NAMES
 from eea.profile import INHERIT_RULES
 
-__all__ = ["ESTIMATION_SEARCHES", "EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS"]
+__all__ = ["ESTIMATION_SEARCHES", "EEAConfig", "FIELD_HELP", "PRESETS", "RESULT_NEUTRAL_FIELDS"]
 
 #: Names of the estimation searches (:data:`eea.model_search.MODEL_SEARCHES`): the paper's
 #: GA and CMA-ES (:mod:`eea.cma_search`).
@@ -93,6 +98,23 @@ FIELD_HELP: dict[str, str] = {
     "workers": "worker processes for simulations (1 = serial); never changes results",
     "max_batch_robots": "at most this many robots per simulate_batch call (chunking; 32-64 is fastest, "
                         "larger worlds cost more per robot-step); never changes results",
+}
+
+
+#: Named bundles of field values, applied in order by :meth:`EEAConfig.from_presets` and by
+#: ``--preset`` on the command line (fields and flags given explicitly win). The defaults are
+#: the paper's settings, so ``paper`` changes nothing.
+PRESETS: dict[str, dict[str, object]] = {
+    "paper": {},
+    # the README's reduced setting (Studies): every issue-14 part-2 table, about a quarter of
+    # the paper's simulations per run
+    "reduced": {"rounds": 10, "estimation_generations": 30, "exploration_generations": 10, "oob_period": 10},
+    # the best method under unknown initial angles (README, "Beyond the paper"; not the
+    # paper's): per-model angles, robust and diverse exploration, CMA-ES with a carried
+    # covariance and a global share, contender refinement and an angle library
+    "library": {"inference": "profile", "exploration_angles": 4, "exploration_diversity": 0.05,
+                "estimation_search": "cma", "cma_carry_condition": 100.0, "cma_global_share": 8,
+                "profile_refine": 10, "profile_contenders": 3, "profile_library": 8},
 }
 
 
@@ -252,6 +274,25 @@ class EEAConfig:
         if unknown:
             raise ValueError(f"unknown EEAConfig keys {unknown}; valid keys: {', '.join(sorted(names))}")
         return cls(**data)
+
+    @classmethod
+    def from_presets(cls, *names: str, **fields) -> "EEAConfig":
+        """Settings from named presets (:data:`PRESETS`), applied in order, then ``fields``.
+
+        Later presets override earlier ones, and ``fields`` override them all; any field
+        neither sets keeps its (the paper's) default.
+
+        Raises:
+            ValueError: on an unknown preset name (the message lists the valid ones), or an
+                invalid field as :class:`EEAConfig` raises.
+        """
+        merged: dict = {}
+        for name in names:
+            if name not in PRESETS:
+                raise ValueError(f"unknown preset {name!r}; valid names: {', '.join(PRESETS)}")
+            merged.update(PRESETS[name])
+        merged.update(fields)
+        return cls.from_dict(merged)
 
     def replace(self, **changes) -> "EEAConfig":
         """A validated copy with some fields changed."""

@@ -3,6 +3,7 @@
 import dataclasses
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -66,6 +67,34 @@ def test_study_command_line_of_the_readme(monkeypatch, tmp_path):
     assert spec.base == EEAConfig(workers=1, rounds=10, estimation_generations=30, exploration_generations=10,
                                   oob_period=10, estimation_search="cma", cma_sigma=0.2)
     assert kw == {"backend": "local", "address": None, "processes": None}
+
+
+def test_presets_on_the_command_line_and_flags_over_them(monkeypatch, tmp_path):
+    import json
+
+    import importlib
+
+    import aquafish.study
+    from eea.config import EEAConfig
+
+    specs = []
+    monkeypatch.setattr(aquafish.study, "run_study", lambda spec, out, **kw: specs.append(spec) or [])
+    argv = ["study", "--preset", "reduced", "--preset", "library", "--conditions", "profile", "--damage", "caudal_half",
+            "--profile-library", "4", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    # the README's library studies ran with these settings (docs/results keeps their study.json)
+    published = json.loads((Path(__file__).parents[2] / "docs/results/lph_cs8_lib8/study.json").read_text())["base"]
+    published.update(damage="caudal_half", profile_library=4, workers=1)        # the flags given beside the presets
+    assert specs[0].base == EEAConfig.from_dict(published).replace(inference="out_of_band", seed=0)
+    # aquafish eea: the preset's inference applies, a flag given wins over a preset
+    configs = []
+    monkeypatch.setattr(importlib.import_module("eea.run"), "run", lambda config, out, progress: configs.append(config) or
+                        type("R", (), {"rounds": [dict(objective_fitness=1, model_fitness=1, simulations=0)]})())
+    assert main(["eea", "--preset", "library", "--preset", "reduced", "--rounds", "3", "--out", str(tmp_path / "r")]) == 0
+    assert configs[0] == EEAConfig.from_presets("library", "reduced", rounds=3)
+    assert (configs[0].inference, configs[0].rounds, configs[0].estimation_generations) == ("profile", 3, 30)
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["eea", "--out", str(tmp_path), "--preset", "fastest"])
 
 
 @pytest.mark.parametrize("flag", ["--seed", "--inference", "--workers"])

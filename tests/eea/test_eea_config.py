@@ -4,7 +4,7 @@ import dataclasses
 
 import pytest
 
-from eea.config import FIELD_HELP, EEAConfig
+from eea.config import FIELD_HELP, PRESETS, EEAConfig
 
 
 def test_defaults_are_the_papers():
@@ -54,3 +54,22 @@ def test_same_results_ignores_workers_chunking_and_rounds():
     assert c.same_results_as(c.replace(workers=2, max_batch_robots=7, rounds=40))
     assert not c.same_results_as(c.replace(seed=1))
     assert not c.same_results_as(c.replace(inference="none"))
+
+
+def test_presets_apply_in_order_and_fields_win():
+    assert EEAConfig.from_presets() == EEAConfig.from_presets("paper") == EEAConfig()
+    reduced = EEAConfig.from_presets("reduced")
+    assert (reduced.rounds, reduced.estimation_generations, reduced.exploration_generations, reduced.oob_period) \
+        == (10, 30, 10, 10)
+    assert reduced.replace(rounds=25, estimation_generations=100, exploration_generations=25, oob_period=35) \
+        == EEAConfig()                                   # nothing else differs from the paper's settings
+    c = EEAConfig.from_presets("reduced", "library", damage="caudal_half", rounds=4)
+    assert (c.inference, c.estimation_search, c.profile_library, c.damage, c.rounds) == ("profile", "cma", 8, "caudal_half", 4)
+    assert EEAConfig.from_presets("library", "reduced") == EEAConfig.from_presets("reduced", "library")  # disjoint
+    for name, values in PRESETS.items():                  # every preset names real fields with valid values
+        assert set(values) <= set(FIELD_HELP)
+        EEAConfig.from_presets(name)
+    with pytest.raises(ValueError, match="unknown preset 'fast'; valid names: paper, reduced, library"):
+        EEAConfig.from_presets("reduced", "fast")
+    with pytest.raises(ValueError, match="unknown EEAConfig keys"):
+        EEAConfig.from_presets("reduced", round=3)
