@@ -56,6 +56,21 @@ def test_symmetric_robot_swims_straight_and_half_flipper_turns():
     assert np.abs(log[1, :, 2]).max() > 5.0
 
 
+def test_mirrored_pectorals_give_the_mirrored_response():
+    # Reflection in the body's sagittal plane (x -> -x) swaps the pectorals (both hinge on the
+    # lateral x axis, so their spin keeps its sign) and negates roll and yaw; pitch is unchanged.
+    # The caudal fin is left still at 0: its sweep starts towards +angle whatever its initial
+    # angle, so a moving fin has no mirror image (lph and rph are different targets).
+    left = get_damage("left_pectoral_half").apply().to_array()
+    right = get_damage("right_pectoral_half").apply().to_array()
+    log = simulate_batch(np.stack([left, right]), [[0.3, -0.2, 0.0], [-0.2, 0.3, 0.0]],
+                         np.array([[1.0, 2.5, 0.0], [2.5, 1.0, 0.0]]), 300)
+    assert np.abs(log[0, :, 2]).max() > 5.0                       # it turns: there is something to mirror
+    np.testing.assert_allclose(log[1, :, 0], -log[0, :, 0], atol=1e-4)
+    np.testing.assert_allclose(log[1, :, 1], log[0, :, 1], atol=1e-4)
+    np.testing.assert_allclose(log[1, :, 2], -log[0, :, 2], atol=1e-4)
+
+
 def test_rolled_robot_rights_itself():
     with BatchWorld(HEALTHY[None]) as world:
         world.reset(np.zeros((1, 3)))
