@@ -55,12 +55,11 @@ from pathlib import Path
 import numpy as np
 
 from aquafish_gym import Morphology, get_damage
-from eea.arc import angle_distance
 from eea.checkpoint import load_state
 from eea.encoding import decode_models, encode_models
 from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.evaluation import Evaluator
-from eea.experiment import PERIODS, Experiment
+from eea.experiment import Experiment, angle_errors_deg
 from eea.profile import Profile
 from eea.record import load_result
 
@@ -219,8 +218,7 @@ def median_error_deg(angles, true_angles) -> np.ndarray:
     if angles.ndim != 2 or angles.shape[1] != 3 or angles.shape != true_angles.shape or not len(angles):
         raise ValueError(f"angles and true_angles must both be (E, 3) with E >= 1, got {angles.shape} and "
                          f"{true_angles.shape}")
-    return np.degrees([float(np.median(angle_distance(angles[:, i], true_angles[:, i], period)))
-                       for i, period in enumerate(PERIODS)])
+    return np.median(angle_errors_deg(angles, true_angles), axis=0)
 
 
 def _seen(cache: dict, steps: int, true_dims: np.ndarray, final_dims: np.ndarray) -> dict:

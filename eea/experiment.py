@@ -19,10 +19,11 @@ import dataclasses
 import numpy as np
 
 from aquafish_gym import SimParams
-from eea.arc import TWO_PI, sample_arc
+from eea.arc import TWO_PI, angle_distance, sample_arc
 
 __all__ = [
-    "ANGLE_RESOLUTION_RAD", "CAUDAL_LIMIT_RAD", "FLIPPERS", "PERIODS", "Context", "Experiment", "check_params",
+    "ANGLE_RESOLUTION_RAD", "CAUDAL_LIMIT_RAD", "FLIPPERS", "PERIODS", "Context", "Experiment", "angle_errors_deg",
+    "check_params",
     "quantise_angles", "random_angles", "with_newest_context",
 ]
 
@@ -83,6 +84,24 @@ def quantise_angles(angles_rad) -> tuple[np.ndarray, np.ndarray]:
     values = levels * ANGLE_RESOLUTION_RAD
     values[:, 2] = np.clip(values[:, 2], -CAUDAL_LIMIT_RAD, CAUDAL_LIMIT_RAD)
     return levels, values
+
+
+def angle_errors_deg(angles, true_angles) -> np.ndarray:
+    """Per-flipper inference error of initial angles against the true ones.
+
+    Args:
+        angles, true_angles: ``(n, 3)`` initial angles (rad; left, right pectoral, caudal).
+
+    Returns:
+        ``(n, 3)`` degrees: the short way round the circle for the pectorals (at most 180),
+        on the line for the caudal fin (:data:`PERIODS`).
+
+    Raises:
+        ValueError: if an angle is not finite (:func:`eea.arc.angle_distance`).
+    """
+    angles, true_angles = np.asarray(angles, dtype=np.float64), np.asarray(true_angles, dtype=np.float64)
+    return np.degrees(np.stack([angle_distance(angles[:, i], true_angles[:, i], period)
+                                for i, period in enumerate(PERIODS)], axis=1))
 
 
 def random_angles(rng: np.random.Generator, n: int) -> np.ndarray:

@@ -35,10 +35,9 @@ import numpy as np
 
 from aquafish_gym import ACTION_FIELDS, MORPHOLOGY_FIELDS, Morphology
 from aquafish_gym.files import atomic_write
-from eea.arc import angle_distance
 from eea.config import EEAConfig
 from eea.encoding import decode_models
-from eea.experiment import FLIPPERS, PERIODS
+from eea.experiment import FLIPPERS, angle_errors_deg
 from eea.fitness import objective_fitness
 
 __all__ = ["CONFIG_FILE", "ROUNDS_FILE", "ROUND_COLUMNS", "RunResult", "load_result", "read_rounds",
@@ -106,8 +105,7 @@ class RunResult:
             return np.zeros((0, 3))
         true = np.array([[row[f"true_{f}_rad"] for f in FLIPPERS] for row in self.rounds])
         inferred = np.array([[row[f"inferred_{f}_rad"] for f in FLIPPERS] for row in self.rounds])
-        return np.degrees(np.stack([angle_distance(inferred[:, i], true[:, i], period)
-                                    for i, period in enumerate(PERIODS)], axis=1))
+        return angle_errors_deg(inferred, true)
 
 
 def round_row(record, target_morphology: Morphology, wall_seconds: float) -> dict:
