@@ -16,7 +16,7 @@ import argparse
 import dataclasses
 from typing import Iterable
 
-from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, PRESETS, EEAConfig
+from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, PRESETS, EEAConfig, preset_fields
 from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
 from eea.profile import INHERIT_RULES
 
@@ -95,9 +95,7 @@ def config_fields(args: argparse.Namespace, names: Iterable[str]) -> dict:
         ``{field: value}`` to pass to :class:`~eea.config.EEAConfig`.
     """
     names = tuple(names)
-    fields: dict = {}
-    for preset in args.preset:
-        fields.update({k: v for k, v in PRESETS[preset].items() if k in names})
+    fields = {k: v for k, v in preset_fields(*args.preset).items() if k in names}
     fields.update({n: getattr(args, n) for n in names if getattr(args, n) is not None})
     return fields
 

@@ -26,7 +26,7 @@ from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
 from eea.model_search import SEARCH_NAMES
 from eea.profile import INHERIT_RULES
 
-__all__ = ["ESTIMATION_SEARCHES", "EEAConfig", "FIELD_HELP", "PRESETS", "RESULT_NEUTRAL_FIELDS"]
+__all__ = ["ESTIMATION_SEARCHES", "EEAConfig", "FIELD_HELP", "PRESETS", "RESULT_NEUTRAL_FIELDS", "preset_fields"]
 
 #: Names of the estimation searches (:data:`eea.model_search.MODEL_SEARCHES`): the paper's
 #: GA and CMA-ES (:mod:`eea.cma_search`).
@@ -116,6 +116,20 @@ PRESETS: dict[str, dict[str, object]] = {
                 "estimation_search": "cma", "cma_carry_condition": 100.0, "cma_global_share": 8,
                 "profile_refine": 10, "profile_contenders": 3, "profile_library": 8},
 }
+
+
+def preset_fields(*names: str) -> dict[str, object]:
+    """The fields the named presets (:data:`PRESETS`) set, applied in order (later ones win).
+
+    Raises:
+        ValueError: on an unknown preset name (the message lists the valid ones).
+    """
+    merged: dict[str, object] = {}
+    for name in names:
+        if name not in PRESETS:
+            raise ValueError(f"unknown preset {name!r}; valid names: {', '.join(PRESETS)}")
+        merged.update(PRESETS[name])
+    return merged
 
 
 def _default_workers() -> int:
@@ -286,13 +300,7 @@ class EEAConfig:
             ValueError: on an unknown preset name (the message lists the valid ones), or an
                 invalid field as :class:`EEAConfig` raises.
         """
-        merged: dict = {}
-        for name in names:
-            if name not in PRESETS:
-                raise ValueError(f"unknown preset {name!r}; valid names: {', '.join(PRESETS)}")
-            merged.update(PRESETS[name])
-        merged.update(fields)
-        return cls.from_dict(merged)
+        return cls.from_dict({**preset_fields(*names), **fields})
 
     def replace(self, **changes) -> "EEAConfig":
         """A validated copy with some fields changed."""
