@@ -57,9 +57,7 @@ def main(argv=None) -> None:
     print(f"{'run':<55} {'OBJ_FIT':>7} {'flipper':>7} {'rest':>6}  {args.flipper} (x, y, z)   "
           f"1-sim median / max")
     missed = []
-    for run in find_runs(args.dirs):
-        if not run.rounds:
-            continue
+    for run in find_runs(args.dirs):  # runs with a finished round only
         steps = run.config.steps
         truth = get_damage(run.config.damage).apply(Morphology.healthy()).to_array()
         model = run.best_morphology.to_array()
@@ -73,10 +71,9 @@ def main(argv=None) -> None:
         missed.append((error[fields].sum(), np.delete(error, np.r_[fields]).sum()))
         print(f"{str(run.out_dir):<55} {obj:>7.3f} {missed[-1][0]:>7.3f} {missed[-1][1]:>6.3f}  "
               f"{np.array2string(model[fields], precision=3):<22} {np.median(gap):.4f} / {gap.max():.4f}")
-    if missed:
-        flipper, rest = np.mean(missed, axis=0)
-        print(f"mean error: {flipper:.3f} on the {args.flipper}, {rest:.3f} on the rest "
-              f"(OBJ_FIT with the {args.flipper} right: {1 - rest:.3f})")
+    flipper, rest = np.mean(missed, axis=0)  # find_runs raises if it finds no run
+    print(f"mean error: {flipper:.3f} on the {args.flipper}, {rest:.3f} on the rest "
+          f"(OBJ_FIT with the {args.flipper} right: {1 - rest:.3f})")
 
 
 if __name__ == "__main__":
