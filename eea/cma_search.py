@@ -59,10 +59,10 @@ import numpy as np
 
 from aquafish_gym import MORPHOLOGY_BOUNDS
 from aquafish_gym.checks import check_int
-from eea.encoding import MODEL_BITS, MODEL_FIELD_BITS, encode_models
+from eea.encoding import MODEL_BITS, MODEL_FIELD_BITS, decode_models, encode_models
 from eea.ga import TellRecord
 
-__all__ = ["CMAModelSearch", "carried_shape", "unit_to_genomes"]
+__all__ = ["CMAModelSearch", "carried_shape", "genomes_to_unit", "unit_to_genomes"]
 
 _LEVELS = 2 ** np.asarray(MODEL_FIELD_BITS)
 
@@ -87,6 +87,23 @@ def unit_to_genomes(x) -> np.ndarray:
     levels = np.minimum(np.floor(x * _LEVELS), _LEVELS - 1)
     lo, hi = MORPHOLOGY_BOUNDS[:, 0], MORPHOLOGY_BOUNDS[:, 1]
     return encode_models(lo + (hi - lo) * levels / _LEVELS)
+
+
+def genomes_to_unit(genomes) -> np.ndarray:
+    """The centres of the model genomes' cells in the unit cube: the inverse of
+    :func:`unit_to_genomes` (``unit_to_genomes(genomes_to_unit(g))`` is ``g``).
+
+    Args:
+        genomes: ``(P, 45)`` model genomes (0/1).
+
+    Returns:
+        ``(P, 9)`` coordinates in (0, 1), order ``aquafish_gym.MORPHOLOGY_FIELDS``.
+
+    Raises:
+        ValueError: as :func:`eea.encoding.decode_models` does for a malformed genome.
+    """
+    lo, hi = MORPHOLOGY_BOUNDS[:, 0], MORPHOLOGY_BOUNDS[:, 1]
+    return (np.atleast_2d(decode_models(genomes)) - lo) / (hi - lo) + 0.5 / _LEVELS
 
 
 def carried_shape(covariance, condition: float) -> np.ndarray:
@@ -304,6 +321,17 @@ class CMAModelSearch(TellRecord):
                 self._es.inject([self._x[own]], force=True)
         self._x, self._asked = None, False
         self._generation += 1
+
+    def adopt(self, genome, fitness: float) -> None:
+        """:meth:`TellRecord.adopt`, and the next :meth:`restart` starts at the genome's cell
+        centre (:func:`genomes_to_unit`).
+
+        Raises:
+            RuntimeError: while a population is asked and not told.
+            ValueError: if ``genome`` is not one 45-bit genome or ``fitness`` is not finite.
+        """
+        super().adopt(genome, fitness)
+        self._best_x = genomes_to_unit(self._best_genome[None])[0]
 
     def state_dict(self) -> dict:
         """The whole search (distribution, its random stream, asked points) for the checkpoint."""

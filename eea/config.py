@@ -93,6 +93,12 @@ FIELD_HELP: dict[str, str] = {
                        "the L best-scoring angle sets any model has tried, at least 0.5 rad apart (not the paper's)",
     "profile_library_newcomers": "profile: 0: off; S in [1, profile_library]: every model new in a generation first "
                                  "tries, per experiment, the S best sets of the angle library (not the paper's)",
+    "profile_select": "profile: 0: off; K > 0: after each round's last generation, the round's K fittest models "
+                      "at least 0.02 apart (1 - OBJ_FIT) get their angles fitted equally hard (every library set, then "
+                      "profile_select_refine perturbation rounds) and the best becomes the round's model (not the paper's)",
+    "profile_select_refine": "profile: perturbation rounds of every round-end selection candidate's angles (>= 1)",
+    "profile_fine_steps": "profile: 0: off; n > 0: the angle perturbations also use steps 3, 9, ... 3**n times finer "
+                          "than the finest (0.1 rad pectoral, 0.02 rad caudal; not the paper's)",
     "oob_experiments": "out_of_band: angles refined by each inference: newest (the paper's: only the newest "
                        "experiment) or all (also every older experiment at generation 0 of each round; not the paper's)",
     "workers": "worker processes for simulations (1 = serial); never changes results",
@@ -187,6 +193,9 @@ class EEAConfig:
     profile_inherit: str = "hamming"
     profile_library: int = 0
     profile_library_newcomers: int = 0
+    profile_select: int = 0
+    profile_select_refine: int = 30
+    profile_fine_steps: int = 0
     workers: int = dataclasses.field(default_factory=_default_workers)
     max_batch_robots: int = 64
 
@@ -215,7 +224,8 @@ class EEAConfig:
             "tournament_size": 1, "elitism": 0, "k_best": 1, "oob_period": 1, "oob_sample": 1,
             "oob_population": 1, "oob_generations": 1, "oob_bits": 2, "workers": 1,
             "profile_proposals": 1, "profile_initial": 1, "profile_refine": 0, "profile_contenders": 1,
-            "profile_library": 0, "profile_library_newcomers": 0,
+            "profile_library": 0, "profile_library_newcomers": 0, "profile_select": 0, "profile_select_refine": 1,
+            "profile_fine_steps": 0,
             "max_batch_robots": 1, "cma_global_period": 0, "cma_global_share": 0,
         }
         for name, low in minimum.items():

@@ -5,7 +5,7 @@ import pickle
 import numpy as np
 import pytest
 
-from eea.cma_search import CMAModelSearch, carried_shape, unit_to_genomes
+from eea.cma_search import CMAModelSearch, carried_shape, genomes_to_unit, unit_to_genomes
 from eea.config import EEAConfig
 from aquafish_gym import MORPHOLOGY_BOUNDS as MODEL_BOUNDS
 from eea.encoding import decode_models, encode_models
@@ -142,6 +142,35 @@ def test_restart_reopens_the_distribution_around_the_best_point():
     reopened = search.ask()
     np.testing.assert_array_equal(reopened[0], best)                  # the best point is kept
     assert len({g.tobytes() for g in reopened}) > len(converged)      # and the spread is back
+
+
+def test_genomes_to_unit_is_the_cell_centre_and_inverts_unit_to_genomes():
+    genomes = np.random.default_rng(0).integers(0, 2, (20, 45), dtype=np.uint8)
+    x = genomes_to_unit(genomes)
+    np.testing.assert_array_equal(unit_to_genomes(x), genomes)
+    levels = 2.0 ** np.array([5, 6, 4] * 3)
+    np.testing.assert_allclose(genomes_to_unit(encode_models(MODEL_BOUNDS[None, :, 0]))[0], 0.5 / levels)
+
+
+def test_an_adopted_genome_is_the_best_and_the_next_restart_starts_there():
+    fitness = _ridge_fitness(np.full(9, 0.25))
+    search = CMAModelSearch(10, np.random.default_rng(3), sigma0=0.3)
+    for _ in range(5):
+        search.tell(fitness(search.ask()))
+    chosen = encode_models(np.array([[0.5, 1.0, 0.25, 0.5, 1.0, 0.25, 0.25, 1.0, 0.5]]))[0]
+    search.ask()
+    with pytest.raises(RuntimeError, match="between ask"):
+        search.adopt(chosen, 0.5)
+    search.tell(np.zeros(10))
+    with pytest.raises(ValueError, match="finite"):
+        search.adopt(chosen, float("nan"))
+    with pytest.raises(ValueError, match=r"\(45,\) genome"):
+        search.adopt(chosen[:44], 0.5)
+    search.adopt(chosen, 0.5)
+    np.testing.assert_array_equal(search.best_genome, chosen)
+    assert search.best_fitness == 0.5
+    search.restart()
+    np.testing.assert_array_equal(search.ask()[0], chosen)           # injected: the restart's first point
 
 
 def test_every_kth_restart_is_global_and_carries_the_incumbent_without_telling_it():

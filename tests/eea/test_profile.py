@@ -72,12 +72,12 @@ def test_a_new_model_inherits_its_nearest_parent_angles(make_experiment):
     assert fake.similarities(child, exps, child_angles)[0, 0] >= fake.similarities(parent, exps, remembered)[0, 0]
 
 
-def _trained_on_one_parent(make_experiment):
+def _trained_on_one_parent(make_experiment, fake_class=PeakPerModel):
     """Two experiments, the all-zero parent, a fake evaluator and a Profile that has fitted
     the parent's angles for 30 generations (the state later Profiles start from)."""
     exps = (make_experiment(0), make_experiment(1))
     parent = np.zeros((1, 45), np.uint8)
-    fake = PeakPerModel()
+    fake = fake_class()
     trained = Profile(proposals=2, initial=4)
     rng = np.random.default_rng(0)
     for g in range(30):
@@ -295,3 +295,91 @@ def test_fit_rejects_bad_input(make_experiment):
         Profile().fit(genomes[:1], (), PeakPerModel(), np.random.default_rng(0), 1)
     with pytest.raises(ValueError, match="generations must be >= 1"):
         Profile().fit(genomes[:1], (make_experiment(0),), PeakPerModel(), np.random.default_rng(0), 0)
+
+
+class CappedPeaks(PeakPerModel):
+    """PeakPerModel whose model m tops out at ``cap(m)`` < 1: the models differ in how well
+    they can fit, as morphologies do (bit 1 set: 0.99, else 0.95)."""
+
+    def similarities(self, genomes, experiments, angles):
+        caps = np.where(np.asarray(genomes)[:, 1] == 1, 0.99, 0.95)
+        return caps[:, None] * super().similarities(genomes, experiments, angles)
+
+
+def test_select_fits_every_candidate_as_hard_and_picks_the_best_fit_not_the_best_remembered(make_experiment):
+    exps, parent, fake, trained, rng = _trained_on_one_parent(make_experiment, CappedPeaks)
+    incumbent_fit = fake.similarities(parent, exps, trained.angles(exps, parent, rng)).mean()
+    challenger = parent.copy()
+    challenger[0, [0, 1]] = 1                                    # its own peaks, cap 0.99; inherits the parent's angles
+    inherited = fake.similarities(challenger, exps, trained.starting_angles(challenger, len(exps), rng)).mean()
+    assert inherited < incumbent_fit < 0.95                      # ranked by the round, it would lose
+    s = Profile(proposals=2, initial=4, select=2, select_refine=40)
+    s.load_state_dict(trained.state_dict())
+    candidates = np.concatenate([parent, challenger])
+    rows = fake.rows
+    index, fitness, new_exps = s.select(candidates, exps, fake, np.random.default_rng(7))
+    assert fake.rows - rows == (1 + 40 * 2) * 2 * len(exps)     # recalled angles scored, then R proposals, K E each
+    assert index == 1 and 0.95 < fitness <= 0.99                 # fitted as hard, it beats the incumbent's cap
+    angles = s.angles(new_exps, challenger, rng)                 # its fitted angles are remembered ...
+    np.testing.assert_allclose(fake.similarities(challenger, new_exps, angles).mean(), fitness)
+    for e, context in zip(new_exps, angles[0]):                  # ... and are the experiments' contexts
+        np.testing.assert_array_equal(e.context.estimate(), context)
+    with pytest.raises(ValueError, match="candidates and experiments"):
+        s.select(np.empty((0, 45), np.uint8), exps, fake, rng)
+
+
+def test_estimation_adopts_the_selected_model_and_restarts_there(tiny_config):
+    from eea.evaluation import Evaluator
+    from eea.round import RoundParts, run_round
+
+    config = tiny_config(inference="profile", estimation_search="cma", rounds=2, profile_proposals=1,
+                         profile_initial=2, profile_select=3, profile_select_refine=2)
+    rng = np.random.default_rng(0)
+    with Evaluator(config.steps) as evaluator:
+        parts = RoundParts.from_config(config, rng, evaluator)
+        calls = []
+        select = parts.strategy.select
+
+        def spy(candidates, experiments, evaluator, rng):
+            out = select(candidates, experiments, evaluator, rng)
+            calls.append((candidates.copy(), out))
+            return out
+
+        parts.strategy.select = spy
+        record = run_round(1, (), parts, rng)
+        (candidates, (index, fitness, experiments)), = calls
+        assert 1 <= len(candidates) <= 3
+        np.testing.assert_array_equal(record.best_genome, candidates[index])   # the round's model is the pick
+        assert record.model_fitness == fitness
+        np.testing.assert_array_equal(record.experiments[0].context.estimate(), experiments[0].context.estimate())
+        parts.estimation.search.restart()                        # the next round starts at it
+        np.testing.assert_array_equal(parts.estimation.search.population[0], candidates[index])
+
+
+def test_select_settings_raise(tiny_config):
+    with pytest.raises(ValueError, match="Profile select must be an int >= 0"):
+        Profile(select=-1)
+    with pytest.raises(ValueError, match="Profile select_refine must be an int >= 1"):
+        Profile(select_refine=0)
+    with pytest.raises(ValueError, match="profile_select_refine"):
+        tiny_config(inference="profile", profile_select=2, profile_select_refine=0)
+
+
+def test_fine_steps_add_scales_a_third_apart_and_fit_closer_to_each_peak(make_experiment):
+    np.testing.assert_allclose(Profile(fine_steps=2)._steps,
+                               [[0.1 / 9, 0.02 / 9], [0.1 / 3, 0.02 / 3], [0.1, 0.02], [0.4, 0.08], [1.2, 0.2]])
+    np.testing.assert_array_equal(Profile()._steps, [[0.1, 0.02], [0.4, 0.08], [1.2, 0.2]])
+    exps = (make_experiment(0), make_experiment(1))
+    genomes = np.random.default_rng(0).integers(0, 2, (6, 45), dtype=np.uint8)
+    errors = {}
+    for fine in (0, 2):
+        fake, s, rng = PeakPerModel(), Profile(proposals=2, initial=8, fine_steps=fine), np.random.default_rng(1)
+        for generation in range(200):
+            exps = s.before_generation(generation, genomes, exps, fake, rng, genomes=genomes)
+        angles = s.angles(exps, genomes, rng)
+        errors[fine] = np.median([np.abs((angles[m, e.index] - fake.peak(g, e.index) + np.pi) % TWO_PI - np.pi).max()
+                                  for m, g in enumerate(genomes) for e in exps])
+    assert errors[2] < 0.5 * errors[0]                           # after 200 generations: closer to every peak
+    # (after 40 it is the other way round on this cone, 0.17 against 0.04 rad: fewer coarse steps)
+    with pytest.raises(ValueError, match="Profile fine_steps must be an int >= 0"):
+        Profile(fine_steps=-1)
