@@ -34,6 +34,16 @@ search there within the round, while runs that are climbing keep most of their l
 every round (study record, "Global restarts": global rounds alone cost seeds that were
 climbing a round of local search each time).
 
+A global share that keeps its lineage (``global_keep`` k > 0, off by default; needs
+``global_share``): restarted at a random point every round, the global distribution has 30
+generations of G samples to find a basin, and its samples are judged under angles inherited
+from whatever remembered model is nearest, so it rarely beats the incumbent. With k, it
+restarts at a random point only every k-th round (round 2, then k + 2, ...) and otherwise
+at its own best point of the last round, with its own carried covariance (``carry_condition``)
+like the local one: a second, independent lineage whose models inherit angles from their
+own parents. Runs that stay in a wrong basin from round 1 (e.g. a flipper of zero
+thickness and nearly twice the length, study record) need such a lineage to get out.
+
 Carried covariance (``carry_condition`` c >= 1, off by default): a restart at the best point
 keeps the shape of the covariance the previous round's distribution learned, not only its
 best point. MOD_FIT's ridges are long and narrow (a trapped ``known`` run's model sits
@@ -163,11 +173,15 @@ class CMAModelSearch(TellRecord):
         carry_condition: c = 0 (off: every restart is isotropic) or c >= 1, the largest
             condition number of the covariance carried into a restart at the best point
             (module docstring).
+        global_keep: k >= 0 (needs ``global_share``): the global distribution restarts at a
+            random point every k-th round and at its own best point otherwise (module
+            docstring); 0 = at a random point every round.
 
     Raises:
         ValueError: if an argument is outside the ranges above, ``global_period`` > 0 with
             ``population_size`` < 3 (a global round samples P - 1 >= 2 points), or both
-            ``global_period`` and ``global_share`` > 0.
+            ``global_period`` and ``global_share`` > 0, or ``global_keep`` > 0 without
+            ``global_share``.
     """
 
     name: ClassVar[str] = "cma"
@@ -175,8 +189,11 @@ class CMAModelSearch(TellRecord):
 
     def __init__(self, population_size: int, rng: np.random.Generator, *, sigma0: float = 0.3,
                  elitism: int = 1, global_period: int = 0, global_share: int = 0,
-                 carry_condition: float = 0.0) -> None:
+                 carry_condition: float = 0.0, global_keep: int = 0) -> None:
         check_int("population_size", population_size, 2)
+        check_int("global_keep", global_keep, 0)
+        if global_keep and not global_share:
+            raise ValueError(f"global_keep > 0 needs a global_share (a global distribution to keep), got {global_keep}")
         check_int("global_period", global_period, 0)
         check_int("global_share", global_share, 0)
         if global_share and not 2 <= global_share <= population_size - 2:
@@ -200,6 +217,9 @@ class CMAModelSearch(TellRecord):
         self._stream = np.random.default_rng(int(rng.integers(2**63)))
         self._es = self._new_strategy(self._stream.random(len(_LEVELS)), population_size)
         self._global_es = None                     # the global distribution (global_share > 0, from round 2)
+        self.global_keep = int(global_keep)
+        self._global_best_x: np.ndarray | None = None  # its best point of the last told generation (9,)
+        self._global_restarts = 0                  # its restarts so far (every global_keep-th is at random)
         self._restarts = 0                         # restarts so far (every global_period-th is global)
         self._incumbent: np.ndarray | None = None  # (9,) evaluated beside a global round's samples, else None
         self._x: np.ndarray | None = None          # sampled points (P, 9), None after tell
@@ -216,7 +236,7 @@ class CMAModelSearch(TellRecord):
         ``elitism`` >= 1 carries the one best point)."""
         return cls(config.estimation_population, rng, sigma0=config.cma_sigma, elitism=1 if config.elitism else 0,
                    global_period=config.cma_global_period, global_share=config.cma_global_share,
-                   carry_condition=config.cma_carry_condition)
+                   carry_condition=config.cma_carry_condition, global_keep=config.cma_global_keep)
 
     def _new_strategy(self, mean: np.ndarray, popsize: int):
         import cma  # here, not at module level: importing cma takes ~1.5 s, and only cma runs need it
@@ -245,16 +265,25 @@ class CMAModelSearch(TellRecord):
             self._es = self._new_strategy(self._stream.random(len(_LEVELS)), self.population_size - 1)
         else:
             self._incumbent = None
-            shape = carried_shape(self._es.sm.C, self.carry_condition) if self.carry_condition else None
-            self._es = self._new_strategy(self._best_x, self.population_size - self.global_share)
-            if shape is not None:
-                self._es.sm.C = shape
-                self._es.sm._decompose_C()  # pycma's sampler: eigen-decompose the matrix just set
-            if self.elitism:
-                self._es.inject([self._best_x], force=True)
+            self._es = self._restarted(self._es, self._best_x, self.population_size - self.global_share)
             if self.global_share:
-                self._global_es = self._new_strategy(self._stream.random(len(_LEVELS)), self.global_share)
+                keep = self.global_keep and self._global_es is not None and self._global_restarts % self.global_keep
+                self._global_es = self._restarted(self._global_es, self._global_best_x, self.global_share) if keep \
+                    else self._new_strategy(self._stream.random(len(_LEVELS)), self.global_share)
+                self._global_restarts += 1
         self._x, self._asked = None, False
+
+    def _restarted(self, es, best_x: np.ndarray, popsize: int):
+        """A new distribution of ``popsize`` at ``best_x`` with ``es``'s carried covariance shape
+        (``carry_condition`` > 0) and ``best_x`` injected (``elitism``)."""
+        shape = carried_shape(es.sm.C, self.carry_condition) if self.carry_condition else None
+        new = self._new_strategy(best_x, popsize)
+        if shape is not None:
+            new.sm.C = shape
+            new.sm._decompose_C()  # pycma's sampler: eigen-decompose the matrix just set
+        if self.elitism:
+            new.inject([best_x], force=True)
+        return new
 
     @property
     def global_round(self) -> bool:
@@ -310,9 +339,10 @@ class CMAModelSearch(TellRecord):
             local = self.population_size - self.global_share
             self._es.tell(list(self._x[:local]), list(-f[:local]))  # cma minimises
             self._global_es.tell(list(self._x[local:]), list(-f[local:]))
+            self._global_best_x = self._x[local + int(np.argmax(f[local:]))].copy()
             if self.elitism:  # the generation's best into the local distribution, the global one's best into it
                 self._es.inject([self._x[best]], force=True)
-                self._global_es.inject([self._x[local + int(np.argmax(f[local:]))]], force=True)
+                self._global_es.inject([self._global_best_x], force=True)
         else:
             sampled = len(self._x) - (self._incumbent is not None)
             self._es.tell(list(self._x[:sampled]), list(-f[:sampled]))  # cma minimises
@@ -357,4 +387,6 @@ class CMAModelSearch(TellRecord):
             search.global_share, search._global_es = 0, None
         if not hasattr(search, "carry_condition"):  # checkpoints written before the carried covariance
             search.carry_condition = 0.0
+        if not hasattr(search, "global_keep"):  # checkpoints written before the kept global lineage
+            search.global_keep, search._global_best_x, search._global_restarts = 0, None, 0
         return search

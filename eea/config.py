@@ -65,6 +65,9 @@ FIELD_HELP: dict[str, str] = {
                            "the covariance the last round learned, condition number capped at c (not the paper's)",
     "cma_global_share": "cma: G >= 2 of the estimation_population models of every generation come from a second "
                         "CMA-ES that starts every round at a uniformly random point (0 = off; not the paper's)",
+    "cma_global_keep": "cma: 0: the global share restarts at a random point every round; k > 0: only every k-th "
+                       "round, otherwise at its own best point with its own covariance, a second lineage (needs "
+                       "cma_global_share; not the paper's)",
     "crossover_rate": "probability that a parent pair is recombined (paper: 0.75)",
     "tournament_size": "entrants per tournament (paper: 2)",
     "mutation_bits": "mean number of flipped bits per genome of every GA (paper: 1); at most 18",
@@ -172,6 +175,7 @@ class EEAConfig:
     cma_global_period: int = 0
     cma_global_share: int = 0
     cma_carry_condition: float = 0.0
+    cma_global_keep: int = 0
     crossover_rate: float = 0.75
     tournament_size: int = 2
     mutation_bits: float = 1.0
@@ -226,7 +230,7 @@ class EEAConfig:
             "profile_proposals": 1, "profile_initial": 1, "profile_refine": 0, "profile_contenders": 1,
             "profile_library": 0, "profile_library_newcomers": 0, "profile_select": 0, "profile_select_refine": 1,
             "profile_fine_steps": 0,
-            "max_batch_robots": 1, "cma_global_period": 0, "cma_global_share": 0,
+            "max_batch_robots": 1, "cma_global_period": 0, "cma_global_share": 0, "cma_global_keep": 0,
         }
         for name, low in minimum.items():
             check_int(f"EEAConfig.{name}", getattr(self, name), low, 30 if name == "oob_bits" else None)
@@ -238,6 +242,9 @@ class EEAConfig:
                                  ("k_best", "estimation_population"), ("oob_sample", "estimation_population")):
             if getattr(self, name) > getattr(self, population):
                 raise ValueError(f"EEAConfig.{name} ({getattr(self, name)}) must be <= {population} ({getattr(self, population)})")
+        if self.cma_global_keep and not self.cma_global_share:
+            raise ValueError(f"EEAConfig.cma_global_keep > 0 needs cma_global_share > 0 (a global share to keep), "
+                             f"got {self.cma_global_keep} and {self.cma_global_share}")
         for name in ("cma_global_period", "cma_global_share", "cma_carry_condition"):
             if getattr(self, name) and self.estimation_search != "cma":
                 raise ValueError(f"EEAConfig.{name} > 0 needs estimation_search='cma', got {self.estimation_search!r}")

@@ -234,6 +234,31 @@ def test_a_global_share_samples_beside_the_local_search_and_pulls_it_to_a_better
     np.testing.assert_array_equal(resumed.ask(), search.ask())
 
 
+def test_a_kept_global_share_restarts_at_its_own_best_and_at_random_every_kth_round():
+    fitness = _ridge_fitness(np.full(9, 0.25))
+    search = CMAModelSearch(10, np.random.default_rng(3), global_share=4, global_keep=3, carry_condition=100.0)
+    for _ in range(5):
+        search.tell(fitness(search.ask()))
+    random_start = []
+    for round_ in range(2, 9):                                         # rounds 2 ... 8
+        previous_best = None if search._global_es is None else search._global_best_x.copy()
+        search.restart()
+        genomes = search.ask()
+        kept = previous_best is not None and np.abs(search._global_es.mean - previous_best).max() < 0.05  # pycma's bounds move it a little
+        random_start.append(not kept)
+        if kept:                                                       # its last best is its first point
+            assert (genomes[6:] == unit_to_genomes(previous_best[None])[0]).all(axis=1).any()
+        search.tell(fitness(genomes))
+    assert random_start == [True, False, False, True, False, False, True]   # rounds 2, 5 and 8 at random
+    resumed = CMAModelSearch.from_state_dict(pickle.loads(pickle.dumps(search.state_dict())))
+    search.restart(), resumed.restart()
+    np.testing.assert_array_equal(resumed.ask(), search.ask())
+    with pytest.raises(ValueError, match="global_keep > 0 needs a global_share"):
+        CMAModelSearch(10, np.random.default_rng(0), global_keep=2)
+    with pytest.raises(ValueError, match="cma_global_keep > 0 needs cma_global_share"):
+        EEAConfig(estimation_search="cma", cma_global_keep=2)
+
+
 def test_a_global_share_leaves_two_points_to_each_distribution():
     for share in (1, 9):
         with pytest.raises(ValueError, match=r"global_share must be 0 or in .* = \[2, 8\]"):
