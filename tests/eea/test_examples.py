@@ -52,3 +52,26 @@ def test_vestigial_flipper_splits_the_objective_error_by_flipper(tmp_path, tiny_
     obj, flipper, rest = map(float, rows[1].split()[1:4])
     assert np.isclose(obj, 1 - flipper - rest, atol=2e-3)       # the two parts are all of the error (3 decimals)
     assert rows[-1].startswith(f"mean error: {flipper:.3f} on the left_pectoral, {rest:.3f} on the rest")
+
+
+def test_wrong_basins_flags_a_zero_thickness_pectoral_only_where_the_target_has_thickness(tmp_path, tiny_config, capsys):
+    from aquafish_gym import MORPHOLOGY_FIELDS
+    from eea.run import run
+
+    basins = _load("wrong_basins")
+    half = dict(zip(MORPHOLOGY_FIELDS, [0.25, 0.5, 0.0625, 0.25, 1.0, 0.0625, 0.25, 0.875, 0.375]))
+    mimic = {**half, "left_pectoral_y": 1.8125, "left_pectoral_z": 0.0}
+    assert basins.zero_thickness(mimic, half) == ["left_pectoral_z"]
+    assert basins.zero_thickness(half, half) == []
+    assert basins.zero_thickness(mimic, {**half, "left_pectoral_z": 0.0}) == []   # a missing flipper is no mimic
+    run(tiny_config(inference="none"), tmp_path, progress=False)
+    basins.main([str(tmp_path)])
+    lines = capsys.readouterr().out.splitlines()
+    row, summary = lines[1].split(), lines[-1]
+    from eea.record import load_result
+    result = load_result(tmp_path)
+    final = {f: float(result.rounds[-1][f"model_{f}"]) for f in MORPHOLOGY_FIELDS}
+    trapped = bool(basins.zero_thickness(final, half))
+    assert summary.startswith(f"{int(trapped)} of 1 runs end with a zero-thickness pectoral")
+    still = sum(float(r["action_caudal_hz"]) < 0.05 for r in result.rounds)
+    assert row[-1] == f"{still}/{len(result.rounds)}" and float(row[1]) == round(float(result.rounds[-1]["objective_fitness"]), 3)
