@@ -54,16 +54,18 @@ def test_vestigial_flipper_splits_the_objective_error_by_flipper(tmp_path, tiny_
     assert rows[-1].startswith(f"mean error: {flipper:.3f} on the left_pectoral, {rest:.3f} on the rest")
 
 
-def test_wrong_basins_flags_a_zero_thickness_pectoral_only_where_the_target_has_thickness(tmp_path, tiny_config, capsys):
+def test_wrong_basins_flags_a_massless_flipper_only_where_the_target_has_volume(tmp_path, tiny_config, capsys):
     from aquafish_gym import MORPHOLOGY_FIELDS
     from eea.run import run
 
     basins = _load("wrong_basins")
     half = dict(zip(MORPHOLOGY_FIELDS, [0.25, 0.5, 0.0625, 0.25, 1.0, 0.0625, 0.25, 0.875, 0.375]))
     mimic = {**half, "left_pectoral_y": 1.8125, "left_pectoral_z": 0.0}
-    assert basins.zero_thickness(mimic, half) == ["left_pectoral_z"]
-    assert basins.zero_thickness(half, half) == []
-    assert basins.zero_thickness(mimic, {**half, "left_pectoral_z": 0.0}) == []   # a missing flipper is no mimic
+    assert basins.massless(mimic, half) == ["left_pectoral_z"]
+    assert basins.massless({**mimic, "caudal_x": 0.0, "right_pectoral_y": 0.0}, half) == \
+        ["left_pectoral_z", "right_pectoral_y", "caudal_x"]
+    assert basins.massless(half, half) == []
+    assert basins.massless(mimic, {**half, "left_pectoral_x": 0.0}) == []   # the target's flipper is massless too
     run(tiny_config(inference="none"), tmp_path, progress=False)
     basins.main([str(tmp_path)])
     lines = capsys.readouterr().out.splitlines()
@@ -71,7 +73,7 @@ def test_wrong_basins_flags_a_zero_thickness_pectoral_only_where_the_target_has_
     from eea.record import load_result
     result = load_result(tmp_path)
     final = {f: float(result.rounds[-1][f"model_{f}"]) for f in MORPHOLOGY_FIELDS}
-    trapped = bool(basins.zero_thickness(final, half))
-    assert summary.startswith(f"{int(trapped)} of 1 runs end with a zero-thickness pectoral")
+    trapped = bool(basins.massless(final, half))
+    assert summary.startswith(f"{int(trapped)} of 1 runs end with a massless flipper")
     still = sum(float(r["action_caudal_hz"]) < 0.05 for r in result.rounds)
     assert row[-1] == f"{still}/{len(result.rounds)}" and float(row[1]) == round(float(result.rounds[-1]["objective_fitness"]), 3)
