@@ -83,7 +83,10 @@ worth; with 0.1 rad as the finest pectoral step a model's fit stops short of its
 the longer a model has been refined the closer it gets. The finer scales let every model's
 angles converge to the peak of its basin: on the 10 experiments of a finished
 ``left_pectoral_half`` run, 15 rounds of 2 proposals with n = 2 fit the truth as well as 30
-rounds without (0.99933 against 0.99930), and 30 rounds fit it to 0.99944.
+rounds without (0.99933 against 0.99930), and 30 rounds fit it to 0.99943. In runs, together
+with the round-end selection (K = 8), ``left_pectoral_half`` scores 0.859 over 8 seeds, below
+the library variant without either (0.931; study record, "Round-end selection + finer steps
+in runs"): the hard fit on few experiments favours massless-flipper mimics.
 
 "Study record" is ``docs/studies/unknown_angles.md``, where each option was measured.
 
