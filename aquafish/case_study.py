@@ -121,7 +121,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, inference: s
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; valid: {sorted(PRESETS)}")
     settings = PRESETS[preset]
-    target = get_damage(damage).apply(Morphology.healthy())
+    target = get_damage(damage).apply()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()

@@ -8,7 +8,6 @@ import numpy as np
 
 from aquafish_gym.damage import get_damage
 from aquafish_gym.files import save_figure
-from aquafish_gym.morphology import Morphology
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.simulator import BatchWorld
 
@@ -38,7 +37,7 @@ def swim_trajectories(damages, action=FIXED_GAIT, duration_s: float = 20.0, init
         ValueError: unknown damage name or bad command.
     """
     damage_list = [get_damage(d) for d in damages]
-    morph = np.stack([d.apply(Morphology.healthy()).to_array() for d in damage_list])
+    morph = np.stack([d.apply().to_array() for d in damage_list])
     n = len(damage_list)
     every = max(1, int(round(sample_every_s / DT_S)))
     samples = int(round(duration_s / DT_S)) // every

@@ -54,7 +54,6 @@ from pathlib import Path
 
 import numpy as np
 
-from aquafish_gym import Morphology, get_damage
 from eea.checkpoint import load_state
 from eea.encoding import decode_models, encode_models
 from eea.fitness import model_fitness_from_similarities, objective_fitness
@@ -171,7 +170,7 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
     inferred = np.stack([e.context.estimate() for e in experiments])[None]   # (1, E, 3)
     true = np.stack([e.true_angles for e in experiments])[None]
     final = encode_models(result.best_morphology.to_array()[None])
-    true_dims = get_damage(result.config.damage).apply(Morphology.healthy()).to_array()
+    true_dims = result.target_morphology.to_array()
     truth = encode_models(true_dims[None])
     seen = _seen(state.evaluator, result.config.steps, true_dims, result.best_morphology.to_array())
     with Evaluator(result.config.steps, workers=workers, max_batch_robots=result.config.max_batch_robots) as ev:

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from aquafish_gym import ACTION_FIELDS, MORPHOLOGY_FIELDS, Morphology
+from aquafish_gym import ACTION_FIELDS, MORPHOLOGY_FIELDS, Morphology, get_damage
 from aquafish_gym.files import atomic_write
 from eea.config import EEAConfig
 from eea.encoding import decode_models
@@ -73,6 +73,12 @@ class RunResult:
     def finished(self) -> bool:
         """Whether all ``config.rounds`` rounds are done."""
         return len(self.rounds) >= self.config.rounds
+
+    @property
+    def target_morphology(self) -> Morphology:
+        """The target's true morphology: the run's damage applied to the healthy robot (the
+        oracle of OBJ_FIT, eq. 4)."""
+        return get_damage(self.config.damage).apply()
 
     @property
     def best_morphology(self) -> Morphology:

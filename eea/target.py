@@ -44,7 +44,7 @@ class Target:
         preset = get_damage(damage)
         check_int("steps", steps, 1)
         self.damage = damage
-        self.morphology: Morphology = preset.apply(Morphology.healthy())
+        self.morphology: Morphology = preset.apply()
         self.faults = preset.faults
         self.steps = int(steps)
         self.params = check_params(params)

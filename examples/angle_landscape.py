@@ -18,7 +18,6 @@ import argparse
 
 import numpy as np
 
-from aquafish_gym import Morphology, get_damage
 from eea.checkpoint import load_state
 from eea.encoding import encode_models
 from eea.evaluation import Evaluator
@@ -50,7 +49,7 @@ def main(argv=None) -> None:
     if args.grid < 4:
         parser.error(f"--grid must be >= 4, got {args.grid}")
     experiment = experiments[args.experiment]
-    truth = get_damage(result.config.damage).apply(Morphology.healthy()).to_array()
+    truth = result.target_morphology.to_array()
     morphology = truth if args.model == "truth" else result.best_morphology.to_array()
     n = args.grid
     offsets = np.linspace(-np.pi, np.pi, n, endpoint=False)

@@ -21,7 +21,7 @@ import argparse
 
 import numpy as np
 
-from aquafish_gym import ACTION_BOUNDS, MORPHOLOGY_BOUNDS, Morphology, get_damage, simulate_batch
+from aquafish_gym import ACTION_BOUNDS, MORPHOLOGY_BOUNDS, simulate_batch
 from eea.behaviour import behaviour_summary, similarity
 from eea.experiment import random_angles
 from eea.fitness import objective_fitness
@@ -59,7 +59,7 @@ def main(argv=None) -> None:
     missed = []
     for run in find_runs(args.dirs):  # runs with a finished round only
         steps = run.config.steps
-        truth = get_damage(run.config.damage).apply(Morphology.healthy()).to_array()
+        truth = run.target_morphology.to_array()
         model = run.best_morphology.to_array()
         error = error_shares(model, truth)
         removed = model.copy()

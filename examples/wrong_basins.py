@@ -23,7 +23,7 @@ import argparse
 
 import numpy as np
 
-from aquafish_gym import MORPHOLOGY_FIELDS, Morphology, get_damage
+from aquafish_gym import MORPHOLOGY_FIELDS
 from eea.plot import find_runs
 
 #: A caudal command below this (Hz) leaves the tail still for a 1.28 s experiment.
@@ -45,7 +45,7 @@ def main(argv=None) -> None:
     print(f"{'run':<55} {'OBJ_FIT':>7} {'MOD_FIT':>8}  {'massless flipper (first round, rounds)':<38} still tail")
     trapped, free = [], []
     for run in find_runs(args.dirs):  # raises if it finds no run
-        truth = dict(zip(MORPHOLOGY_FIELDS, get_damage(run.config.damage).apply(Morphology.healthy()).to_array()))
+        truth = dict(zip(MORPHOLOGY_FIELDS, run.target_morphology.to_array()))
         rounds = [{f: float(row[f"model_{f}"]) for f in MORPHOLOGY_FIELDS} for row in run.rounds]
         flagged = [int(row["round"]) for row, dims in zip(run.rounds, rounds) if massless(dims, truth)]
         final = massless(rounds[-1], truth)

@@ -21,7 +21,6 @@ def test_truth_reproduces_the_target_exactly_under_true_angles(tmp_path, tiny_co
     # own fitted angles, started from the inferred ones: never worse than those
     assert d.final_profiled >= d.final_inferred and d.true_profiled >= d.true_inferred
     # the models the run scored: its final model among them, none better than it counted wrongly
-    from aquafish_gym import Morphology, get_damage
     from eea.checkpoint import load_state
     from eea.evaluation import Evaluator
     from eea.encoding import decode_models
@@ -29,7 +28,7 @@ def test_truth_reproduces_the_target_exactly_under_true_angles(tmp_path, tiny_co
     ev = Evaluator(tiny_config().steps)
     ev.load_state_dict(load_state(tmp_path).evaluator)
     genomes, _ = ev.scored_models()
-    objective = objective_fitness(decode_models(genomes), get_damage(result.config.damage).apply(Morphology.healthy()).to_array())
+    objective = objective_fitness(decode_models(genomes), result.target_morphology.to_array())
     final = result.rounds[-1]["objective_fitness"]
     assert d.seen == len(genomes) >= tiny_config().estimation_population
     assert d.closest_seen == objective.max() >= final
@@ -75,12 +74,12 @@ def test_no_finished_round_raises(tmp_path):
 
 
 def test_a_run_that_found_the_truth_gets_one_fit_for_both(tmp_path, tiny_config, monkeypatch):
-    from aquafish_gym import Morphology, get_damage
+    from aquafish_gym import get_damage
     from eea.record import RunResult
 
     config = tiny_config(inference="none")
     run(config, tmp_path, progress=False)
-    truth = get_damage(config.damage).apply(Morphology.healthy())
+    truth = get_damage(config.damage).apply()
     monkeypatch.setattr(RunResult, "best_morphology", property(lambda self: truth))
     d = diagnose_run(tmp_path)
     assert d.final_inferred == d.true_inferred and d.final_true_angles == d.true_true_angles == 1.0
@@ -90,7 +89,7 @@ def test_a_run_that_found_the_truth_gets_one_fit_for_both(tmp_path, tiny_config,
 def test_profile_run_scores_the_truth_under_the_angles_it_would_start_from(tmp_path, tiny_config):
     import numpy as np
 
-    from aquafish_gym import Morphology, get_damage
+    from aquafish_gym import get_damage
     from eea.checkpoint import load_state
     from eea.encoding import MODEL_BITS, encode_models, genomes_from_keys
     from eea.evaluation import Evaluator
@@ -102,7 +101,7 @@ def test_profile_run_scores_the_truth_under_the_angles_it_would_start_from(tmp_p
     d = diagnose_run(tmp_path)
     state = load_state(tmp_path)
     experiments = [Experiment.from_state_dict(e) for e in state.experiments]
-    truth = encode_models(get_damage(config.damage).apply(Morphology.healthy()).to_array()[None])
+    truth = encode_models(get_damage(config.damage).apply().to_array()[None])
     memory = state.inference["memory"]
     keys = list(memory)
     remembered = genomes_from_keys(keys, MODEL_BITS)
@@ -147,7 +146,7 @@ def test_median_error_by_hand():
 def test_angle_errors_of_the_run_and_of_the_truths_own_fit(tmp_path, tiny_config, inference):
     import numpy as np
 
-    from aquafish_gym import Morphology, get_damage
+    from aquafish_gym import get_damage
     from eea.checkpoint import load_state
     from eea.diagnosis import median_error_deg
     from eea.encoding import encode_models
@@ -165,7 +164,7 @@ def test_angle_errors_of_the_run_and_of_the_truths_own_fit(tmp_path, tiny_config
     assert d.true_fitted_angles.shape == (len(experiments), 3)
     np.testing.assert_array_equal(d.floor_error_deg, median_error_deg(d.true_fitted_angles, true))
     # the reported angles are the ones the truth's MOD_FIT was fitted under
-    truth = encode_models(get_damage(config.damage).apply(Morphology.healthy()).to_array()[None])
+    truth = encode_models(get_damage(config.damage).apply().to_array()[None])
     with Evaluator(config.steps) as ev:
         sims = ev.similarities(truth, experiments, d.true_fitted_angles[None])
     assert float(model_fitness_from_similarities(sims)[0]) == pytest.approx(d.true_profiled, abs=1e-12)
