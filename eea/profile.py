@@ -219,6 +219,18 @@ class Profile(InferenceStrategy):
                 fresh[u, m:] = True
         return angles, sims, fresh
 
+    def _recall_scored(self, genomes: np.ndarray, experiments, evaluator, rng: np.random.Generator):
+        """:meth:`_recall`'s angles ``(U, E, 3)`` and similarities ``(U, E)``, every entry scored:
+        inherited angles as they are, and the best of ``initial`` random starts where a model
+        has none for an experiment."""
+        angles, sims, fresh = self._recall(genomes, len(experiments), rng)
+        if np.isnan(sims).any():
+            starts = np.repeat(angles[None], self.initial if fresh.any() else 1, axis=0)
+            if fresh.any():
+                starts[:, fresh] = random_angles(rng, self.initial * int(fresh.sum())).reshape(self.initial, -1, 3)
+            self._try(starts, genomes, angles, sims, experiments, evaluator)
+        return angles, sims
+
     def _perturb(self, angles: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """One perturbed copy of ``(U, E, 3)`` angles (a quarter of the entries redrawn at random)."""
         u, e = angles.shape[:2]
@@ -254,12 +266,7 @@ class Profile(InferenceStrategy):
         n_exp = len(experiments)
         keys = genome_keys(distinct)
         new = np.array([key not in self._memory for key in keys])
-        angles, sims, fresh = self._recall(distinct, n_exp, rng)
-        if np.isnan(sims).any():  # score inherited angles; random starts where there are none
-            starts = np.repeat(angles[None], self.initial if fresh.any() else 1, axis=0)
-            if fresh.any():
-                starts[:, fresh] = random_angles(rng, self.initial * int(fresh.sum())).reshape(self.initial, -1, 3)
-            self._try(starts, distinct, angles, sims, experiments, evaluator)
+        angles, sims = self._recall_scored(distinct, experiments, evaluator, rng)
         if self.library_newcomers and new.any() and self._library_ready(n_exp):
             rows = np.flatnonzero(new)
             a, s = angles[rows], sims[rows]
@@ -358,9 +365,7 @@ class Profile(InferenceStrategy):
         if not len(candidates) or not len(experiments):
             raise ValueError(f"Profile.select needs candidates and experiments, got {len(candidates)} and "
                              f"{len(experiments)}")
-        angles, sims, _ = self._recall(candidates, len(experiments), rng)
-        if np.isnan(sims).any():  # inherited angles: scored first
-            self._try(angles[None], candidates, angles, sims, experiments, evaluator)
+        angles, sims = self._recall_scored(candidates, experiments, evaluator, rng)
         self._fit_hard(candidates, angles, sims, experiments, evaluator, rng, self.select_refine)
         fitness = model_fitness_from_similarities(sims)
         keys = genome_keys(candidates)
