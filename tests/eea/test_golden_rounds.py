@@ -31,7 +31,7 @@ VARIANTS = {
 #: options): the ``library`` preset (population 10, the smallest its global share of 8
 #: allows), and the same with every option measured on top of it (README, "Beyond the
 #: paper"; the kept global lineage both restarts at random, round 2, and keeps its lineage,
-#: round 3). Its kept runs stopped reproducing once without a test noticing.
+#: round 3).
 CMA_VARIANTS = {
     "library": dict(preset_fields("library"), estimation_population=10),
     "library_options": dict(preset_fields("library"), estimation_population=10, cma_global_keep=3,
