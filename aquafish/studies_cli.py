@@ -58,10 +58,10 @@ def _compare(args: argparse.Namespace) -> int:
     from eea.compare import compare_variants, comparison_table, parse_variant, plot_variants
     from eea.plot import find_runs
 
-    variants = dict(parse_variant(v) for v in args.variants)
-    if len(variants) < len(args.variants):
-        raise ValueError("each variant LABEL must be given once")
-    summary = compare_variants({label: find_runs([path]) for label, path in variants.items()},
+    variants: dict[str, list] = {}
+    for label, path in map(parse_variant, args.variants):  # a label given again: more of its runs
+        variants.setdefault(label, []).append(path)
+    summary = compare_variants({label: find_runs(paths) for label, paths in variants.items()},
                                rounds=args.rounds, level=args.level)
     print(comparison_table(summary, baseline=args.baseline))
     left_out = {label: s.left_out for label, s in summary.items() if s.left_out}
@@ -147,7 +147,8 @@ def add_commands(sub) -> None:
     m = sub.add_parser("compare", help="variants on the same seeds: final OBJ_FIT, Welch's p against a baseline, "
                                        "rounds to a level, angle errors, simulations per round (eea.compare)")
     m.add_argument("variants", nargs="+", metavar="LABEL=DIR",
-                   help="a variant's label and its runs' directory (searched recursively; one run per seed)")
+                   help="a variant's label and its runs' directory (searched recursively; one run per seed); "
+                        "a label given again adds another directory's runs (e.g. seeds 0-9 and 10-19 kept apart)")
     m.add_argument("--baseline", default=None, help="label p is computed against (default: the first variant)")
     m.add_argument("--rounds", type=int, default=None,
                    help="round compared (default: the shortest planned run); runs short of it are left out")

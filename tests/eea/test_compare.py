@@ -93,8 +93,11 @@ def test_cli_prints_the_table_and_draws_the_curves(tmp_path, capsys):
     assert "| a | 0-1 | 0.875 ± 0.075 | 0.800 0.950 |" in out and "| b | 0 | 0.700 ± 0.000 |" in out
     assert "runs left out (round not finished): b 1" in out
     assert png.stat().st_size > 1000 and not list(png.parent.glob("*.tmp*"))
-    with pytest.raises(SystemExit):
+    _fake_run(tmp_path / "c" / "seed2", 2, [0.9, 0.5])  # a label given twice: the runs of both directories
+    assert main(["compare", f"a={tmp_path / 'a'}", f"a={tmp_path / 'c'}"]) == 0
+    assert "| a | 0-2 | 0.750 ± 0.187 | 0.800 0.950 0.500 |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):  # the same seed twice
         main(["compare", f"a={tmp_path / 'a'}", f"a={tmp_path / 'b'}"])
-    assert "each variant LABEL must be given once" in capsys.readouterr().err
+    assert "variant 'a' has two runs with seed 0" in capsys.readouterr().err
     summary = compare_variants({"a": find_runs([tmp_path / "a"])})
     assert plot_variants(summary, tmp_path / "one.png").exists()
