@@ -4,7 +4,8 @@ and the README's ``library`` preset with and without the options tried on top of
 The files in ``tests/eea/test_golden_rounds/`` were recorded on main before the EEA's
 composition was reshaped (issue 12) and must stay identical, byte for byte, except the
 ``wall_seconds`` column: a refactor that changes one random draw, one cache key or one
-tournament shows up here. A change that is *meant* to change results (new physics, a
+tournament shows up here (``profile_*`` and ``library*`` were recorded later, when they
+were added). A change that is *meant* to change results (new physics, a
 new algorithm setting) regenerates them with
 ``pytest tests/eea/test_golden_rounds.py --force-regen`` and says so in its commit.
 """
@@ -52,20 +53,22 @@ def _without_wall_seconds(path) -> str:
     return out.getvalue()
 
 
-@pytest.mark.parametrize("search", ["ga", "cma"])
-@pytest.mark.parametrize("variant", sorted(VARIANTS))
-def test_rounds_csv_matches_the_recorded_run(tmp_path, tiny_config, file_regression, variant, search):
-    config = tiny_config(rounds=3, seed=7, estimation_search=search, **VARIANTS[variant])
+def _check_recorded_run(tmp_path, config, file_regression, basename: str) -> None:
+    """Run ``config`` (3 rounds) and compare its ``rounds.csv`` with ``basename``.csv."""
     eea.run(config, tmp_path, progress=False)
     text = _without_wall_seconds(tmp_path / "rounds.csv")
     assert text.count("\n") == 4                                  # header + 3 rounds
-    file_regression.check(text, basename=f"{variant}_{search}", extension=".csv")
+    file_regression.check(text, basename=basename, extension=".csv")
+
+
+@pytest.mark.parametrize("search", ["ga", "cma"])
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_rounds_csv_matches_the_recorded_run(tmp_path, tiny_config, file_regression, variant, search):
+    _check_recorded_run(tmp_path, tiny_config(rounds=3, seed=7, estimation_search=search, **VARIANTS[variant]),
+                        file_regression, f"{variant}_{search}")
 
 
 @pytest.mark.parametrize("variant", sorted(CMA_VARIANTS))
 def test_library_rounds_csv_matches_the_recorded_run(tmp_path, tiny_config, file_regression, variant):
-    config = tiny_config(rounds=3, seed=7, **CMA_VARIANTS[variant])
-    eea.run(config, tmp_path, progress=False)
-    text = _without_wall_seconds(tmp_path / "rounds.csv")
-    assert text.count("\n") == 4                                  # header + 3 rounds
-    file_regression.check(text, basename=f"{variant}_cma", extension=".csv")
+    _check_recorded_run(tmp_path, tiny_config(rounds=3, seed=7, **CMA_VARIANTS[variant]), file_regression,
+                        f"{variant}_cma")
