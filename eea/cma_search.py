@@ -44,6 +44,14 @@ like the local one: a second, independent lineage whose models inherit angles fr
 own parents. Runs that stay in a wrong basin from round 1 (e.g. a flipper of zero
 thickness and nearly twice the length, study record) need such a lineage to get out.
 
+The global share's first round (``global_first_round`` r, default 2): the global
+distribution joins at round r, before which the local one samples all P points. With r = 1
+the two lineages start together, at two random points, so round 1 (one experiment, where a
+run's wrong basin is mostly decided; study record) ends with two independently found
+models instead of one, and the next action is chosen among both lineages' models. With
+``global_keep`` k the lineage then restarts at random every k-th round of its life
+(rounds k + r, 2k + r, ...).
+
 Carried covariance (``carry_condition`` c >= 1, off by default): a restart at the best point
 keeps the shape of the covariance the previous round's distribution learned, not only its
 best point. MOD_FIT's ridges are long and narrow (a trapped ``known`` run's model sits
@@ -176,12 +184,14 @@ class CMAModelSearch(TellRecord):
         global_keep: k >= 0 (needs ``global_share``): the global distribution restarts at a
             random point every k-th round and at its own best point otherwise (module
             docstring); 0 = at a random point every round.
+        global_first_round: r >= 1, the round the global share joins (module docstring;
+            r = 1 needs ``global_share``).
 
     Raises:
         ValueError: if an argument is outside the ranges above, ``global_period`` > 0 with
             ``population_size`` < 3 (a global round samples P - 1 >= 2 points), or both
-            ``global_period`` and ``global_share`` > 0, or ``global_keep`` > 0 without
-            ``global_share``.
+            ``global_period`` and ``global_share`` > 0, or ``global_keep`` > 0 or
+            ``global_first_round`` = 1 without ``global_share``.
     """
 
     name: ClassVar[str] = "cma"
@@ -189,11 +199,14 @@ class CMAModelSearch(TellRecord):
 
     def __init__(self, population_size: int, rng: np.random.Generator, *, sigma0: float = 0.3,
                  elitism: int = 1, global_period: int = 0, global_share: int = 0,
-                 carry_condition: float = 0.0, global_keep: int = 0) -> None:
+                 carry_condition: float = 0.0, global_keep: int = 0, global_first_round: int = 2) -> None:
         check_int("population_size", population_size, 2)
         check_int("global_keep", global_keep, 0)
+        check_int("global_first_round", global_first_round, 1)
         if global_keep and not global_share:
             raise ValueError(f"global_keep > 0 needs a global_share (a global distribution to keep), got {global_keep}")
+        if global_first_round == 1 and not global_share:
+            raise ValueError("global_first_round = 1 needs a global_share (a global distribution to start)")
         check_int("global_period", global_period, 0)
         check_int("global_share", global_share, 0)
         if global_share and not 2 <= global_share <= population_size - 2:
@@ -214,12 +227,17 @@ class CMAModelSearch(TellRecord):
         self.carry_condition = float(carry_condition)
         self.population_size, self.sigma0, self.elitism = population_size, float(sigma0), int(elitism)
         self.global_period, self.global_share = int(global_period), int(global_share)
+        self.global_keep, self.global_first_round = int(global_keep), int(global_first_round)
         self._stream = np.random.default_rng(int(rng.integers(2**63)))
-        self._es = self._new_strategy(self._stream.random(len(_LEVELS)), population_size)
-        self._global_es = None                     # the global distribution (global_share > 0, from round 2)
-        self.global_keep = int(global_keep)
+        self._global_es = None                     # the global distribution (global_share > 0, from global_first_round)
         self._global_best_x: np.ndarray | None = None  # its best point of the last told generation (9,)
-        self._global_restarts = 0                  # its restarts so far (every global_keep-th is at random)
+        self._global_restarts = 0                  # its starts so far (every global_keep-th is at random)
+        if self.global_first_round == 1:
+            self._es = self._new_strategy(self._stream.random(len(_LEVELS)), population_size - global_share)
+            self._global_es = self._new_strategy(self._stream.random(len(_LEVELS)), global_share)
+            self._global_restarts = 1
+        else:
+            self._es = self._new_strategy(self._stream.random(len(_LEVELS)), population_size)
         self._restarts = 0                         # restarts so far (every global_period-th is global)
         self._incumbent: np.ndarray | None = None  # (9,) evaluated beside a global round's samples, else None
         self._x: np.ndarray | None = None          # sampled points (P, 9), None after tell
@@ -236,7 +254,8 @@ class CMAModelSearch(TellRecord):
         ``elitism`` >= 1 carries the one best point)."""
         return cls(config.estimation_population, rng, sigma0=config.cma_sigma, elitism=1 if config.elitism else 0,
                    global_period=config.cma_global_period, global_share=config.cma_global_share,
-                   carry_condition=config.cma_carry_condition, global_keep=config.cma_global_keep)
+                   carry_condition=config.cma_carry_condition, global_keep=config.cma_global_keep,
+                   global_first_round=config.cma_global_first_round)
 
     def _new_strategy(self, mean: np.ndarray, popsize: int):
         import cma  # here, not at module level: importing cma takes ~1.5 s, and only cma runs need it
@@ -265,8 +284,10 @@ class CMAModelSearch(TellRecord):
             self._es = self._new_strategy(self._stream.random(len(_LEVELS)), self.population_size - 1)
         else:
             self._incumbent = None
-            self._es = self._restarted(self._es, self._best_x, self.population_size - self.global_share)
-            if self.global_share:
+            joined = self.global_share and self._restarts + 1 >= self.global_first_round  # this round's number
+            self._es = self._restarted(self._es, self._best_x,
+                                       self.population_size - (self.global_share if joined else 0))
+            if joined:
                 keep = self.global_keep and self._global_es is not None and self._global_restarts % self.global_keep
                 self._global_es = self._restarted(self._global_es, self._global_best_x, self.global_share) if keep \
                     else self._new_strategy(self._stream.random(len(_LEVELS)), self.global_share)
@@ -389,4 +410,6 @@ class CMAModelSearch(TellRecord):
             search.carry_condition = 0.0
         if not hasattr(search, "global_keep"):  # checkpoints written before the kept global lineage
             search.global_keep, search._global_best_x, search._global_restarts = 0, None, 0
+        if not hasattr(search, "global_first_round"):  # checkpoints written before it could be chosen
+            search.global_first_round = 2
         return search

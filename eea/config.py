@@ -68,6 +68,9 @@ FIELD_HELP: dict[str, str] = {
     "cma_global_keep": "cma: 0: the global share restarts at a random point every round; k > 0: only every k-th "
                        "round, otherwise at its own best point with its own covariance, a second lineage (needs "
                        "cma_global_share; not the paper's)",
+    "cma_global_first_round": "cma: the round the global share joins (default 2); 1: it starts with the local search "
+                              "in round 1, a second lineage from the first experiment on (needs cma_global_share; "
+                              "not the paper's)",
     "crossover_rate": "probability that a parent pair is recombined (paper: 0.75)",
     "tournament_size": "entrants per tournament (paper: 2)",
     "mutation_bits": "mean number of flipped bits per genome of every GA (paper: 1); at most 18",
@@ -176,6 +179,7 @@ class EEAConfig:
     cma_global_share: int = 0
     cma_carry_condition: float = 0.0
     cma_global_keep: int = 0
+    cma_global_first_round: int = 2
     crossover_rate: float = 0.75
     tournament_size: int = 2
     mutation_bits: float = 1.0
@@ -231,6 +235,7 @@ class EEAConfig:
             "profile_library": 0, "profile_library_newcomers": 0, "profile_select": 0, "profile_select_refine": 1,
             "profile_fine_steps": 0,
             "max_batch_robots": 1, "cma_global_period": 0, "cma_global_share": 0, "cma_global_keep": 0,
+            "cma_global_first_round": 1,
         }
         for name, low in minimum.items():
             check_int(f"EEAConfig.{name}", getattr(self, name), low, 30 if name == "oob_bits" else None)
@@ -245,6 +250,9 @@ class EEAConfig:
         if self.cma_global_keep and not self.cma_global_share:
             raise ValueError(f"EEAConfig.cma_global_keep > 0 needs cma_global_share > 0 (a global share to keep), "
                              f"got {self.cma_global_keep} and {self.cma_global_share}")
+        if self.cma_global_first_round == 1 and not self.cma_global_share:
+            raise ValueError("EEAConfig.cma_global_first_round = 1 needs cma_global_share > 0 (a global share to "
+                             "start), got cma_global_share 0")
         for name in ("cma_global_period", "cma_global_share", "cma_carry_condition"):
             if getattr(self, name) and self.estimation_search != "cma":
                 raise ValueError(f"EEAConfig.{name} > 0 needs estimation_search='cma', got {self.estimation_search!r}")

@@ -259,6 +259,38 @@ def test_a_kept_global_share_restarts_at_its_own_best_and_at_random_every_kth_ro
         EEAConfig(estimation_search="cma", cma_global_keep=2)
 
 
+def test_the_global_share_joins_at_its_first_round_and_keeps_its_lineage_from_there():
+    fitness = _ridge_fitness(np.full(9, 0.25))
+    search = CMAModelSearch(10, np.random.default_rng(3), global_share=4, global_keep=3, global_first_round=1)
+    genomes = search.ask()                                             # round 1: two lineages from the start
+    assert search._es.popsize == 6 and search._global_es.popsize == 4
+    assert np.abs(search._es.mean - search._global_es.mean).max() > 0.05  # two random starting points
+    search.tell(fitness(genomes))
+    assert search._es.countiter == search._global_es.countiter == 1
+    random_start = []
+    for round_ in range(2, 9):                                         # rounds 2 ... 8
+        previous_best = search._global_best_x.copy()
+        search.restart()
+        kept = np.abs(search._global_es.mean - previous_best).max() < 0.05
+        random_start.append(not kept)
+        search.tell(fitness(search.ask()))
+    assert random_start == [False, False, True, False, False, True, False]  # rounds 4 and 7 (k + 1, 2k + 1)
+    late = CMAModelSearch(10, np.random.default_rng(3), global_share=4, global_first_round=3)
+    sizes = []
+    for round_ in range(1, 5):
+        if round_ > 1:
+            late.restart()
+        sizes.append((late._es.popsize, None if late._global_es is None else late._global_es.popsize))
+        late.tell(fitness(late.ask()))
+    assert sizes == [(10, None), (10, None), (6, 4), (6, 4)]
+    with pytest.raises(ValueError, match="global_first_round = 1 needs a global_share"):
+        CMAModelSearch(10, np.random.default_rng(0), global_first_round=1)
+    with pytest.raises(ValueError, match="cma_global_first_round = 1 needs cma_global_share"):
+        EEAConfig(estimation_search="cma", cma_global_first_round=1)
+    with pytest.raises(ValueError, match="global_first_round"):
+        CMAModelSearch(10, np.random.default_rng(0), global_share=4, global_first_round=0)
+
+
 def test_a_global_share_leaves_two_points_to_each_distribution():
     for share in (1, 9):
         with pytest.raises(ValueError, match=r"global_share must be 0 or in .* = \[2, 8\]"):
