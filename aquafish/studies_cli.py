@@ -9,7 +9,8 @@ from eea.cli import add_config_flags, config_fields, config_flag_names
 from eea.config import INFERENCE_NAMES, EEAConfig
 
 #: EEA settings that are no flags of ``aquafish study``: the study sets them per run
-#: (``--conditions``, ``--durations``, ``--replicates`` give inference, duration and seed)
+#: (``--conditions``, ``--durations``, ``--replicates``, ``--first-seed`` give inference, duration
+#: and seed)
 #: and runs every run serially (``--processes`` runs at once). Every other
 #: :class:`~eea.config.EEAConfig` field is a flag, as in ``aquafish eea``.
 STUDY_EXCLUDED = ("inference", "duration_s", "seed", "workers")
@@ -39,7 +40,7 @@ def _study(args: argparse.Namespace) -> int:
     from aquafish.study import StudySpec, run_study
 
     base = EEAConfig(workers=1, **config_fields(args, config_flag_names(STUDY_EXCLUDED)))
-    spec = StudySpec(args.conditions, args.durations, args.replicates, base)
+    spec = StudySpec(args.conditions, args.durations, args.replicates, base, first_seed=args.first_seed)
     dirs = run_study(spec, args.out, backend=args.backend, address=args.address, processes=args.processes)
     print(f"{len(dirs)} runs under {args.out}; plot them with: aquafish plot {args.out}")
     return 0
@@ -131,7 +132,10 @@ def add_commands(sub) -> None:
     s = sub.add_parser("study", help="many resumable EEA runs: conditions x durations x replicates (Figures 5-10)")
     s.add_argument("--conditions", type=_csv(str), default=("known", "none", "in_band", "out_of_band"), help="inference strategies")
     s.add_argument("--durations", type=_csv(float), default=(1.28, 2.56, 5.12, 10.24), help="experiment durations (s)")
-    s.add_argument("--replicates", type=int, default=25, help="seeds 0..N-1 per (condition, duration)")
+    s.add_argument("--replicates", type=int, default=25,
+                   help="seeds S..S+N-1 per (condition, duration), S the --first-seed")
+    s.add_argument("--first-seed", type=int, default=0,
+                   help="the first seed S (default 0); shards of one study's seeds can share its --out")
     s.add_argument("--out", required=True, help="study directory")
     s.add_argument("--backend", choices=["local", "ray"], default="local", help="local process pool or Ray tasks")
     s.add_argument("--address", default=None, help="Ray cluster address (ray.init); default: start a local Ray")

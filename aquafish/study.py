@@ -34,18 +34,22 @@ class StudySpec:
     Attributes:
         conditions: inference strategy names (e.g. ``("known", "none", "in_band", "out_of_band")``).
         durations_s: experiment durations in seconds (paper: 1.28, 2.56, 5.12, 10.24).
-        replicates: seeds ``0 .. replicates-1`` per (condition, duration); paper: 25.
+        replicates: seeds ``first_seed .. first_seed + replicates - 1`` per (condition,
+            duration); paper: 25.
         base: every other EEA setting (population sizes, generations, rounds, damage).
+        first_seed: the first seed (default 0): a study's seeds can be run in shards, e.g.
+            seeds 0-9 on one machine and ``first_seed=10`` on another, into one directory.
 
     Raises:
-        ValueError: empty lists, duplicate entries, ``replicates < 1`` or an invalid
-            condition/duration (checked by building each run's :class:`EEAConfig`).
+        ValueError: empty lists, duplicate entries, ``replicates < 1``, ``first_seed < 0`` or
+            an invalid condition/duration (checked by building each run's :class:`EEAConfig`).
     """
 
     conditions: tuple[str, ...]
     durations_s: tuple[float, ...]
     replicates: int
     base: EEAConfig = dataclasses.field(default_factory=lambda: EEAConfig(workers=1))
+    first_seed: int = 0
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "conditions", tuple(self.conditions))
@@ -55,16 +59,23 @@ class StudySpec:
         if not self.durations_s or len(set(self.durations_s)) != len(self.durations_s):
             raise ValueError(f"durations must be a non-empty list without repeats, got {self.durations_s}")
         check_int("replicates", self.replicates, 1)
+        check_int("first_seed", self.first_seed, 0)
         self.runs(Path("."))  # validates every run's config
+
+    @property
+    def seeds(self) -> range:
+        """The study's seeds: ``first_seed .. first_seed + replicates - 1``."""
+        return range(self.first_seed, self.first_seed + self.replicates)
 
     def runs(self, out_dir: Path) -> list[tuple[EEAConfig, Path]]:
         """Every run of the study: ``(config, run directory)``, replicate by replicate.
 
-        Seed 0 of every (condition, duration) comes first, then seed 1, ...: a study that is
-        stopped early (or looked at while running) has the same replicates of every condition.
+        The first seed of every (condition, duration) comes first, then the next, ...: a study
+        that is stopped early (or looked at while running) has the same replicates of every
+        condition.
         """
         out = []
-        for seed in range(self.replicates):
+        for seed in self.seeds:
             for condition in self.conditions:
                 for duration in self.durations_s:
                     config = self.base.replace(inference=condition, duration_s=duration, seed=seed)
@@ -91,7 +102,7 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
 
     Args:
         spec: the study.
-        out_dir: study directory; ``study.json`` records the spec.
+        out_dir: study directory; ``study.json`` records the spec and every seed run into it.
         backend: ``"local"`` (a process pool over ``processes`` cores, default all) or
             ``"ray"`` (Ray tasks; ``address`` as for ``ray.init``, e.g. ``"auto"`` or
             ``"ray://head:10001"``; ``None`` starts a local Ray instance).
@@ -100,9 +111,9 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
             condition among the runs finished so far in its postfix.
 
     Raises:
-        ValueError: unknown backend, or ``study.json`` exists with a different spec (more or
-            fewer replicates of the same spec are the same study: more extend it, and
-            ``study.json`` records the larger count).
+        ValueError: unknown backend, or ``study.json`` exists with a different spec (other
+            seeds of the same spec are the same study: new seeds extend it, and ``study.json``
+            records the union of its seeds).
         ModuleNotFoundError: ``backend="ray"`` without the ``[cluster]`` extra.
     """
     if backend not in BACKENDS:
@@ -143,9 +154,15 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
     return [d for _, d in runs]
 
 
+def _study_seeds(study: dict) -> list[int]:
+    """The seeds a ``study.json`` records: its ``seeds``, or ``0 .. replicates - 1`` in a file
+    written before studies could start at another seed."""
+    return sorted(study["seeds"]) if "seeds" in study else list(range(study["replicates"]))
+
+
 def _write_spec(spec: StudySpec, out_dir: Path) -> None:
     data = {"conditions": list(spec.conditions), "durations_s": list(spec.durations_s),
-            "replicates": spec.replicates, "base": spec.base.to_dict()}
+            "seeds": list(spec.seeds), "base": spec.base.to_dict()}
     data["base"].pop("workers", None)
     path = out_dir / "study.json"
     if path.exists():
@@ -153,9 +170,12 @@ def _write_spec(spec: StudySpec, out_dir: Path) -> None:
         # through EEAConfig: a spec written before a field was added gets its default
         old["base"] = EEAConfig.from_dict(old["base"]).to_dict()
         old["base"].pop("workers", None)
-        if {**old, "replicates": 0} != {**data, "replicates": 0}:
+        old_seeds = _study_seeds(old)
+        if {k: v for k, v in old.items() if k not in ("seeds", "replicates")} \
+                != {k: v for k, v in data.items() if k != "seeds"}:
             raise ValueError(f"{path} describes a different study; use another --out or delete it")
-        if data["replicates"] <= old["replicates"]:  # a subset of its seeds: nothing to record
+        if set(data["seeds"]) <= set(old_seeds):  # a subset of its seeds: nothing to record
             return
-        # more replicates of the same study: it grows, its finished seeds are kept
+        # other seeds of the same study: it grows, its finished seeds are kept
+        data["seeds"] = sorted(set(old_seeds) | set(data["seeds"]))
     atomic_write(path, json.dumps(data, indent=2).encode())

@@ -57,11 +57,12 @@ def test_study_command_line_of_the_readme(monkeypatch, tmp_path):
     monkeypatch.setattr(aquafish.study, "run_study", lambda spec, out, **kw: specs.append((spec, out, kw)) or [])
     argv = ["study", "--conditions", "known,none,in_band,out_of_band", "--durations", "1.28", "--replicates", "5",
             "--rounds", "10", "--estimation-generations", "30", "--exploration-generations", "10", "--oob-period", "10",
-            "--estimation-search", "cma", "--cma-sigma", "0.2", "--out", str(tmp_path)]
+            "--estimation-search", "cma", "--cma-sigma", "0.2", "--first-seed", "10", "--out", str(tmp_path)]
     assert main(argv) == 0
     spec, out, kw = specs[0]
     assert (spec.conditions, spec.durations_s, spec.replicates, out) == (("known", "none", "in_band", "out_of_band"),
                                                                           (1.28,), 5, str(tmp_path))
+    assert list(spec.seeds) == [10, 11, 12, 13, 14]
     from eea.config import EEAConfig
 
     assert spec.base == EEAConfig(workers=1, rounds=10, estimation_generations=30, exploration_generations=10,

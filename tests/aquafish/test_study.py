@@ -58,7 +58,7 @@ def test_local_study_runs_skips_finished_and_plots(tmp_path):
         values = np.array([[float(r["objective_fitness"]) for r in csv.DictReader((d / "rounds.csv").open())] for d in runs])
         np.testing.assert_allclose(s.mean, values.mean(axis=0))
         np.testing.assert_allclose(s.std, values.std(axis=0))
-    assert json.loads((tmp_path / "study.json").read_text())["replicates"] == 2
+    assert json.loads((tmp_path / "study.json").read_text())["seeds"] == [0, 1]
     assert main(["plot", str(tmp_path)]) == 0
     assert (tmp_path / "objective_fitness.png").stat().st_size > 1000
 
@@ -88,6 +88,21 @@ def test_more_replicates_extend_a_study_and_keep_its_finished_seeds(tmp_path):
     assert dirs == [first, tmp_path / "none" / "0.16s" / "seed1"]
     assert (first / "rounds.csv").stat().st_mtime_ns == stamp            # seed 0 not run again
     assert rounds_done(dirs[1]) == TINY.rounds
-    assert json.loads((tmp_path / "study.json").read_text())["replicates"] == 2
+    assert json.loads((tmp_path / "study.json").read_text())["seeds"] == [0, 1]
     run_study(spec, tmp_path, processes=1, progress=False)                 # a subset: nothing run, nothing rewritten
-    assert json.loads((tmp_path / "study.json").read_text())["replicates"] == 2
+    assert json.loads((tmp_path / "study.json").read_text())["seeds"] == [0, 1]
+
+
+def test_a_shard_of_later_seeds_runs_only_those_and_joins_the_study(tmp_path):
+    spec = tiny_spec(conditions=("none",), replicates=2, first_seed=5)
+    assert [c.seed for c, _ in spec.runs(tmp_path)] == [5, 6]
+    (tmp_path / "study.json").write_text(json.dumps({            # a study written before first_seed existed
+        "conditions": ["none"], "durations_s": [0.16], "replicates": 2,
+        "base": {k: v for k, v in TINY.to_dict().items() if k != "workers"}}))
+    dirs = run_study(spec, tmp_path, processes=1, progress=False)
+    assert dirs == [tmp_path / "none" / "0.16s" / f"seed{s}" for s in (5, 6)]
+    assert all(rounds_done(d) == TINY.rounds for d in dirs)
+    assert not (tmp_path / "none" / "0.16s" / "seed0").exists()
+    assert json.loads((tmp_path / "study.json").read_text())["seeds"] == [0, 1, 5, 6]
+    with pytest.raises(ValueError, match="first_seed"):
+        tiny_spec(first_seed=-1)
