@@ -231,6 +231,7 @@ class CMAModelSearch(TellRecord):
         self._stream = np.random.default_rng(int(rng.integers(2**63)))
         self._global_es = None                     # the global distribution (global_share > 0, from global_first_round)
         self._global_best_x: np.ndarray | None = None  # its best point of the last told generation (9,)
+        self._local_best_x: np.ndarray | None = None   # the local one's, when both sampled (9,)
         self._global_restarts = 0                  # its starts so far (every global_keep-th is at random)
         if self.global_first_round == 1:
             self._es = self._new_strategy(self._stream.random(len(_LEVELS)), population_size - global_share)
@@ -307,6 +308,17 @@ class CMAModelSearch(TellRecord):
         return new
 
     @property
+    def lineage_best_genomes(self) -> dict[str, np.ndarray]:
+        """Each lineage's own best model of the last told generation, ``{"local": (45,),
+        "global": (45,)}`` uint8 genomes, when a global share sampled beside the local
+        distribution (``{}`` otherwise, e.g. before the share joins): where the two lineages
+        stand (study record, "Two lineages from round 1")."""
+        if self._global_es is None or self._global_best_x is None or getattr(self, "_local_best_x", None) is None:
+            return {}
+        return {"local": unit_to_genomes(self._local_best_x[None])[0],
+                "global": unit_to_genomes(self._global_best_x[None])[0]}
+
+    @property
     def global_round(self) -> bool:
         """Whether the current round started from a global restart (the incumbent rides along)."""
         return self._incumbent is not None
@@ -361,6 +373,7 @@ class CMAModelSearch(TellRecord):
             self._es.tell(list(self._x[:local]), list(-f[:local]))  # cma minimises
             self._global_es.tell(list(self._x[local:]), list(-f[local:]))
             self._global_best_x = self._x[local + int(np.argmax(f[local:]))].copy()
+            self._local_best_x = self._x[int(np.argmax(f[:local]))].copy()
             if self.elitism:  # the generation's best into the local distribution, the global one's best into it
                 self._es.inject([self._x[best]], force=True)
                 self._global_es.inject([self._global_best_x], force=True)

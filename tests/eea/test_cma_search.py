@@ -265,8 +265,13 @@ def test_the_global_share_joins_at_its_first_round_and_keeps_its_lineage_from_th
     genomes = search.ask()                                             # round 1: two lineages from the start
     assert search._es.popsize == 6 and search._global_es.popsize == 4
     assert np.abs(search._es.mean - search._global_es.mean).max() > 0.05  # two random starting points
-    search.tell(fitness(genomes))
+    assert search.lineage_best_genomes == {}                        # nothing told yet
+    f = fitness(genomes)
+    search.tell(f)
     assert search._es.countiter == search._global_es.countiter == 1
+    bests = search.lineage_best_genomes                                # each lineage's own best row
+    np.testing.assert_array_equal(bests["local"], genomes[int(np.argmax(f[:6]))])
+    np.testing.assert_array_equal(bests["global"], genomes[6 + int(np.argmax(f[6:]))])
     random_start = []
     for round_ in range(2, 9):                                         # rounds 2 ... 8
         previous_best = search._global_best_x.copy()

@@ -77,3 +77,17 @@ def test_wrong_basins_flags_a_massless_flipper_only_where_the_target_has_volume(
     assert summary.startswith(f"{int(trapped)} of 1 runs end with a massless flipper")
     still = sum(float(r["action_caudal_hz"]) < 0.05 for r in result.rounds)
     assert row[-1] == f"{still}/{len(result.rounds)}" and float(row[1]) == round(float(result.rounds[-1]["objective_fitness"]), 3)
+
+
+def test_round1_lineages_reports_each_lineages_own_best_model(tmp_path, tiny_config, monkeypatch):
+    from eea.checkpoint import load_state
+
+    monkeypatch.syspath_prepend(str(EXAMPLES))                  # it imports wrong_basins beside it
+    config = tiny_config(inference="profile", estimation_search="cma", cma_global_share=2, cma_global_first_round=1,
+                         rounds=3)
+    bests = _load("round1_lineages").lineages(config, tmp_path)
+    state = load_state(tmp_path)
+    genomes, fitness = state.estimation["genomes"], state.estimation["fitness"]
+    assert len(state.experiments) == 1 and len(genomes) == 5    # round 1 only, whatever config.rounds says
+    np.testing.assert_array_equal(bests["local"], genomes[int(np.argmax(fitness[:3]))])    # rows 0-2: the local CMA-ES
+    np.testing.assert_array_equal(bests["global"], genomes[3 + int(np.argmax(fitness[3:]))])
