@@ -51,6 +51,8 @@ FIELD_HELP: dict[str, str] = {
     "exploration_angles": "0: every model is simulated from the zero state during exploration (the paper's); "
                           "K >= 2: from K random angle sets per round, and an action scores the models' "
                           "disagreement minus the spread the angles cause (eq. 1 with an angle term; not the paper's)",
+    "exploration_spread_weight": "exploration_angles >= 2: the weight w of the angle spread in the robust action "
+                                 "fitness, disagreement - w * spread (default 1; w < 1 penalises less; not the paper's)",
     "exploration_diversity": "0: the exploration's candidate models are the distinct models of the last "
                              "estimation generation (the paper's); d > 0: the fittest models the whole round "
                              "evaluated, each at least d apart (1 - OBJ_FIT between them; not the paper's)",
@@ -171,6 +173,7 @@ class EEAConfig:
     exploration_models: int = 25
     exploration_angles: int = 0
     exploration_diversity: float = 0.0
+    exploration_spread_weight: float = 1.0
     estimation_population: int = 25
     estimation_generations: int = 100
     estimation_search: str = "ga"
@@ -222,6 +225,10 @@ class EEAConfig:
                 or not 0.0 < self.cma_sigma <= 1.0:
             raise ValueError(f"EEAConfig.cma_sigma must be in (0, 1], got {self.cma_sigma!r}")
         object.__setattr__(self, "cma_sigma", float(self.cma_sigma))
+        value = self.exploration_spread_weight
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < math.inf:
+            raise ValueError(f"EEAConfig.exploration_spread_weight must be a finite number >= 0, got {value!r}")
+        object.__setattr__(self, "exploration_spread_weight", float(value))
         value = self.cma_carry_condition
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (value == 0 or 1 <= value < math.inf):
             raise ValueError(f"EEAConfig.cma_carry_condition must be 0 (off) or a finite number >= 1, got {value!r}")
@@ -243,6 +250,9 @@ class EEAConfig:
         if self.exploration_angles == 1:
             raise ValueError("EEAConfig.exploration_angles must be 0 (the zero state) or >= 2 (a spread needs "
                              "two angle sets), got 1")
+        if self.exploration_spread_weight != 1.0 and not self.exploration_angles:
+            raise ValueError(f"EEAConfig.exploration_spread_weight {self.exploration_spread_weight} needs "
+                             "exploration_angles >= 2 (the zero state has no angle spread)")
         for name, population in (("elitism", "exploration_population"), ("elitism", "estimation_population"),
                                  ("k_best", "estimation_population"), ("oob_sample", "estimation_population")):
             if getattr(self, name) > getattr(self, population):
