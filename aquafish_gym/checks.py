@@ -34,11 +34,12 @@ def check_int(name: str, value, minimum: int | None = None, maximum: int | None 
 
 
 def check_weight(name: str, value) -> float:
-    """``value`` as a ``float`` if it is a finite number >= 0 (a reward or cost weight).
+    """``value`` as a ``float`` if it is a finite number >= 0 (``bool`` excluded; a reward,
+    cost or penalty weight).
 
     Raises:
         ValueError: ``"<name> must be a number >= 0, got <value!r>"`` otherwise.
     """
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+    if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value >= 0):
         raise ValueError(f"{name} must be a number >= 0, got {value!r}")
     return float(value)

@@ -313,7 +313,7 @@ class CMAModelSearch(TellRecord):
         "global": (45,)}`` uint8 genomes, when a global share sampled beside the local
         distribution (``{}`` otherwise, e.g. before the share joins): where the two lineages
         stand (study record, "Two lineages from round 1")."""
-        if self._global_es is None or self._global_best_x is None or getattr(self, "_local_best_x", None) is None:
+        if self._global_es is None or self._global_best_x is None or self._local_best_x is None:
             return {}
         return {"local": unit_to_genomes(self._local_best_x[None])[0],
                 "global": unit_to_genomes(self._global_best_x[None])[0]}
@@ -425,4 +425,6 @@ class CMAModelSearch(TellRecord):
             search.global_keep, search._global_best_x, search._global_restarts = 0, None, 0
         if not hasattr(search, "global_first_round"):  # checkpoints written before it could be chosen
             search.global_first_round = 2
+        if not hasattr(search, "_local_best_x"):  # checkpoints written before lineage_best_genomes
+            search._local_best_x = None
         return search

@@ -21,7 +21,7 @@ import math
 import os
 
 from aquafish_gym import DT_S, get_damage
-from aquafish_gym.checks import check_int
+from aquafish_gym.checks import check_int, check_weight
 from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
 from eea.model_search import SEARCH_NAMES
 from eea.profile import INHERIT_RULES
@@ -225,10 +225,8 @@ class EEAConfig:
                 or not 0.0 < self.cma_sigma <= 1.0:
             raise ValueError(f"EEAConfig.cma_sigma must be in (0, 1], got {self.cma_sigma!r}")
         object.__setattr__(self, "cma_sigma", float(self.cma_sigma))
-        value = self.exploration_spread_weight
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < math.inf:
-            raise ValueError(f"EEAConfig.exploration_spread_weight must be a finite number >= 0, got {value!r}")
-        object.__setattr__(self, "exploration_spread_weight", float(value))
+        object.__setattr__(self, "exploration_spread_weight",
+                           check_weight("EEAConfig.exploration_spread_weight", self.exploration_spread_weight))
         value = self.cma_carry_condition
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (value == 0 or 1 <= value < math.inf):
             raise ValueError(f"EEAConfig.cma_carry_condition must be 0 (off) or a finite number >= 1, got {value!r}")

@@ -31,6 +31,7 @@ from typing import Callable
 
 import numpy as np
 
+from aquafish_gym.checks import check_weight
 from eea.encoding import ACTION_BITS, decode_actions
 from eea.experiment import random_angles
 from eea.fitness import action_fitness, robust_action_fitness
@@ -66,11 +67,9 @@ class Exploration:
             raise ValueError(f"population and generations must be >= 1, got {population}, {generations}")
         if angle_sets < 0 or angle_sets == 1:
             raise ValueError(f"angle_sets must be 0 (zero state) or >= 2, got {angle_sets}")
-        if not (np.isfinite(spread_weight) and spread_weight >= 0):
-            raise ValueError(f"spread_weight must be a finite number >= 0, got {spread_weight!r}")
-        if spread_weight != 1.0 and not angle_sets:
+        self.spread_weight = check_weight("spread_weight", spread_weight)
+        if self.spread_weight != 1.0 and not angle_sets:
             raise ValueError(f"spread_weight {spread_weight} needs angle_sets >= 2 (no spread from the zero state)")
-        self.spread_weight = float(spread_weight)
         self.population, self.generations = int(population), int(generations)
         self.ga_options = dict(ga_options or {})
         self.angle_sets = int(angle_sets)

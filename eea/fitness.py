@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from aquafish_gym import MORPHOLOGY_BOUNDS
+from aquafish_gym.checks import check_weight
 from eea.behaviour import MAX_COEFFICIENT, similarity
 
 __all__ = ["action_fitness", "model_fitness", "model_fitness_from_similarities", "objective_fitness",
@@ -87,8 +88,7 @@ def robust_action_fitness(summaries, max_coefficient: float = MAX_COEFFICIENT, s
     s = np.asarray(summaries, dtype=np.float64)
     if s.ndim < 4 or s.shape[-4] < 2:
         raise ValueError(f"summaries must have shape (..., K, M, 3, F) with K >= 2 angle sets, got {s.shape}")
-    if not (np.isfinite(spread_weight) and spread_weight >= 0):
-        raise ValueError(f"spread_weight must be a finite number >= 0, got {spread_weight!r}")
+    spread_weight = check_weight("spread_weight", spread_weight)
     between = np.mean(action_fitness(s, max_coefficient), axis=-1)                        # over K
     spread = np.mean(action_fitness(np.swapaxes(s, -4, -3), max_coefficient), axis=-1)    # over M
     result = between - spread_weight * spread

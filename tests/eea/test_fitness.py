@@ -120,7 +120,8 @@ def test_robust_action_fitness_hand_computed():
     # the spread weighted: 0.4 - w * 0.1
     assert robust_action_fitness(s, spread_weight=0.5) == pytest.approx(0.4 - 0.05)
     assert robust_action_fitness(s, spread_weight=0.0) == pytest.approx(0.4)
-    with pytest.raises(ValueError, match="spread_weight"):
-        robust_action_fitness(s, spread_weight=-0.1)
+    for bad in (-0.1, float("inf"), True):
+        with pytest.raises(ValueError, match="spread_weight must be a number >= 0"):
+            robust_action_fitness(s, spread_weight=bad)
     with pytest.raises(ValueError, match="K >= 2"):
         robust_action_fitness(np.zeros((1, 3, 3, 4)))

@@ -200,6 +200,8 @@ def test_angle_robust_exploration_discounts_what_the_angles_explain():
         Exploration(angle_sets=3, spread_weight=-1.0)
     with pytest.raises(ValueError, match="exploration_spread_weight .* needs exploration_angles"):
         EEAConfig(exploration_spread_weight=0.5)
+    with pytest.raises(ValueError, match="EEAConfig.exploration_spread_weight must be a number >= 0"):
+        EEAConfig(exploration_angles=4, exploration_spread_weight=True)
     assert Exploration.from_config(EEAConfig(exploration_angles=4, exploration_spread_weight=0.5)).spread_weight == 0.5
 
 
