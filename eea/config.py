@@ -107,6 +107,9 @@ FIELD_HELP: dict[str, str] = {
     "profile_select_refine": "profile: perturbation rounds of every round-end selection candidate's angles (>= 1)",
     "profile_fine_steps": "profile: 0: off; n > 0: the angle perturbations also use steps 3, 9, ... 3**n times finer "
                           "than the finest (0.1 rad pectoral, 0.02 rad caudal; not the paper's)",
+    "profile_polish": "profile: 0: off; P in [1, profile_contenders]: after their refinement (profile_refine > 0) "
+                      "the P fittest contenders' angles get a compass search with steps halved from 0.1 rad "
+                      "(pectorals) and 0.02 rad (caudal) to 1/32 of them (not the paper's)",
     "oob_experiments": "out_of_band: angles refined by each inference: newest (the paper's: only the newest "
                        "experiment) or all (also every older experiment at generation 0 of each round; not the paper's)",
     "workers": "worker processes for simulations (1 = serial); never changes results",
@@ -207,6 +210,7 @@ class EEAConfig:
     profile_select: int = 0
     profile_select_refine: int = 30
     profile_fine_steps: int = 0
+    profile_polish: int = 0
     workers: int = dataclasses.field(default_factory=_default_workers)
     max_batch_robots: int = 64
 
@@ -238,7 +242,7 @@ class EEAConfig:
             "oob_population": 1, "oob_generations": 1, "oob_bits": 2, "workers": 1,
             "profile_proposals": 1, "profile_initial": 1, "profile_refine": 0, "profile_contenders": 1,
             "profile_library": 0, "profile_library_newcomers": 0, "profile_select": 0, "profile_select_refine": 1,
-            "profile_fine_steps": 0,
+            "profile_fine_steps": 0, "profile_polish": 0,
             "max_batch_robots": 1, "cma_global_period": 0, "cma_global_share": 0, "cma_global_keep": 0,
             "cma_global_first_round": 1,
         }
@@ -277,6 +281,10 @@ class EEAConfig:
         if self.profile_library_newcomers > self.profile_library:
             raise ValueError(f"EEAConfig.profile_library_newcomers ({self.profile_library_newcomers}) must be <= "
                              f"profile_library ({self.profile_library}): a newcomer tries sets of the library")
+        if self.profile_polish and not (self.profile_refine and self.profile_polish <= self.profile_contenders):
+            raise ValueError(f"EEAConfig.profile_polish ({self.profile_polish}) needs profile_refine > 0 and at most "
+                             f"profile_contenders ({self.profile_contenders}) contenders to polish, "
+                             f"got profile_refine {self.profile_refine}")
         if self.elitism > self.oob_population:
             raise ValueError(f"EEAConfig.elitism ({self.elitism}) must be <= oob_population ({self.oob_population})")
         for name in ("crossover_rate", "in_band_confidence"):
