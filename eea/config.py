@@ -110,6 +110,8 @@ FIELD_HELP: dict[str, str] = {
     "profile_polish": "profile: 0: off; P in [1, profile_contenders]: after their refinement (profile_refine > 0) "
                       "the P fittest contenders' angles get a compass search with steps halved from 0.1 rad "
                       "(pectorals) and 0.02 rad (caudal) to 1/32 of them (not the paper's)",
+    "profile_scan": "profile: 0: off; C > 0: before the polish (profile_polish > 0), C cycles of a per-flipper scan "
+                    "of each polished contender's angles (24 pectoral angles 15 deg apart, 9 caudal; not the paper's)",
     "oob_experiments": "out_of_band: angles refined by each inference: newest (the paper's: only the newest "
                        "experiment) or all (also every older experiment at generation 0 of each round; not the paper's)",
     "workers": "worker processes for simulations (1 = serial); never changes results",
@@ -211,6 +213,7 @@ class EEAConfig:
     profile_select_refine: int = 30
     profile_fine_steps: int = 0
     profile_polish: int = 0
+    profile_scan: int = 0
     workers: int = dataclasses.field(default_factory=_default_workers)
     max_batch_robots: int = 64
 
@@ -242,7 +245,7 @@ class EEAConfig:
             "oob_population": 1, "oob_generations": 1, "oob_bits": 2, "workers": 1,
             "profile_proposals": 1, "profile_initial": 1, "profile_refine": 0, "profile_contenders": 1,
             "profile_library": 0, "profile_library_newcomers": 0, "profile_select": 0, "profile_select_refine": 1,
-            "profile_fine_steps": 0, "profile_polish": 0,
+            "profile_fine_steps": 0, "profile_polish": 0, "profile_scan": 0,
             "max_batch_robots": 1, "cma_global_period": 0, "cma_global_share": 0, "cma_global_keep": 0,
             "cma_global_first_round": 1,
         }
@@ -285,6 +288,9 @@ class EEAConfig:
             raise ValueError(f"EEAConfig.profile_polish ({self.profile_polish}) needs profile_refine > 0 and at most "
                              f"profile_contenders ({self.profile_contenders}) contenders to polish, "
                              f"got profile_refine {self.profile_refine}")
+        if self.profile_scan and not self.profile_polish:
+            raise ValueError(f"EEAConfig.profile_scan ({self.profile_scan}) needs profile_polish > 0: the scan "
+                             "comes before the polish of a contender")
         if self.elitism > self.oob_population:
             raise ValueError(f"EEAConfig.elitism ({self.elitism}) must be <= oob_population ({self.oob_population})")
         for name in ("crossover_rate", "in_band_confidence"):

@@ -451,3 +451,35 @@ def test_polish_settings_raise(tiny_config):
     with pytest.raises(ValueError, match="profile_polish"):
         tiny_config(inference="profile", profile_polish=1)                 # no refinement to polish after
     assert Profile.from_config(tiny_config(inference="profile", profile_refine=2, profile_polish=1)).polish == 1
+
+
+def test_scan_finds_each_flippers_basin_anywhere_and_the_polish_then_its_peak(make_experiment, tiny_config):
+    from eea.profile import POLISH_STEPS_RAD, SCAN_CAUDAL, SCAN_PECTORAL
+
+    exps = tuple(make_experiment(i) for i in range(2))
+    genomes = np.random.default_rng(0).integers(0, 2, (3, 45), dtype=np.uint8)
+    fake = PeakPerModel()
+    peaks = np.array([[fake.peak(g, e.index) for e in exps] for g in genomes])
+    far = peaks + [2.0, -2.5, 0.0]
+    far[..., :2] %= TWO_PI
+    far[..., 2] = np.where(peaks[..., 2] > 0, -0.52, 0.52)                             # the other end of the sweep
+    profile, results = Profile(refine=1, polish=1, scan=1), {}
+    for cycles in (0, 1):
+        angles, sims = far.copy(), fake.similarities(genomes, exps, far)
+        fake.rows = 0
+        profile.scan_angles(genomes, angles, sims, exps, fake, cycles)
+        assert fake.rows == cycles * (2 * SCAN_PECTORAL + SCAN_CAUDAL) * len(genomes) * len(exps)
+        after_scan = np.abs((angles - peaks + np.pi) % TWO_PI - np.pi)
+        if cycles:                                       # the nearest grid value of each flipper
+            assert np.all(after_scan[..., :2] <= np.pi / SCAN_PECTORAL + 1e-12)
+            assert np.all(after_scan[..., 2] <= 2 * 0.5235987755982988 / (SCAN_CAUDAL - 1) / 2 + 1e-12)
+        profile.polish_angles(genomes, angles, sims, exps, fake)
+        results[cycles] = np.abs((angles - peaks + np.pi) % TWO_PI - np.pi).max()
+    assert results[1] <= POLISH_STEPS_RAD[-1, 0] / 2 + 1e-12                          # scanned, then polished: at the peak
+    assert results[0] > 1.0                                                          # the polish alone stays far away
+    with pytest.raises(ValueError, match="Profile scan must be an int >= 0"):
+        Profile(scan=-1)
+    with pytest.raises(ValueError, match="profile_scan"):
+        tiny_config(inference="profile", profile_refine=1, profile_scan=1)             # no polish to scan before
+    assert Profile.from_config(tiny_config(inference="profile", profile_refine=1, profile_polish=1,
+                                           profile_scan=2)).scan == 2
