@@ -4,6 +4,7 @@ import importlib.util
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
@@ -91,3 +92,30 @@ def test_round1_lineages_reports_each_lineages_own_best_model(tmp_path, tiny_con
     assert len(state.experiments) == 1 and len(genomes) == 5    # round 1 only, whatever config.rounds says
     np.testing.assert_array_equal(bests["local"], genomes[int(np.argmax(fitness[:3]))])    # rows 0-2: the local CMA-ES
     np.testing.assert_array_equal(bests["global"], genomes[3 + int(np.argmax(fitness[3:]))])
+
+
+def test_angle_cone_scores_the_truth_1_at_its_angles_and_less_off_them(tmp_path, tiny_config, capsys):
+    from eea.checkpoint import load_state
+    from eea.encoding import encode_models
+    from eea.evaluation import Evaluator
+    from eea.experiment import Experiment
+    from eea.run import run
+    from aquafish_gym import get_damage
+
+    config = tiny_config(inference="profile", duration_s=0.64, rounds=2)
+    run(config, tmp_path, progress=False)
+    cone = _load("angle_cone")
+    cone.main([str(tmp_path)])
+    out = capsys.readouterr().out
+    assert "truth at its true angles: similarity 1.000000 - 1.000000" in out
+    experiments = [Experiment.from_state_dict(e) for e in load_state(tmp_path).experiments]
+    evaluator = Evaluator(config.steps)
+    truth = encode_models(get_damage(config.damage).apply().to_array()[None])
+    loss = cone.cone(evaluator, truth, experiments)
+    assert loss.shape == (3, len(cone.OFFSETS_DEG))
+    assert np.all(loss >= 0) and np.all(loss[:, -1] > loss[:, 0])                     # 20 deg off loses more than 1
+    true = np.stack([e.true_angles for e in experiments])
+    before, after, angles = cone.polished(evaluator, truth, true + np.radians([4.0, -4.0, 1.0]), experiments)
+    assert before < after <= 1.0
+    with pytest.raises(SystemExit, match="no checkpoint of a profile run"):
+        cone.main([str(tmp_path / "nothing")])
