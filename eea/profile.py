@@ -91,7 +91,7 @@ in runs"): the hard fit on few experiments favours massless-flipper mimics.
 Polish (``polish`` P > 0, off by default, with ``refine`` > 0; not the paper's): MOD_FIT is
 a narrow cone around the true morphology's true angles. On the 10 experiments of finished
 ``left_pectoral_half`` runs, the truth at its true angles scores exactly 1, and loses about
-0.0002-0.0005 per experiment for every degree a pectoral angle is off (0.001 per degree of
+0.00015-0.0005 per experiment for every degree a pectoral angle is off (0.001 per degree of
 the caudal fin), so the truth fitted to within the finest random step (0.1 rad, 5.7 deg)
 scores no better than the wrong models the runs end with (0.9987-0.9990): the random
 perturbations leave the last 0.001 on the table, and that is the margin a wrong model wins
@@ -113,7 +113,7 @@ With C, each polished contender first gets C cycles of a per-flipper scan: for e
 in turn, its angle in every experiment is set to each of :data:`SCAN_PECTORAL` values round
 the circle (:data:`SCAN_CAUDAL` across the caudal sweep) with the other two kept, and the
 best is kept per experiment. On 11 finished runs the truth started from the final model's
-angles and scanned (2 cycles) and polished beats the final model fitted the same way in 9
+angles and scanned (1 or 2 cycles) and polished beats the final model fitted the same way in 9
 (polish alone: 5). Cost: ``C (2 SCAN_PECTORAL + SCAN_CAUDAL) E`` simulations per contender.
 
 "Study record" is ``docs/studies/unknown_angles.md``, where each option was measured.
@@ -415,7 +415,7 @@ class Profile(InferenceStrategy):
         For each step pair of :data:`POLISH_STEPS_RAD` (pectorals, caudal fin), up to
         :data:`POLISH_ITERATIONS` times: the 6 moves of one angle by +-step are tried for every
         model and experiment at once, each entry keeps its best if it scores higher, and the
-        step is halved when no entry improved. Pectoral angles wrap round the circle, the caudal
+        step is halved when no entry improved or after the last iteration. Pectoral angles wrap round the circle, the caudal
         angle is clipped to the sweep. Costs at most ``6 U E`` simulations per iteration.
 
         Args:
