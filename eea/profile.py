@@ -281,8 +281,7 @@ class Profile(InferenceStrategy):
         moved = rng.random((u, e, 3)) < 0.5                                             # each flipper: 1 in 2
         moved[np.arange(u)[:, None], np.arange(e), rng.integers(0, 3, (u, e))] = True   # at least one
         out = angles + rng.standard_normal((u, e, 3)) * steps[..., [0, 0, 1]] * moved
-        out[..., :2] = np.mod(out[..., :2], TWO_PI)
-        out[..., 2] = np.clip(out[..., 2], -CAUDAL_LIMIT_RAD, CAUDAL_LIMIT_RAD)
+        _into_range(out)
         redraw = rng.random((u, e)) < _RANDOM_SHARE
         out[redraw] = random_angles(rng, int(redraw.sum()))
         return out
@@ -397,10 +396,7 @@ class Profile(InferenceStrategy):
             ValueError: if the shapes disagree or ``cycles`` < 0.
         """
         check_int("scan_angles cycles", cycles, 0)
-        u, e = len(genomes), len(experiments)
-        if np.shape(angles) != (u, e, 3) or np.shape(sims) != (u, e):
-            raise ValueError(f"scan_angles needs angles ({u}, {e}, 3) and sims ({u}, {e}), "
-                             f"got {np.shape(angles)} and {np.shape(sims)}")
+        _check_fit_arrays("scan_angles", genomes, angles, sims, experiments)
         values = (np.linspace(0.0, TWO_PI, SCAN_PECTORAL, endpoint=False),) * 2 \
             + (np.linspace(-CAUDAL_LIMIT_RAD, CAUDAL_LIMIT_RAD, SCAN_CAUDAL),)
         for _ in range(cycles):
@@ -429,18 +425,14 @@ class Profile(InferenceStrategy):
         Raises:
             ValueError: if ``angles`` is not ``(U, E, 3)`` or ``sims`` not ``(U, E)``.
         """
-        u, e = len(genomes), len(experiments)
-        if np.shape(angles) != (u, e, 3) or np.shape(sims) != (u, e):
-            raise ValueError(f"polish_angles needs angles ({u}, {e}, 3) and sims ({u}, {e}), "
-                             f"got {np.shape(angles)} and {np.shape(sims)}")
+        _check_fit_arrays("polish_angles", genomes, angles, sims, experiments)
         moves = np.zeros((6, 3))
         moves[np.arange(6), np.repeat(np.arange(3), 2)] = np.tile([1.0, -1.0], 3)
         for pectoral, caudal in POLISH_STEPS_RAD:
             for _ in range(POLISH_ITERATIONS):
                 before = np.where(np.isnan(sims), -np.inf, sims)
                 candidates = angles[None] + (moves * [pectoral, pectoral, caudal])[:, None, None, :]
-                candidates[..., :2] = np.mod(candidates[..., :2], TWO_PI)
-                candidates[..., 2] = np.clip(candidates[..., 2], -CAUDAL_LIMIT_RAD, CAUDAL_LIMIT_RAD)
+                _into_range(candidates)
                 self._try(candidates, genomes, angles, sims, experiments, evaluator)
                 if not np.any(sims > before):
                     break
@@ -601,6 +593,20 @@ class Profile(InferenceStrategy):
         self._memory = {k: (np.asarray(a), np.asarray(s)) for k, (a, s) in state.get("memory", {}).items()}
         self._best = state.get("best")
         self._library = [(np.asarray(a), np.asarray(s)) for a, s in state.get("library", [])]
+
+
+def _into_range(angles: np.ndarray) -> None:
+    """Wrap ``(..., 3)`` angles' pectorals into [0, 2 pi) and clip the caudal fin's to its sweep (in place)."""
+    angles[..., :2] = np.mod(angles[..., :2], TWO_PI)
+    angles[..., 2] = np.clip(angles[..., 2], -CAUDAL_LIMIT_RAD, CAUDAL_LIMIT_RAD)
+
+
+def _check_fit_arrays(what: str, genomes, angles, sims, experiments) -> None:
+    """Raise ``ValueError`` unless ``angles`` is ``(U, E, 3)`` and ``sims`` ``(U, E)`` for U genomes, E experiments."""
+    u, e = len(genomes), len(experiments)
+    if np.shape(angles) != (u, e, 3) or np.shape(sims) != (u, e):
+        raise ValueError(f"{what} needs angles ({u}, {e}, 3) and sims ({u}, {e}), "
+                         f"got {np.shape(angles)} and {np.shape(sims)}")
 
 
 def _angle_distance(sets: np.ndarray, one: np.ndarray) -> np.ndarray:

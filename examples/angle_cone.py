@@ -25,11 +25,10 @@ from pathlib import Path
 import numpy as np
 
 from aquafish_gym import get_damage
-from eea.arc import TWO_PI
 from eea.checkpoint import load_state
 from eea.encoding import decode_models, encode_models, genomes_from_keys, MODEL_BITS
 from eea.evaluation import Evaluator
-from eea.experiment import CAUDAL_LIMIT_RAD, Experiment
+from eea.experiment import CAUDAL_LIMIT_RAD, Experiment, angle_errors_deg
 from eea.fitness import objective_fitness
 from eea.profile import Profile
 
@@ -87,8 +86,7 @@ def main(argv=None) -> None:
     before, after, _ = polished(evaluator, best_genome, memory[best][0], experiments)
     print(f"final model (OBJ_FIT {objective_fitness(incumbent, truth):.3f}): MOD_FIT {before:.5f}, polished {after:.5f}")
     t_before, t_after, t_angles = polished(evaluator, truth_genome, memory[best][0], experiments)
-    error = np.degrees(np.abs((t_angles - true + np.pi) % TWO_PI - np.pi))
-    error[:, 2] = np.degrees(np.abs(t_angles[:, 2] - true[:, 2]))
+    error = angle_errors_deg(t_angles, true)
     print(f"truth under the final model's angles: MOD_FIT {t_before:.5f}, polished {t_after:.5f} "
           f"({'beats' if t_after > after else 'loses to'} the polished final model); "
           f"median angle error after the polish L / R / C {' / '.join(f'{v:.1f}' for v in np.median(error, 0))} deg")
