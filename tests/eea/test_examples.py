@@ -119,3 +119,38 @@ def test_angle_cone_scores_the_truth_1_at_its_angles_and_less_off_them(tmp_path,
     assert before < after <= 1.0
     with pytest.raises(SystemExit, match="no checkpoint of a profile run"):
         cone.main([str(tmp_path / "nothing")])
+
+
+def test_squared_similarity_squares_each_coefficients_difference():
+    fits = _load("equal_fits")
+    a = np.zeros((3, 2))
+    b = a.copy()
+    b[0, 0], b[1, 1] = 50.0, 300.0                               # half of MAX, and beyond MAX
+    assert np.isclose(fits.squared_similarity(a, b), (0.75 + 0.0 + 4) / 6)      # 1 - 0.5**2, clipped 0, four 1s
+    assert np.isclose(fits.SIMILARITIES["paper"](a, b), (0.5 + 0.0 + 4) / 6)     # eq. 2: 1 - 0.5
+
+
+def test_equal_fits_rebuilds_the_runs_experiments_exactly(tmp_path, tiny_config, capsys):
+    from eea.checkpoint import load_state
+    from eea.experiment import Experiment
+    from eea.run import run
+
+    config = tiny_config(inference="profile", duration_s=0.64, rounds=2)
+    run(config, tmp_path, progress=False)
+    fits = _load("equal_fits")
+    experiments, truth, final, obj = fits.rebuild(tmp_path)
+    stored = [Experiment.from_state_dict(e) for e in load_state(tmp_path).experiments]
+    assert len(experiments) == len(stored) == 2
+    for mine, theirs in zip(experiments, stored):
+        np.testing.assert_array_equal(mine.imu_log, theirs.imu_log)
+        np.testing.assert_array_equal(mine.action, theirs.action)
+    if np.allclose(final, truth):
+        pytest.skip("this tiny run ended on the truth")
+    fits.main([str(tmp_path), "--similarity", "paper", "squared", "--fits", "1"])
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == 3 and all("truth at true angles 1.000000" in line for line in lines[1:])
+    r = fits.compare(tmp_path, "paper", 1)
+    assert np.all(r["cone"] > 0) and r["at_true"] == 1.0
+    assert 0.0 < r["hard"][1] < 1.0                             # a wrong model's deficit under its best fit
+    with pytest.raises(ValueError, match="not an EEA run directory"):
+        fits.rebuild(tmp_path / "nothing")
