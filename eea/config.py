@@ -22,6 +22,7 @@ import os
 
 from aquafish_gym import DT_S, get_damage
 from aquafish_gym.checks import check_int, check_weight
+from eea.behaviour import SIMILARITIES
 from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
 from eea.model_search import SEARCH_NAMES
 from eea.profile import INHERIT_RULES
@@ -60,6 +61,9 @@ FIELD_HELP: dict[str, str] = {
     "estimation_generations": "estimation GA generations per round (paper: 100)",
     "estimation_search": "estimation search: ga (the paper's bit-string GA) or cma (CMA-ES over the nine "
                          "dimensions, eea.cma_search; not the paper's)",
+    "model_similarity": "how a model's response is compared with the target's in MOD_FIT (eq. 3): paper (eq. 2, "
+                        "1 - |difference| / MAX per coefficient) or squared (1 - (difference / MAX)**2: a smooth peak; "
+                        "eea.behaviour.squared_similarity; not the paper's)",
     "cma_sigma": "cma: initial step size as a fraction of each dimension's range, in (0, 1]",
     "cma_global_period": "cma: every this many rounds the search restarts at a uniformly random point, the "
                          "incumbent evaluated beside it (0 = always at the best model; not the paper's)",
@@ -182,6 +186,7 @@ class EEAConfig:
     estimation_population: int = 25
     estimation_generations: int = 100
     estimation_search: str = "ga"
+    model_similarity: str = "paper"
     cma_sigma: float = 0.3
     cma_global_period: int = 0
     cma_global_share: int = 0
@@ -224,6 +229,8 @@ class EEAConfig:
         if self.estimation_search not in ESTIMATION_SEARCHES:
             raise ValueError(f"unknown estimation_search {self.estimation_search!r}; "
                              f"valid names: {', '.join(ESTIMATION_SEARCHES)}")
+        if self.model_similarity not in SIMILARITIES:
+            raise ValueError(f"unknown model_similarity {self.model_similarity!r}; valid names: {', '.join(SIMILARITIES)}")
         if self.oob_experiments not in OOB_EXPERIMENTS:
             raise ValueError(f"unknown oob_experiments {self.oob_experiments!r}; valid names: {', '.join(OOB_EXPERIMENTS)}")
         if self.profile_inherit not in INHERIT_RULES:

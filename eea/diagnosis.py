@@ -57,6 +57,7 @@ import numpy as np
 from eea.checkpoint import load_state
 from eea.encoding import decode_models, encode_models
 from eea.fitness import model_fitness_from_similarities, objective_fitness
+from eea.behaviour import SIMILARITIES
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment, angle_errors_deg
 from eea.profile import Profile
@@ -173,7 +174,8 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
     true_dims = result.target_morphology.to_array()
     truth = encode_models(true_dims[None])
     seen = _seen(state.evaluator, result.config.steps, true_dims, result.best_morphology.to_array())
-    with Evaluator(result.config.steps, workers=workers, max_batch_robots=result.config.max_batch_robots) as ev:
+    with Evaluator(result.config.steps, workers=workers, max_batch_robots=result.config.max_batch_robots,
+                   similarity_fn=SIMILARITIES[result.config.model_similarity]) as ev:
         def fit(genome, angles):
             return float(model_fitness_from_similarities(ev.similarities(genome, experiments, angles))[0])
 

@@ -29,6 +29,7 @@ from tqdm.auto import tqdm
 from eea.checkpoint import RunState, load_state, save_state
 from eea.config import RESULT_NEUTRAL_FIELDS, EEAConfig
 from eea.estimation import Estimation
+from eea.behaviour import SIMILARITIES
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from eea.record import RunResult, read_config, round_row, write_config, write_rounds
@@ -91,7 +92,8 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
             bar.set_postfix_str(f"{name} {generation + 1}/{generations} best {best:.4f}")
         return report
 
-    with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots) as evaluator, bar:
+    with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots,
+                   similarity_fn=SIMILARITIES[config.model_similarity]) as evaluator, bar:
         if state.evaluator:
             evaluator.load_state_dict(state.evaluator)
         parts = RoundParts.from_config(config, rng, evaluator, estimation)

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from aquafish_gym import get_damage
+from eea.behaviour import SIMILARITIES
 from eea.checkpoint import load_state
 from eea.encoding import decode_models, encode_models, genomes_from_keys, MODEL_BITS
 from eea.evaluation import Evaluator
@@ -68,7 +69,8 @@ def main(argv=None) -> None:
     if state is None or state.config.get("inference") != "profile":
         raise SystemExit(f"{args.run}: no checkpoint of a profile run (state.pkl) here")
     experiments = [Experiment.from_state_dict(e) for e in state.experiments]
-    evaluator = Evaluator(len(experiments[0].imu_log))
+    evaluator = Evaluator(len(experiments[0].imu_log),
+                          similarity_fn=SIMILARITIES[state.config.get("model_similarity", "paper")])
     truth = get_damage(state.config["damage"]).apply().to_array()
     truth_genome = encode_models(truth[None])
     memory, best = state.inference["memory"], state.inference["best"]

@@ -18,6 +18,7 @@ import argparse
 
 import numpy as np
 
+from eea.behaviour import SIMILARITIES
 from eea.checkpoint import load_state
 from eea.encoding import encode_models
 from eea.evaluation import Evaluator
@@ -57,7 +58,8 @@ def main(argv=None) -> None:
     angles = np.repeat(experiment.true_angles[None, None], n * n, axis=0)       # (n*n, 1, 3)
     angles[:, 0, 0] = np.mod(angles[:, 0, 0] + left.ravel(), 2 * np.pi)
     angles[:, 0, 1] = np.mod(angles[:, 0, 1] + right.ravel(), 2 * np.pi)
-    with Evaluator(result.config.steps, workers=1, max_batch_robots=result.config.max_batch_robots) as evaluator:
+    with Evaluator(result.config.steps, workers=1, max_batch_robots=result.config.max_batch_robots,
+                   similarity_fn=SIMILARITIES[result.config.model_similarity]) as evaluator:
         sims = evaluator.similarities(np.repeat(encode_models(morphology[None]), n * n, axis=0), [experiment],
                                       angles)[:, 0].reshape(n, n)
     print(f"{args.run}, experiment {args.experiment}: action {np.round(experiment.action, 3)} (rev/s, rev/s, Hz), "

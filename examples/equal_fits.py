@@ -20,10 +20,10 @@ the final model's (positive: the truth wins) and the final model's deficit 1 - M
 and the truth's mean loss when one angle is 0.1 rad off its true value (the caudal fin's
 0.025 rad): the cone of docs/studies/unknown_angles.md, "The angle cone".
 
-``--similarity squared`` repeats it under a smooth variant of equation 2, every coefficient
-contributing ``clip(1 - (d / MAX)**2, 0, 1)`` instead of ``clip(1 - |d| / MAX, 0, 1)``: with
-squared differences a small angle error costs second order, not first (study record,
-"Equal fits").
+``--similarity squared`` repeats it under :func:`eea.behaviour.squared_similarity`, every
+coefficient contributing ``clip(1 - (d / MAX)**2, 0, 1)`` instead of equation 2's
+``clip(1 - |d| / MAX, 0, 1)``: with squared differences a small angle error costs second
+order, not first (study record, "Equal fits and the needle").
 
     python examples/equal_fits.py docs/results/lph_keep3_scan1/profile/1.28s/seed{2,4} --similarity paper squared
 
@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from aquafish_gym import MORPHOLOGY_FIELDS, get_damage, simulate_batch
-from eea.behaviour import MAX_COEFFICIENT, behaviour_summary, similarity
+from eea.behaviour import SIMILARITIES, behaviour_summary
 from eea.encoding import encode_models
 from eea.evaluation import Evaluator
 from eea.experiment import CAUDAL_LIMIT_RAD, FLIPPERS, Context, Experiment
@@ -50,24 +50,6 @@ from eea.record import ACTION_COLUMNS, load_result
 BUDGETS = (("fit5", 5, False), ("fit15", 15, False), ("hard", 30, True))
 #: How far each flipper's angle is moved for the cone (rad): pectorals, caudal fin.
 CONE_OFFSET_RAD = np.array([0.1, 0.1, 0.025])
-
-
-def squared_similarity(a, b, max_coefficient: float = MAX_COEFFICIENT) -> np.ndarray:
-    """Equation 2 with squared differences: mean of ``clip(1 - ((a - b) / MAX)**2, 0, 1)``.
-
-    Args:
-        a, b: ``(..., 3, F)`` behaviour summaries (leading dimensions broadcast).
-        max_coefficient: MAX, > 0 (paper: 100): a coefficient this far apart contributes 0,
-            as in equation 2.
-
-    Returns:
-        ``(...)`` similarities in [0, 1].
-    """
-    d = (np.asarray(a, dtype=np.float64) - np.asarray(b, dtype=np.float64)) / max_coefficient
-    return np.clip(1.0 - d * d, 0.0, 1.0).mean(axis=(-2, -1))
-
-
-SIMILARITIES = {"paper": similarity, "squared": squared_similarity}
 
 
 def rebuild(run_dir) -> tuple[list[Experiment], np.ndarray, np.ndarray, float]:

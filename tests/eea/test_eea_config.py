@@ -36,6 +36,7 @@ def test_every_field_has_help():
     ({"mutation_bits": -1}, "mutation_bits"),
     ({"workers": 0}, "workers"),
     ({"oob_experiments": "oldest"}, "oob_experiments .*valid names: newest, all"),
+    ({"model_similarity": "cosine"}, "model_similarity .*valid names: paper, squared"),
 ])
 def test_invalid_values_raise(changes, match):
     with pytest.raises(ValueError, match=match):

@@ -121,15 +121,6 @@ def test_angle_cone_scores_the_truth_1_at_its_angles_and_less_off_them(tmp_path,
         cone.main([str(tmp_path / "nothing")])
 
 
-def test_squared_similarity_squares_each_coefficients_difference():
-    fits = _load("equal_fits")
-    a = np.zeros((3, 2))
-    b = a.copy()
-    b[0, 0], b[1, 1] = 50.0, 300.0                               # half of MAX, and beyond MAX
-    assert np.isclose(fits.squared_similarity(a, b), (0.75 + 0.0 + 4) / 6)      # 1 - 0.5**2, clipped 0, four 1s
-    assert np.isclose(fits.SIMILARITIES["paper"](a, b), (0.5 + 0.0 + 4) / 6)     # eq. 2: 1 - 0.5
-
-
 def test_equal_fits_rebuilds_the_runs_experiments_exactly(tmp_path, tiny_config, capsys):
     from eea.checkpoint import load_state
     from eea.experiment import Experiment
