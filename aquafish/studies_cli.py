@@ -1,4 +1,4 @@
-"""``aquafish case-study``, ``study``, ``plot``, ``compare``, ``diagnose``, ``damages`` and ``baselines``."""
+"""``aquafish case-study``, ``study``, ``plot``, ``compare``, ``diagnose``, ``select``, ``damages`` and ``baselines``."""
 
 from __future__ import annotations
 
@@ -94,6 +94,39 @@ def _diagnose(args: argparse.Namespace) -> int:
     return 0
 
 
+def _select(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from eea.ensemble import select_study
+    from eea.plot import find_runs
+
+    runs = find_runs(args.dirs)
+    finished = [r for r in runs if r.finished]
+    if len(finished) < len(runs):
+        print(f"left out (not finished): {', '.join(str(r.out_dir) for r in runs if not r.finished)}")
+
+    def show(rows: list) -> None:
+        members = " ".join(f"{r['seed']}:{r['objective_fitness']:.3f}/{r['model_fitness']:.5f}"
+                           + ("*" if r["chosen"] else "") for r in rows)
+        print(f"ensemble {rows[0]['ensemble']}: {members}", flush=True)
+
+    print("seed:OBJ_FIT/MOD_FIT on the pooled experiments per run, * the chosen model")
+    rows = select_study(finished, args.size, args.out, seed=args.seed, generations=args.generations,
+                        scan_cycles=args.scan_cycles, workers=args.workers, progress=show)
+    groups: dict[int, list] = {}
+    for row in rows:
+        groups.setdefault(row["ensemble"], []).append(row)
+    chosen = np.array([next(r["objective_fitness"] for r in g if r["chosen"]) for g in groups.values()])
+    best = np.array([max(r["objective_fitness"] for r in g) for g in groups.values()])
+    member = np.array([r["objective_fitness"] for r in rows])
+    print(f"{len(groups)} ensembles of {args.size}: chosen OBJ_FIT {chosen.mean():.3f} ± {chosen.std():.3f}; "
+          f"single runs {member.mean():.3f} ± {member.std():.3f}; best member (an oracle) {best.mean():.3f}; "
+          f"the best member chosen in {int((chosen == best).sum())}/{len(groups)}")
+    if args.out:
+        print(f"wrote {args.out}")
+    return 0
+
+
 def _baselines(args: argparse.Namespace) -> int:
     from aquafish.task_table import BaselineBudget, format_table, task_table
 
@@ -175,6 +208,21 @@ def add_commands(sub) -> None:
                    help="profile runs: also the proposed truth after this many rounds of contender refinement "
                         "(column true@+R; what --profile-refine R would buy; default: 0 = not computed)")
     d.set_defaults(func=_diagnose)
+
+    e = sub.add_parser("select", help="ensembles of independent runs: each ensemble's final models fitted equally "
+                                      "hard on all its runs' experiments, the highest MOD_FIT chosen (eea.ensemble; "
+                                      "not the paper's)")
+    e.add_argument("dirs", nargs="+", help="one variant's runs, one per seed (searched recursively; finished runs only)")
+    e.add_argument("--size", type=int, default=2, help="runs per ensemble, consecutive seeds (default 2)")
+    e.add_argument("--out", default=None, help="CSV of the selections, rewritten after each ensemble; "
+                                               "ensembles already in it are kept (resumable)")
+    e.add_argument("--seed", type=int, default=0, help="seed of the angle fit (default 0)")
+    e.add_argument("--generations", type=int, default=30,
+                   help="random-perturbation generations of the angle fit (eea.profile.Profile.fit; default 30)")
+    e.add_argument("--scan-cycles", type=int, default=2,
+                   help="per-flipper angle scan cycles before the compass polish (default 2)")
+    e.add_argument("--workers", type=int, default=1, help="simulation processes (default 1)")
+    e.set_defaults(func=_select)
 
     t = sub.add_parser("damages", help="which damages a gait must adapt to: healthy gait vs a gait evolved on the "
                                        "damaged robot, per damage preset (aquafish.damage_table)")

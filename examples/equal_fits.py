@@ -38,13 +38,12 @@ from pathlib import Path
 
 import numpy as np
 
-from aquafish_gym import MORPHOLOGY_FIELDS, get_damage, simulate_batch
-from eea.behaviour import SIMILARITIES, behaviour_summary
+from eea.behaviour import SIMILARITIES
 from eea.encoding import encode_models
 from eea.evaluation import Evaluator
-from eea.experiment import CAUDAL_LIMIT_RAD, FLIPPERS, Context, Experiment
+from eea.experiment import CAUDAL_LIMIT_RAD, Experiment
 from eea.profile import Profile
-from eea.record import ACTION_COLUMNS, load_result
+from eea.replay import replay_run
 
 #: Fit budgets: (name, random-perturbation generations, scan + polish afterwards).
 BUDGETS = (("fit5", 5, False), ("fit15", 15, False), ("hard", 30, True))
@@ -56,26 +55,16 @@ def rebuild(run_dir) -> tuple[list[Experiment], np.ndarray, np.ndarray, float]:
     """A finished run's experiments, the true morphology, the final model and its OBJ_FIT.
 
     Returns:
-        ``(experiments, truth, final, objective_fitness)``: the E experiments (contexts
-        exact at 0, unused here), ``(9,)`` true and final morphologies (simulator units),
-        and the run's last ``objective_fitness``.
+        ``(experiments, truth, final, objective_fitness)``: the E experiments
+        (:func:`eea.replay.rebuild_experiments`), ``(9,)`` true and final morphologies
+        (simulator units), and the run's last ``objective_fitness``.
 
     Raises:
         ValueError: if ``run_dir`` is not a run directory or has no rounds yet.
     """
-    result = load_result(run_dir)
-    if not result.rounds:
-        raise ValueError(f"{run_dir}: no rounds recorded yet")
-    preset = get_damage(result.config.damage)
-    truth = preset.apply().to_array()
-    actions = np.array([[row[c] for c in ACTION_COLUMNS] for row in result.rounds])
-    true = np.array([[row[f"true_{f}_rad"] for f in FLIPPERS] for row in result.rounds])
-    logs = simulate_batch(np.repeat(truth[None], len(actions), axis=0), actions, true, result.config.steps,
-                          faults=preset.faults)
-    experiments = [Experiment(i, actions[i], logs[i], behaviour_summary(logs[i]), true[i], Context.exact(np.zeros(3)))
-                   for i in range(len(actions))]
-    final = np.array([result.rounds[-1][f"model_{f}"] for f in MORPHOLOGY_FIELDS])
-    return experiments, truth, final, float(result.rounds[-1]["objective_fitness"])
+    result, experiments = replay_run(run_dir)
+    return (experiments, result.target_morphology.to_array(), result.best_morphology.to_array(),
+            float(result.rounds[-1]["objective_fitness"]))
 
 
 def fitted(evaluator, genomes, experiments, seed: int, generations: int, hard: bool) -> np.ndarray:

@@ -1,0 +1,242 @@
+"""One self-model from several independent runs on the same target (not the paper's; issue 14).
+
+Under unknown initial angles a run of the EEA settles early (mostly in round 1) in one
+basin of MOD_FIT, and the basin decides where it ends: the same variant on the same
+damage ends at the truth on one seed and on a wrong model (a massless flipper, a mimic) on
+the next (docs/studies/unknown_angles.md). Under an equal, hard fit of their angles the
+truth beats every wrong final model on its run's experiments ("Equal fits and the
+needle"): the wrong models are search failures, not what the experiments say.
+
+So N independent runs on the same target, each with its own experiments, can vote: every
+run's final model gets its own initial angles fitted for every experiment of every run,
+equally hard for all (:meth:`eea.profile.Profile.fit` from random starts, then
+:meth:`~eea.profile.Profile.scan_angles` and :meth:`~eea.profile.Profile.polish_angles`),
+and the model with the highest MOD_FIT (eq. 3) over the pooled experiments is the
+ensemble's model. No oracle is used: the selection sees only models and responses.
+
+Cost: N runs (N times one run's simulations and N times its target experiments: with N
+runs side by side, each round performs N experiments on the target), plus the selection,
+about ``250 N E_total`` simulations (``E_total`` the pooled experiments), e.g. 50,000 for
+two 10-round runs.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import os
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from aquafish_gym import MORPHOLOGY_FIELDS
+from aquafish_gym.files import atomic_write
+from eea.behaviour import SIMILARITIES
+from eea.encoding import encode_models
+from eea.evaluation import Evaluator
+from eea.experiment import Experiment
+from eea.fitness import model_fitness_from_similarities
+from eea.profile import Profile
+from eea.record import RunResult
+from eea.replay import replay_run
+
+__all__ = ["SELECTION_COLUMNS", "Selection", "ensemble_groups", "select_model", "select_runs", "select_study"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Selection:
+    """The outcome of :func:`select_model`.
+
+    Attributes:
+        models: ``(N, 9)`` the candidate models (simulator units, ``MORPHOLOGY_FIELDS``).
+        model_fitness: ``(N,)`` each model's MOD_FIT (eq. 3) on the pooled experiments under
+            its own fitted angles.
+        angles: ``(N, E, 3)`` those angles (rad), per model and experiment.
+        index: the chosen model's row (the highest MOD_FIT; the first of equals).
+    """
+
+    models: np.ndarray
+    model_fitness: np.ndarray
+    angles: np.ndarray
+    index: int
+
+    @property
+    def model(self) -> np.ndarray:
+        """``(9,)`` the chosen model."""
+        return self.models[self.index]
+
+
+def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator, rng: np.random.Generator, *,
+                 generations: int = 30, scan_cycles: int = 2) -> Selection:
+    """Fit every model's angles equally hard on the experiments; the highest MOD_FIT wins.
+
+    Args:
+        models: ``(N, 9)`` candidate morphologies (simulator units), N >= 1; a model given
+            twice is fitted once and scores the same.
+        experiments: the pooled target experiments, E >= 1, all of one length.
+        evaluator: an :class:`eea.evaluation.Evaluator` of that length (its similarity is
+            the one scored: eq. 2 by default).
+        rng: draws the fit's random starts and perturbations.
+        generations: random-perturbation generations of :meth:`eea.profile.Profile.fit`, >= 1.
+        scan_cycles: cycles of the per-flipper angle scan before the compass polish, >= 0.
+
+    Returns:
+        A :class:`Selection`.
+
+    Raises:
+        ValueError: if ``models`` is not ``(N, 9)`` with N >= 1, there are no experiments, or
+            ``generations < 1`` or ``scan_cycles < 0``.
+    """
+    models = np.asarray(models, dtype=np.float64)
+    if models.ndim != 2 or models.shape[1] != len(MORPHOLOGY_FIELDS) or not len(models):
+        raise ValueError(f"models must be (N >= 1, {len(MORPHOLOGY_FIELDS)}), got shape {models.shape}")
+    if not len(experiments):
+        raise ValueError("select_model needs at least one experiment")
+    if generations < 1:
+        raise ValueError(f"generations must be >= 1, got {generations}")
+    if scan_cycles < 0:
+        raise ValueError(f"scan_cycles must be >= 0, got {scan_cycles}")
+    genomes, inverse = np.unique(encode_models(models), axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    profile = Profile()
+    angles, _ = profile.fit(genomes, experiments, evaluator, rng, generations)
+    sims = evaluator.similarities(genomes, experiments, angles)
+    if scan_cycles:
+        profile.scan_angles(genomes, angles, sims, experiments, evaluator, scan_cycles)
+    profile.polish_angles(genomes, angles, sims, experiments, evaluator)
+    fitness = model_fitness_from_similarities(sims)[inverse]
+    return Selection(models, fitness, angles[inverse], int(np.argmax(fitness)))
+
+
+def select_runs(run_dirs: Sequence[str | os.PathLike], *, seed: int = 0, generations: int = 30,
+                scan_cycles: int = 2, workers: int = 1) -> tuple[Selection, list[RunResult]]:
+    """:func:`select_model` over finished runs' final models and their pooled experiments.
+
+    The experiments are rebuilt from each run's ``rounds.csv`` (:mod:`eea.replay`), so
+    ``docs/results`` is enough. The runs' similarity (``model_similarity``) is scored.
+
+    Args:
+        run_dirs: two or more run directories on the same damage, experiment length and
+            similarity.
+        seed: seed of the fit's random numbers.
+        generations, scan_cycles: as in :func:`select_model`.
+        workers: simulation processes.
+
+    Returns:
+        ``(selection, results)``: the :class:`Selection` (row i is run i's final model) and
+        the loaded runs.
+
+    Raises:
+        ValueError: if fewer than two runs are given, a directory is not a run with a
+            finished round, or the runs differ in damage, steps or similarity.
+    """
+    if len(run_dirs) < 2:
+        raise ValueError(f"an ensemble needs at least two runs, got {len(run_dirs)}")
+    replays = [replay_run(d) for d in run_dirs]
+    results = [r for r, _ in replays]
+    for field in ("damage", "steps", "model_similarity"):
+        values = {getattr(r.config, field) for r in results}
+        if len(values) > 1:
+            raise ValueError(f"the runs differ in {field}: {sorted(map(str, values))}; an ensemble needs one target")
+    experiments = [e for _, exps in replays for e in exps]
+    models = np.stack([r.best_morphology.to_array() for r in results])
+    config = results[0].config
+    with Evaluator(config.steps, workers=workers, similarity_fn=SIMILARITIES[config.model_similarity]) as evaluator:
+        selection = select_model(models, experiments, evaluator, np.random.default_rng(seed),
+                                 generations=generations, scan_cycles=scan_cycles)
+    return selection, results
+
+
+def ensemble_groups(seeds: Sequence[int], size: int) -> tuple[list[tuple[int, ...]], list[int]]:
+    """Split a study's seeds into ensembles of ``size`` consecutive seeds (sorted).
+
+    Returns:
+        ``(groups, left_out)``: e.g. seeds 0-9 and size 3 give (0, 1, 2), (3, 4, 5),
+        (6, 7, 8) and leave out [9].
+
+    Raises:
+        ValueError: if ``size < 2``, a seed repeats or there are fewer seeds than ``size``.
+    """
+    if size < 2:
+        raise ValueError(f"an ensemble has at least 2 runs, got size {size}")
+    seeds = sorted(seeds)
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"seeds repeat: {seeds}")
+    if len(seeds) < size:
+        raise ValueError(f"{len(seeds)} seeds cannot make an ensemble of {size}")
+    n = len(seeds) // size * size
+    return [tuple(seeds[i : i + size]) for i in range(0, n, size)], seeds[n:]
+
+
+#: Columns of the file :func:`select_study` writes, one row per run of each ensemble.
+SELECTION_COLUMNS = ("ensemble", "seed", "objective_fitness", "model_fitness", "chosen")
+
+
+def select_study(runs: Sequence[RunResult], size: int, out_csv: str | os.PathLike | None = None, *,
+                 seed: int = 0, generations: int = 30, scan_cycles: int = 2, workers: int = 1,
+                 progress=None) -> list[dict]:
+    """:func:`select_runs` on every ensemble of ``size`` consecutive seeds of one study.
+
+    Args:
+        runs: finished runs of one variant (one run per seed; :func:`eea.plot.find_runs`).
+        size: runs per ensemble (>= 2); the last ``len(runs) % size`` seeds are left out.
+        out_csv: optional file of :data:`SELECTION_COLUMNS` rows, rewritten atomically after
+            each ensemble; ensembles already in it are not selected again (an interrupted
+            study loses at most the ensemble under way).
+        seed, generations, scan_cycles, workers: as in :func:`select_runs`.
+        progress: optional callable ``progress(rows_of_one_ensemble)`` after each one.
+
+    Returns:
+        The rows, one dict per run (``ensemble`` numbers the ensembles from 0; ``chosen`` is
+        1 for the run whose final model the selection picked, else 0; OBJ_FIT is eq. 4 of
+        the run's final model, an oracle the selection does not see).
+
+    Raises:
+        ValueError: as :func:`ensemble_groups` and :func:`select_runs`, or if ``out_csv``
+            holds ensembles of other seeds.
+    """
+    by_seed = {r.config.seed: r for r in runs}
+    if len(by_seed) != len(runs):
+        raise ValueError("one run per seed, please: the runs repeat seeds (several variants in one directory?)")
+    groups, _ = ensemble_groups(list(by_seed), size)
+    rows = _read_rows(out_csv) if out_csv is not None and Path(out_csv).exists() else []
+    done = {}
+    for row in rows:
+        done.setdefault(row["ensemble"], []).append(row["seed"])
+    for k, group in enumerate(groups):
+        if k in done:
+            if tuple(done[k]) != group:
+                raise ValueError(f"{out_csv}: ensemble {k} holds seeds {done[k]}, this study's is {list(group)}")
+            continue
+        selection, _ = select_runs([by_seed[s].out_dir for s in group], seed=seed, generations=generations,
+                                   scan_cycles=scan_cycles, workers=workers)
+        new = [{"ensemble": k, "seed": s, "objective_fitness": float(by_seed[s].rounds[-1]["objective_fitness"]),
+                "model_fitness": float(selection.model_fitness[i]), "chosen": int(i == selection.index)}
+               for i, s in enumerate(group)]
+        rows += new
+        if out_csv is not None:
+            _write_rows(out_csv, rows)
+        if progress is not None:
+            progress(new)
+    return rows
+
+
+def _write_rows(path, rows: list[dict]) -> None:
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=SELECTION_COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    for row in rows:
+        writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in row.items()})
+    atomic_write(path, buffer.getvalue().encode())
+
+
+def _read_rows(path) -> list[dict]:
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        if tuple(reader.fieldnames or ()) != SELECTION_COLUMNS:
+            raise ValueError(f"{path}: columns {reader.fieldnames}, expected {list(SELECTION_COLUMNS)}")
+        return [{"ensemble": int(r["ensemble"]), "seed": int(r["seed"]),
+                 "objective_fitness": float(r["objective_fitness"]), "model_fitness": float(r["model_fitness"]),
+                 "chosen": int(r["chosen"])} for r in reader]
