@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from aquafish.cli import main
 from aquafish_gym import get_damage
 from eea.behaviour import behaviour_summary
 from eea.encoding import decode_models, encode_models
@@ -69,7 +70,7 @@ def test_ensembles_are_consecutive_seeds_and_the_rest_is_left_out():
         ensemble_groups([0, 1], 3)
 
 
-def test_select_study_chooses_the_highest_mod_fit_and_resumes_from_its_file(tmp_path, tiny_config):
+def test_select_study_chooses_the_highest_mod_fit_and_resumes_from_its_file(tmp_path, tiny_config, capsys):
     for seed in (0, 1):
         run(tiny_config(inference="profile", seed=seed), tmp_path / f"seed{seed}", progress=False)
     runs = find_runs([tmp_path])
@@ -85,6 +86,10 @@ def test_select_study_chooses_the_highest_mod_fit_and_resumes_from_its_file(tmp_
     assert out.read_text().splitlines()[0] == ",".join(SELECTION_COLUMNS)
     # a second call finds the ensemble in the file and selects nothing again
     assert select_study(runs, 2, out, generations=1, scan_cycles=0, progress=shown.append) == rows and len(shown) == 1
+    # the command line prints each ensemble and the summary from the same file
+    assert main(["select", str(tmp_path), "--out", str(out)]) == 0
+    summary = capsys.readouterr().out.splitlines()[-2]
+    assert summary.startswith(f"1 ensembles of 2: chosen OBJ_FIT {chosen['objective_fitness']:.3f} ± 0.000;")
     # the file of another study's seeds is refused, not overwritten
     out.write_text(out.read_text().replace("\n0,1,", "\n0,7,"))
     with pytest.raises(ValueError, match="ensemble 0 holds seeds"):
