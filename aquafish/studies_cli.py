@@ -1,4 +1,5 @@
-"""``aquafish case-study``, ``study``, ``plot``, ``compare``, ``diagnose``, ``select``, ``damages`` and ``baselines``."""
+"""``aquafish case-study``, ``study``, ``plot``, ``compare``, ``diagnose``, ``select``, ``damages`` and
+``baselines``."""
 
 from __future__ import annotations
 
@@ -101,9 +102,9 @@ def _select(args: argparse.Namespace) -> int:
     from eea.plot import find_runs
 
     runs = find_runs(args.dirs)
-    finished = [r for r in runs if r.finished]
+    finished = [r for r in runs if (len(r.rounds) >= args.rounds if args.rounds else r.finished)]
     if len(finished) < len(runs):
-        print(f"left out (not finished): {', '.join(str(r.out_dir) for r in runs if not r.finished)}")
+        print(f"left out (round not reached): {', '.join(str(r.out_dir) for r in runs if r not in finished)}")
 
     def show(rows: list) -> None:
         members = " ".join(f"{r['seed']}:{r['objective_fitness']:.3f}/{r['model_fitness']:.5f}"
@@ -111,8 +112,9 @@ def _select(args: argparse.Namespace) -> int:
         print(f"ensemble {rows[0]['ensemble']}: {members}", flush=True)
 
     print("seed:OBJ_FIT/MOD_FIT on the pooled experiments per run, * the chosen model")
-    rows = select_study(finished, args.size, args.out, seed=args.seed, generations=args.generations,
-                        scan_cycles=args.scan_cycles, workers=args.workers, progress=show)
+    rows = select_study(finished, args.size, args.out, rounds=args.rounds, seed=args.seed,
+                        generations=args.generations, scan_cycles=args.scan_cycles, workers=args.workers,
+                        progress=show)
     groups: dict[int, list] = {}
     for row in rows:
         groups.setdefault(row["ensemble"], []).append(row)
@@ -212,10 +214,15 @@ def add_commands(sub) -> None:
     e = sub.add_parser("select", help="ensembles of independent runs: each ensemble's final models fitted equally "
                                       "hard on all its runs' experiments, the highest MOD_FIT chosen (eea.ensemble; "
                                       "not the paper's)")
-    e.add_argument("dirs", nargs="+", help="one variant's runs, one per seed (searched recursively; finished runs only)")
+    e.add_argument("dirs", nargs="+",
+                   help="one variant's runs, one per seed (searched recursively; finished runs only)")
     e.add_argument("--size", type=int, default=2, help="runs per ensemble, consecutive seeds (default 2)")
     e.add_argument("--out", default=None, help="CSV of the selections, rewritten after each ensemble; "
                                                "ensembles already in it are kept (resumable)")
+    e.add_argument("--rounds", type=int, default=None,
+                   help="each run as it stood after this round (its model then, its first R experiments; "
+                        "default: the final round); two runs at round 5 have performed as many target "
+                        "experiments as one at round 10")
     e.add_argument("--seed", type=int, default=0, help="seed of the angle fit (default 0)")
     e.add_argument("--generations", type=int, default=30,
                    help="random-perturbation generations of the angle fit (eea.profile.Profile.fit; default 30)")

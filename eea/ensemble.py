@@ -110,8 +110,8 @@ def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator
     return Selection(models, fitness, angles[inverse], int(np.argmax(fitness)))
 
 
-def select_runs(run_dirs: Sequence[str | os.PathLike], *, seed: int = 0, generations: int = 30,
-                scan_cycles: int = 2, workers: int = 1) -> tuple[Selection, list[RunResult]]:
+def select_runs(run_dirs: Sequence[str | os.PathLike], *, rounds: int | None = None, seed: int = 0,
+                generations: int = 30, scan_cycles: int = 2, workers: int = 1) -> tuple[Selection, list[RunResult]]:
     """:func:`select_model` over finished runs' final models and their pooled experiments.
 
     The experiments are rebuilt from each run's ``rounds.csv`` (:mod:`eea.replay`), so
@@ -120,6 +120,9 @@ def select_runs(run_dirs: Sequence[str | os.PathLike], *, seed: int = 0, generat
     Args:
         run_dirs: two or more run directories on the same damage, experiment length and
             similarity.
+        rounds: optional R: each run as it stood after round R (round R's model, the first R
+            experiments; :func:`eea.replay.replay_run`). Two runs stopped at round 5 have
+            performed as many target experiments as one run at round 10.
         seed: seed of the fit's random numbers.
         generations, scan_cycles: as in :func:`select_model`.
         workers: simulation processes.
@@ -130,11 +133,12 @@ def select_runs(run_dirs: Sequence[str | os.PathLike], *, seed: int = 0, generat
 
     Raises:
         ValueError: if fewer than two runs are given, a directory is not a run with a
-            finished round, or the runs differ in damage, steps or similarity.
+            finished round (or fewer than ``rounds``), or the runs differ in damage, steps or
+            similarity.
     """
     if len(run_dirs) < 2:
         raise ValueError(f"an ensemble needs at least two runs, got {len(run_dirs)}")
-    replays = [replay_run(d) for d in run_dirs]
+    replays = [replay_run(d, rounds) for d in run_dirs]
     results = [r for r, _ in replays]
     for field in ("damage", "steps", "model_similarity"):
         values = {getattr(r.config, field) for r in results}
@@ -175,8 +179,8 @@ SELECTION_COLUMNS = ("ensemble", "seed", "objective_fitness", "model_fitness", "
 
 
 def select_study(runs: Sequence[RunResult], size: int, out_csv: str | os.PathLike | None = None, *,
-                 seed: int = 0, generations: int = 30, scan_cycles: int = 2, workers: int = 1,
-                 progress=None) -> list[dict]:
+                 rounds: int | None = None, seed: int = 0, generations: int = 30, scan_cycles: int = 2,
+                 workers: int = 1, progress=None) -> list[dict]:
     """:func:`select_runs` on every ensemble of ``size`` consecutive seeds of one study.
 
     Args:
@@ -185,13 +189,14 @@ def select_study(runs: Sequence[RunResult], size: int, out_csv: str | os.PathLik
         out_csv: optional file of :data:`SELECTION_COLUMNS` rows, rewritten atomically after
             each ensemble; ensembles already in it are not selected again (an interrupted
             study loses at most the ensemble under way).
-        seed, generations, scan_cycles, workers: as in :func:`select_runs`.
+        rounds, seed, generations, scan_cycles, workers: as in :func:`select_runs`.
         progress: optional callable ``progress(rows_of_one_ensemble)`` after each one.
 
     Returns:
         The rows, one dict per run (``ensemble`` numbers the ensembles from 0; ``chosen`` is
-        1 for the run whose final model the selection picked, else 0; OBJ_FIT is eq. 4 of
-        the run's final model, an oracle the selection does not see).
+        1 for the run whose model the selection picked, else 0; OBJ_FIT is eq. 4 of the
+        run's model (its final one, or round ``rounds``'), an oracle the selection does not
+        see).
 
     Raises:
         ValueError: as :func:`ensemble_groups` and :func:`select_runs`, or if ``out_csv``
@@ -210,9 +215,9 @@ def select_study(runs: Sequence[RunResult], size: int, out_csv: str | os.PathLik
             if tuple(done[k]) != group:
                 raise ValueError(f"{out_csv}: ensemble {k} holds seeds {done[k]}, this study's is {list(group)}")
             continue
-        selection, _ = select_runs([by_seed[s].out_dir for s in group], seed=seed, generations=generations,
-                                   scan_cycles=scan_cycles, workers=workers)
-        new = [{"ensemble": k, "seed": s, "objective_fitness": float(by_seed[s].rounds[-1]["objective_fitness"]),
+        selection, results = select_runs([by_seed[s].out_dir for s in group], rounds=rounds, seed=seed,
+                                         generations=generations, scan_cycles=scan_cycles, workers=workers)
+        new = [{"ensemble": k, "seed": s, "objective_fitness": float(results[i].rounds[-1]["objective_fitness"]),
                 "model_fitness": float(selection.model_fitness[i]), "chosen": int(i == selection.index)}
                for i, s in enumerate(group)]
         rows += new

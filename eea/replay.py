@@ -11,6 +11,7 @@ logs would take the place of the replay.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 
 import numpy as np
@@ -50,11 +51,21 @@ def rebuild_experiments(result: RunResult) -> list[Experiment]:
             for i in range(len(actions))]
 
 
-def replay_run(out_dir: str | os.PathLike) -> tuple[RunResult, list[Experiment]]:
+def replay_run(out_dir: str | os.PathLike, rounds: int | None = None) -> tuple[RunResult, list[Experiment]]:
     """:func:`eea.record.load_result` and :func:`rebuild_experiments` of a run directory.
 
+    Args:
+        out_dir: the run directory.
+        rounds: optional R >= 1: the run as it stood after round R (its first R rows of
+            ``rounds.csv``, so its best model is round R's, and R experiments).
+
     Raises:
-        ValueError: if ``out_dir`` is not a run directory or has no finished round.
+        ValueError: if ``out_dir`` is not a run directory, has no finished round, or has
+            fewer than ``rounds`` rounds.
     """
     result = load_result(out_dir)
+    if rounds is not None:
+        if rounds < 1 or len(result.rounds) < rounds:
+            raise ValueError(f"{out_dir}: rounds must be 1..{len(result.rounds)} (its finished rounds), got {rounds}")
+        result = dataclasses.replace(result, rounds=result.rounds[:rounds])
     return result, rebuild_experiments(result)

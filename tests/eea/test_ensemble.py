@@ -81,8 +81,9 @@ def test_select_study_chooses_the_highest_mod_fit_and_resumes_from_its_file(tmp_
     assert sum(r["chosen"] for r in rows) == 1
     chosen = next(r for r in rows if r["chosen"])
     assert chosen["model_fitness"] == max(r["model_fitness"] for r in rows)
+    by_seed = {x.config.seed: x for x in runs}
     for r in rows:  # OBJ_FIT is each run's own final one (eq. 4), not recomputed
-        assert r["objective_fitness"] == next(x for x in runs if x.config.seed == r["seed"]).rounds[-1]["objective_fitness"]
+        assert r["objective_fitness"] == by_seed[r["seed"]].rounds[-1]["objective_fitness"]
     assert out.read_text().splitlines()[0] == ",".join(SELECTION_COLUMNS)
     # a second call finds the ensemble in the file and selects nothing again
     assert select_study(runs, 2, out, generations=1, scan_cycles=0, progress=shown.append) == rows and len(shown) == 1
@@ -90,6 +91,10 @@ def test_select_study_chooses_the_highest_mod_fit_and_resumes_from_its_file(tmp_
     assert main(["select", str(tmp_path), "--out", str(out)]) == 0
     summary = capsys.readouterr().out.splitlines()[-2]
     assert summary.startswith(f"1 ensembles of 2: chosen OBJ_FIT {chosen['objective_fitness']:.3f} ± 0.000;")
+    # at round 1: each run's round-1 model and its one experiment
+    early = select_study(runs, 2, rounds=1, generations=1, scan_cycles=0)
+    for r in early:
+        assert r["objective_fitness"] == by_seed[r["seed"]].rounds[0]["objective_fitness"]
     # the file of another study's seeds is refused, not overwritten
     out.write_text(out.read_text().replace("\n0,1,", "\n0,7,"))
     with pytest.raises(ValueError, match="ensemble 0 holds seeds"):

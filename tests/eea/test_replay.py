@@ -20,6 +20,13 @@ def test_rebuilt_experiments_equal_the_runs_bit_for_bit(tmp_path, tiny_config):
         np.testing.assert_array_equal(mine.summary, theirs.summary)
         np.testing.assert_array_equal(mine.action, theirs.action)
         np.testing.assert_array_equal(mine.true_angles, theirs.true_angles)
+    # the run as it stood after round 2: its first two rows and experiments
+    early, two = replay_run(tmp_path, rounds=2)
+    assert early.rounds == result.rounds[:2] and len(two) == 2
+    np.testing.assert_array_equal(two[1].imu_log, stored[1].imu_log)
+    for bad in (0, 4):
+        with pytest.raises(ValueError, match=rf"rounds must be 1..3 \(its finished rounds\), got {bad}"):
+            replay_run(tmp_path, rounds=bad)
 
 
 def test_replay_rejects_what_is_not_a_run(tmp_path):
