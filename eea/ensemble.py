@@ -16,8 +16,8 @@ ensemble's model. No oracle is used: the selection sees only models and response
 
 Cost: N runs (N times one run's simulations and N times its target experiments: with N
 runs side by side, each round performs N experiments on the target), plus the selection,
-about ``250 N E_total`` simulations (``E_total`` the pooled experiments), e.g. 50,000 for
-two 10-round runs.
+about ``225 N E_total`` simulations (``E_total`` the pooled experiments): 8,979 for two
+10-round runs at 1.28 s (measured), 2% of the two runs' 90,000 simulations per round.
 """
 
 from __future__ import annotations
