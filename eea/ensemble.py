@@ -36,7 +36,7 @@ from aquafish_gym.files import atomic_write
 from eea.behaviour import SIMILARITIES
 from eea.encoding import encode_models
 from eea.evaluation import Evaluator
-from eea.experiment import Experiment
+from eea.experiment import FLIPPERS, Experiment, angle_errors_deg
 from eea.fitness import model_fitness_from_similarities
 from eea.profile import Profile
 from eea.record import RunResult
@@ -66,6 +66,22 @@ class Selection:
     def model(self) -> np.ndarray:
         """``(9,)`` the chosen model."""
         return self.models[self.index]
+
+    def angle_errors_deg(self, experiments: Sequence[Experiment]) -> np.ndarray:
+        """``(N, 3)`` each model's median error of its fitted angles over the experiments.
+
+        Degrees, flippers (left, right pectoral, caudal), as
+        :func:`eea.experiment.angle_errors_deg` (the short way round for the pectorals);
+        the experiments' true angles are an oracle the selection does not use.
+
+        Raises:
+            ValueError: if the experiments are not the E the angles were fitted on.
+        """
+        if len(experiments) != self.angles.shape[1]:
+            raise ValueError(f"the angles were fitted on {self.angles.shape[1]} experiments, got {len(experiments)}")
+        n, e = self.angles.shape[:2]
+        true = np.tile(np.stack([x.true_angles for x in experiments]), (n, 1))
+        return np.median(angle_errors_deg(self.angles.reshape(n * e, 3), true).reshape(n, e, 3), axis=1)
 
 
 def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator, rng: np.random.Generator, *,
@@ -111,7 +127,8 @@ def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator
 
 
 def select_runs(run_dirs: Sequence[str | os.PathLike], *, rounds: int | None = None, seed: int = 0,
-                generations: int = 30, scan_cycles: int = 2, workers: int = 1) -> tuple[Selection, list[RunResult]]:
+                generations: int = 30, scan_cycles: int = 2,
+                workers: int = 1) -> tuple[Selection, list[RunResult], list[Experiment]]:
     """:func:`select_model` over finished runs' final models and their pooled experiments.
 
     The experiments are rebuilt from each run's ``rounds.csv`` (:mod:`eea.replay`), so
@@ -128,8 +145,8 @@ def select_runs(run_dirs: Sequence[str | os.PathLike], *, rounds: int | None = N
         workers: simulation processes.
 
     Returns:
-        ``(selection, results)``: the :class:`Selection` (row i is run i's final model) and
-        the loaded runs.
+        ``(selection, results, experiments)``: the :class:`Selection` (row i is run i's
+        final model), the loaded runs and the pooled experiments (run by run, in order).
 
     Raises:
         ValueError: if fewer than two runs are given, a directory is not a run with a
@@ -150,7 +167,7 @@ def select_runs(run_dirs: Sequence[str | os.PathLike], *, rounds: int | None = N
     with Evaluator(config.steps, workers=workers, similarity_fn=SIMILARITIES[config.model_similarity]) as evaluator:
         selection = select_model(models, experiments, evaluator, np.random.default_rng(seed),
                                  generations=generations, scan_cycles=scan_cycles)
-    return selection, results
+    return selection, results, experiments
 
 
 def ensemble_groups(seeds: Sequence[int], size: int) -> tuple[list[tuple[int, ...]], list[int]]:
@@ -175,7 +192,8 @@ def ensemble_groups(seeds: Sequence[int], size: int) -> tuple[list[tuple[int, ..
 
 
 #: Columns of the file :func:`select_study` writes, one row per run of each ensemble.
-SELECTION_COLUMNS = ("ensemble", "seed", "objective_fitness", "model_fitness", "chosen")
+SELECTION_COLUMNS = ("ensemble", "seed", "objective_fitness", "model_fitness", "chosen", "error_left_deg",
+                     "error_right_deg", "error_caudal_deg")
 
 
 def select_study(runs: Sequence[RunResult], size: int, out_csv: str | os.PathLike | None = None, *,
@@ -195,8 +213,9 @@ def select_study(runs: Sequence[RunResult], size: int, out_csv: str | os.PathLik
     Returns:
         The rows, one dict per run (``ensemble`` numbers the ensembles from 0; ``chosen`` is
         1 for the run whose model the selection picked, else 0; OBJ_FIT is eq. 4 of the
-        run's model (its final one, or round ``rounds``'), an oracle the selection does not
-        see).
+        run's model (its final one, or round ``rounds``'), and ``error_<flipper>_deg`` the
+        median error of its fitted angles over the pooled experiments
+        (:meth:`Selection.angle_errors_deg`): oracles the selection does not see).
 
     Raises:
         ValueError: as :func:`ensemble_groups` and :func:`select_runs`, or if ``out_csv``
@@ -215,10 +234,13 @@ def select_study(runs: Sequence[RunResult], size: int, out_csv: str | os.PathLik
             if tuple(done[k]) != group:
                 raise ValueError(f"{out_csv}: ensemble {k} holds seeds {done[k]}, this study's is {list(group)}")
             continue
-        selection, results = select_runs([by_seed[s].out_dir for s in group], rounds=rounds, seed=seed,
-                                         generations=generations, scan_cycles=scan_cycles, workers=workers)
+        selection, results, experiments = select_runs([by_seed[s].out_dir for s in group], rounds=rounds,
+                                                      seed=seed, generations=generations,
+                                                      scan_cycles=scan_cycles, workers=workers)
+        errors = selection.angle_errors_deg(experiments)
         new = [{"ensemble": k, "seed": s, "objective_fitness": float(results[i].rounds[-1]["objective_fitness"]),
-                "model_fitness": float(selection.model_fitness[i]), "chosen": int(i == selection.index)}
+                "model_fitness": float(selection.model_fitness[i]), "chosen": int(i == selection.index),
+                **{f"error_{f}_deg": float(errors[i, j]) for j, f in enumerate(FLIPPERS)}}
                for i, s in enumerate(group)]
         rows += new
         if out_csv is not None:
@@ -242,6 +264,5 @@ def _read_rows(path) -> list[dict]:
         reader = csv.DictReader(f)
         if tuple(reader.fieldnames or ()) != SELECTION_COLUMNS:
             raise ValueError(f"{path}: columns {reader.fieldnames}, expected {list(SELECTION_COLUMNS)}")
-        return [{"ensemble": int(r["ensemble"]), "seed": int(r["seed"]),
-                 "objective_fitness": float(r["objective_fitness"]), "model_fitness": float(r["model_fitness"]),
-                 "chosen": int(r["chosen"])} for r in reader]
+        return [{k: int(r[k]) if k in ("ensemble", "seed", "chosen") else float(r[k]) for k in SELECTION_COLUMNS}
+                for r in reader]

@@ -42,6 +42,16 @@ def test_the_truth_wins_over_the_healthy_robot_and_a_repeated_model_scores_the_s
     np.testing.assert_allclose(selection.model_fitness, model_fitness_from_similarities(again))
     # the truth scores near 1 under its fitted angles (exactly 1 at its true ones), the healthy robot below
     assert selection.model_fitness[1] > 0.99 > selection.model_fitness[0]
+    # the angle errors are the median over experiments of each model's fitted angles' distance
+    errors = selection.angle_errors_deg(experiments)
+    true = np.stack([e.true_angles for e in experiments])
+    by_hand = [np.median([np.degrees(np.abs((selection.angles[i, j, f] - true[j, f] + np.pi) % (2 * np.pi) - np.pi))
+                          for j in range(2)]) for i in range(3) for f in range(2)]
+    np.testing.assert_allclose(errors[:, :2].ravel(), by_hand, atol=1e-9)
+    caudal = np.degrees(np.abs(selection.angles[:, :, 2] - true[:, 2]))
+    np.testing.assert_allclose(errors[:, 2], np.median(caudal, axis=1))
+    with pytest.raises(ValueError, match="fitted on 2 experiments, got 1"):
+        selection.angle_errors_deg(experiments[:1])
 
 
 def test_select_model_rejects_bad_input(experiments):
@@ -85,6 +95,7 @@ def test_select_study_chooses_the_highest_mod_fit_and_resumes_from_its_file(tmp_
     for r in rows:  # OBJ_FIT is each run's own final one (eq. 4), not recomputed
         assert r["objective_fitness"] == by_seed[r["seed"]].rounds[-1]["objective_fitness"]
     assert out.read_text().splitlines()[0] == ",".join(SELECTION_COLUMNS)
+    assert all(0.0 <= r["error_caudal_deg"] <= 60.0 and 0.0 <= r["error_left_deg"] <= 180.0 for r in rows)
     # a second call finds the ensemble in the file and selects nothing again
     assert select_study(runs, 2, out, generations=1, scan_cycles=0, progress=shown.append) == rows and len(shown) == 1
     # the command line prints each ensemble and the summary from the same file
