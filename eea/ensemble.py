@@ -17,7 +17,7 @@ ensemble's model. No oracle is used: the selection sees only models and response
 Cost: N runs (N times one run's simulations and N times its target experiments: with N
 runs side by side, each round performs N experiments on the target), plus the selection,
 about ``225 N E_total`` simulations (``E_total`` the pooled experiments): 8,979 for two
-10-round runs at 1.28 s (measured), 2% of the two runs' 90,000 simulations per round.
+10-round runs at 1.28 s (measured), 1% of the two runs' 909,000.
 """
 
 from __future__ import annotations
@@ -202,7 +202,8 @@ def select_study(runs: Sequence[RunResult], size: int, out_csv: str | os.PathLik
     """:func:`select_runs` on every ensemble of ``size`` consecutive seeds of one study.
 
     Args:
-        runs: finished runs of one variant (one run per seed; :func:`eea.plot.find_runs`).
+        runs: one variant's runs, one per seed (:func:`eea.plot.find_runs`), finished or at
+            least ``rounds`` rounds long.
         size: runs per ensemble (>= 2); the last ``len(runs) % size`` seeds are left out.
         out_csv: optional file of :data:`SELECTION_COLUMNS` rows, rewritten atomically after
             each ensemble; ensembles already in it are not selected again (an interrupted
