@@ -77,6 +77,10 @@ FIELD_HELP: dict[str, str] = {
     "cma_global_first_round": "cma: the round the global share joins (default 2); 1: it starts with the local search "
                               "in round 1, a second lineage from the first experiment on (needs cma_global_share; "
                               "not the paper's)",
+    "lineages": "1: one estimation search (the paper's); N >= 2: N independent estimation lineages, each with its "
+                "own search and inference state, share each round's experiment (chosen to split the union of their "
+                "models) and the round's model is the lineage best whose angles, fitted equally hard, score the "
+                "highest MOD_FIT (eea.lineages; about N times the simulations; not the paper's)",
     "crossover_rate": "probability that a parent pair is recombined (paper: 0.75)",
     "tournament_size": "entrants per tournament (paper: 2)",
     "mutation_bits": "mean number of flipped bits per genome of every GA (paper: 1); at most 18",
@@ -193,6 +197,7 @@ class EEAConfig:
     cma_carry_condition: float = 0.0
     cma_global_keep: int = 0
     cma_global_first_round: int = 2
+    lineages: int = 1
     crossover_rate: float = 0.75
     tournament_size: int = 2
     mutation_bits: float = 1.0
@@ -254,7 +259,7 @@ class EEAConfig:
             "profile_library": 0, "profile_library_newcomers": 0, "profile_select": 0, "profile_select_refine": 1,
             "profile_fine_steps": 0, "profile_polish": 0, "profile_scan": 0,
             "max_batch_robots": 1, "cma_global_period": 0, "cma_global_share": 0, "cma_global_keep": 0,
-            "cma_global_first_round": 1,
+            "cma_global_first_round": 1, "lineages": 1,
         }
         for name, low in minimum.items():
             check_int(f"EEAConfig.{name}", getattr(self, name), low, 30 if name == "oob_bits" else None)

@@ -85,7 +85,7 @@ class Selection:
 
 
 def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator, rng: np.random.Generator, *,
-                 generations: int = 30, scan_cycles: int = 2) -> Selection:
+                 generations: int = 30, scan_cycles: int = 2, start=None) -> Selection:
     """Fit every model's angles equally hard on the experiments; the highest MOD_FIT wins.
 
     Args:
@@ -97,13 +97,16 @@ def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator
         rng: draws the fit's random starts and perturbations.
         generations: random-perturbation generations of :meth:`eea.profile.Profile.fit`, >= 1.
         scan_cycles: cycles of the per-flipper angle scan before the compass polish, >= 0.
+        start: optional ``(N, E, 3)`` angles (rad) per model and experiment, tried beside the
+            fit's random starts (e.g. the angles a run already found for its model; a model
+            given twice starts from its first row's).
 
     Returns:
         A :class:`Selection`.
 
     Raises:
-        ValueError: if ``models`` is not ``(N, 9)`` with N >= 1, there are no experiments, or
-            ``generations < 1`` or ``scan_cycles < 0``.
+        ValueError: if ``models`` is not ``(N, 9)`` with N >= 1, there are no experiments,
+            ``generations < 1``, ``scan_cycles < 0`` or ``start`` is not ``(N, E, 3)``.
     """
     models = np.asarray(models, dtype=np.float64)
     if models.ndim != 2 or models.shape[1] != len(MORPHOLOGY_FIELDS) or not len(models):
@@ -114,10 +117,15 @@ def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator
         raise ValueError(f"generations must be >= 1, got {generations}")
     if scan_cycles < 0:
         raise ValueError(f"scan_cycles must be >= 0, got {scan_cycles}")
-    genomes, inverse = np.unique(encode_models(models), axis=0, return_inverse=True)
+    if start is not None:
+        start = np.asarray(start, dtype=np.float64)
+        if start.shape != (len(models), len(experiments), 3):
+            raise ValueError(f"start must be (N, E, 3) = ({len(models)}, {len(experiments)}, 3), got {start.shape}")
+    genomes, first, inverse = np.unique(encode_models(models), axis=0, return_index=True, return_inverse=True)
     inverse = inverse.ravel()
     profile = Profile()
-    angles, _ = profile.fit(genomes, experiments, evaluator, rng, generations)
+    angles, _ = profile.fit(genomes, experiments, evaluator, rng, generations,
+                            start=None if start is None else start[first])
     sims = evaluator.similarities(genomes, experiments, angles)
     if scan_cycles:
         profile.scan_angles(genomes, angles, sims, experiments, evaluator, scan_cycles)

@@ -26,6 +26,7 @@ from eea.estimation import Estimation
 from eea.experiment import Experiment
 from eea.exploration import Exploration
 from eea.inference import InferenceStrategy, make_inference
+from eea.lineages import LineageStrategies, Lineages, make_estimation
 from eea.target import Target
 
 __all__ = ["PhaseReporter", "RoundParts", "RoundRecord", "run_round"]
@@ -43,27 +44,33 @@ class RoundParts:
     Attributes:
         config: the run's settings.
         target: the damaged robot (draws the true initial angles from the run's generator).
-        strategy: the context inference strategy (stateless).
+        strategy: the context inference strategy (one per lineage with ``config.lineages``
+            >= 2, :class:`eea.lineages.LineageStrategies`).
         exploration: the exploration phase (a fresh action GA per round).
-        estimation: the estimation phase (its model search carries over rounds).
+        estimation: the estimation phase (its model search carries over rounds; N
+            independent ones, :class:`eea.lineages.Lineages`, with ``config.lineages`` N >= 2).
         evaluator: batched, cached simulation of the models.
     """
 
     config: EEAConfig
     target: Target
-    strategy: InferenceStrategy
+    strategy: InferenceStrategy | LineageStrategies
     exploration: Exploration
-    estimation: Estimation
+    estimation: Estimation | Lineages
     evaluator: object
 
     @classmethod
     def from_config(cls, config: EEAConfig, rng: np.random.Generator, evaluator,
-                    estimation: Estimation | None = None) -> "RoundParts":
+                    estimation: Estimation | Lineages | None = None) -> "RoundParts":
         """The parts of a run of ``config`` (a fresh estimation unless one is given, e.g.
         restored from a checkpoint; a fresh one draws its initial population from ``rng``)."""
         if estimation is None:
-            estimation = Estimation.from_config(config, rng)
-        return cls(config, Target(config.damage, config.steps, rng), make_inference(config.inference, config),
+            estimation = make_estimation(config, rng)
+        if config.lineages > 1:
+            strategy = LineageStrategies([make_inference(config.inference, config) for _ in range(config.lineages)])
+        else:
+            strategy = make_inference(config.inference, config)
+        return cls(config, Target(config.damage, config.steps, rng), strategy,
                    Exploration.from_config(config), estimation, evaluator)
 
     def perform(self, index: int, action) -> Experiment:

@@ -28,10 +28,10 @@ from tqdm.auto import tqdm
 
 from eea.checkpoint import RunState, load_state, save_state
 from eea.config import RESULT_NEUTRAL_FIELDS, EEAConfig
-from eea.estimation import Estimation
 from eea.behaviour import SIMILARITIES
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
+from eea.lineages import estimation_from_state
 from eea.record import RunResult, read_config, round_row, write_config, write_rounds
 from eea.round import RoundParts, run_round
 
@@ -75,7 +75,7 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
     state = load_state(out)
     if state is not None:
         rng.bit_generator.state = state.rng_state
-        estimation = Estimation.from_state_dict(state.estimation, rng)
+        estimation = estimation_from_state(state.estimation, rng)
         experiments = tuple(Experiment.from_state_dict(e) for e in state.experiments)
     else:
         estimation, experiments, state = None, (), RunState(config.to_dict())

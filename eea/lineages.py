@@ -1,0 +1,249 @@
+"""Independent estimation lineages that share each round's experiment (not the paper's; issue 14).
+
+Under unknown initial angles a run of the EEA settles early in one basin of MOD_FIT and the
+basin decides where it ends: the same variant ends at the truth on one seed and on a wrong
+model (a massless flipper, a mimic) on the next (docs/studies/unknown_angles.md). Two
+independent runs, their final models' angles fitted equally hard on both runs' experiments
+and the higher MOD_FIT kept (:mod:`eea.ensemble`), pick the better run in 9 of 10 pairs,
+but they perform two target experiments per round.
+
+Here one run keeps N independent estimations ("lineages"), each with its own model search
+and its own inference strategy (its own remembered angles, library and contexts), started
+from its own random population. Every round:
+
+* **exploration** evolves the action that splits the union of the lineages' candidate
+  models (eq. 1 over :meth:`Lineages.ranked_models`: the lineages' candidates interleaved,
+  best first), so the experiment is chosen to tell the lineages' hypotheses apart;
+* **target**: one experiment, as in the paper;
+* **estimation**: every lineage runs its estimation phase on all experiments
+  (:meth:`eea.estimation.Estimation.run`), independently of the others;
+* **selection**: the lineages' best models get their own initial angles fitted equally hard
+  on all experiments (:func:`eea.ensemble.select_model`: :meth:`eea.profile.Profile.fit`
+  from random starts and each lineage's own angles, then a per-flipper scan and a compass
+  polish), and the highest MOD_FIT (eq. 3) is the round's self-model. No oracle is used.
+  The lineages do not adopt it: each keeps its own search, so a lineage in a wrong basin
+  cannot drag the others into it.
+
+Cost per round: N times the estimation's simulations, the exploration's with up to N times
+the distinct candidate models (``exploration_models`` caps them), plus the selection's,
+about ``N E (initial + 1 + 2 generations) + N E (2 scan 57 + polish)`` simulations, some
+``250 N E``; one target experiment.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Sequence
+
+import numpy as np
+
+from eea.encoding import decode_models, genome_keys
+from eea.ensemble import select_model
+from eea.estimation import Estimation, EstimationResult
+from eea.experiment import Context, Experiment
+from eea.strategy import InferenceStrategy
+
+__all__ = ["LineageStrategies", "Lineages", "SELECT_GENERATIONS", "SELECT_SCAN_CYCLES", "estimation_from_state",
+           "make_estimation"]
+
+#: The round's selection: generations of the equal angle fit and cycles of the per-flipper
+#: scan before the polish (the settings of ``aquafish select``, :func:`eea.ensemble.select_model`).
+SELECT_GENERATIONS, SELECT_SCAN_CYCLES = 30, 2
+
+
+class LineageStrategies:
+    """One inference strategy per lineage, checkpointed together.
+
+    Only the run-level part of :class:`~eea.strategy.InferenceStrategy` is implemented:
+    :meth:`new_context` (the same for every lineage's strategy of one name),
+    :meth:`state_dict` and :meth:`load_state_dict`; the estimation hooks are each
+    lineage's own (:meth:`Lineages.run` hands lineage i ``members[i]``).
+
+    Args:
+        members: N >= 2 strategies of one name.
+
+    Raises:
+        ValueError: if fewer than two strategies are given or their names differ.
+    """
+
+    select_models = 0  # the lineages' selection is Lineages' own
+
+    def __init__(self, members: Sequence[InferenceStrategy]) -> None:
+        members = tuple(members)
+        if len(members) < 2:
+            raise ValueError(f"LineageStrategies needs at least 2 strategies, got {len(members)}")
+        names = {m.name for m in members}
+        if len(names) != 1:
+            raise ValueError(f"the lineages' strategies must share one name, got {sorted(names)}")
+        self.members = members
+        self.name = members[0].name
+
+    def new_context(self, true_angles: np.ndarray) -> Context:
+        """Context of a freshly performed experiment (the first member's; all agree)."""
+        return self.members[0].new_context(true_angles)
+
+    def state_dict(self) -> dict:
+        """``{"lineages": [each member's state_dict()]}``."""
+        return {"lineages": [m.state_dict() for m in self.members]}
+
+    def load_state_dict(self, state: dict) -> None:
+        """Restore :meth:`state_dict` (an empty dict: nothing remembered yet).
+
+        Raises:
+            ValueError: on unknown keys or a state of another number of lineages.
+        """
+        if not state:
+            return
+        if set(state) != {"lineages"} or len(state["lineages"]) != len(self.members):
+            raise ValueError(f"lineage strategies' state must be {{'lineages': [{len(self.members)} states]}}, "
+                             f"got keys {sorted(state)} with {len(state.get('lineages', ()))} states")
+        for member, member_state in zip(self.members, state["lineages"]):
+            member.load_state_dict(member_state)
+
+
+class Lineages:
+    """N independent estimation phases sharing the run's experiments, selected each round.
+
+    Has the interface :func:`eea.round.run_round` uses of an
+    :class:`~eea.estimation.Estimation` (:meth:`run`, :meth:`ranked_models`,
+    :meth:`state_dict`); see the module docstring.
+
+    Args:
+        members: N >= 2 :class:`~eea.estimation.Estimation` phases.
+        select_generations: generations of the selection's angle fit, >= 1.
+        select_scan_cycles: cycles of its per-flipper angle scan, >= 0.
+
+    Attributes:
+        history: one dict per finished round: ``model_fitness`` ``(N,)`` each lineage's own
+            MOD_FIT, ``selection_fitness`` ``(N,)`` its MOD_FIT under the equal fit,
+            ``genomes`` ``(N, 45)`` the lineages' best models, ``chosen`` the selected row.
+
+    Raises:
+        ValueError: if fewer than two members are given.
+    """
+
+    def __init__(self, members: Sequence[Estimation], select_generations: int = SELECT_GENERATIONS,
+                 select_scan_cycles: int = SELECT_SCAN_CYCLES) -> None:
+        members = tuple(members)
+        if len(members) < 2:
+            raise ValueError(f"Lineages needs at least 2 estimations, got {len(members)}")
+        if select_generations < 1 or select_scan_cycles < 0:
+            raise ValueError(f"Lineages needs select_generations >= 1 and select_scan_cycles >= 0, "
+                             f"got {select_generations} and {select_scan_cycles}")
+        self.members = members
+        self.select_generations, self.select_scan_cycles = int(select_generations), int(select_scan_cycles)
+        self._experiments: list[tuple[Experiment, ...]] = [() for _ in members]  # each lineage's contexts
+        self.history: list[dict] = []
+
+    @classmethod
+    def from_config(cls, config, rng: np.random.Generator) -> "Lineages":
+        """``config.lineages`` fresh estimations (:meth:`Estimation.from_config`), each with its
+        own random initial population drawn from ``rng`` in turn."""
+        return cls([Estimation.from_config(config, rng) for _ in range(config.lineages)])
+
+    def run(self, experiments: Sequence[Experiment], strategy: LineageStrategies, evaluator,
+            rng: np.random.Generator, generations: int,
+            on_generation: Callable[[int, float], None] | None = None) -> EstimationResult:
+        """Every lineage's estimation phase, then the round's selection.
+
+        Args:
+            experiments: the E >= 1 recorded experiments, newest last; the ones a lineage has
+                not seen yet (the newest) join its own experiments with their fresh contexts.
+            strategy: the lineages' :class:`LineageStrategies` (member i serves lineage i).
+            evaluator, rng, generations, on_generation: as :meth:`Estimation.run`
+                (``on_generation`` is called for every lineage's generations in turn).
+
+        Returns:
+            The :class:`~eea.estimation.EstimationResult` of the selected model: the
+            experiments with its equally fitted angles as exact contexts, its genome and its
+            MOD_FIT under those angles.
+
+        Raises:
+            ValueError: if there are no experiments, fewer than a lineage has already seen,
+                ``generations < 1``, or ``strategy`` has another number of lineages.
+        """
+        experiments = tuple(experiments)
+        if not experiments:
+            raise ValueError("estimation needs at least one experiment")
+        if len(getattr(strategy, "members", ())) != len(self.members):
+            raise ValueError(f"{len(self.members)} lineages need LineageStrategies of as many strategies, got {strategy!r}")
+        seen = len(self._experiments[0])
+        if len(experiments) < seen:
+            raise ValueError(f"the lineages have seen {seen} experiments, got only {len(experiments)}")
+        new = experiments[seen:]
+        best = []
+        for i, (member, member_strategy) in enumerate(zip(self.members, strategy.members)):
+            result = member.run((*self._experiments[i], *new), member_strategy, evaluator, rng, generations,
+                                on_generation)
+            self._experiments[i] = result.experiments
+            best.append((result.best_genome, result.best_fitness))
+        genomes = np.stack([g for g, _ in best])
+        start = np.stack([[e.context.estimate() for e in exps] for exps in self._experiments])  # (N, E, 3)
+        selection = select_model(decode_models(genomes), experiments, evaluator, rng,
+                                 generations=self.select_generations, scan_cycles=self.select_scan_cycles,
+                                 start=start)
+        chosen = selection.index
+        self.history.append({"model_fitness": np.array([f for _, f in best]),
+                             "selection_fitness": selection.model_fitness.copy(), "genomes": genomes.copy(),
+                             "chosen": int(chosen)})
+        fitted = tuple(e.with_context(Context.exact(selection.angles[chosen, k])) for k, e in enumerate(experiments))
+        return EstimationResult(fitted, genomes[chosen], float(selection.model_fitness[chosen]))
+
+    def ranked_models(self, limit: int | None = None, min_distance: float = 0.0) -> np.ndarray:
+        """The lineages' candidate models for the exploration, interleaved, at most ``limit``.
+
+        Each lineage's :meth:`Estimation.ranked_models` ``(limit, min_distance)``, taken in
+        turn (every lineage's best first, then every lineage's second, ...), a model given by
+        two lineages kept once.
+
+        Returns:
+            ``(R, 45)`` uint8.
+
+        Raises:
+            ValueError: as :meth:`Estimation.ranked_models`.
+        """
+        per_lineage = [m.ranked_models(limit, min_distance) for m in self.members]
+        rows, seen = [], set()
+        for k in range(max(len(r) for r in per_lineage)):
+            for ranked in per_lineage:
+                if k < len(ranked):
+                    key = genome_keys(ranked[k : k + 1])[0]
+                    if key not in seen:
+                        seen.add(key)
+                        rows.append(ranked[k])
+        ranked = np.stack(rows)
+        return ranked if limit is None else ranked[:limit]
+
+    def state_dict(self) -> dict:
+        """Every lineage's :meth:`Estimation.state_dict`, its experiments (with its own
+        contexts) and the selection history, for the run checkpoint."""
+        return {"lineages": [m.state_dict() for m in self.members],
+                "experiments": [[e.state_dict() for e in exps] for exps in self._experiments],
+                "history": [dict(h) for h in self.history],
+                "select": (self.select_generations, self.select_scan_cycles)}
+
+    @classmethod
+    def from_state_dict(cls, state: dict, rng: np.random.Generator) -> "Lineages":
+        """Rebuild from :meth:`state_dict`, drawing from ``rng`` from now on.
+
+        Raises:
+            ValueError: on an invalid state.
+        """
+        lineages = cls([Estimation.from_state_dict(s, rng) for s in state["lineages"]], *state["select"])
+        lineages._experiments = [tuple(Experiment.from_state_dict(e) for e in exps) for exps in state["experiments"]]
+        lineages.history = [dict(h) for h in state["history"]]
+        return lineages
+
+
+def make_estimation(config, rng: np.random.Generator) -> Estimation | Lineages:
+    """The estimation phase of a run of ``config``: one :class:`Estimation` (the paper's), or
+    :class:`Lineages` of ``config.lineages`` of them when that is >= 2."""
+    if getattr(config, "lineages", 1) > 1:
+        return Lineages.from_config(config, rng)
+    return Estimation.from_config(config, rng)
+
+
+def estimation_from_state(state: dict, rng: np.random.Generator) -> Estimation | Lineages:
+    """Inverse of either phase's ``state_dict`` (a checkpoint's ``estimation``)."""
+    if "lineages" in state:
+        return Lineages.from_state_dict(state, rng)
+    return Estimation.from_state_dict(state, rng)
