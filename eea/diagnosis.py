@@ -60,6 +60,7 @@ from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.behaviour import SIMILARITIES
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment, angle_errors_deg
+from eea.lineages import chosen_inference_state
 from eea.profile import Profile
 from eea.record import load_result
 
@@ -184,11 +185,12 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
         distinct = both[:1] if (both[0] == both[1]).all() else both  # the run may have found the truth
         proposed = refined = None
         if result.config.inference == "profile" and state.inference:
+            inference = chosen_inference_state(state.estimation, state.inference)  # a lineage run: the chosen's
             remembered = Profile.from_config(result.config)  # the run's inherit rule
-            remembered.load_state_dict(state.inference)
+            remembered.load_state_dict(inference)
             proposed = fit(truth, remembered.starting_angles(truth, len(experiments), np.random.default_rng(seed)))
             if refine:
-                refined = _refined_truth(state.inference, distinct, experiments, ev, result.config, refine, seed)
+                refined = _refined_truth(inference, distinct, experiments, ev, result.config, refine, seed)
         fitted_angles, fitted = Profile(proposals=4, initial=16).fit(
             distinct, experiments, ev, np.random.default_rng(seed), profile_generations,
             start=np.repeat(inferred, len(distinct), axis=0))

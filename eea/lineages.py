@@ -42,8 +42,8 @@ from eea.estimation import Estimation, EstimationResult
 from eea.experiment import Context, Experiment
 from eea.strategy import InferenceStrategy
 
-__all__ = ["LineageStrategies", "Lineages", "SELECT_GENERATIONS", "SELECT_SCAN_CYCLES", "estimation_from_state",
-           "make_estimation"]
+__all__ = ["LineageStrategies", "Lineages", "SELECT_GENERATIONS", "SELECT_SCAN_CYCLES", "chosen_inference_state",
+           "estimation_from_state", "make_estimation"]
 
 #: The round's selection: generations of the equal angle fit and cycles of the per-flipper
 #: scan before the polish (the settings of ``aquafish select``, :func:`eea.ensemble.select_model`).
@@ -247,3 +247,20 @@ def estimation_from_state(state: dict, rng: np.random.Generator) -> Estimation |
     if "lineages" in state:
         return Lineages.from_state_dict(state, rng)
     return Estimation.from_state_dict(state, rng)
+
+
+def chosen_inference_state(estimation_state: dict, inference_state: dict) -> dict:
+    """The inference state behind a checkpoint's final model.
+
+    A plain run's ``inference_state`` as it is; of a :class:`Lineages` run, the state of the
+    lineage the last round chose (its remembered angles are the ones its model was found
+    with; :mod:`eea.diagnosis` uses them).
+
+    Raises:
+        ValueError: if a lineage run's checkpoint has no finished round.
+    """
+    if "lineages" not in estimation_state:
+        return inference_state
+    if not estimation_state["history"]:
+        raise ValueError("the lineage run has no finished round, so no lineage was chosen yet")
+    return inference_state["lineages"][estimation_state["history"][-1]["chosen"]]
