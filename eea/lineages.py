@@ -36,14 +36,17 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from eea.checkpoint import load_state
 from eea.encoding import decode_models, genome_keys
 from eea.ensemble import select_model
 from eea.estimation import Estimation, EstimationResult
 from eea.experiment import Context, Experiment
+from eea.fitness import objective_fitness
+from eea.record import load_result
 from eea.strategy import InferenceStrategy
 
 __all__ = ["LineageStrategies", "Lineages", "SELECT_GENERATIONS", "SELECT_SCAN_CYCLES", "chosen_inference_state",
-           "estimation_from_state", "make_estimation"]
+           "estimation_from_state", "lineage_objective_fitness", "make_estimation"]
 
 #: The round's selection: generations of the equal angle fit and cycles of the per-flipper
 #: scan before the polish (the settings of ``aquafish select``, :func:`eea.ensemble.select_model`).
@@ -264,3 +267,28 @@ def chosen_inference_state(estimation_state: dict, inference_state: dict) -> dic
     if not estimation_state["history"]:
         raise ValueError("the lineage run has no finished round, so no lineage was chosen yet")
     return inference_state["lineages"][estimation_state["history"][-1]["chosen"]]
+
+
+def lineage_objective_fitness(out_dir) -> tuple[np.ndarray, np.ndarray]:
+    """Each lineage's OBJ_FIT (eq. 4) round by round, from a lineage run's checkpoint.
+
+    OBJ_FIT needs the true morphology, an oracle the run never uses: this tells how often
+    the round's selection kept the best lineage, and what one lineage alone would score.
+
+    Args:
+        out_dir: a run directory of a run with ``lineages`` >= 2 (its ``state.pkl``).
+
+    Returns:
+        ``(objective, chosen)``: ``(R, N)`` each lineage's best model's OBJ_FIT after each
+        of the R finished rounds, and ``(R,)`` int the lineage chosen in each.
+
+    Raises:
+        ValueError: if ``out_dir`` holds no checkpoint or not a lineage run's.
+    """
+    state = load_state(out_dir)
+    if state is None or "lineages" not in state.estimation:
+        raise ValueError(f"{out_dir} holds no checkpoint of a run with lineages >= 2")
+    truth = load_result(out_dir).target_morphology.to_array()
+    history = state.estimation["history"]
+    objective = np.array([[objective_fitness(dims, truth) for dims in decode_models(h["genomes"])] for h in history])
+    return objective.reshape(len(history), -1), np.array([h["chosen"] for h in history], dtype=int)

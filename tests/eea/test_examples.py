@@ -80,6 +80,23 @@ def test_wrong_basins_flags_a_massless_flipper_only_where_the_target_has_volume(
     assert row[-1] == f"{still}/{len(result.rounds)}" and float(row[1]) == round(float(result.rounds[-1]["objective_fitness"]), 3)
 
 
+def test_lineage_choices_reports_each_lineage_and_the_chosen_one(tmp_path, tiny_config, capsys):
+    from eea.lineages import lineage_objective_fitness
+    from eea.run import run
+
+    run(tiny_config(inference="profile", lineages=2), tmp_path / "lin", progress=False)
+    run(tiny_config(inference="profile"), tmp_path / "plain", progress=False)   # skipped: one lineage
+    _load("lineage_choices").main([str(tmp_path)])
+    lines = capsys.readouterr().out.splitlines()
+    objective, picks = lineage_objective_fitness(tmp_path / "lin")
+    final, pick = objective[-1], picks[-1]
+    assert len(lines) == 3 and lines[1].split()[1:4] == [f"{final[0]:.3f}", f"{final[1]:.3f}", str(pick)]
+    assert lines[2].startswith(f"1 runs: chosen {final[pick]:.3f}")
+    assert f"best lineage (oracle) {final.max():.3f}" in lines[2]
+    with pytest.raises(SystemExit, match="no run with lineages >= 2"):
+        _load("lineage_choices").main([str(tmp_path / "plain")])
+
+
 def test_round1_lineages_reports_each_lineages_own_best_model(tmp_path, tiny_config, monkeypatch):
     from eea.checkpoint import load_state
 

@@ -10,10 +10,11 @@ from eea.ensemble import select_model
 from eea.estimation import Estimation, EstimationResult
 from eea.evaluation import Evaluator
 from eea.experiment import Context, Experiment
-from eea.fitness import model_fitness_from_similarities
 from eea.inference import make_inference
 from eea.diagnosis import diagnose_run
-from eea.lineages import LineageStrategies, Lineages, chosen_inference_state, estimation_from_state, make_estimation
+from eea.fitness import model_fitness_from_similarities, objective_fitness
+from eea.lineages import (LineageStrategies, Lineages, chosen_inference_state, estimation_from_state,
+                          lineage_objective_fitness, make_estimation)
 from eea.profile import Profile
 from eea.record import MODEL_COLUMNS
 from eea.checkpoint import load_state
@@ -128,6 +129,14 @@ def test_a_lineage_run_resumes_exactly_and_records_each_lineage(tiny_config, tmp
     assert chosen_inference_state(state.estimation, state.inference) is state.inference["lineages"][chosen]
     diagnosis = diagnose_run(tmp_path / "whole", profile_generations=1, refine=1)
     assert diagnosis.true_proposed is not None and diagnosis.true_refined is not None
+    # each lineage's OBJ_FIT (eq. 4) per round; the chosen column is rounds.csv's
+    objective, picks = lineage_objective_fitness(tmp_path / "whole")
+    assert objective.shape == (3, 2) and list(picks) == [h["chosen"] for h in history]
+    truth = get_damage(config.damage).apply().to_array()
+    assert objective[1, 0] == objective_fitness(decode_models(history[1]["genomes"][:1])[0], truth)
+    assert [row["objective_fitness"] for row in whole.rounds] == list(objective[np.arange(3), picks])
+    with pytest.raises(ValueError, match="no checkpoint of a run with lineages >= 2"):
+        lineage_objective_fitness(tmp_path / "nothing")
 
 
 def test_one_lineage_is_the_plain_estimation_and_bad_lineages_raise(tiny_config):
