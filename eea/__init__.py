@@ -22,7 +22,9 @@ On top of ``aquafish_gym.simulate_batch``:
 * ``eea.strategy``   -- the interface of a context inference strategy (hooks, order).
 * ``eea.inference``  -- the paper's strategies: known, none, in_band, out_of_band, and the
   registry; ``eea.profile`` -- per-model angles (not the paper's).
-* ``eea.exploration``, ``eea.estimation`` -- the two phases of a round (section 3.2).
+* ``eea.exploration``, ``eea.estimation`` -- the two phases of a round (section 3.2);
+  ``eea.lineages`` -- several independent estimations sharing each round's experiment, one
+  selected per round (``lineages`` >= 2; not the paper's).
 * ``eea.round``      -- ``run_round``: one round as one function, a frozen ``RoundRecord``.
 * ``eea.config``     -- ``EEAConfig``, the paper's defaults (section 4).
 * ``eea.run``        -- ``run(config, out_dir)``: a resumable run of rounds; ``eea.record``
@@ -45,6 +47,7 @@ from eea.estimation import Estimation, EstimationResult
 from eea.evaluation import Evaluator
 from eea.experiment import Context, Experiment
 from eea.exploration import Exploration
+from eea.lineages import LineageStrategies, Lineages
 from eea.inference import INFERENCE_NAMES, INFERENCE_STRATEGIES, InferenceStrategy, make_inference
 from eea.model_search import MODEL_SEARCHES, ModelGA, ModelSearch, make_model_search
 from eea.record import ROUND_COLUMNS, RunResult, load_result
