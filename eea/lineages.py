@@ -24,10 +24,12 @@ from its own random population. Every round:
   The lineages do not adopt it: each keeps its own search, so a lineage in a wrong basin
   cannot drag the others into it.
 
-Cost per round: N times the estimation's simulations, the exploration's with up to N times
-the distinct candidate models (``exploration_models`` caps them), plus the selection's,
-about ``N E (initial + 1 + 2 generations) + N E (2 scan 57 + polish)`` simulations, some
-``250 N E``; one target experiment.
+Cost per round: N times the estimation's simulations; the exploration's as before (its
+candidate models are capped by ``exploration_models`` whatever N is); plus the selection's,
+about ``250 N E`` simulations for E experiments (per model and experiment: the fit's 8
+random starts, its start and 30 generations of 2 proposals, 69; two scan cycles of 24 + 24 +
+9 angles, 114; the compass polish, 60-90), some 3% of a 10-round run with N = 2; and one
+target experiment, as in the paper.
 """
 
 from __future__ import annotations
