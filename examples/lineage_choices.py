@@ -2,7 +2,7 @@
 
 For every finished run with ``lineages`` >= 2 under the given directories this prints each
 lineage's final OBJ_FIT (eq. 4; the truth is an oracle the run never uses), the lineage the
-last round chose, and whether it was the best; then the means over runs: the chosen model,
+last round chose, and whether it was the best; then the means over runs (± std, ddof 0 as in ``aquafish compare``): the chosen model,
 the best lineage (the oracle's pick) and each lineage alone (what one of them would have
 ended at, on experiments chosen to split all the lineages' models).
 
@@ -40,7 +40,7 @@ def main(argv=None) -> None:
         raise SystemExit("no run with lineages >= 2 found")
     finals = np.array(finals)
     alone = ", ".join(f"lineage {i} {m:.3f}" for i, m in enumerate(finals.mean(axis=0)))
-    print(f"{len(finals)} runs: chosen {np.mean(chosen):.3f} ± {np.std(chosen, ddof=1) if len(chosen) > 1 else 0:.3f}; "
+    print(f"{len(finals)} runs: chosen {np.mean(chosen):.3f} ± {np.std(chosen):.3f}; "
           f"best lineage (oracle) {finals.max(axis=1).mean():.3f}; {alone}; "
           f"the best chosen in {int(np.sum(np.isclose(chosen, finals.max(axis=1))))}/{len(finals)}")
 
