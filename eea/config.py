@@ -143,6 +143,10 @@ PRESETS: dict[str, dict[str, object]] = {
                 "estimation_search": "cma", "cma_carry_condition": 100.0, "cma_global_share": 8,
                 "profile_refine": 10, "profile_contenders": 3, "profile_library": 8},
 }
+# "library" and two independent estimation lineages sharing each round's experiment, the
+# round's model chosen by an equal angle fit, each lineage's global CMA-ES kept (eea.lineages;
+# README, "Beyond the paper"; not the paper's)
+PRESETS["lineages"] = {**PRESETS["library"], "cma_global_keep": 3, "lineages": 2}
 
 
 def preset_fields(*names: str) -> dict[str, object]:

@@ -1,6 +1,8 @@
 """EEAConfig: the paper's defaults (section 4) and validation with clear errors."""
 
 import dataclasses
+import json
+from pathlib import Path
 
 import pytest
 
@@ -55,6 +57,15 @@ def test_same_results_ignores_workers_chunking_and_rounds():
     assert c.same_results_as(c.replace(workers=2, max_batch_robots=7, rounds=40))
     assert not c.same_results_as(c.replace(seed=1))
     assert not c.same_results_as(c.replace(inference="none"))
+
+
+def test_the_lineages_preset_spells_out_the_published_lineage_runs():
+    # docs/results/lph_lin2 (README, "Beyond the paper") ran with --preset reduced --preset library and two flags
+    published = json.loads((Path(__file__).parents[2] / "docs/results/lph_lin2/study.json").read_text())["base"]
+    ran = EEAConfig.from_dict(published)
+    assert ran.same_results_as(EEAConfig.from_presets("reduced", "lineages", inference=ran.inference, seed=ran.seed))
+    assert EEAConfig.from_presets("reduced", "library", cma_global_keep=3, lineages=2) == \
+        EEAConfig.from_presets("reduced", "lineages")
 
 
 def test_presets_apply_in_order_and_fields_win():
