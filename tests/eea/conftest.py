@@ -57,3 +57,17 @@ def simulator_spy(monkeypatch):
     spy = SimulatorSpy(eea.evaluation.simulate_batch)
     monkeypatch.setattr(eea.evaluation, "simulate_batch", spy)
     return spy
+
+
+@pytest.fixture(scope="session")
+def lph_experiments():
+    """Two real 0.64 s experiments on left_pectoral_half from random initial angles (the fits
+    under test never see the true angles; their contexts say 0 rad)."""
+    from eea.target import Target
+
+    target = Target("left_pectoral_half", 64, np.random.default_rng(5))
+    exps = []
+    for i, action in enumerate([(0.45, -0.3, 0.6), (-0.4, 0.5, 0.2)]):
+        log, true = target.perform(np.array(action))
+        exps.append(Experiment(i, np.array(action), log, behaviour_summary(log), true, Context.exact(np.zeros(3))))
+    return exps

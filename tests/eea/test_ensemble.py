@@ -5,26 +5,17 @@ import pytest
 
 from aquafish.cli import main
 from aquafish_gym import get_damage
-from eea.behaviour import behaviour_summary
 from eea.encoding import decode_models, encode_models
 from eea.ensemble import SELECTION_COLUMNS, ensemble_groups, select_model, select_runs, select_study
 from eea.evaluation import Evaluator
-from eea.experiment import Context, Experiment
 from eea.fitness import model_fitness_from_similarities
 from eea.plot import find_runs
 from eea.run import run
-from eea.target import Target
 
 
-@pytest.fixture(scope="module")
-def experiments():
-    """Two real experiments on left_pectoral_half (0.64 s), their true angles unknown to the fit."""
-    target = Target("left_pectoral_half", 64, np.random.default_rng(5))
-    exps = []
-    for i, action in enumerate([(0.45, -0.3, 0.6), (-0.4, 0.5, 0.2)]):
-        log, true = target.perform(np.array(action))
-        exps.append(Experiment(i, np.array(action), log, behaviour_summary(log), true, Context.exact(np.zeros(3))))
-    return exps
+@pytest.fixture
+def experiments(lph_experiments):
+    return lph_experiments
 
 
 def test_the_truth_wins_over_the_healthy_robot_and_a_repeated_model_scores_the_same(experiments):

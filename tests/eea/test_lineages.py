@@ -4,36 +4,28 @@ import numpy as np
 import pytest
 
 from aquafish_gym import get_damage
-from eea.behaviour import behaviour_summary
+from eea.checkpoint import load_state
+from eea.diagnosis import diagnose_run
 from eea.encoding import MODEL_BITS, decode_models, encode_models
 from eea.ensemble import select_model
 from eea.estimation import Estimation, EstimationResult
 from eea.evaluation import Evaluator
-from eea.experiment import Context, Experiment
-from eea.inference import make_inference
-from eea.diagnosis import diagnose_run
+from eea.experiment import Context
 from eea.fitness import model_fitness_from_similarities, objective_fitness
+from eea.inference import make_inference
 from eea.lineages import (LineageStrategies, Lineages, chosen_inference_state, estimation_from_state,
                           lineage_objective_fitness, make_estimation)
 from eea.profile import Profile
 from eea.record import MODEL_COLUMNS
-from eea.checkpoint import load_state
 from eea.run import run
-from eea.target import Target
 
 TRUTH = encode_models(get_damage("left_pectoral_half").apply().to_array()[None])[0]
 HEALTHY = encode_models(get_damage("none").apply().to_array()[None])[0]
 
 
-@pytest.fixture(scope="module")
-def experiments():
-    """Two real 0.64 s experiments on left_pectoral_half; the fits never see the true angles."""
-    target = Target("left_pectoral_half", 64, np.random.default_rng(5))
-    exps = []
-    for i, action in enumerate([(0.45, -0.3, 0.6), (-0.4, 0.5, 0.2)]):
-        log, true = target.perform(np.array(action))
-        exps.append(Experiment(i, np.array(action), log, behaviour_summary(log), true, Context.exact(np.zeros(3))))
-    return exps
+@pytest.fixture
+def experiments(lph_experiments):
+    return lph_experiments
 
 
 class FixedLineage:
