@@ -80,7 +80,7 @@ FIELD_HELP: dict[str, str] = {
     "lineages": "1: one estimation search (the paper's); N >= 2: N independent estimation lineages, each with its "
                 "own search and inference state, share each round's experiment (chosen to split the union of their "
                 "models) and the round's model is the lineage best whose angles, fitted equally hard, score the "
-                "highest MOD_FIT (eea.lineages; about N times the simulations; not the paper's)",
+                "highest MOD_FIT (eea.lineages; 1.6x the simulations with N = 2; not the paper's)",
     "crossover_rate": "probability that a parent pair is recombined (paper: 0.75)",
     "tournament_size": "entrants per tournament (paper: 2)",
     "mutation_bits": "mean number of flipped bits per genome of every GA (paper: 1); at most 18",

@@ -2,9 +2,10 @@
 
 For every finished run with ``lineages`` >= 2 under the given directories this prints each
 lineage's final OBJ_FIT (eq. 4; the truth is an oracle the run never uses), the lineage the
-last round chose, and whether it was the best; then the means over runs (± std, ddof 0 as in ``aquafish compare``): the chosen model,
-the best lineage (the oracle's pick) and each lineage alone (what one of them would have
-ended at, on experiments chosen to split all the lineages' models).
+last round chose, and whether it was the best; then the means over runs (± std, ddof 0 as
+in ``aquafish compare``): the chosen model, the best lineage (the oracle's pick) and each
+lineage alone (what one of them would have ended at, on experiments chosen to split all the
+lineages' models).
 
     python examples/lineage_choices.py runs/lph_lin2
 
