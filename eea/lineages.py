@@ -39,16 +39,17 @@ from typing import Callable, Sequence
 import numpy as np
 
 from eea.checkpoint import load_state
-from eea.encoding import decode_models, genome_keys
+from eea.encoding import decode_models
 from eea.ensemble import select_model
-from eea.estimation import Estimation, EstimationResult
+from eea.estimation import Estimation, EstimationResult, distinct_ranked
 from eea.experiment import Context, Experiment
 from eea.fitness import objective_fitness
+from eea.inference import make_inference
 from eea.record import load_result
 from eea.strategy import InferenceStrategy
 
 __all__ = ["LineageStrategies", "Lineages", "SELECT_GENERATIONS", "SELECT_SCAN_CYCLES", "chosen_inference_state",
-           "estimation_from_state", "lineage_objective_fitness", "make_estimation"]
+           "estimation_from_state", "lineage_objective_fitness", "make_estimation", "make_strategy"]
 
 #: The round's selection: generations of the equal angle fit and cycles of the per-flipper
 #: scan before the polish (the settings of ``aquafish select``, :func:`eea.ensemble.select_model`).
@@ -69,8 +70,6 @@ class LineageStrategies:
     Raises:
         ValueError: if fewer than two strategies are given or their names differ.
     """
-
-    select_models = 0  # the lineages' selection is Lineages' own
 
     def __init__(self, members: Sequence[InferenceStrategy]) -> None:
         members = tuple(members)
@@ -207,15 +206,8 @@ class Lineages:
             ValueError: as :meth:`Estimation.ranked_models`.
         """
         per_lineage = [m.ranked_models(limit, min_distance) for m in self.members]
-        rows, seen = [], set()
-        for k in range(max(len(r) for r in per_lineage)):
-            for ranked in per_lineage:
-                if k < len(ranked):
-                    key = genome_keys(ranked[k : k + 1])[0]
-                    if key not in seen:
-                        seen.add(key)
-                        rows.append(ranked[k])
-        ranked = np.stack(rows)
+        interleaved = [ranked[k] for k in range(max(map(len, per_lineage))) for ranked in per_lineage if k < len(ranked)]
+        ranked = distinct_ranked(np.stack(interleaved), None)  # first occurrence kept, order unchanged
         return ranked if limit is None else ranked[:limit]
 
     def state_dict(self) -> dict:
@@ -242,9 +234,17 @@ class Lineages:
 def make_estimation(config, rng: np.random.Generator) -> Estimation | Lineages:
     """The estimation phase of a run of ``config``: one :class:`Estimation` (the paper's), or
     :class:`Lineages` of ``config.lineages`` of them when that is >= 2."""
-    if getattr(config, "lineages", 1) > 1:
+    if config.lineages > 1:
         return Lineages.from_config(config, rng)
     return Estimation.from_config(config, rng)
+
+
+def make_strategy(config) -> InferenceStrategy | LineageStrategies:
+    """The inference strategy of a run of ``config`` (:func:`eea.inference.make_inference`), or
+    one per lineage (:class:`LineageStrategies`) when ``config.lineages`` >= 2."""
+    if config.lineages > 1:
+        return LineageStrategies([make_inference(config.inference, config) for _ in range(config.lineages)])
+    return make_inference(config.inference, config)
 
 
 def estimation_from_state(state: dict, rng: np.random.Generator) -> Estimation | Lineages:

@@ -25,8 +25,8 @@ from eea.config import EEAConfig
 from eea.estimation import Estimation
 from eea.experiment import Experiment
 from eea.exploration import Exploration
-from eea.inference import InferenceStrategy, make_inference
-from eea.lineages import LineageStrategies, Lineages, make_estimation
+from eea.inference import InferenceStrategy
+from eea.lineages import LineageStrategies, Lineages, make_estimation, make_strategy
 from eea.target import Target
 
 __all__ = ["PhaseReporter", "RoundParts", "RoundRecord", "run_round"]
@@ -66,11 +66,7 @@ class RoundParts:
         restored from a checkpoint; a fresh one draws its initial population from ``rng``)."""
         if estimation is None:
             estimation = make_estimation(config, rng)
-        if config.lineages > 1:
-            strategy = LineageStrategies([make_inference(config.inference, config) for _ in range(config.lineages)])
-        else:
-            strategy = make_inference(config.inference, config)
-        return cls(config, Target(config.damage, config.steps, rng), strategy,
+        return cls(config, Target(config.damage, config.steps, rng), make_strategy(config),
                    Exploration.from_config(config), estimation, evaluator)
 
     def perform(self, index: int, action) -> Experiment:
