@@ -30,14 +30,25 @@ about ``250 N E`` simulations for E experiments (per model and experiment: the f
 random starts, its start and 30 generations of 2 proposals, 69; two scan cycles of 24 + 24 +
 9 angles, 114; the compass polish, 60-90), some 3% of a 10-round run with N = 2; and one
 target experiment, as in the paper.
+
+A run with lineages also writes ``lineages.csv`` beside ``rounds.csv`` (:func:`write_lineages`,
+columns :data:`LINEAGE_COLUMNS`): every lineage's best model of every round, its own MOD_FIT,
+its MOD_FIT under the round's equal fit and whether it was chosen, so a published run tells
+how the selection did without its checkpoint.
 """
 
 from __future__ import annotations
 
+import csv
+import io
+import os
+from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 
+from aquafish_gym import MORPHOLOGY_FIELDS
+from aquafish_gym.files import atomic_write
 from eea.checkpoint import load_state
 from eea.encoding import decode_models
 from eea.ensemble import select_model
@@ -48,12 +59,22 @@ from eea.inference import make_inference
 from eea.record import load_result
 from eea.strategy import InferenceStrategy
 
-__all__ = ["LineageStrategies", "Lineages", "SELECT_GENERATIONS", "SELECT_SCAN_CYCLES", "chosen_inference_state",
-           "estimation_from_state", "lineage_objective_fitness", "make_estimation", "make_strategy"]
+__all__ = ["LINEAGES_FILE", "LINEAGE_COLUMNS", "LineageStrategies", "Lineages", "SELECT_GENERATIONS",
+           "SELECT_SCAN_CYCLES", "chosen_inference_state", "estimation_from_state", "lineage_objective_fitness",
+           "make_estimation", "make_strategy", "write_lineages"]
 
 #: The round's selection: generations of the equal angle fit and cycles of the per-flipper
 #: scan before the polish (the settings of ``aquafish select``, :func:`eea.ensemble.select_model`).
 SELECT_GENERATIONS, SELECT_SCAN_CYCLES = 30, 2
+
+#: A lineage run's per-round record of every lineage (:func:`write_lineages`): ``round``
+#: (1-based), ``lineage`` (0-based), ``chosen`` (1 if its model was the round's model, else 0),
+#: ``model_fitness`` (the lineage's own MOD_FIT, eq. 3, under its own angles),
+#: ``selection_fitness`` (MOD_FIT under the round's equal angle fit) and ``model_<field>``
+#: (its best model's 9 dimensions, simulator units, ``aquafish_gym.MORPHOLOGY_FIELDS`` order).
+LINEAGES_FILE = "lineages.csv"
+LINEAGE_COLUMNS: tuple[str, ...] = ("round", "lineage", "chosen", "model_fitness", "selection_fitness",
+                                    *(f"model_{name}" for name in MORPHOLOGY_FIELDS))
 
 
 class LineageStrategies:
@@ -271,26 +292,67 @@ def chosen_inference_state(estimation_state: dict, inference_state: dict) -> dic
     return inference_state["lineages"][estimation_state["history"][-1]["chosen"]]
 
 
+def write_lineages(out_dir: str | os.PathLike, history: Sequence[dict]) -> None:
+    """Rewrite ``out_dir/lineages.csv`` atomically from a :class:`Lineages` ``history``.
+
+    One row per round and lineage, columns :data:`LINEAGE_COLUMNS`, floats as ``repr``
+    (round-trip exact, as ``rounds.csv``).
+    """
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(LINEAGE_COLUMNS)
+    for number, h in enumerate(history, start=1):
+        for lineage, dims in enumerate(decode_models(h["genomes"])):
+            writer.writerow([number, lineage, int(lineage == h["chosen"]), repr(float(h["model_fitness"][lineage])),
+                             repr(float(h["selection_fitness"][lineage])), *(repr(float(v)) for v in dims)])
+    atomic_write(Path(out_dir) / LINEAGES_FILE, buffer.getvalue().encode())
+
+
+def _lineage_models(out_dir) -> tuple[np.ndarray, np.ndarray] | None:
+    """``(R, N, 9)`` the lineages' best models and ``(R,)`` the chosen lineage of every finished
+    round, from ``lineages.csv`` or else the checkpoint; None if neither holds a lineage run."""
+    path = Path(out_dir) / LINEAGES_FILE
+    if path.exists():
+        with open(path, newline="") as f:
+            rows = list(csv.DictReader(f))
+        if rows:
+            rounds, lineages = max(int(r["round"]) for r in rows), max(int(r["lineage"]) for r in rows) + 1
+            if len(rows) != rounds * lineages:
+                raise ValueError(f"{path} has {len(rows)} rows, not {rounds} rounds x {lineages} lineages")
+            models = np.array([[float(r[f"model_{name}"]) for name in MORPHOLOGY_FIELDS] for r in rows])
+            chosen = np.array([int(r["lineage"]) for r in rows if r["chosen"] == "1"], dtype=int)
+            return models.reshape(rounds, lineages, -1), chosen
+    state = load_state(out_dir)
+    if state is None or "lineages" not in state.estimation:
+        return None
+    history = state.estimation["history"]
+    return (np.array([decode_models(h["genomes"]) for h in history]),
+            np.array([h["chosen"] for h in history], dtype=int))
+
+
 def lineage_objective_fitness(out_dir) -> tuple[np.ndarray, np.ndarray]:
-    """Each lineage's OBJ_FIT (eq. 4) round by round, from a lineage run's checkpoint.
+    """Each lineage's OBJ_FIT (eq. 4) round by round, from a lineage run's directory.
 
     OBJ_FIT needs the true morphology, an oracle the run never uses: this tells how often
     the round's selection kept the best lineage, and what one lineage alone would score.
 
     Args:
-        out_dir: a run directory of a run with ``lineages`` >= 2 (its ``state.pkl``).
+        out_dir: a run directory of a run with ``lineages`` >= 2: its ``lineages.csv``
+            (:func:`write_lineages`), or else its checkpoint ``state.pkl`` (runs from before
+            the file existed).
 
     Returns:
         ``(objective, chosen)``: ``(R, N)`` each lineage's best model's OBJ_FIT after each
         of the R finished rounds, and ``(R,)`` int the lineage chosen in each.
 
     Raises:
-        ValueError: if ``out_dir`` holds no checkpoint or not a lineage run's.
+        ValueError: if ``out_dir`` holds neither file of a lineage run, or a ``lineages.csv``
+            whose rows are not rounds x lineages.
     """
-    state = load_state(out_dir)
-    if state is None or "lineages" not in state.estimation:
-        raise ValueError(f"{out_dir} holds no checkpoint of a run with lineages >= 2")
+    found = _lineage_models(out_dir)
+    if found is None:
+        raise ValueError(f"{out_dir} holds no {LINEAGES_FILE} and no checkpoint of a run with lineages >= 2")
+    models, chosen = found
     truth = load_result(out_dir).target_morphology.to_array()
-    history = state.estimation["history"]
-    objective = np.array([[objective_fitness(dims, truth) for dims in decode_models(h["genomes"])] for h in history])
-    return objective.reshape(len(history), -1), np.array([h["chosen"] for h in history], dtype=int)
+    objective = np.array([[objective_fitness(dims, truth) for dims in per_round] for per_round in models])
+    return objective.reshape(len(models), -1), chosen

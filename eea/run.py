@@ -10,7 +10,8 @@
         record        OBJ_FIT (eq. 4) of the best model, angles, counters -> rounds.csv
 
 and writes ``DIR/config.json``, ``DIR/rounds.csv`` and the checkpoint ``DIR/state.pkl``
-(see :mod:`eea.record`, :mod:`eea.checkpoint`). The round itself is
+(see :mod:`eea.record`, :mod:`eea.checkpoint`), and a run with lineages ``DIR/lineages.csv``
+(:func:`eea.lineages.write_lineages`). The round itself is
 :func:`eea.round.run_round`. All randomness comes from one
 ``numpy.random.Generator`` seeded with ``config.seed``, so the same config gives the same
 rounds. Resumable: running the same command again after an interruption continues from the
@@ -31,7 +32,7 @@ from eea.config import RESULT_NEUTRAL_FIELDS, EEAConfig
 from eea.behaviour import SIMILARITIES
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
-from eea.lineages import estimation_from_state
+from eea.lineages import Lineages, estimation_from_state, write_lineages
 from eea.record import RunResult, read_config, round_row, write_config, write_rounds
 from eea.round import RoundParts, run_round
 
@@ -79,7 +80,7 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
         experiments = tuple(Experiment.from_state_dict(e) for e in state.experiments)
     else:
         estimation, experiments, state = None, (), RunState(config.to_dict())
-    write_rounds(out, state.rows)  # repairs a kill between the checkpoint and the csv
+    _write_records(out, state.rows, estimation)  # repairs a kill between the checkpoint and the csv
     bar = tqdm(total=config.rounds, initial=min(state.rounds_done, config.rounds), unit="round",
                desc=f"eea {config.inference} seed {config.seed}", disable=not progress)
 
@@ -109,7 +110,14 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
                              evaluator=evaluator.state_dict(), inference=parts.strategy.state_dict(),
                              wall_seconds=wall, rows=(*state.rows, row))
             save_state(out, state)
-            write_rounds(out, state.rows)
+            _write_records(out, state.rows, parts.estimation)
             bar.update(1)
             bar.set_postfix_str(f"obj {row['objective_fitness']:.3f}")
     return RunResult(out, config, list(state.rows))
+
+
+def _write_records(out: Path, rows, estimation) -> None:
+    """``rounds.csv`` from the checkpoint's rows, and a lineage run's ``lineages.csv``."""
+    write_rounds(out, rows)
+    if isinstance(estimation, Lineages):
+        write_lineages(out, estimation.history)

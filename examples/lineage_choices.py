@@ -9,7 +9,8 @@ lineages' models).
 
     python examples/lineage_choices.py runs/lph_lin2
 
-Reads the runs' checkpoints (``state.pkl``); no simulation.
+Reads each run's ``lineages.csv`` (or, for runs from before it existed, its checkpoint
+``state.pkl``); no simulation.
 """
 
 from __future__ import annotations

@@ -1,5 +1,7 @@
 """eea.lineages: independent estimation lineages sharing each round's experiment, one selected per round."""
 
+import csv
+
 import numpy as np
 import pytest
 
@@ -13,8 +15,8 @@ from eea.evaluation import Evaluator
 from eea.experiment import Context
 from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.inference import make_inference
-from eea.lineages import (LineageStrategies, Lineages, chosen_inference_state, estimation_from_state,
-                          lineage_objective_fitness, make_estimation)
+from eea.lineages import (LINEAGE_COLUMNS, LINEAGES_FILE, LineageStrategies, Lineages, chosen_inference_state,
+                          estimation_from_state, lineage_objective_fitness, make_estimation)
 from eea.profile import Profile
 from eea.record import MODEL_COLUMNS
 from eea.run import run
@@ -127,7 +129,23 @@ def test_a_lineage_run_resumes_exactly_and_records_each_lineage(tiny_config, tmp
     truth = get_damage(config.damage).apply().to_array()
     assert objective[1, 0] == objective_fitness(decode_models(history[1]["genomes"][:1])[0], truth)
     assert [row["objective_fitness"] for row in whole.rounds] == list(objective[np.arange(3), picks])
-    with pytest.raises(ValueError, match="no checkpoint of a run with lineages >= 2"):
+    # lineages.csv records the same, exactly, so a run published without its checkpoint tells it too
+    with open(tmp_path / "whole" / LINEAGES_FILE, newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert tuple(rows[0]) == LINEAGE_COLUMNS and len(rows) == 3 * 2
+    assert [int(r["chosen"]) for r in rows] == [int(lineage == h["chosen"]) for h in history for lineage in range(2)]
+    assert [float(r["selection_fitness"]) for r in rows] == [f for h in history for f in h["selection_fitness"]]
+    assert [float(r["model_fitness"]) for r in rows] == [f for h in history for f in h["model_fitness"]]
+    (tmp_path / "whole" / "state.pkl").unlink()
+    from_csv, csv_picks = lineage_objective_fitness(tmp_path / "whole")
+    np.testing.assert_array_equal(from_csv, objective)
+    np.testing.assert_array_equal(csv_picks, picks)
+    assert (tmp_path / "split" / LINEAGES_FILE).read_text() == (tmp_path / "whole" / LINEAGES_FILE).read_text()
+    (tmp_path / "cut").mkdir()
+    (tmp_path / "cut" / LINEAGES_FILE).write_text("".join((tmp_path / "whole" / LINEAGES_FILE).read_text().splitlines(True)[:-1]))
+    with pytest.raises(ValueError, match="has 5 rows, not 3 rounds x 2 lineages"):
+        lineage_objective_fitness(tmp_path / "cut")
+    with pytest.raises(ValueError, match="no lineages.csv and no checkpoint of a run with lineages >= 2"):
         lineage_objective_fitness(tmp_path / "nothing")
 
 
