@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import csv
 import dataclasses
-import io
 import os
 from pathlib import Path
 from typing import Sequence
@@ -32,14 +31,13 @@ from typing import Sequence
 import numpy as np
 
 from aquafish_gym import MORPHOLOGY_FIELDS
-from aquafish_gym.files import atomic_write
 from eea.behaviour import SIMILARITIES
 from eea.encoding import encode_models
 from eea.evaluation import Evaluator
 from eea.experiment import FLIPPERS, Experiment, angle_errors_deg
 from eea.fitness import model_fitness_from_similarities
 from eea.profile import Profile
-from eea.record import RunResult
+from eea.record import RunResult, write_csv
 from eea.replay import replay_run
 
 __all__ = ["SELECTION_COLUMNS", "Selection", "ensemble_groups", "select_model", "select_runs", "select_study"]
@@ -253,19 +251,11 @@ def select_study(runs: Sequence[RunResult], size: int, out_csv: str | os.PathLik
                for i, s in enumerate(group)]
         rows += new
         if out_csv is not None:
-            _write_rows(out_csv, rows)
+            write_csv(out_csv, SELECTION_COLUMNS, rows)
         if progress is not None:
             progress(new)
     return rows
 
-
-def _write_rows(path, rows: list[dict]) -> None:
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=SELECTION_COLUMNS, lineterminator="\n")
-    writer.writeheader()
-    for row in rows:
-        writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in row.items()})
-    atomic_write(path, buffer.getvalue().encode())
 
 
 def _read_rows(path) -> list[dict]:

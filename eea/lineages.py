@@ -40,7 +40,6 @@ how the selection did without its checkpoint.
 from __future__ import annotations
 
 import csv
-import io
 import os
 from pathlib import Path
 from typing import Callable, Sequence
@@ -48,7 +47,6 @@ from typing import Callable, Sequence
 import numpy as np
 
 from aquafish_gym import MORPHOLOGY_FIELDS
-from aquafish_gym.files import atomic_write
 from eea.checkpoint import load_state
 from eea.encoding import decode_models
 from eea.ensemble import select_model
@@ -56,7 +54,7 @@ from eea.estimation import Estimation, EstimationResult, distinct_ranked
 from eea.experiment import Context, Experiment
 from eea.fitness import objective_fitness
 from eea.inference import make_inference
-from eea.record import load_result
+from eea.record import load_result, write_csv
 from eea.strategy import InferenceStrategy
 
 __all__ = ["LINEAGES_FILE", "LINEAGE_COLUMNS", "LineageStrategies", "Lineages", "SELECT_GENERATIONS",
@@ -298,14 +296,14 @@ def write_lineages(out_dir: str | os.PathLike, history: Sequence[dict]) -> None:
     One row per round and lineage, columns :data:`LINEAGE_COLUMNS`, floats as ``repr``
     (round-trip exact, as ``rounds.csv``).
     """
-    buffer = io.StringIO()
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(LINEAGE_COLUMNS)
+    rows = []
     for number, h in enumerate(history, start=1):
         for lineage, dims in enumerate(decode_models(h["genomes"])):
-            writer.writerow([number, lineage, int(lineage == h["chosen"]), repr(float(h["model_fitness"][lineage])),
-                             repr(float(h["selection_fitness"][lineage])), *(repr(float(v)) for v in dims)])
-    atomic_write(Path(out_dir) / LINEAGES_FILE, buffer.getvalue().encode())
+            rows.append({"round": number, "lineage": lineage, "chosen": int(lineage == h["chosen"]),
+                         "model_fitness": float(h["model_fitness"][lineage]),
+                         "selection_fitness": float(h["selection_fitness"][lineage]),
+                         **{f"model_{name}": float(v) for name, v in zip(MORPHOLOGY_FIELDS, dims)}})
+    write_csv(Path(out_dir) / LINEAGES_FILE, LINEAGE_COLUMNS, rows)
 
 
 def _lineage_models(out_dir) -> tuple[np.ndarray, np.ndarray] | None:

@@ -31,6 +31,7 @@ import io
 import json
 import os
 from pathlib import Path
+from typing import Iterable, Sequence
 
 import numpy as np
 
@@ -42,7 +43,7 @@ from eea.experiment import FLIPPERS, angle_errors_deg
 from eea.fitness import objective_fitness
 
 __all__ = ["CONFIG_FILE", "ROUNDS_FILE", "ROUND_COLUMNS", "RunResult", "load_result", "read_rounds",
-           "round_row", "write_config", "write_rounds"]
+           "round_row", "write_config", "write_csv", "write_rounds"]
 
 CONFIG_FILE = "config.json"
 ROUNDS_FILE = "rounds.csv"
@@ -153,14 +154,24 @@ def read_config(out_dir: str | os.PathLike) -> EEAConfig | None:
     return EEAConfig.from_dict(json.loads(path.read_text()))
 
 
-def write_rounds(out_dir: str | os.PathLike, rows: list) -> None:
-    """Rewrite ``rounds.csv`` with all ``rows`` atomically (floats as ``repr``)."""
+def write_csv(path: str | os.PathLike, columns: Sequence[str], rows: Iterable[dict]) -> None:
+    """Rewrite the CSV file ``path`` atomically: a header of ``columns``, then one line per
+    dict of ``rows``, floats as ``repr`` (round-trip exact).
+
+    Raises:
+        ValueError: if a row has a key not in ``columns``.
+    """
     buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=ROUND_COLUMNS, lineterminator="\n")
+    writer = csv.DictWriter(buffer, fieldnames=columns, lineterminator="\n")
     writer.writeheader()
     for row in rows:
         writer.writerow({k: repr(v) if isinstance(v, float) else v for k, v in row.items()})
-    atomic_write(Path(out_dir) / ROUNDS_FILE, buffer.getvalue().encode())
+    atomic_write(path, buffer.getvalue().encode())
+
+
+def write_rounds(out_dir: str | os.PathLike, rows: list) -> None:
+    """Rewrite ``rounds.csv`` with all ``rows`` atomically (floats as ``repr``)."""
+    write_csv(Path(out_dir) / ROUNDS_FILE, ROUND_COLUMNS, rows)
 
 
 def read_rounds(out_dir: str | os.PathLike) -> list[dict]:
