@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import re
 from collections import defaultdict
 from pathlib import Path
 
@@ -51,7 +52,8 @@ class GroupSummary:
 def find_runs(paths) -> list[RunResult]:
     """Every run under ``paths`` (run directories, or directories searched recursively).
 
-    Runs without a finished round are left out.
+    Runs without a finished round are left out. Directories found by the search come in
+    natural order (``seed2`` before ``seed10``), so tables list seeds as numbers.
 
     Raises:
         ValueError: if a path does not exist or no run is found.
@@ -60,11 +62,16 @@ def find_runs(paths) -> list[RunResult]:
     for path in map(Path, paths):
         if not path.exists():
             raise ValueError(f"{path} does not exist")
-        dirs += [path] if (path / CONFIG_FILE).exists() else sorted(p.parent for p in path.rglob(CONFIG_FILE))
+        dirs += [path] if (path / CONFIG_FILE).exists() else sorted((p.parent for p in path.rglob(CONFIG_FILE)), key=_natural_key)
     results = [r for r in (load_result(d) for d in dict.fromkeys(dirs)) if r.rounds]
     if not results:
         raise ValueError(f"no EEA run with a finished round under {', '.join(map(str, paths))}")
     return results
+
+
+def _natural_key(path: Path) -> list:
+    """Sort key that compares the digit runs of ``path`` as integers: ``seed2`` < ``seed10``."""
+    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", str(path))]
 
 
 def _order(key: tuple[str, float]) -> tuple[int, str, float]:

@@ -83,3 +83,9 @@ def test_no_runs_raises(tmp_path):
         find_runs([tmp_path])
     with pytest.raises(ValueError, match="does not exist"):
         find_runs([tmp_path / "nope"])
+
+
+def test_runs_found_in_natural_seed_order(tmp_path):
+    for seed in (10, 2, 1, 0):
+        _fake_run(tmp_path / "s" / f"seed{seed}", "none", seed, [0.5])
+    assert [r.out_dir.name for r in find_runs([tmp_path])] == ["seed0", "seed1", "seed2", "seed10"]
