@@ -62,8 +62,10 @@ def find_runs(paths) -> list[RunResult]:
     for path in map(Path, paths):
         if not path.exists():
             raise ValueError(f"{path} does not exist")
-        found = sorted((p.parent for p in path.rglob(CONFIG_FILE)), key=_natural_key)
-        dirs += [path] if (path / CONFIG_FILE).exists() else found
+        if (path / CONFIG_FILE).exists():
+            dirs.append(path)
+        else:
+            dirs += sorted((p.parent for p in path.rglob(CONFIG_FILE)), key=_natural_key)
     results = [r for r in (load_result(d) for d in dict.fromkeys(dirs)) if r.rounds]
     if not results:
         raise ValueError(f"no EEA run with a finished round under {', '.join(map(str, paths))}")
