@@ -22,7 +22,6 @@ about ``225 N E_total`` simulations (``E_total`` the pooled experiments): 8,979 
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import os
 from pathlib import Path
@@ -37,7 +36,7 @@ from eea.evaluation import Evaluator
 from eea.experiment import FLIPPERS, Experiment, angle_errors_deg
 from eea.fitness import model_fitness_from_similarities
 from eea.profile import Profile
-from eea.record import RunResult, write_csv
+from eea.record import RunResult, read_csv, write_csv
 from eea.replay import replay_run
 
 __all__ = ["SELECTION_COLUMNS", "Selection", "ensemble_groups", "select_model", "select_runs", "select_study"]
@@ -257,11 +256,8 @@ def select_study(runs: Sequence[RunResult], size: int, out_csv: str | os.PathLik
     return rows
 
 
-
 def _read_rows(path) -> list[dict]:
-    with open(path, newline="") as f:
-        reader = csv.DictReader(f)
-        if tuple(reader.fieldnames or ()) != SELECTION_COLUMNS:
-            raise ValueError(f"{path}: columns {reader.fieldnames}, expected {list(SELECTION_COLUMNS)}")
-        return [{k: int(r[k]) if k in ("ensemble", "seed", "chosen") else float(r[k]) for k in SELECTION_COLUMNS}
-                for r in reader]
+    columns, rows = read_csv(path, ("ensemble", "seed", "chosen"))
+    if columns != SELECTION_COLUMNS:
+        raise ValueError(f"{path}: columns {list(columns)}, expected {list(SELECTION_COLUMNS)}")
+    return rows

@@ -39,7 +39,6 @@ how the selection did without its checkpoint.
 
 from __future__ import annotations
 
-import csv
 import os
 from pathlib import Path
 from typing import Callable, Sequence
@@ -54,7 +53,7 @@ from eea.estimation import Estimation, EstimationResult, distinct_ranked
 from eea.experiment import Context, Experiment
 from eea.fitness import objective_fitness
 from eea.inference import make_inference
-from eea.record import load_result, write_csv
+from eea.record import load_result, read_csv, write_csv
 from eea.strategy import InferenceStrategy
 
 __all__ = ["LINEAGES_FILE", "LINEAGE_COLUMNS", "LineageStrategies", "Lineages", "SELECT_GENERATIONS",
@@ -311,14 +310,15 @@ def _lineage_models(out_dir) -> tuple[np.ndarray, np.ndarray] | None:
     round, from ``lineages.csv`` or else the checkpoint; None if neither holds a lineage run."""
     path = Path(out_dir) / LINEAGES_FILE
     if path.exists():
-        with open(path, newline="") as f:
-            rows = list(csv.DictReader(f))
+        columns, rows = read_csv(path, ("round", "lineage", "chosen"))
+        if columns != LINEAGE_COLUMNS:
+            raise ValueError(f"{path}: columns {list(columns)}, expected {list(LINEAGE_COLUMNS)}")
         if rows:
-            rounds, lineages = max(int(r["round"]) for r in rows), max(int(r["lineage"]) for r in rows) + 1
+            rounds, lineages = max(r["round"] for r in rows), max(r["lineage"] for r in rows) + 1
             if len(rows) != rounds * lineages:
                 raise ValueError(f"{path} has {len(rows)} rows, not {rounds} rounds x {lineages} lineages")
-            models = np.array([[float(r[f"model_{name}"]) for name in MORPHOLOGY_FIELDS] for r in rows])
-            chosen = np.array([int(r["lineage"]) for r in rows if r["chosen"] == "1"], dtype=int)
+            models = np.array([[r[f"model_{name}"] for name in MORPHOLOGY_FIELDS] for r in rows])
+            chosen = np.array([r["lineage"] for r in rows if r["chosen"] == 1], dtype=int)
             return models.reshape(rounds, lineages, -1), chosen
     state = load_state(out_dir)
     if state is None or "lineages" not in state.estimation:
@@ -345,7 +345,7 @@ def lineage_objective_fitness(out_dir) -> tuple[np.ndarray, np.ndarray]:
 
     Raises:
         ValueError: if ``out_dir`` holds neither file of a lineage run, or a ``lineages.csv``
-            whose rows are not rounds x lineages.
+            whose columns are not :data:`LINEAGE_COLUMNS` or whose rows are not rounds x lineages.
     """
     found = _lineage_models(out_dir)
     if found is None:

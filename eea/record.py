@@ -43,7 +43,7 @@ from eea.experiment import FLIPPERS, angle_errors_deg
 from eea.fitness import objective_fitness
 
 __all__ = ["CONFIG_FILE", "ROUNDS_FILE", "ROUND_COLUMNS", "RunResult", "load_result", "read_rounds",
-           "round_row", "write_config", "write_csv", "write_rounds"]
+           "read_csv", "round_row", "write_config", "write_csv", "write_rounds"]
 
 CONFIG_FILE = "config.json"
 ROUNDS_FILE = "rounds.csv"
@@ -169,6 +169,23 @@ def write_csv(path: str | os.PathLike, columns: Sequence[str], rows: Iterable[di
     atomic_write(path, buffer.getvalue().encode())
 
 
+def read_csv(path: str | os.PathLike, int_columns: Iterable[str] = ()) -> tuple[tuple[str, ...], list[dict]]:
+    """The header and the rows of a CSV file written by :func:`write_csv`.
+
+    Returns:
+        ``(columns, rows)``: the header's column names, and one dict per line with the values
+        of ``int_columns`` as ``int`` and every other value as ``float``.
+
+    Raises:
+        ValueError: if a value does not parse as its column's type.
+    """
+    int_columns = frozenset(int_columns)
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        rows = [{k: int(v) if k in int_columns else float(v) for k, v in row.items()} for row in reader]
+        return tuple(reader.fieldnames or ()), rows
+
+
 def write_rounds(out_dir: str | os.PathLike, rows: list) -> None:
     """Rewrite ``rounds.csv`` with all ``rows`` atomically (floats as ``repr``)."""
     write_csv(Path(out_dir) / ROUNDS_FILE, ROUND_COLUMNS, rows)
@@ -179,8 +196,7 @@ def read_rounds(out_dir: str | os.PathLike) -> list[dict]:
     path = Path(out_dir) / ROUNDS_FILE
     if not path.exists():
         return []
-    with open(path, newline="") as f:
-        return [{k: int(v) if k in _INT_COLUMNS else float(v) for k, v in row.items()} for row in csv.DictReader(f)]
+    return read_csv(path, _INT_COLUMNS)[1]
 
 
 def load_result(out_dir: str | os.PathLike) -> RunResult:

@@ -14,7 +14,7 @@ import pytest
 import eea
 import eea.estimation
 from eea.fitness import objective_fitness
-from eea.record import MODEL_COLUMNS, ROUND_COLUMNS, load_result
+from eea.record import MODEL_COLUMNS, ROUND_COLUMNS, load_result, read_csv, write_csv
 from aquafish_gym import get_damage
 
 
@@ -170,3 +170,16 @@ def _rows(out):
         return _csv_without_wall(out / "rounds.csv")
     except FileNotFoundError:
         return []
+
+
+def test_csv_records_round_trip_floats_exactly_and_ints_as_ints(tmp_path):
+    rows = [{"round": 1, "fitness": 0.1 + 0.2, "angle_rad": -np.pi},
+            {"round": 2, "fitness": 1 / 3, "angle_rad": 5e-324}]
+    write_csv(tmp_path / "r.csv", ("round", "fitness", "angle_rad"), rows)
+    columns, back = read_csv(tmp_path / "r.csv", ("round",))
+    assert columns == ("round", "fitness", "angle_rad")
+    assert back == rows and [type(r["round"]) for r in back] == [int, int]
+    assert not list(tmp_path.glob("*.tmp*"))
+    with pytest.raises(ValueError):  # a key outside the header
+        write_csv(tmp_path / "r.csv", ("round",), rows)
+    assert read_csv(tmp_path / "r.csv", ("round",))[1] == rows  # the failed write left the file whole
