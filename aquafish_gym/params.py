@@ -14,6 +14,10 @@ import numpy as np
 
 DT_S = 0.01  #: physics step (s), paper section 4.
 DRAG_LAWS = ("quadratic", "linear")
+#: Default height of the free surface above the body's centre at rest (units): the surface
+#: swimmer floats with the top 0.2 units (1.6 cm) of its 1.0-unit hull above water, its
+#: pectoral hinges 0.3 units (2.4 cm) deep (README, "The robot and its simulator").
+DEFAULT_WATERLINE = 0.3
 
 
 @dataclasses.dataclass(frozen=True)
@@ -38,6 +42,15 @@ class SimParams:
             edge (:func:`~aquafish_gym.fluid.reactive_force`), the fin's source of thrust.
             Default True; False gives the pure-drag model of the paper's lab, in which a
             rigid fin barely propels the robot.
+        waterline: height (units) of the free surface above the body's centre of a robot
+            at rest; default :data:`DEFAULT_WATERLINE` (0.3), a surface swimmer whose
+            pectorals work as paddle wheels (:mod:`aquafish_gym.surface`). Must be > -0.5
+            (the hull must displace water). ``None`` is deep water: the robot neutrally
+            buoyant, far from any surface, gravity and buoyancy a couple (the model of
+            every result published before the surface swimmer, kept bit for bit).
+        pectoral_strips: blade-element strips along each pectoral flipper at the surface
+            (each with its own velocity and wetted share; Blake 1979), default 12.
+            Unused in deep water.
 
     Raises:
         ValueError: a field out of its allowed range (named in the message).
@@ -56,6 +69,8 @@ class SimParams:
     caudal_velocity_gain: float = 1.0
     imu_noise_deg: float = 0.0
     reactive_thrust: bool = True
+    waterline: float | None = DEFAULT_WATERLINE
+    pectoral_strips: int = 12
 
     def __post_init__(self) -> None:
         nonneg = ("drag_coefficient", "fluid_density", "gravity", "ballast_offset", "imu_noise_deg")
@@ -81,6 +96,26 @@ class SimParams:
         if current.shape != (3,) or not np.all(np.isfinite(current)):
             raise ValueError(f"SimParams.water_current must be 3 finite numbers (units/s), got {self.water_current!r}")
         object.__setattr__(self, "water_current", tuple(current.tolist()))
+        if self.waterline is not None:
+            value = self.waterline
+            if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.floating, np.integer)) \
+                    or not math.isfinite(value) or value <= -0.5:
+                raise ValueError(f"SimParams.waterline must be None (deep water) or a finite height > -0.5 units "
+                                 f"(the surface above the body's centre), got {value!r}")
+            object.__setattr__(self, "waterline", float(value))
+            if self.fluid_density == 0 or self.gravity == 0:
+                raise ValueError("SimParams.fluid_density and gravity must be > 0 at a free surface (the robot "
+                                 f"floats on its buoyancy), got {self.fluid_density} and {self.gravity}; "
+                                 "use waterline=None for deep water")
+        strips = self.pectoral_strips
+        if isinstance(strips, (bool, np.bool_)) or not isinstance(strips, (int, np.integer)) or not 1 <= strips <= 64:
+            raise ValueError(f"SimParams.pectoral_strips must be an integer in [1, 64], got {strips!r}")
+        object.__setattr__(self, "pectoral_strips", int(strips))
+
+    @property
+    def surface(self) -> bool:
+        """Whether the robot floats at a free surface (``waterline`` is not None)."""
+        return self.waterline is not None
 
     @classmethod
     def field_names(cls) -> tuple[str, ...]:

@@ -21,6 +21,7 @@ import numpy as np
 
 from aquafish_gym.bullet import p
 from aquafish_gym.fluid import added_mass_per_length, box_faces
+from aquafish_gym.hydrostatics import capsule_slices, submerged_slices
 from aquafish_gym.params import SimParams
 
 BODY_RADIUS = 0.5
@@ -75,7 +76,8 @@ class RobotSpec:
 def body_mass_properties(density: float, ballast_offset: float) -> tuple[float, np.ndarray]:
     """Mass and principal inertia ``(3,)`` of the ballasted capsule about its centre of mass.
 
-    The capsule is uniform (density = water, so neutral); the ballast moves the centre
+    The capsule is uniform (``density``: water's in deep water, so neutral; less at the
+    surface, :func:`floating_share`); the ballast moves the centre
     of mass ``ballast_offset`` below the geometric centre (parallel-axis shift on x and y).
     """
     r, length = BODY_RADIUS, BODY_CYLINDER_LENGTH
@@ -87,6 +89,31 @@ def body_mass_properties(density: float, ballast_offset: float) -> tuple[float, 
     h2 = ballast_offset**2
     # principal axes: x lateral (perp), y capsule axis, z vertical (perp)
     return mass, np.array([i_perp - mass * h2, i_axis - mass * h2, i_perp])
+
+
+def capsule_volume() -> float:
+    """Volume of the body's capsule (units^3): cylinder plus sphere."""
+    return math.pi * BODY_RADIUS**2 * BODY_CYLINDER_LENGTH + 4.0 / 3.0 * math.pi * BODY_RADIUS**3
+
+
+def body_slices():
+    """The body's capsule as discs along its axis (:func:`~aquafish_gym.hydrostatics.capsule_slices`)."""
+    return capsule_slices(BODY_RADIUS, BODY_CYLINDER_LENGTH)
+
+
+def floating_share(params: SimParams) -> float:
+    """Share of the capsule's volume under water when the robot floats level at rest.
+
+    1.0 in deep water (``params.waterline`` None: the body is neutrally buoyant). At the
+    surface the body is made that much lighter than water, so that buoyancy balances its
+    weight with the free surface ``params.waterline`` above its centre (the flippers are
+    neutrally buoyant). Uses the same slices as the simulator, so the robot is in
+    equilibrium at rest to rounding. Default waterline 0.3: 0.8759.
+    """
+    if params.waterline is None:
+        return 1.0
+    volume, _, _ = submerged_slices(np.eye(3), np.float64(0.0), params.waterline, *body_slices())
+    return float(volume) / capsule_volume()
 
 
 def _body_face_areas(n: int) -> np.ndarray:
@@ -106,7 +133,7 @@ def robot_spec(morphologies: np.ndarray, params: SimParams) -> RobotSpec:
     flipper_inertia = flipper_mass[..., None] / 12.0 * np.stack([sy**2 + sz**2, sx**2 + sz**2, sx**2 + sy**2], axis=-1)
     flipper_mass = np.maximum(flipper_mass, MIN_MASS)
     flipper_inertia = np.maximum(flipper_inertia, MIN_INERTIA)
-    body_mass, body_inertia = body_mass_properties(rho, params.ballast_offset)
+    body_mass, body_inertia = body_mass_properties(rho * floating_share(params), params.ballast_offset)
 
     masses = np.concatenate([np.full((n, 1), body_mass), flipper_mass], axis=1)
     inertias = np.concatenate([np.broadcast_to(body_inertia, (n, 1, 3)), flipper_inertia], axis=1)

@@ -22,6 +22,7 @@ from aquafish_gym.imu import roll_pitch_yaw_deg, unwrap_yaw_deg
 from aquafish_gym.morphology import validate_morphologies
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.robot import JOINTS, LINK_CAUDAL, N_LINKS, create_robot, robot_spec
+from aquafish_gym.surface import SurfaceSpec, surface_wrench
 
 #: Names of the three servo commands, units in the name, in action order.
 ACTION_FIELDS: tuple[str, ...] = ("left_pectoral_rev_s", "right_pectoral_rev_s", "caudal_hz")
@@ -116,6 +117,7 @@ class BatchWorld:
         self.actions = np.zeros((self.n, 3))
         self.initial_angles = np.zeros((self.n, 3))
         self._caudal_phase = np.zeros(self.n)
+        self.surface = SurfaceSpec.build(self.spec, self.params, self.home[:, 2]) if self.params.surface else None
         self._read_state()
         self._native = self._bind_native(native)
 
@@ -213,7 +215,8 @@ class BatchWorld:
     def fluid_wrench(self) -> tuple[np.ndarray, np.ndarray]:
         """Fluid force and torque on every link, ``(N, 4, 3)`` each, in each link's own frame.
 
-        Drag on every face of every link (:func:`~aquafish_gym.fluid.box_drag`), the
+        At the surface (``params.waterline`` set): :func:`aquafish_gym.surface.surface_wrench`.
+        In deep water: drag on every face of every link (:func:`~aquafish_gym.fluid.box_drag`), the
         gravity-buoyancy couple on the body and, with ``params.reactive_thrust``, the
         reactive force at the caudal fin's trailing edge
         (:func:`~aquafish_gym.fluid.caudal_reactive_force`). Torques are about each link's centre
@@ -227,6 +230,9 @@ class BatchWorld:
         checks it against the force applied at the trailing edge itself.
         """
         prm = self.params
+        if self.surface is not None:
+            return surface_wrench(self.surface, self.spec, prm, self.rotation, self.position, self.linear_velocity,
+                                  self.angular_velocity)
         force, torque = box_drag(
             self.rotation, self.linear_velocity, self.angular_velocity, self.spec.box_offsets, self.spec.axis_areas,
             drag_coefficient=prm.drag_coefficient, fluid_density=prm.fluid_density,

@@ -30,7 +30,7 @@ __all__ = ["LIBRARY", "NativeStep", "NativeUnavailable", "available", "client_ha
 
 #: The plugin built by :mod:`aquafish_gym.native.build`.
 LIBRARY = Path(__file__).with_name("_aquafish_step.so")
-_VERSION = 2  # af_run's signature; the library must match
+_VERSION = 3  # af_run's signature; the library must match
 _POSTFIX = "_aquafish"
 
 _lib: ctypes.CDLL | None = None
@@ -147,8 +147,25 @@ class NativeStep:
         self.quadratic = prm.drag_law == "quadratic"
         self.drag_c = (-0.5 * prm.drag_coefficient * prm.fluid_density) if self.quadratic else -prm.drag_coefficient
         self.current = np.ascontiguousarray(prm.water_current, dtype=np.float64)
+        self.surface = None
+        if world.surface is not None:  # the surface swimmer's constants (aquafish_gym.surface.SurfaceSpec)
+            sf = world.surface
+            robot = np.column_stack([sf.surface_z, sf.weight, sf.strip_areas.reshape(n, 6),
+                                     sf.pectoral_half.reshape(n, 6), sf.caudal_half])
+            self.surface = (np.ascontiguousarray(robot, dtype=np.float64),
+                            np.ascontiguousarray(sf.strip_y, dtype=np.float64), sf.strip_y.shape[-1],
+                            np.ascontiguousarray(sf.slices, dtype=np.float64), sf.slices.shape[1],
+                            sf.pi_weight, sf.rho_g, sf.ballast)
         info = p.getJointInfo(world.bodies[0], LINK_CAUDAL, physicsClientId=world.client)
         self.caudal_q, self.caudal_u = info[3], info[4]  # the caudal joint's position and velocity indices
+
+    def _surface_args(self) -> tuple:
+        if self.surface is None:
+            return (None, None, ctypes.c_int(0), None, ctypes.c_int(0), ctypes.c_double(0.0), ctypes.c_double(0.0),
+                    ctypes.c_double(0.0))
+        robot, strip_y, n_strips, slices, n_slices, pi_weight, rho_g, ballast = self.surface
+        return (_doubles(robot), _doubles(strip_y), ctypes.c_int(n_strips), _doubles(slices), ctypes.c_int(n_slices),
+                ctypes.c_double(pi_weight), ctypes.c_double(rho_g), ctypes.c_double(ballast))
 
     def run(self, steps: int, caudal_angle: np.ndarray, caudal_velocity: np.ndarray, oscillating: np.ndarray,
             log: bool) -> np.ndarray | None:
@@ -182,7 +199,8 @@ class NativeStep:
             ctypes.c_int(self.caudal_q), ctypes.c_int(self.caudal_u),
             ctypes.c_double(prm.caudal_position_gain), ctypes.c_double(prm.caudal_velocity_gain),
             ctypes.c_double(prm.caudal_max_torque), ctypes.c_int(len(osc)), _ints(osc), _doubles(angle),
-            _doubles(velocity), *(_doubles(a) for a in state), _doubles(quats) if log else None)
+            _doubles(velocity), *(_doubles(a) for a in state), _doubles(quats) if log else None,
+            *self._surface_args())
         if code != 0:
             raise RuntimeError(f"compiled step failed with code {code} (-2: a state request failed, "
                                "-3: a robot without 3 joints)")

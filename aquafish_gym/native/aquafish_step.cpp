@@ -25,7 +25,7 @@
 #include "PhysicsClientC_API.h"
 #include "plugins/b3PluginContext.h"
 
-#define AF_VERSION 2 /* bump whenever af_run's signature changes */
+#define AF_VERSION 3 /* bump whenever af_run's signature changes */
 #define AF_API extern "C" __attribute__((visibility("default")))
 
 /* ---- PyBullet C API, resolved at run time --------------------------------------------- */
@@ -162,6 +162,147 @@ static void box_drag(double r[3][3], const double* v, const double* w, const dou
     if (torque) cross(offset, force, torque);
 }
 
+/* ---- the surface swimmer (aquafish_gym.surface, aquafish_gym.hydrostatics) ------------ */
+static const double AF_TINY = 1e-12; /* hydrostatics.TINY */
+static const double AF_PI = 3.141592653589793; /* math.pi */
+
+static double clip_unit(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
+
+static double at_least(double x, double lo) { return x > lo ? x : lo; } /* np.maximum(x, lo) */
+
+/* hydrostatics.acos_poly: Abramowitz & Stegun 4.4.46 */
+static double acos_poly(double x)
+{
+    double a = std::fabs(x);
+    double poly = 1.5707963050 + a * (-0.2145988016 + a * (0.0889789874 + a * (-0.0501743046 + a * (0.0308918810
+                  + a * (-0.0170881256 + a * (0.0066700901 + a * -0.0012624911))))));
+    double value = std::sqrt(1.0 - a) * poly;
+    return x < 0 ? AF_PI - value : value;
+}
+
+/* hydrostatics.wetted_fraction */
+static double wetted(double surface_z, double z, double half_height)
+{
+    return clip_unit((surface_z - z) / at_least(2.0 * half_height, AF_TINY) + 0.5, 0.0, 1.0);
+}
+
+static double half_height(double r[3][3], const double* half)
+{
+    return std::fabs(r[2][0]) * half[0] + std::fabs(r[2][1]) * half[1] + std::fabs(r[2][2]) * half[2];
+}
+
+static double drag1(double drag_c, int quadratic, double area, double u)
+{
+    return quadratic ? drag_c * area * u * std::fabs(u) : drag_c * area * u;
+}
+
+/* The constants of aquafish_gym.surface.SurfaceSpec, as NativeStep packs them. */
+struct af_surface {
+    const double* robot;   /* (n, AF_SURFACE_ROBOT): surface_z, weight, strip areas L/R (3+3), pectoral half L/R (3+3), caudal half (3) */
+    const double* strip_y; /* (n, 2, n_strips) */
+    int n_strips;
+    const double* slices;  /* (4, n_slices): y, rho, w, w*y */
+    int n_slices;
+    double pi_weight, rho_g, ballast;
+};
+#define AF_SURFACE_ROBOT 17
+
+/* surface.surface_wrench for robot i: force[4][3] (link frames), torque[3] (body frame). */
+static void surface_wrench(const struct af_surface* sf, int i, double rot[4][3][3], const double* pos,
+                           const double* lin, const double* ang, const double* box_offset, const double* axis_areas,
+                           double caudal_half, double caudal_mass, double drag_c, int quadratic, const double* current,
+                           int reactive, double force[4][3], double torque[3])
+{
+    const double* rb = sf->robot + (size_t)AF_SURFACE_ROBOT * i;
+    double surface_z = rb[0], weight = rb[1];
+    double vl[4][3], wl[4][3];
+    for (int l = 0; l < 4; ++l) {
+        double rel[3] = {lin[3 * l] - current[0], lin[3 * l + 1] - current[1], lin[3 * l + 2] - current[2]};
+        for (int k = 0; k < 3; ++k) {
+            vl[l][k] = rt_dot(rot[l], k, rel);
+            wl[l][k] = rt_dot(rot[l], k, ang + 3 * l);
+        }
+    }
+    /* body: hydrostatics (hydrostatics.submerged_slices, hydrostatic_wrench) */
+    double (*r0)[3] = rot[0];
+    double a = r0[2][0], c = r0[2][1], b = r0[2][2];
+    double norm = at_least(std::sqrt(a * a + b * b), AF_TINY);
+    double top = surface_z - (pos[2] + b * sf->ballast);
+    const double *ys = sf->slices, *rhos = sf->slices + sf->n_slices, *ws = sf->slices + 2 * sf->n_slices,
+                 *wys = sf->slices + 3 * sf->n_slices;
+    double volume = 0, along = 0, my = 0, wet_sum = 0;
+    for (int k = 0; k < sf->n_slices; ++k) {
+        double rho = rhos[k];
+        double u = clip_unit((top - c * ys[k]) / (norm * rho), -1.0, 1.0);
+        double root = std::sqrt(1.0 - u * u);
+        double ac = acos_poly(u);
+        double area = rho * rho * ((AF_PI - ac) + u * root);
+        double lever = (-2.0 / 3.0) * rho * rho * rho * (root * root * root);
+        double tv = ws[k] * area, tn = ws[k] * lever, ty = wys[k] * area, tw = ws[k] * (AF_PI - ac);
+        if (k == 0) { volume = tv; along = tn; my = ty; wet_sum = tw; }
+        else { volume += tv; along += tn; my += ty; wet_sum += tw; }
+    }
+    double wet = wet_sum / sf->pi_weight;
+    double up[3] = {r0[2][0], r0[2][1], r0[2][2]};
+    double buoyancy = sf->rho_g * volume;
+    double safe = volume > 0 ? volume : 1.0;
+    double moment[3] = {along * (a / norm), my, along * (b / norm)};
+    double com[3] = {0.0, 0.0, -sf->ballast};
+    double lever[3], f_b[3], t_hs[3], u[3], wxo[3], f_drag[3], t_drag[3];
+    for (int k = 0; k < 3; ++k) {
+        lever[k] = moment[k] / safe - com[k];
+        f_b[k] = buoyancy * up[k];
+    }
+    cross(lever, f_b, t_hs);
+    cross(wl[0], box_offset, wxo);
+    for (int k = 0; k < 3; ++k) {
+        u[k] = vl[0][k] + wxo[k];
+        f_drag[k] = drag1(drag_c, quadratic, axis_areas[k] * wet, u[k]);
+        force[0][k] = (buoyancy - weight) * up[k] + f_drag[k];
+    }
+    cross(box_offset, f_drag, t_drag);
+    double couple[3] = {0.0, 0.0, 0.0};
+    /* pectorals: wetted blade-element strips */
+    for (int f = 0; f < 2; ++f) {
+        double (*r)[3] = rot[f + 1];
+        const double* areas = rb + 2 + 3 * f;
+        double e = half_height(r, rb + 8 + 3 * f);
+        const double* sy = sf->strip_y + ((size_t)i * 2 + f) * sf->n_strips;
+        double fx = 0, fy = 0, fz = 0, tx = 0, tz = 0;
+        for (int j = 0; j < sf->n_strips; ++j) {
+            double y = sy[j];
+            double ux = vl[f + 1][0] - wl[f + 1][2] * y;
+            double uz = vl[f + 1][2] + wl[f + 1][0] * y;
+            double uy = vl[f + 1][1];
+            double w = wetted(surface_z, pos[3 * (f + 1) + 2] + r[2][1] * y, e);
+            double gx = drag1(drag_c, quadratic, areas[0] * w, ux);
+            double gy = drag1(drag_c, quadratic, areas[1] * w, uy);
+            double gz = drag1(drag_c, quadratic, areas[2] * w, uz);
+            double hx = y * gz, hz = -(y * gx);
+            if (j == 0) { fx = gx; fy = gy; fz = gz; tx = hx; tz = hz; }
+            else { fx += gx; fy += gy; fz += gz; tx += hx; tz += hz; }
+        }
+        force[f + 1][0] = fx;
+        force[f + 1][1] = fy;
+        force[f + 1][2] = fz;
+        for (int k = 0; k < 3; ++k) couple[k] = couple[k] + (r[k][0] * tx + r[k][2] * tz);
+    }
+    /* caudal fin: wetted drag and the reactive force of its wetted height */
+    double (*r3)[3] = rot[3];
+    double fin_wet = wetted(surface_z, pos[11], half_height(r3, rb + 14));
+    for (int k = 0; k < 3; ++k) force[3][k] = drag1(drag_c, quadratic, axis_areas[9 + k] * fin_wet, vl[3][k]);
+    if (reactive) {
+        double wv = vl[3][0] + caudal_half * wl[3][2];
+        double mw = caudal_mass * (fin_wet * fin_wet) * wv;
+        double fx = -mw * vl[3][1];
+        force[3][0] += fx;
+        force[3][1] += 0.5 * mw * wv;
+        double tzc = caudal_half * fx;
+        for (int k = 0; k < 3; ++k) couple[k] = couple[k] + r3[k][2] * tzc;
+    }
+    for (int k = 0; k < 3; ++k) torque[k] = (t_hs[k] + t_drag[k]) + rt_dot(r0, k, couple);
+}
+
 /*
  * Run `steps` physics steps of n robots from the state in position .. angular_velocity
  * (as read after the last step or reset), leaving the new state there; see
@@ -173,8 +314,11 @@ AF_API int af_run(void* client_handle, int n, int steps, const int* bodies, cons
            double drag_c, int quadratic, const double* current, int reactive, int caudal_q,
            int caudal_u, double kp, double kd, double max_force, int n_osc, const int* osc_index,
            const double* caudal_angle, const double* caudal_velocity, double* position, double* orientation,
-           double* linear_velocity, double* angular_velocity, double* body_quaternions)
+           double* linear_velocity, double* angular_velocity, double* body_quaternions,
+           const double* surface_robot, const double* strip_y, int n_strips, const double* slices, int n_slices,
+           double pi_weight, double rho_g, double ballast)
 {
+    struct af_surface sf = {surface_robot, strip_y, n_strips, slices, n_slices, pi_weight, rho_g, ballast};
     b3PhysicsClientHandle client = (b3PhysicsClientHandle)client_handle;
     static const double origin[3] = {0.0, 0.0, 0.0};
     if (!api.bound) return -1;
@@ -184,6 +328,11 @@ AF_API int af_run(void* client_handle, int n, int steps, const int* bodies, cons
                 double rot[4][3][3], force[4][3], torque[3];
                 const int* act = active + 4 * i;
                 for (int k = 0; k < 4; ++k) quat_to_matrix(orientation + 16 * i + 4 * k, rot[k]);
+                if (surface_robot) { /* the surface swimmer: aquafish_gym.surface */
+                    surface_wrench(&sf, i, rot, position + 12 * i, linear_velocity + 12 * i, angular_velocity + 12 * i,
+                                   box_offsets + 12 * i, axis_areas + 12 * i, caudal_half[i], caudal_mass[i], drag_c,
+                                   quadratic, current, reactive, force, torque);
+                } else {
                 for (int k = 0; k < 4; ++k)
                     box_drag(rot[k], linear_velocity + 12 * i + 3 * k, angular_velocity + 12 * i + 3 * k,
                              box_offsets + 12 * i + 3 * k, axis_areas + 12 * i + 3 * k, drag_c, quadratic, current,
@@ -206,6 +355,7 @@ AF_API int af_run(void* client_handle, int n, int steps, const int* bodies, cons
                 }
                 for (int k = 0; k < 3; ++k)  /* world -> body frame */
                     torque[k] += rt_dot(rot[0], k, righting);
+                }
                 for (int k = 0; k < 4; ++k) {
                     if (!act[k]) continue;
                     b3SharedMemoryCommandHandle cmd = api.force_init(client);
