@@ -117,6 +117,10 @@ class SimParams:
         """Whether the robot floats at a free surface (``waterline`` is not None)."""
         return self.waterline is not None
 
+    def replace(self, **changes) -> "SimParams":
+        """A validated copy with some fields changed."""
+        return dataclasses.replace(self, **changes)
+
     @classmethod
     def field_names(cls) -> tuple[str, ...]:
         """Names of all parameters (usable as env kwargs)."""

@@ -34,9 +34,16 @@ def _run(native_flag, morph, actions, angles, params, faults=None, steps=96):
         return log, world.position.copy(), world.angular_velocity.copy(), world.time_s
 
 
+_DEEP = SimParams(waterline=None)
+
+
 @pytest.mark.parametrize("params", [SimParams(), SimParams(reactive_thrust=False),
-                                    SimParams(drag_law="linear", water_current=(0.2, -0.1, 0.05))],
-                         ids=["reactive", "pure_drag", "linear_current"])
+                                    SimParams(drag_law="linear", water_current=(0.2, -0.1, 0.05)),
+                                    SimParams(waterline=-0.3, pectoral_strips=5),
+                                    _DEEP, _DEEP.replace(reactive_thrust=False),
+                                    _DEEP.replace(drag_law="linear", water_current=(0.2, -0.1, 0.05))],
+                         ids=["surface", "surface_pure_drag", "surface_linear_current", "surface_low_5_strips",
+                              "deep", "deep_pure_drag", "deep_linear_current"])
 @pytest.mark.parametrize("n", [1, 6])
 def test_compiled_and_numpy_paths_are_bit_identical(params, n):
     morph, actions, angles = _inputs(n, seed=n)

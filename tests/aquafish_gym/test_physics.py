@@ -1,4 +1,6 @@
-"""Whole-robot physics: behaviours that a wrong model would break (DESIGN.md section 3)."""
+"""Whole-robot physics in deep water (``waterline=None``): behaviours a wrong model would break.
+
+The surface swimmer (the default) has its own tests in ``test_surface.py``."""
 
 import math
 
@@ -9,6 +11,8 @@ from aquafish_gym.bullet import p
 from aquafish_gym import BatchWorld, Morphology, SimParams, get_damage, simulate_batch
 from aquafish_gym.robot import BODY_CYLINDER_LENGTH, BODY_RADIUS
 
+#: Deep water: the model these tests pin (the default is the surface swimmer).
+DEEP = SimParams(waterline=None)
 NO_FLIPPERS = np.zeros(9)
 HEALTHY = Morphology.healthy().to_array()
 NO_PECTORALS = Morphology.healthy().replace(
@@ -26,23 +30,23 @@ def push_to_terminal_velocity(params: SimParams, force: float, steps: int) -> fl
 
 
 def test_constant_force_reaches_quadratic_terminal_velocity():
-    params = SimParams(drag_coefficient=1.0, fluid_density=1.0)
+    params = DEEP.replace(drag_coefficient=1.0, fluid_density=1.0)
     area = math.pi * BODY_RADIUS**2  # the capsule's end-on projected area
     expected = math.sqrt(2 * 1.0 / (params.drag_coefficient * params.fluid_density * area))  # F = c_d A rho v^2 / 2
     assert push_to_terminal_velocity(params, 1.0, 1500) == pytest.approx(expected, rel=0.01)
 
 
 def test_constant_force_reaches_linear_terminal_velocity():
-    params = SimParams(drag_law="linear", drag_coefficient=2.0)
+    params = DEEP.replace(drag_law="linear", drag_coefficient=2.0)
     area = math.pi * BODY_RADIUS**2
     expected = 1.0 / (2.0 * area)  # F = c_d A v
     assert push_to_terminal_velocity(params, 1.0, 1500) == pytest.approx(expected, rel=0.01)
 
 
 def test_no_actuation_stays_still():
-    log = simulate_batch(HEALTHY, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], 300)
+    log = simulate_batch(HEALTHY, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], 300, params=DEEP)
     np.testing.assert_allclose(log, 0.0, atol=1e-6)
-    with BatchWorld(HEALTHY[None]) as world:
+    with BatchWorld(HEALTHY[None], DEEP) as world:
         world.reset(np.zeros((1, 3)), np.zeros((1, 3)))
         for _ in range(300):
             world.step()
@@ -51,7 +55,7 @@ def test_no_actuation_stays_still():
 
 def test_symmetric_robot_swims_straight_and_half_flipper_turns():
     damaged = get_damage("left_pectoral_half").apply().to_array()
-    log = simulate_batch(np.stack([HEALTHY, damaged]), [[0.5, 0.5, 0.0]] * 2, np.zeros((2, 3)), 500)
+    log = simulate_batch(np.stack([HEALTHY, damaged]), [[0.5, 0.5, 0.0]] * 2, np.zeros((2, 3)), 500, params=DEEP)
     assert np.abs(log[0, :, 2]).max() < 1.0
     assert np.abs(log[1, :, 2]).max() > 5.0
 
@@ -72,7 +76,7 @@ def test_mirrored_pectorals_give_the_mirrored_response():
 
 
 def test_rolled_robot_rights_itself():
-    with BatchWorld(HEALTHY[None]) as world:
+    with BatchWorld(HEALTHY[None], DEEP) as world:
         world.reset(np.zeros((1, 3)))
         q = p.getQuaternionFromAxisAngle((0, 1, 0), math.radians(30))
         p.resetBasePositionAndOrientation(world.bodies[0], world.home[0].tolist(), q, physicsClientId=world.client)
@@ -92,7 +96,7 @@ def swim(morphologies, actions, steps: int, params: SimParams | None = None):
     morphologies = np.atleast_2d(morphologies)
     n = len(morphologies)
     velocity = np.empty((n, steps, 3))
-    with BatchWorld(morphologies, params) as world:
+    with BatchWorld(morphologies, params if params is not None else DEEP) as world:
         world.reset(np.zeros((n, 3)), np.broadcast_to(actions, (n, 3)))
         for k in range(steps):
             world.step()
@@ -113,7 +117,7 @@ def test_caudal_thrust_from_rest_is_positive_and_grows_with_frequency():
 
 def test_pure_drag_model_barely_swims():
     """``reactive_thrust=False`` is the lab's pure-drag model: a rigid fin gives almost no thrust."""
-    ((_, dy_drag, _),), _ = swim(NO_PECTORALS, [0.0, 0.0, 1.0], 1000, SimParams(reactive_thrust=False))
+    ((_, dy_drag, _),), _ = swim(NO_PECTORALS, [0.0, 0.0, 1.0], 1000, DEEP.replace(reactive_thrust=False))
     ((_, dy, _),), _ = swim(NO_PECTORALS, [0.0, 0.0, 1.0], 1000)
     assert 0 < dy_drag < 0.05 * dy
 
@@ -130,7 +134,7 @@ def test_caudal_only_steady_speed_and_strouhal_number():
     somewhat slower, never faster. Literature band: small servo-driven robotic fish swim
     0.2-1 body lengths/s; the pure-drag model gave St ~ 34.
     """
-    prm = SimParams()
+    prm = DEEP
     morph = Morphology.from_array(NO_PECTORALS)
     length, height, thickness = morph.caudal_y, morph.caudal_z, morph.caudal_x
     amplitude, omega = prm.caudal_amplitude_rad, 2 * math.pi * 1.0
@@ -158,7 +162,7 @@ def test_robot_without_caudal_fin_does_not_move_under_a_caudal_command():
 def test_water_current_carries_the_robot():
     """A body at rest in a current accelerates by quadratic drag: c - v(t) = c / (1 + c k t), k = rho c_d S / (2 M)."""
     current = 0.5
-    prm = SimParams(water_current=(0.0, current, 0.0))
+    prm = DEEP.replace(water_current=(0.0, current, 0.0))
     _, velocity = swim(NO_FLIPPERS, [0.0, 0.0, 0.0], 1000, prm)
     mass = math.pi * BODY_RADIUS**2 * BODY_CYLINDER_LENGTH + 4 / 3 * math.pi * BODY_RADIUS**3
     k = 0.5 * prm.fluid_density * prm.drag_coefficient * math.pi * BODY_RADIUS**2 / mass
@@ -174,7 +178,7 @@ def test_reactive_couple_on_the_body_equals_the_force_at_the_trailing_edge():
     from aquafish_gym.robot import LINK_CAUDAL
 
     angles, action = np.array([[0.3, 1.0, 0.1]]), np.array([[0.2, -0.3, 1.0]])
-    with BatchWorld(HEALTHY[None]) as ref, BatchWorld(HEALTHY[None], SimParams(reactive_thrust=False)) as world:
+    with BatchWorld(HEALTHY[None], DEEP) as ref, BatchWorld(HEALTHY[None], DEEP.replace(reactive_thrust=False)) as world:
         ref.reset(angles, action)
         world.reset(angles, action)
         for _ in range(300):
@@ -196,13 +200,13 @@ def test_reactive_couple_on_the_body_equals_the_force_at_the_trailing_edge():
 
 def test_zero_size_flippers_never_give_nan():
     morph = np.array([NO_FLIPPERS, [0, 2, 0.5, 1, 0, 0.5, 0.5, 2, 0], [1, 2, 0, 1, 2, 0, 0, 2, 1]])
-    log = simulate_batch(morph, [[0.5, -0.5, 1.0]] * 3, [[1.0, 2.0, 0.3]] * 3, 256)
+    log = simulate_batch(morph, [[0.5, -0.5, 1.0]] * 3, [[1.0, 2.0, 0.3]] * 3, 256, params=DEEP)
     assert np.all(np.isfinite(log))
 
 
 def test_seized_pectoral_holds_its_initial_angle():
     damage = get_damage("seized_left_pectoral")
-    with BatchWorld(HEALTHY[None], faults=damage.faults) as world:
+    with BatchWorld(HEALTHY[None], DEEP, faults=damage.faults) as world:
         world.reset(np.array([[1.0, 1.0, 0.0]]), np.array([[0.5, 0.5, 0.0]]))
         for _ in range(100):
             world.step()
@@ -212,7 +216,7 @@ def test_seized_pectoral_holds_its_initial_angle():
 
 
 def test_caudal_fin_sweeps_thirty_degrees_from_its_initial_angle():
-    with BatchWorld(HEALTHY[None]) as world:
+    with BatchWorld(HEALTHY[None], DEEP) as world:
         world.reset(np.array([[0.0, 0.0, 0.2]]), np.array([[0.0, 0.0, 1.0]]))
         angles = []
         for _ in range(200):
@@ -226,7 +230,7 @@ def test_caudal_fin_sweeps_thirty_degrees_from_its_initial_angle():
 def test_body_mass_is_neutral_capsule():
     from aquafish_gym.robot import robot_spec
 
-    spec = robot_spec(HEALTHY[None], SimParams())
+    spec = robot_spec(HEALTHY[None], DEEP)
     volume = math.pi * BODY_RADIUS**2 * BODY_CYLINDER_LENGTH + 4 / 3 * math.pi * BODY_RADIUS**3
     assert spec.masses[0, 0] == pytest.approx(volume)
     assert spec.masses[0, 1] == pytest.approx(0.25 * 1.0 * 0.0625)
