@@ -29,6 +29,20 @@ _CHOICES = {"inference": INFERENCE_NAMES, "estimation_search": ESTIMATION_SEARCH
             "profile_inherit": INHERIT_RULES, "model_similarity": tuple(SIMILARITIES)}
 
 
+def _waterline(text: str) -> float | None:
+    """``--waterline``: a height in units, or ``deep`` (None: deep water)."""
+    if text.strip().lower() in ("deep", "none"):
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a height in units or 'deep', got {text!r}") from None
+
+
+#: Flag parsers of fields whose value is not their default's type.
+_TYPES = {"waterline": _waterline}
+
+
 def config_flag_names(exclude: Iterable[str] = ()) -> tuple[str, ...]:
     """The :class:`~eea.config.EEAConfig` fields that get a flag, in field order.
 
@@ -71,7 +85,7 @@ def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = (
     for name in names:
         default = getattr(defaults, name)
         flags = (f"--{name.replace('_', '-')}", *_SHORT_FLAGS.get(name, ()))
-        parser.add_argument(*flags, type=type(default), default=None, dest=name, choices=_CHOICES.get(name),
+        parser.add_argument(*flags, type=_TYPES.get(name, type(default)), default=None, dest=name, choices=_CHOICES.get(name),
                             help=f"{FIELD_HELP[name]} (default: {default})")
     parser.add_argument("--preset", action="append", default=[], choices=list(PRESETS), dest="preset",
                         help="a named bundle of settings (eea.config.PRESETS), applied in order; flags given "

@@ -20,7 +20,8 @@ import dataclasses
 import math
 import os
 
-from aquafish_gym import DT_S, get_damage
+from aquafish_gym import DT_S, SimParams, get_damage
+from aquafish_gym.params import DEFAULT_WATERLINE
 from aquafish_gym.checks import check_int, check_weight
 from eea.behaviour import SIMILARITIES
 from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
@@ -122,6 +123,8 @@ FIELD_HELP: dict[str, str] = {
                     "of each polished contender's angles (24 pectoral angles 15 deg apart, 9 caudal; not the paper's)",
     "oob_experiments": "out_of_band: angles refined by each inference: newest (the paper's: only the newest "
                        "experiment) or all (also every older experiment at generation 0 of each round; not the paper's)",
+    "waterline": "height of the free surface above the body's centre (units; the surface swimmer, default 0.3); "
+                 "None: deep water, the physics of every run published before the surface swimmer",
     "workers": "worker processes for simulations (1 = serial); never changes results",
     "max_batch_robots": "at most this many robots per simulate_batch call (chunking; 32-64 is fastest, "
                         "larger worlds cost more per robot-step); never changes results",
@@ -231,8 +234,13 @@ class EEAConfig:
     profile_scan: int = 0
     workers: int = dataclasses.field(default_factory=_default_workers)
     max_batch_robots: int = 64
+    waterline: float | None = DEFAULT_WATERLINE
 
     def __post_init__(self) -> None:
+        try:
+            object.__setattr__(self, "waterline", SimParams(waterline=self.waterline).waterline)
+        except ValueError as err:
+            raise ValueError(f"EEAConfig.waterline: {err}") from None
         if self.inference not in INFERENCE_NAMES:
             raise ValueError(f"unknown inference {self.inference!r}; valid names: {', '.join(INFERENCE_NAMES)}")
         get_damage(self.damage)  # raises ValueError listing the valid names
@@ -332,6 +340,11 @@ class EEAConfig:
         object.__setattr__(self, "duration_s", float(duration))
 
     @property
+    def sim_params(self) -> SimParams:
+        """The simulator parameters of the target and the models (the defaults but ``waterline``)."""
+        return SimParams(waterline=self.waterline)
+
+    @property
     def steps(self) -> int:
         """Simulation steps of every experiment: ``round(duration_s / 0.01)``."""
         return round(self.duration_s / DT_S)
@@ -342,11 +355,20 @@ class EEAConfig:
 
     @classmethod
     def from_dict(cls, data: dict) -> "EEAConfig":
-        """Inverse of :meth:`to_dict`.
+        """Inverse of :meth:`to_dict` (what ``config.json`` holds).
+
+        A dict without ``waterline`` was written before the surface swimmer became the
+        default physics: it describes a deep-water run and loads as ``waterline=None``.
 
         Raises:
             ValueError: on an unknown key (typos fail fast) or an invalid value.
         """
+        if "waterline" not in data:  # written before the surface swimmer: a deep-water run
+            data = {**data, "waterline": None}
+        return cls._from_fields(data)
+
+    @classmethod
+    def _from_fields(cls, data: dict) -> "EEAConfig":
         names = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - names)
         if unknown:
@@ -364,7 +386,7 @@ class EEAConfig:
             ValueError: on an unknown preset name (the message lists the valid ones), or an
                 invalid field as :class:`EEAConfig` raises.
         """
-        return cls.from_dict({**preset_fields(*names), **fields})
+        return cls._from_fields({**preset_fields(*names), **fields})
 
     def replace(self, **changes) -> "EEAConfig":
         """A validated copy with some fields changed."""

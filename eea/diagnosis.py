@@ -176,7 +176,7 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
     truth = encode_models(true_dims[None])
     seen = _seen(state.evaluator, result.config.steps, true_dims, result.best_morphology.to_array())
     with Evaluator(result.config.steps, workers=workers, max_batch_robots=result.config.max_batch_robots,
-                   similarity_fn=SIMILARITIES[result.config.model_similarity]) as ev:
+                   similarity_fn=SIMILARITIES[result.config.model_similarity], params=result.config.sim_params) as ev:
         def fit(genome, angles):
             return float(model_fitness_from_similarities(ev.similarities(genome, experiments, angles))[0])
 

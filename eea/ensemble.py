@@ -169,7 +169,8 @@ def select_runs(run_dirs: Sequence[str | os.PathLike], *, rounds: int | None = N
     experiments = [e for _, exps in replays for e in exps]
     models = np.stack([r.best_morphology.to_array() for r in results])
     config = results[0].config
-    with Evaluator(config.steps, workers=workers, similarity_fn=SIMILARITIES[config.model_similarity]) as evaluator:
+    with Evaluator(config.steps, workers=workers, similarity_fn=SIMILARITIES[config.model_similarity],
+                   params=config.sim_params) as evaluator:
         selection = select_model(models, experiments, evaluator, np.random.default_rng(seed),
                                  generations=generations, scan_cycles=scan_cycles)
     return selection, results, experiments

@@ -46,7 +46,7 @@ def rebuild_experiments(result: RunResult) -> list[Experiment]:
     actions = np.array([[row[c] for c in ACTION_COLUMNS] for row in result.rounds])
     true = np.array([[row[f"true_{f}_rad"] for f in FLIPPERS] for row in result.rounds])
     logs = simulate_batch(np.repeat(truth[None], len(actions), axis=0), actions, true, result.config.steps,
-                          faults=preset.faults)
+                          faults=preset.faults, params=result.config.sim_params)
     return [Experiment(i, actions[i], logs[i], behaviour_summary(logs[i]), true[i], Context.exact(np.zeros(3)))
             for i in range(len(actions))]
 

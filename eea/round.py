@@ -66,7 +66,7 @@ class RoundParts:
         restored from a checkpoint; a fresh one draws its initial population from ``rng``)."""
         if estimation is None:
             estimation = make_estimation(config, rng)
-        return cls(config, Target(config.damage, config.steps, rng), make_strategy(config),
+        return cls(config, Target(config.damage, config.steps, rng, config.sim_params), make_strategy(config),
                    Exploration.from_config(config), estimation, evaluator)
 
     def perform(self, index: int, action) -> Experiment:

@@ -94,7 +94,7 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
         return report
 
     with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots,
-                   similarity_fn=SIMILARITIES[config.model_similarity]) as evaluator, bar:
+                   similarity_fn=SIMILARITIES[config.model_similarity], params=config.sim_params) as evaluator, bar:
         if state.evaluator:
             evaluator.load_state_dict(state.evaluator)
         parts = RoundParts.from_config(config, rng, evaluator, estimation)

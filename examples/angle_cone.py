@@ -28,6 +28,7 @@ from aquafish_gym import get_damage
 from eea.behaviour import SIMILARITIES
 from eea.checkpoint import load_state
 from eea.encoding import decode_models, encode_models, genomes_from_keys, MODEL_BITS
+from eea.config import EEAConfig
 from eea.evaluation import Evaluator
 from eea.experiment import CAUDAL_LIMIT_RAD, Experiment, angle_errors_deg
 from eea.fitness import objective_fitness
@@ -70,7 +71,8 @@ def main(argv=None) -> None:
         raise SystemExit(f"{args.run}: no checkpoint of a profile run (state.pkl) here")
     experiments = [Experiment.from_state_dict(e) for e in state.experiments]
     evaluator = Evaluator(len(experiments[0].imu_log),
-                          similarity_fn=SIMILARITIES[state.config.get("model_similarity", "paper")])
+                          similarity_fn=SIMILARITIES[state.config.get("model_similarity", "paper")],
+                          params=EEAConfig.from_dict(state.config).sim_params)   # the run's physics
     truth = get_damage(state.config["damage"]).apply().to_array()
     truth_genome = encode_models(truth[None])
     memory, best = state.inference["memory"], state.inference["best"]

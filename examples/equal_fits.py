@@ -43,6 +43,7 @@ from eea.encoding import encode_models
 from eea.evaluation import Evaluator
 from eea.experiment import CAUDAL_LIMIT_RAD, Experiment
 from eea.profile import Profile
+from eea.record import read_config
 from eea.replay import replay_run
 
 #: Fit budgets: (name, random-perturbation generations, scan + polish afterwards).
@@ -94,7 +95,8 @@ def compare(run_dir, kind: str, fits: int) -> dict:
     genomes = encode_models(np.stack([truth, final]))
     if (genomes[0] == genomes[1]).all():
         raise ValueError(f"{run_dir}: the final model is the truth; nothing to compare")
-    evaluator = Evaluator(len(experiments[0].imu_log), similarity_fn=SIMILARITIES[kind])
+    evaluator = Evaluator(len(experiments[0].imu_log), similarity_fn=SIMILARITIES[kind],
+                          params=read_config(run_dir).sim_params)   # the run's physics
     true = np.stack([e.true_angles for e in experiments])
     out = {"obj": obj, "at_true": float(evaluator.similarities(genomes[:1], experiments, true[None]).mean()),
            "cone": cone_loss(evaluator, genomes[:1], experiments)}

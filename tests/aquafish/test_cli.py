@@ -86,7 +86,9 @@ def test_presets_on_the_command_line_and_flags_over_them(monkeypatch, tmp_path):
     # the README's library studies ran with these settings (docs/results keeps their study.json)
     published = json.loads((Path(__file__).parents[2] / "docs/results/lph_cs8_lib8/study.json").read_text())["base"]
     published.update(damage="caudal_half", profile_library=4, workers=1)        # the flags given beside the presets
-    assert specs[0].base == EEAConfig.from_dict(published).replace(inference="out_of_band", seed=0)
+    # (they ran in deep water, before the surface swimmer became the default)
+    assert specs[0].base == EEAConfig.from_dict(published).replace(inference="out_of_band", seed=0,
+                                                                   waterline=EEAConfig().waterline)
     # aquafish eea: the preset's inference applies, a flag given wins over a preset
     configs = []
     monkeypatch.setattr(importlib.import_module("eea.run"), "run", lambda config, out, progress: configs.append(config) or

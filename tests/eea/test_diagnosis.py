@@ -107,7 +107,7 @@ def test_profile_run_scores_the_truth_under_the_angles_it_would_start_from(tmp_p
     remembered = genomes_from_keys(keys, MODEL_BITS)
     nearest = keys[int(np.argmin((remembered != truth).sum(axis=1)))]  # the truth is not remembered here
     assert truth[0].tobytes() not in memory
-    with Evaluator(config.steps) as ev:
+    with Evaluator(config.steps, params=config.sim_params) as ev:
         expected = model_fitness_from_similarities(ev.similarities(truth, experiments, memory[nearest][0][None]))[0]
     assert d.true_proposed == pytest.approx(float(expected), abs=1e-12)
     assert d.true_proposed < d.true_true_angles == 1.0
@@ -165,7 +165,7 @@ def test_angle_errors_of_the_run_and_of_the_truths_own_fit(tmp_path, tiny_config
     np.testing.assert_array_equal(d.floor_error_deg, median_error_deg(d.true_fitted_angles, true))
     # the reported angles are the ones the truth's MOD_FIT was fitted under
     truth = encode_models(get_damage(config.damage).apply().to_array()[None])
-    with Evaluator(config.steps) as ev:
+    with Evaluator(config.steps, params=config.sim_params) as ev:
         sims = ev.similarities(truth, experiments, d.true_fitted_angles[None])
     assert float(model_fitness_from_similarities(sims)[0]) == pytest.approx(d.true_profiled, abs=1e-12)
     if inference == "known":  # the inferred angles are the true ones, and the truth's fit starts there

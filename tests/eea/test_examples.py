@@ -126,7 +126,7 @@ def test_angle_cone_scores_the_truth_1_at_its_angles_and_less_off_them(tmp_path,
     out = capsys.readouterr().out
     assert "truth at its true angles: similarity 1.000000 - 1.000000" in out
     experiments = [Experiment.from_state_dict(e) for e in load_state(tmp_path).experiments]
-    evaluator = Evaluator(config.steps)
+    evaluator = Evaluator(config.steps, params=config.sim_params)
     truth = encode_models(get_damage(config.damage).apply().to_array()[None])
     loss = cone.cone(evaluator, truth, experiments)
     assert loss.shape == (3, len(cone.OFFSETS_DEG))

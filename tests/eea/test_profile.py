@@ -335,7 +335,7 @@ def test_estimation_adopts_the_selected_model_and_restarts_there(tiny_config):
     config = tiny_config(inference="profile", estimation_search="cma", rounds=2, profile_proposals=1,
                          profile_initial=2, profile_select=3, profile_select_refine=2)
     rng = np.random.default_rng(0)
-    with Evaluator(config.steps) as evaluator:
+    with Evaluator(config.steps, params=config.sim_params) as evaluator:
         parts = RoundParts.from_config(config, rng, evaluator)
         calls = []
         select = parts.strategy.select
@@ -416,15 +416,17 @@ def test_polish_brings_the_true_morphology_back_to_its_true_angles():
     from eea.experiment import Context, Experiment
     from eea.behaviour import behaviour_summary
     from eea.target import Target
+    from aquafish_gym import SimParams
 
-    target = Target("left_pectoral_half", 128, np.random.default_rng(3))
+    deep = SimParams(waterline=None)  # the physics this was measured in
+    target = Target("left_pectoral_half", 128, np.random.default_rng(3), deep)
     exps = []
     for i, action in enumerate([(0.45, -0.3, 0.6), (-0.4, 0.5, 0.2)]):
         log, true = target.perform(np.array(action))
         exps.append(Experiment(i, np.array(action), log, behaviour_summary(log), true, Context.exact(true)))
     truth = encode_models(target.morphology.to_array()[None])
     true = np.stack([e.true_angles for e in exps])[None]
-    evaluator = Evaluator(128)
+    evaluator = Evaluator(128, params=deep)
     assert np.all(evaluator.similarities(truth, exps, true) == 1.0)
     angles = true + np.radians([[[5.0, -5.0, 1.0], [-5.0, 5.0, -1.0]]])
     sims = evaluator.similarities(truth, exps, angles)

@@ -59,7 +59,8 @@ def test_model_similarity_squared_scores_the_models_with_it(tmp_path, tiny_confi
     experiments = [Experiment.from_state_dict(e) for e in load_state(tmp_path).experiments]
     model = np.array([row[c] for c in MODEL_COLUMNS])
     logs = simulate_batch(np.repeat(model[None], 2, axis=0), np.stack([e.action for e in experiments]),
-                          np.stack([e.true_angles for e in experiments]), config.steps)   # known: the true angles
+                          np.stack([e.true_angles for e in experiments]), config.steps,   # known: the true angles
+                          params=config.sim_params)
     targets = np.stack([e.summary for e in experiments])
     squared = squared_similarity(behaviour_summary(logs), targets).mean()
     assert row["model_fitness"] == pytest.approx(squared, abs=1e-12)
