@@ -24,11 +24,13 @@ class ServoFaults:
     Attributes:
         seized: per servo, True if the motor has failed and holds the flipper at its
             initial angle (DESIGN.md section 3, ``seized_left_pectoral``).
-        speed_scale: per servo, a factor in [0, 1] on the commanded speed (pectorals) or
-            frequency (caudal); 1.0 is a healthy servo.
+        speed_scale: per servo, a gain on the commanded speed (pectorals, in [-1, 1]) or
+            frequency (caudal, in [0, 1]); 1.0 is a healthy servo, a fraction a weak one, 0 a
+            dead one, and a negative pectoral gain a servo that turns the wrong way
+            (remounted or miswired: ``reversed_left_pectoral``).
 
     Raises:
-        ValueError: wrong lengths or a speed scale outside [0, 1].
+        ValueError: wrong lengths, a pectoral gain outside [-1, 1] or a caudal one outside [0, 1].
     """
 
     seized: tuple[bool, bool, bool] = (False, False, False)
@@ -39,8 +41,9 @@ class ServoFaults:
             raise ValueError(f"ServoFaults fields need one entry per servo {SERVO_NAMES}, got seized={self.seized}, speed_scale={self.speed_scale}")
         object.__setattr__(self, "seized", tuple(bool(s) for s in self.seized))
         scales = tuple(float(s) for s in self.speed_scale)
-        if not all(0.0 <= s <= 1.0 for s in scales):
-            raise ValueError(f"ServoFaults.speed_scale entries must be in [0, 1], got {scales}")
+        if not (all(-1.0 <= s <= 1.0 for s in scales[:2]) and 0.0 <= scales[2] <= 1.0):
+            raise ValueError(f"ServoFaults.speed_scale: the pectoral gains must be in [-1, 1] (negative: turning the "
+                             f"wrong way) and the caudal one in [0, 1], got {scales}")
         object.__setattr__(self, "speed_scale", scales)
 
     @property
@@ -104,6 +107,7 @@ for _d in (
     Damage("caudal_missing", "Caudal fin lost entirely (all three dimensions 0): the tail gives no thrust.", _scale(caudal_x=0.0, caudal_y=0.0, caudal_z=0.0)),
     Damage("seized_left_pectoral", "Left pectoral servo seized: the flipper stays at its initial angle.", _identity, ServoFaults(seized=(True, False, False))),
     Damage("weak_right_pectoral", "Right pectoral servo turns at half the commanded speed.", _identity, ServoFaults(speed_scale=(1.0, 0.5, 1.0))),
+    Damage("reversed_left_pectoral", "Left pectoral servo turns the wrong way (remounted or miswired): gain -1.", _identity, ServoFaults(speed_scale=(-1.0, 1.0, 1.0))),
 ):
     register_damage(_d)
 

@@ -233,3 +233,24 @@ def test_zero_size_fins_give_no_nan_on_either_surface_or_deep_limit():
 def test_bad_waterline_is_refused(value):
     with pytest.raises(ValueError, match="waterline"):
         SimParams(waterline=value)
+
+
+def test_a_reversed_servo_turns_the_wrong_way_and_the_mirrored_command_undoes_it():
+    # reversed_left_pectoral: gain -1 on the left servo. The healthy command paddles the left
+    # flipper backwards (the robot veers); flipping the left command swims it exactly as the
+    # healthy robot swims under the healthy command.
+    reversed_left = get_damage("reversed_left_pectoral").faults
+    (broken,), _ = _swim([[-0.5, -0.5, 0.0]], NO_TAIL, faults=reversed_left, seconds=5.0)
+    (fixed,), fixed_yaw = _swim([[0.5, -0.5, 0.0]], NO_TAIL, faults=reversed_left, seconds=5.0)
+    (healthy,), healthy_yaw = _swim([[-0.5, -0.5, 0.0]], NO_TAIL, seconds=5.0)
+    np.testing.assert_array_equal(fixed, healthy)
+    np.testing.assert_array_equal(fixed_yaw, healthy_yaw)
+    assert broken[1] < 0.3 * healthy[1]
+
+
+@pytest.mark.parametrize("scale", [(-1.5, 1.0, 1.0), (1.0, 1.0, -0.5)])
+def test_servo_gains_out_of_range_are_refused(scale):
+    from aquafish_gym import ServoFaults
+
+    with pytest.raises(ValueError, match="speed_scale"):
+        ServoFaults(speed_scale=scale)
