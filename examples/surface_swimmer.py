@@ -1,0 +1,121 @@
+"""How the surface swimmer swims, and which damages break an open-loop gait (README tables).
+
+Prints Markdown: (1) speeds in body lengths per second with the tail only, the pectorals
+only and both, and the turning rate under differential paddling; (2) the open-loop damage
+table: for every damage preset, the best constant command (a grid over the servo ranges)
+for the healthy robot and for the damaged one, and what the healthy command keeps of the
+damaged body's own best on the damaged robot, over 20 s and 60 s. Distances are along the
+initial heading (+y), means over ``--starts`` random initial flipper angles (seeds 0, 1, ...).
+All robots of a table run in one batched world.
+
+    python examples/surface_swimmer.py [--starts 10] [--waterline 0.3 | deep]
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+
+import numpy as np
+
+from aquafish_gym import DAMAGES, BatchWorld, Morphology, SimParams, get_damage
+from aquafish_gym.robot import BODY_LENGTH
+
+GRID_PECTORAL = (-0.5, -0.25, 0.0, 0.25, 0.5)   # rev/s
+GRID_CAUDAL = (0.0, 1.0)                         # Hz
+CHECKPOINTS_S = (20.0, 60.0)
+
+
+def starts(n: int) -> np.ndarray:
+    """``(n, 3)`` initial angles: pectorals uniform on [0, 2 pi), caudal on +-30 deg, from seeds 0..n-1."""
+    out = []
+    for seed in range(n):
+        rng = np.random.default_rng(seed)
+        out.append([*rng.uniform(0, 2 * np.pi, 2), rng.uniform(-np.radians(30), np.radians(30))])
+    return np.array(out)
+
+
+def swim(morphs, faults, actions, angles, params, seconds) -> tuple[np.ndarray, np.ndarray]:
+    """Forward distance ``(N, len(seconds))`` (units, along +y) and final yaw ``(N,)`` (deg, unwrapped)."""
+    out = np.empty((len(morphs), len(seconds)))
+    yaw = np.zeros(len(morphs))
+    with BatchWorld(morphs, params, faults) as world:
+        world.reset(angles, actions)
+        y0 = world.position[:, 0, 1].copy()
+        done, last = 0, world.imu_rpy_deg()[:, 2]
+        for k, t in enumerate(seconds):
+            steps = int(round(t / 0.01)) - done
+            for _ in range(steps // 10):   # yaw unwrapped from samples 0.1 s apart
+                world.advance(10)
+                now = world.imu_rpy_deg()[:, 2]
+                yaw += (now - last + 180.0) % 360.0 - 180.0
+                last = now
+            done += steps
+            out[:, k] = world.position[:, 0, 1] - y0
+    return out, yaw
+
+
+def speeds(params, angles) -> None:
+    commands = {"tail only (0, 0, 1 Hz)": (0.0, 0.0, 1.0), "pectorals only (-0.5, -0.5, 0)": (-0.5, -0.5, 0.0),
+                "both (-0.5, -0.5, 1 Hz)": (-0.5, -0.5, 1.0), "one pectoral (-0.5, 0, 0)": (-0.5, 0.0, 0.0),
+                "pectorals opposed (-0.5, 0.5, 0)": (-0.5, 0.5, 0.0)}
+    n = len(angles)
+    healthy = np.tile(Morphology.healthy().to_array(), (n * len(commands), 1))
+    actions = np.repeat(np.array(list(commands.values())), n, axis=0)
+    dist, yaw = swim(healthy, None, actions, np.tile(angles, (len(commands), 1)), params, (20.0,))
+    print("| command (rev/s, rev/s, Hz) | speed (BL/s) mean [min, max] | yaw rate (deg/s) mean [min, max] |")
+    print("|---|---|---|")
+    for i, name in enumerate(commands):
+        bl = dist[i * n:(i + 1) * n, 0] / 20.0 / BODY_LENGTH
+        rate = yaw[i * n:(i + 1) * n] / 20.0
+        print(f"| {name} | {bl.mean():.3f} [{bl.min():.3f}, {bl.max():.3f}] | "
+              f"{rate.mean():+.1f} [{rate.min():+.1f}, {rate.max():+.1f}] |")
+
+
+def damage_table(params, angles) -> None:
+    grid = np.array(list(itertools.product(GRID_PECTORAL, GRID_PECTORAL, GRID_CAUDAL)))
+    names = sorted(DAMAGES)
+    n, g = len(angles), len(grid)
+    morphs, faults, actions, init = [], [], [], []
+    for name in names:
+        d = get_damage(name)
+        for cmd in grid:
+            for a in angles:
+                morphs.append(d.apply().to_array())
+                faults.append(d.faults)
+                actions.append(cmd)
+                init.append(a)
+    dist, _ = swim(np.array(morphs), faults, np.array(actions), np.array(init), params, CHECKPOINTS_S)
+    mean = dist.reshape(len(names), g, n, len(CHECKPOINTS_S)).mean(axis=2)   # (damage, command, horizon)
+    healthy = names.index("none")
+    print("| damage | horizon | healthy command | its distance on the damaged robot | best command for the damaged body "
+          "| its distance | kept |")
+    print("|---|---|---|---|---|---|---|")
+    for h, t in enumerate(CHECKPOINTS_S):
+        best_healthy = int(np.argmax(mean[healthy, :, h]))
+        for i, name in enumerate(names):
+            best = int(np.argmax(mean[i, :, h]))
+            kept = mean[i, best_healthy, h] / mean[i, best, h] if mean[i, best, h] > 0 else float("nan")
+            print(f"| `{name}` | {t:.0f} s | {tuple(grid[best_healthy])} | {mean[i, best_healthy, h]:.1f} | "
+                  f"{tuple(grid[best])} | {mean[i, best, h]:.1f} | {100 * kept:.0f} % |")
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--starts", type=int, default=10, help="random initial flipper angles per command (>= 1)")
+    parser.add_argument("--waterline", default="0.3", help="free surface above the body's centre (units), or 'deep'")
+    args = parser.parse_args(argv)
+    if args.starts < 1:
+        parser.error(f"--starts must be >= 1, got {args.starts}")
+    waterline = None if args.waterline == "deep" else float(args.waterline)
+    params = SimParams(waterline=waterline)
+    angles = starts(args.starts)
+    print(f"physics: {'deep water' if waterline is None else f'surface, waterline {waterline}'}; "
+          f"{args.starts} starts\n")
+    speeds(params, angles)
+    print()
+    damage_table(params, angles)
+
+
+if __name__ == "__main__":
+    main()
