@@ -18,11 +18,14 @@ def test_damage_table_rows_ratio_and_reuse(tmp_path):
     assert len(healthy["distances"]) == 2 and healthy["mean"] == pytest.approx(sum(healthy["distances"]) / 2)
     if oracle["mean"] > 0:
         assert row["recovery_needed"] == pytest.approx(healthy["mean"] / oracle["mean"])
-        assert row["qualifies"] == (row["recovery_needed"] <= QUALIFY_RATIO)
+        assert row["qualifies"] == (row["recovery_needed"] <= QUALIFY_RATIO
+                                    and oracle["mean"] >= QUALIFY_RATIO * row["healthy_gait_on_healthy"]["mean"])
     else:
         assert row["recovery_needed"] is None and not row["qualifies"]
     # a tailless robot cannot use the tail-driven swimming of the healthy robot
     assert healthy["mean"] < 0.2 * row["healthy_gait_on_healthy"]["mean"] or row["healthy_gait_on_healthy"]["mean"] <= 0
+    long = row["healthy_gait_on_damaged_long"]                    # the same gait over 60 s episodes
+    assert len(long["distances"]) == 2 and row["healthy_gait_on_healthy_long"]["mean"] > row["healthy_gait_on_healthy"]["mean"]
     saved = json.loads((tmp_path / "damage_table.json").read_text())
     assert saved["rows"] == rows and saved["starts"] == 2
     assert "caudal_missing" in (tmp_path / "damage_table.md").read_text()
@@ -56,3 +59,15 @@ def test_cli_reports_a_bad_damage(tmp_path, capsys):
         main(["damages", "--out", str(tmp_path), "--damages", "broken_fin"])
     assert exc.value.code == 2
     assert "unknown damage" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("ratio, oracle, healthy, expected", [
+    (0.3, 6.0, 10.0, True),     # broken healthy gait, oracle swims well again
+    (0.6, 6.0, 10.0, False),    # the healthy gait keeps too much
+    (0.3, 4.0, 10.0, False),    # the oracle itself swims less than half the healthy robot's distance
+    (None, -1.0, 10.0, False),  # the oracle does not swim forward
+])
+def test_qualification_needs_a_broken_healthy_gait_and_an_oracle_that_swims(ratio, oracle, healthy, expected):
+    from aquafish.damage_table import qualifies
+
+    assert qualifies(ratio, oracle, healthy) is expected
