@@ -7,11 +7,13 @@ For batches of 1, 25 and 100 robots of 128 steps, measures in the same run
 * the same with the NumPy path (``native=False``; the same results bit for bit),
 * PyBullet stepping the same bodies with no fluid model and no per-step Python work
   (``stepSimulation`` only, after the same world is built), and
-* ``simulate_batch`` without the reactive caudal thrust (``reactive_thrust=False``, the
-  pure-drag model, compiled),
+* ``simulate_batch`` in deep water (``waterline=None``, the model before the surface
+  swimmer, compiled),
 
-and prints microseconds per robot-step, the ratio of each path to raw PyBullet, and what
-the reactive thrust costs (median of ``--repeats`` interleaved runs). Times are this
+all at the default physics (the surface swimmer) unless named, and prints microseconds per
+robot-step, the ratio of each path to raw PyBullet, and what the surface model (hydrostatics
+and wetted blade-element strips) costs over deep water (median of ``--repeats`` interleaved
+runs). Times are this
 process's CPU time (``time.process_time``): PyBullet's DIRECT client runs in-process, so
 that is the simulator's whole cost, and other jobs on the machine change it far less than
 wall time.
@@ -75,21 +77,21 @@ def main(argv=None) -> None:
           f"{platform.python_version()}, pybullet API {p.getAPIVersion()}, compiled step: "
           f"{'yes' if native.available() else 'NO (' + str(native.unavailable_reason()) + ')'}")
     compiled = native.available() or None
-    pure_drag = SimParams(reactive_thrust=False)
+    deep = SimParams(waterline=None)
     print(f"{'robots':>6} {'steps':>5} {'sim us/robot-step':>18} {'numpy-path us':>13} {'raw us/robot-step':>18} "
-          f"{'ratio':>6} {'numpy ratio':>11} {'pure-drag us':>12} {'reactive cost':>13}")
+          f"{'ratio':>6} {'numpy ratio':>11} {'deep us':>8} {'deep ratio':>10} {'surface cost':>12}")
     for n in sizes:
         time_simulate_batch(n, 8, rng)  # warm-up
         times = np.array([(time_simulate_batch(n, args.steps, rng, native=compiled),
                            time_simulate_batch(n, args.steps, rng, native=False),
                            time_raw_pybullet(n, args.steps, rng),
-                           time_simulate_batch(n, args.steps, rng, pure_drag, native=compiled))
+                           time_simulate_batch(n, args.steps, rng, deep, native=compiled))
                           for _ in range(args.repeats)])
-        sim, numpy_path, raw, drag = np.median(times, axis=0)  # interleaved, so slow spells hit all four
+        sim, numpy_path, raw, deep_t = np.median(times, axis=0)  # interleaved, so slow spells hit all four
         us = 1e6 / (n * args.steps)
         print(f"{n:>6} {args.steps:>5} {sim * us:>18.1f} {numpy_path * us:>13.1f} {raw * us:>18.1f} {sim / raw:>6.2f} "
-              f"{numpy_path / raw:>11.2f} {drag * us:>12.1f} {np.median(times[:, 0] / times[:, 3]) - 1:>12.1%}",
-              flush=True)
+              f"{numpy_path / raw:>11.2f} {deep_t * us:>8.1f} {deep_t / raw:>10.2f} "
+              f"{np.median(times[:, 0] / times[:, 3]) - 1:>11.1%}", flush=True)
 
 
 if __name__ == "__main__":

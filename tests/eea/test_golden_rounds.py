@@ -7,7 +7,9 @@ composition was reshaped (issue 12) and must stay identical, byte for byte, exce
 tournament shows up here (``profile_*`` and ``library*`` were recorded later, when they
 were added). A change that is *meant* to change results (new physics, a
 new algorithm setting) regenerates them with
-``pytest tests/eea/test_golden_rounds.py --force-regen`` and says so in its commit.
+``pytest tests/eea/test_golden_rounds.py --force-regen`` and says so in its commit. They run
+in deep water (``waterline=None``, the ``tiny_config`` fixture), the physics they were
+recorded in; ``surface_*`` are the default physics, the surface swimmer.
 """
 
 import csv
@@ -66,6 +68,19 @@ def _check_recorded_run(tmp_path, config, file_regression, basename: str) -> Non
 def test_rounds_csv_matches_the_recorded_run(tmp_path, tiny_config, file_regression, variant, search):
     _check_recorded_run(tmp_path, tiny_config(rounds=3, seed=7, estimation_search=search, **VARIANTS[variant]),
                         file_regression, f"{variant}_{search}")
+
+
+#: The surface swimmer (the default physics since issue 39; the runs above pin deep water, the
+#: physics they were recorded in): the paper's four strategies, recorded when it landed.
+SURFACE_VARIANTS = ("known", "none", "in_band", "out_of_band")
+
+
+@pytest.mark.parametrize("variant", SURFACE_VARIANTS)
+def test_surface_rounds_csv_matches_the_recorded_run(tmp_path, tiny_config, file_regression, variant):
+    from aquafish_gym.params import DEFAULT_WATERLINE
+
+    _check_recorded_run(tmp_path, tiny_config(rounds=3, seed=7, estimation_search="ga", waterline=DEFAULT_WATERLINE,
+                                              **VARIANTS[variant]), file_regression, f"surface_{variant}_ga")
 
 
 @pytest.mark.parametrize("variant", sorted(CMA_VARIANTS))
