@@ -8,7 +8,7 @@ damaged body's own best on the damaged robot, over 20 s and 60 s. Distances are 
 initial heading (+y), means over ``--starts`` random initial flipper angles (seeds 0, 1, ...).
 All robots of a table run in one batched world.
 
-    python examples/surface_swimmer.py [--starts 10] [--waterline 0.3 | deep]
+    python examples/surface_swimmer.py [--starts 10] [--waterline 0.3 | deep] [--draft-sweep]
 """
 
 from __future__ import annotations
@@ -72,6 +72,24 @@ def speeds(params, angles) -> None:
               f"{rate.mean():+.1f} [{rate.min():+.1f}, {rate.max():+.1f}] |")
 
 
+def draft_sweep(angles, waterlines=(0.0, 0.15, 0.3, 0.4, 0.5)) -> None:
+    """Speed (BL/s, 20 s) of pectorals only and tail only, and the yaw (deg) of ``left_pectoral_half``
+    under the healthy both-flipper command, at several drafts: the evidence for the default."""
+    commands = np.array([(-0.5, -0.5, 0.0), (0.0, 0.0, 1.0), (-0.5, -0.5, 1.0)])
+    n = len(angles)
+    print("| waterline (units above the centre) | freeboard (cm) | pectorals only (BL/s) | tail only (BL/s) | "
+          "both (BL/s) | `left_pectoral_half` under both: yaw after 20 s (deg) |")
+    print("|---|---|---|---|---|---|")
+    for h in waterlines:
+        params = SimParams(waterline=h)
+        healthy = np.tile(Morphology.healthy().to_array(), (3 * n, 1))
+        dist, _ = swim(healthy, None, np.repeat(commands, n, axis=0), np.tile(angles, (3, 1)), params, (20.0,))
+        bl = dist[:, 0].reshape(3, n).mean(axis=1) / 20.0 / BODY_LENGTH
+        damaged = np.tile(get_damage("left_pectoral_half").apply().to_array(), (n, 1))
+        _, yaw = swim(damaged, None, np.tile(commands[2], (n, 1)), angles, params, (20.0,))
+        print(f"| {h} | {(0.5 - h) * 8:.1f} | {bl[0]:.3f} | {bl[1]:.3f} | {bl[2]:.3f} | {yaw.mean():+.0f} |")
+
+
 def damage_table(params, angles) -> None:
     grid = np.array(list(itertools.product(GRID_PECTORAL, GRID_PECTORAL, GRID_CAUDAL)))
     names = sorted(DAMAGES)
@@ -104,12 +122,16 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--starts", type=int, default=10, help="random initial flipper angles per command (>= 1)")
     parser.add_argument("--waterline", default="0.3", help="free surface above the body's centre (units), or 'deep'")
+    parser.add_argument("--draft-sweep", action="store_true", help="only the table of speeds against the draft")
     args = parser.parse_args(argv)
     if args.starts < 1:
         parser.error(f"--starts must be >= 1, got {args.starts}")
     waterline = None if args.waterline == "deep" else float(args.waterline)
     params = SimParams(waterline=waterline)
     angles = starts(args.starts)
+    if args.draft_sweep:
+        draft_sweep(angles)
+        return
     print(f"physics: {'deep water' if waterline is None else f'surface, waterline {waterline}'}; "
           f"{args.starts} starts\n")
     speeds(params, angles)
