@@ -41,6 +41,10 @@ class BuildPlugin(build_ext):
         try:
             native.compile_library(output)
         except native.BuildError as err:
+            # no library of an earlier build may stand in for this one (in the wheel, or in place)
+            output.unlink(missing_ok=True)
+            if self.editable_mode:
+                (NATIVE / output.name).unlink(missing_ok=True)
             if os.environ.get("AQUAFISH_REQUIRE_NATIVE") == "1":
                 raise SystemExit(f"aquafish: the compiled simulator step was not built: {err}") from None
             print(f"aquafish: WARNING: the compiled simulator step was not built, the simulator will run its "

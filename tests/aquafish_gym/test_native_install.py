@@ -18,7 +18,7 @@ from aquafish_gym import BatchWorld, Morphology, native
 from aquafish_gym.native import build
 
 ROOT = Path(__file__).resolve().parents[2]
-HEADER = ROOT / "aquafish_gym" / "native" / "pybullet_abi.h"
+HEADER = Path(native.__file__).with_name("pybullet_abi.h")  # installed with the package
 
 
 def _header_define(name: str) -> str:
