@@ -41,20 +41,22 @@ from aquafish_gym.bullet import p
 __all__ = ["LIBRARY", "PYBULLET_RANGE", "NativeStep", "NativeUnavailable", "available", "check_pybullet",
            "client_handle", "pybullet_version", "status", "unavailable_reason", "warn_unavailable_once"]
 
-#: The plugin built at install time (``setup.py``) or by :mod:`aquafish_gym.native.build`.
+#: The plugin built by :mod:`aquafish_gym.native.build`.
 LIBRARY = Path(__file__).with_name("_aquafish_step.so")
-#: PyBullet releases whose C ABI ``pybullet_abi.h`` matches: ``>= first, < second`` (pyproject.toml's pin).
-PYBULLET_RANGE = ("3.2.6", "3.3")
 _VERSION = 2  # af_run's signature; the library must match
 _POSTFIX = "_aquafish"
-#: How to get the compiled step when it is not built.
-HOW_TO_BUILD = ("install a C++ compiler (e.g. `apt install g++`) and reinstall: `pip install -e .` in a checkout, "
-                "or rebuild in place with `python -m aquafish_gym.native.build`")
 
-_log = logging.getLogger(__name__)
 _lib: ctypes.CDLL | None = None
 _warned = False
 _handles: dict[int, int] = {}  # PyBullet client id -> the plugin's client handle on that server
+
+# (the lines above are kept as they were, so that changes to _VERSION merge cleanly)
+#: PyBullet releases whose C ABI ``pybullet_abi.h`` matches: ``>= first, < second`` (pyproject.toml's pin).
+PYBULLET_RANGE = ("3.2.6", "3.3")
+#: How to get the compiled step when it is not built (``pip install`` compiles it when it finds a C++ compiler).
+HOW_TO_BUILD = ("install a C++ compiler (e.g. `apt install g++`) and reinstall: `pip install -e .` in a checkout, "
+                "or rebuild in place with `python -m aquafish_gym.native.build`")
+_log = logging.getLogger(__name__)
 
 
 class NativeUnavailable(RuntimeError):
