@@ -50,7 +50,6 @@ _lib: ctypes.CDLL | None = None
 _warned = False
 _handles: dict[int, int] = {}  # PyBullet client id -> the plugin's client handle on that server
 
-# (the lines above are kept as they were, so that changes to _VERSION merge cleanly)
 #: PyBullet releases whose C ABI ``pybullet_abi.h`` matches: ``>= first, < second`` (pyproject.toml's pin).
 PYBULLET_RANGE = ("3.2.6", "3.3")
 #: How to get the compiled step when it is not built (``pip install`` compiles it when it finds a C++ compiler).
