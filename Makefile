@@ -1,41 +1,43 @@
 # Quick start: `make demo` and `make test` work on a fresh machine (they create .venv).
+# They install the project the way a user does (`pip install -e .`), which also compiles the
+# simulator step (aquafish_gym/native) with the system C++ compiler, with no download.
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
-NATIVE := aquafish_gym/native/_aquafish_step.so
+NATIVE_SOURCES := setup.py aquafish_gym/native/aquafish_step.cpp aquafish_gym/native/pybullet_abi.h \
+                  aquafish_gym/native/build.py
 
-.PHONY: demo test test-all bench install native clean
+.PHONY: demo test test-all bench install native doctor clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
-$(STAMP): $(BIN)/python pyproject.toml
+# Re-run when the C++ changes too: the editable install rebuilds the step in place.
+$(STAMP): $(BIN)/python pyproject.toml $(NATIVE_SOURCES)
 	$(BIN)/python -m pip install --quiet "torch==2.13.0"
 	$(BIN)/python -m pip install --quiet -e ".[test,rl,cluster]"
 	touch $(STAMP)
 
-# The compiled simulator step (aquafish_gym/native): needs a C++ compiler and, once, the
-# PyBullet source distribution's headers from the package index.
-$(NATIVE): $(STAMP) aquafish_gym/native/aquafish_step.cpp aquafish_gym/native/build.py
-	$(BIN)/python -m aquafish_gym.native.build --force
+install: $(STAMP)
 
-install: $(STAMP) $(NATIVE)
+native: $(STAMP)
 
-native: $(NATIVE)
+doctor: $(STAMP)
+	$(BIN)/aquafish doctor
 
-demo: $(STAMP) $(NATIVE)
+demo: $(STAMP)
 	$(BIN)/aquafish case-study --preset quick --out demo_out
 
-test: $(STAMP) $(NATIVE)
+test: $(STAMP)
 	AQUAFISH_REQUIRE_NATIVE=1 $(BIN)/python -m pytest -n 2 -q
 
-test-all: $(STAMP) $(NATIVE)
+test-all: $(STAMP)
 	AQUAFISH_REQUIRE_NATIVE=1 $(BIN)/python -m pytest -n 2 -q -m ""
 
-bench: $(STAMP) $(NATIVE)
+bench: $(STAMP)
 	$(BIN)/python -m benchmarks.sim_throughput
 
 clean:
-	rm -rf $(VENV) demo_out .pytest_cache aquafish_gym/native/_aquafish_step.so aquafish_gym/native/include
+	rm -rf $(VENV) build demo_out .pytest_cache aquafish_gym/native/_aquafish_step.so aquafish_gym/native/include

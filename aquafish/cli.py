@@ -14,7 +14,8 @@ import importlib
 import sys
 
 #: Modules that contribute sub-commands, in help order.
-COMMAND_MODULES = ("aquafish_gym.cli", "aquafish.bench_cli", "eea.cli", "gait.cli", "aquafish.studies_cli")
+COMMAND_MODULES = ("aquafish_gym.cli", "aquafish.bench_cli", "eea.cli", "gait.cli", "aquafish.studies_cli",
+                   "aquafish.doctor_cli")
 
 
 def build_parser() -> argparse.ArgumentParser:

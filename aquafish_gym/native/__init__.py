@@ -8,25 +8,38 @@ PyBullet plugin, with the arithmetic of :mod:`aquafish_gym.fluid` operation for 
 in NumPy's order and without fused multiply-adds: a world gives the same IMU log bit for
 bit on either path (tests check it). The NumPy path stays the reference.
 
-Build it with ``python -m aquafish_gym.native.build`` (``make`` does). A world uses it
-whenever it is built (``BatchWorld(..., native=None)``); ``native=False`` forces the NumPy
-path, ``native=True`` requires the compiled one. ``AQUAFISH_NATIVE=0`` in the environment
-turns it off for the whole process.
+``pip install .`` and ``pip install -e .`` build it (``setup.py``, with the system C++
+compiler and the project's own header of PyBullet's C ABI, ``pybullet_abi.h``; nothing is
+downloaded); ``python -m aquafish_gym.native.build`` rebuilds it in place. It supports the
+PyBullet releases of :data:`PYBULLET_RANGE` and refuses others. ``aquafish doctor`` says
+whether it is active, and if not why and how to get it.
+
+A world uses it whenever it is built (``BatchWorld(..., native=None)``); ``native=False``
+forces the NumPy path, ``native=True`` requires the compiled one. ``AQUAFISH_NATIVE=0`` in
+the environment turns it off for the whole process.
+
+When it is missing, the first world of a process says so once, through :mod:`logging`
+(logger ``aquafish_gym.native``, level WARNING), not :mod:`warnings`: code that turns
+warnings into errors (``warnings.simplefilter("error")``, as for a strict Gymnasium
+``check_env``) is not tripped by it. To silence it, set ``AQUAFISH_NATIVE=0`` (use the
+NumPy path on purpose) or ``logging.getLogger("aquafish_gym.native").setLevel(logging.ERROR)``.
 """
 
 from __future__ import annotations
 
 import ctypes
+import importlib.metadata
+import logging
 import os
-import warnings
+import re
 from pathlib import Path
 
 import numpy as np
 
 from aquafish_gym.bullet import p
 
-__all__ = ["LIBRARY", "NativeStep", "NativeUnavailable", "available", "client_handle", "unavailable_reason",
-           "warn_unavailable_once"]
+__all__ = ["LIBRARY", "PYBULLET_RANGE", "NativeStep", "NativeUnavailable", "available", "check_pybullet",
+           "client_handle", "pybullet_version", "status", "unavailable_reason", "warn_unavailable_once"]
 
 #: The plugin built by :mod:`aquafish_gym.native.build`.
 LIBRARY = Path(__file__).with_name("_aquafish_step.so")
@@ -37,22 +50,72 @@ _lib: ctypes.CDLL | None = None
 _warned = False
 _handles: dict[int, int] = {}  # PyBullet client id -> the plugin's client handle on that server
 
+#: PyBullet releases whose C ABI ``pybullet_abi.h`` matches: ``>= first, < second`` (pyproject.toml's pin).
+PYBULLET_RANGE = ("3.2.6", "3.3")
+#: How to get the compiled step when it is not built (``pip install`` compiles it when it finds a C++ compiler).
+HOW_TO_BUILD = ("install a C++ compiler (e.g. `apt install g++`) and reinstall: `pip install -e .` in a checkout, "
+                "or rebuild in place with `python -m aquafish_gym.native.build`")
+_log = logging.getLogger(__name__)
+
 
 class NativeUnavailable(RuntimeError):
-    """The compiled step is not built or cannot be loaded; the message says how to build it."""
+    """The compiled step is not built or cannot be loaded; the message says how to get it."""
+
+
+def _release(version: str) -> tuple[int, int, int]:
+    """A version's release numbers, padded to three: ``"3.3"`` -> ``(3, 3, 0)`` (``(-1, -1, -1)``: none)."""
+    match = re.match(r"\d+(?:\.\d+)*", version.strip())
+    if match is None:
+        return (-1, -1, -1)
+    numbers = [int(n) for n in match.group().split(".")[:3]]
+    return tuple(numbers + [0] * (3 - len(numbers)))
+
+
+def pybullet_version() -> str | None:
+    """The installed pybullet's version (its package metadata), or None if unknown."""
+    try:
+        return importlib.metadata.version("pybullet")
+    except importlib.metadata.PackageNotFoundError:
+        return None
+
+
+def check_pybullet(version: str | None = None) -> None:
+    """Refuse a pybullet outside :data:`PYBULLET_RANGE` (``version``: the installed one by default).
+
+    Raises:
+        NativeUnavailable: naming the version, the supported range and how to install it.
+    """
+    version = pybullet_version() if version is None else version
+    if version is None:
+        return  # no metadata: the API-version check in _load still guards the ABI
+    low, below = PYBULLET_RANGE
+    if not _release(low) <= _release(version) < _release(below):
+        raise NativeUnavailable(f"PyBullet {version} is outside the range whose C ABI the compiled step was written "
+                                f"for (>={low},<{below}): install a supported release with "
+                                f"`pip install \"pybullet>={low},<{below}\"`")
 
 
 def _load() -> ctypes.CDLL:
     global _lib
     if _lib is not None:
         return _lib
+    check_pybullet()
     if not LIBRARY.exists():
-        raise NativeUnavailable(f"the compiled step is not built ({LIBRARY.name} missing): run `make install` "
-                                "or `python -m aquafish_gym.native.build`")
+        raise NativeUnavailable(f"the compiled step is not built ({LIBRARY.name} missing; it is compiled at install "
+                                f"time when a C++ compiler is found): {HOW_TO_BUILD}")
     lib = ctypes.CDLL(str(LIBRARY))
     if lib.af_version() != _VERSION:
         raise NativeUnavailable(f"{LIBRARY.name} is version {lib.af_version()}, expected {_VERSION}: rebuild it "
-                                "with `python -m aquafish_gym.native.build --force`")
+                                "with `python -m aquafish_gym.native.build --force` or `pip install -e .`")
+    try:
+        built_for = lib.af_pybullet_api_version()
+    except AttributeError:
+        raise NativeUnavailable(f"{LIBRARY.name} predates the PyBullet API check: rebuild it with "
+                                "`python -m aquafish_gym.native.build --force` or `pip install -e .`") from None
+    if built_for != p.getAPIVersion():
+        raise NativeUnavailable(f"PyBullet {pybullet_version()} has C API version {p.getAPIVersion()}, the compiled "
+                                f"step was written for {built_for} (PyBullet >={PYBULLET_RANGE[0]},"
+                                f"<{PYBULLET_RANGE[1]}): install a supported PyBullet")
     code = lib.af_bind(p.__file__.encode())
     if code != 0:
         raise NativeUnavailable(f"{LIBRARY.name} cannot find PyBullet's C API in {p.__file__} (code {code})")
@@ -78,14 +141,37 @@ def available() -> bool:
     return unavailable_reason() is None
 
 
-def warn_unavailable_once() -> None:
-    """Warn (once per process) that worlds fall back to the NumPy path, unless that was asked for."""
-    global _warned
+def status() -> list[str]:
+    """Lines saying which simulator path is active and, if it is the NumPy one, why and how to change it."""
     reason = unavailable_reason()
-    if reason is not None and not _warned and os.environ.get("AQUAFISH_NATIVE", "1") != "0":
+    versions = f"PyBullet {pybullet_version()}, supported >={PYBULLET_RANGE[0]},<{PYBULLET_RANGE[1]}"
+    if reason is None:
+        return [f"simulator step: compiled ({LIBRARY})", versions]
+    from aquafish_gym.native.build import find_compiler
+
+    compiler = find_compiler()
+    lines = ["simulator step: NumPy path (the same results, 3-4x slower than the compiled one)", f"why: {reason}",
+             versions, f"C++ compiler: {' '.join(compiler) if compiler else 'none on PATH (set CXX or install g++)'}"]
+    if os.environ.get("AQUAFISH_NATIVE", "1") == "0":
+        lines.append("to use the compiled step: unset AQUAFISH_NATIVE")
+    return lines
+
+
+def warn_unavailable_once() -> None:
+    """Say (once per process, through :mod:`logging`) that worlds fall back to the NumPy path, unless asked for.
+
+    Not a :mod:`warnings` warning, so ``warnings.simplefilter("error")`` does not turn it into
+    an exception; silence it with ``AQUAFISH_NATIVE=0`` or by raising the level of the
+    ``aquafish_gym.native`` logger.
+    """
+    global _warned
+    if _warned or os.environ.get("AQUAFISH_NATIVE", "1") == "0":
+        return
+    reason = unavailable_reason()
+    if reason is not None:
         _warned = True
-        warnings.warn(f"aquafish_gym: the simulator runs its NumPy path, 2-3x slower: {reason}", RuntimeWarning,
-                      stacklevel=3)
+        _log.warning("aquafish_gym: the simulator runs its NumPy path (same results, 3-4x slower): %s. "
+                     "`aquafish doctor` tells more; AQUAFISH_NATIVE=0 silences this.", reason)
 
 
 def client_handle(client: int) -> int:

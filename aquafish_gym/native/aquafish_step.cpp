@@ -21,9 +21,7 @@
 #include <cstddef>
 #include <cstring>
 
-#include "SharedMemoryPublic.h"
-#include "PhysicsClientC_API.h"
-#include "plugins/b3PluginContext.h"
+#include "pybullet_abi.h" /* the project's own declarations of PyBullet's C ABI (no PyBullet headers needed) */
 
 #define AF_VERSION 3 /* bump whenever af_run's signature changes */
 #define AF_API extern "C" __attribute__((visibility("default")))
@@ -95,6 +93,9 @@ AF_API int af_bind(const char* path)
 }
 
 AF_API int af_version(void) { return AF_VERSION; }
+
+/* The PyBullet API version (pybullet.getAPIVersion()) that pybullet_abi.h describes. */
+AF_API int af_pybullet_api_version(void) { return AF_PYBULLET_API_VERSION; }
 
 /* The client handle of the server that loaded the plugin last (set by initPlugin). */
 AF_API void* af_last_client(void) { return (void*)last_client; }

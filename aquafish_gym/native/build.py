@@ -1,99 +1,89 @@
 """Build the compiled step (``aquafish_step.cpp``) into a PyBullet plugin next to this file.
 
-``python -m aquafish_gym.native.build`` (``make`` runs it): fetches the public C headers
-of the installed PyBullet version from its source distribution on the package index
-(``pip download pybullet==X --no-binary :all:``, about 80 MB, once; only the headers of
-``examples/SharedMemory`` are kept, under ``aquafish_gym/native/include/pybullet-X``) and
-compiles the plugin with the system C++ compiler (``$CXX``, default ``c++``). The library
-calls no PyBullet symbol directly (it looks the C API up in the loaded module), so it
-needs no PyBullet library to link against.
+``pip install .`` / ``pip install -e .`` / ``pip wheel .`` compile it through ``setup.py``,
+which calls :func:`compile_library` from this file; ``python -m aquafish_gym.native.build``
+rebuilds it in place (a developer's shortcut after editing the C++). Both use the system C++
+compiler (``$CXX``, else ``c++``, ``g++`` or ``clang++``) and the project's own declarations
+of PyBullet's C ABI (``pybullet_abi.h``): nothing is downloaded, and no PyBullet is needed
+to build. The library calls no PyBullet symbol directly (it looks the C API up in the loaded
+pybullet module), so it links against nothing but ``libdl``.
 
-Exits with a message naming what is missing (compiler, network, headers) if it cannot.
 The flags forbid fused multiply-adds, so the C++ arithmetic rounds exactly as NumPy's.
+This module imports only the standard library: ``setup.py`` loads it by path, before any
+dependency is installed.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib.metadata
 import os
+import shlex
 import shutil
 import subprocess
 import sys
-import tarfile
-import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 SOURCE = HERE / "aquafish_step.cpp"
+HEADER = HERE / "pybullet_abi.h"
 LIBRARY = HERE / "_aquafish_step.so"
 #: Compiler flags: no fused multiply-add, so that the C++ arithmetic rounds exactly as NumPy's.
-CFLAGS = ("-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-ffp-contract=off", "-std=c++11", "-Wall", "-Werror")
+CFLAGS = ("-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-ffp-contract=off", "-std=c++11", "-Wall")
+#: Tried in this order when ``$CXX`` is not set.
+COMPILERS = ("c++", "g++", "clang++")
 
 
 class BuildError(RuntimeError):
     """The plugin could not be built; the message says why and what to install."""
 
 
-def headers_dir(version: str) -> Path:
-    """Directory of PyBullet ``version``'s ``examples/SharedMemory`` headers, fetched if missing.
+def find_compiler() -> list[str] | None:
+    """The C++ compiler command (``$CXX`` if set, else the first of :data:`COMPILERS` on PATH), or None."""
+    cxx = os.environ.get("CXX", "").strip()
+    if cxx:
+        cmd = shlex.split(cxx)
+        return cmd if shutil.which(cmd[0]) else None
+    for name in COMPILERS:
+        if shutil.which(name):
+            return [name]
+    return None
+
+
+def compile_library(output: Path | str = LIBRARY) -> Path:
+    """Compile ``aquafish_step.cpp`` into ``output`` (written whole or not at all).
 
     Raises:
-        BuildError: if the source distribution cannot be downloaded or lacks the headers.
+        BuildError: no C++ compiler, or a compile error (its output included).
     """
-    target = HERE / "include" / f"pybullet-{version}"
-    if (target / "PhysicsClientC_API.h").exists():
-        return target
-    with tempfile.TemporaryDirectory() as tmp:
-        cmd = [sys.executable, "-m", "pip", "download", f"pybullet=={version}", "--no-binary", ":all:", "--no-deps",
-               "--no-build-isolation", "-q", "-d", tmp]
-        done = subprocess.run(cmd, capture_output=True, text=True)
-        archives = list(Path(tmp).glob("pybullet-*.tar.gz"))
-        if done.returncode != 0 or not archives:
-            raise BuildError(f"could not download the PyBullet {version} source distribution for its C headers "
-                             f"({' '.join(cmd)}): {done.stderr.strip()[-500:]}")
-        staging = Path(tmp) / "headers"
-        with tarfile.open(archives[0]) as archive:
-            for member in archive.getmembers():
-                parts = Path(member.name).parts
-                if member.isfile() and member.name.endswith(".h") and parts[1:3] == ("examples", "SharedMemory") \
-                        and len(parts) <= 5:
-                    member.name = str(Path(*parts[3:]))
-                    archive.extract(member, staging, filter="data")
-        if not (staging / "PhysicsClientC_API.h").exists() or not (staging / "plugins" / "b3PluginContext.h").exists():
-            raise BuildError(f"the PyBullet {version} source distribution has no examples/SharedMemory headers")
-        target.parent.mkdir(parents=True, exist_ok=True)
-        partial = target.with_name(target.name + ".partial")
-        shutil.rmtree(partial, ignore_errors=True)
-        shutil.copytree(staging, partial)
-        os.replace(partial, target)
-    return target
+    output = Path(output)
+    compiler = find_compiler()
+    if compiler is None:
+        wanted = os.environ.get("CXX") or " / ".join(COMPILERS)
+        raise BuildError(f"no C++ compiler ({wanted}) on PATH: install one (e.g. `apt install g++`) or set CXX")
+    output.parent.mkdir(parents=True, exist_ok=True)
+    partial = output.with_name(output.name + ".partial")
+    cmd = [*compiler, *CFLAGS, f"-I{HERE}", str(SOURCE), "-o", str(partial), "-ldl"]
+    done = subprocess.run(cmd, capture_output=True, text=True)
+    if done.returncode != 0:
+        partial.unlink(missing_ok=True)
+        raise BuildError(f"compiling {SOURCE.name} failed ({' '.join(cmd)}):\n{done.stderr}")
+    os.replace(partial, output)
+    return output
 
 
 def build(force: bool = False) -> Path:
-    """Compile the plugin (skipped when it is newer than its source, unless ``force``).
+    """Compile the plugin in place (skipped when it is newer than its sources, unless ``force``).
 
     Returns:
         The library's path.
 
     Raises:
-        BuildError: no C compiler, no headers, or a compile error (its output included).
+        BuildError: as :func:`compile_library`.
     """
-    if not force and LIBRARY.exists() and LIBRARY.stat().st_mtime >= SOURCE.stat().st_mtime:
+    if not force and LIBRARY.exists() and LIBRARY.stat().st_mtime >= max(SOURCE.stat().st_mtime,
+                                                                         HEADER.stat().st_mtime):
         return LIBRARY
-    compiler = os.environ.get("CXX", "c++")
-    if shutil.which(compiler) is None:
-        raise BuildError(f"no C++ compiler {compiler!r} on PATH: install g++ or clang++ (e.g. apt install g++), "
-                         "or set CXX; without it the simulator runs its NumPy path")
-    include = headers_dir(importlib.metadata.version("pybullet"))
-    partial = LIBRARY.with_name(LIBRARY.name + ".partial")
-    cmd = [compiler, *CFLAGS, f"-I{include}", str(SOURCE), "-o", str(partial), "-ldl"]
-    done = subprocess.run(cmd, capture_output=True, text=True)
-    if done.returncode != 0:
-        partial.unlink(missing_ok=True)
-        raise BuildError(f"compiling {SOURCE.name} failed ({' '.join(cmd)}):\n{done.stderr}")
-    os.replace(partial, LIBRARY)
-    return LIBRARY
+    return compile_library(LIBRARY)
 
 
 def main(argv=None) -> int:
