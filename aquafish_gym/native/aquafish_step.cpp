@@ -2,18 +2,19 @@
  * AquaFish compiled step: the simulator's per-step loop (fluid wrench, PyBullet force and
  * servo commands, stepSimulation, state read-back) in C, so that no Python runs between
  * physics steps. It is the same algorithm as aquafish_gym.simulator.BatchWorld.step with
- * aquafish_gym.fluid.box_drag / caudal_reactive_force / righting_torque, operation for
- * operation in the same order (tests compare the two bit for bit).
+ * aquafish_gym.fluid.box_drag / caudal_reactive_force / righting_torque in deep water and
+ * aquafish_gym.surface.surface_wrench at the free surface, operation for operation in the
+ * same order (tests compare the two bit for bit).
  *
  * How it reaches PyBullet: it is a PyBullet plugin. p.loadPlugin(path, "_aquafish") makes
  * the physics server call initPlugin_aquafish with a b3PhysicsClientHandle on that
  * server; the plugin keeps it, and Python (ctypes, same shared object) then calls
  * af_run() with the handle. The PyBullet C-API functions are looked up with dlsym in the
  * already-loaded pybullet extension module (af_bind), so the plugin links against nothing
- * and needs only PyBullet's public headers to build.
+ * and needs only the project's own declarations of PyBullet's C ABI (pybullet_abi.h).
  *
- * C++ only because PyBullet's plugin header is; the code is plain C.
- * Build: python -m aquafish_gym.native.build (run by `make`).
+ * The code is plain C compiled as C++. Built by `pip install` (setup.py); rebuild in place
+ * with python -m aquafish_gym.native.build.
  */
 #include <dlfcn.h>
 
