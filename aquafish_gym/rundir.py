@@ -293,11 +293,12 @@ def read_json(path: str | os.PathLike, kind: type | None = dict) -> Any:
     return data
 
 
-def read_pickle(path: str | os.PathLike, *, gzipped: bool = False, what: str = "checkpoint") -> Any:
+def read_pickle(path: str | os.PathLike, *, gzipped: bool = False, what: str = "checkpoint",
+                fix: str | None = None) -> Any:
     """Unpickle ``path`` (gzip-compressed if ``gzipped``), turning a damaged file into :class:`FileError`.
 
     Only for the project's own files: unpickling runs code, so never point it at a file from
-    an untrusted source.
+    an untrusted source. ``what`` names the kind of file and ``fix`` the remedy in the message.
 
     Raises:
         FileError: the file is truncated, garbled, or pickles classes that do not exist.
@@ -309,7 +310,8 @@ def read_pickle(path: str | os.PathLike, *, gzipped: bool = False, what: str = "
         with opener(path, "rb") as f:
             return pickle.load(f)
     except _PICKLE_ERRORS as err:
-        raise FileError(path, f"is not a readable {what}: truncated or corrupt ({type(err).__name__}: {err})") from None
+        problem = f"is not a readable {what}: truncated or corrupt ({type(err).__name__}: {err})"
+        raise (FileError(path, problem) if fix is None else FileError(path, problem, fix)) from None
 
 
 # -- worker pools ---------------------------------------------------------------------------------
