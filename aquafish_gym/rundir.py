@@ -153,7 +153,7 @@ _HELD_GUARD = threading.Lock()
 
 
 @contextlib.contextmanager
-def run_lock(directory: str | os.PathLike, flag: str = "--out") -> Iterator[Path]:
+def run_lock(directory: str | os.PathLike, flag: str = "--out", *, name: str = LOCK_FILE) -> Iterator[Path]:
     """Hold the advisory lock of ``directory`` (created if missing) while the block runs.
 
     The lock is ``fcntl.flock`` on ``directory/.aquafish.lock``, a file that holds the
@@ -166,6 +166,7 @@ def run_lock(directory: str | os.PathLike, flag: str = "--out") -> Iterator[Path
     Args:
         directory: the run directory.
         flag: names the setting in the message.
+        name: the lock file's name (another name locks one output file of a shared directory).
 
     Yields:
         ``directory`` as a ``Path``.
@@ -179,7 +180,7 @@ def run_lock(directory: str | os.PathLike, flag: str = "--out") -> Iterator[Path
     if fcntl is None:
         yield directory
         return
-    key = os.path.join(os.path.realpath(directory), LOCK_FILE)
+    key = os.path.join(os.path.realpath(directory), name)
     with _HELD_GUARD:
         held = _HELD.get(key)
         if held is not None and held[2] == os.getpid():
