@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 
-__all__ = ["csv_list", "int_at_least", "positive_float"]
+__all__ = ["csv_list", "int_at_least", "path", "positive_float"]
 
 
 def int_at_least(minimum: int):
@@ -24,6 +25,13 @@ def int_at_least(minimum: int):
 
     parse.__name__ = f"int >= {minimum}"
     return parse
+
+
+def path(text: str) -> Path:
+    """An argparse ``type``: a non-empty path (``Path("")`` would mean the current directory)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("is empty; give a path")
+    return Path(text)
 
 
 def positive_float(text: str) -> float:

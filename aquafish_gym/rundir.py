@@ -239,14 +239,19 @@ def differences(recorded: Mapping, wanted: Mapping, *, ignore_unrecorded: bool =
         wanted: the fingerprint of the settings asked for.
         ignore_unrecorded: skip a field the recorded fingerprint lacks (written by an older
             version that did not record it).
+
+    Nested mappings are compared field by field and named with dots (``"variant.seed: 0 -> 1"``).
     """
     recorded, wanted = _plain(dict(recorded)), _plain(dict(wanted))
     out = []
     for key in dict.fromkeys([*wanted, *recorded]):
         if key not in recorded and ignore_unrecorded:
             continue
-        if recorded.get(key) != wanted.get(key):
-            out.append(f"{key}: {_short(recorded.get(key))} -> {_short(wanted.get(key))}")
+        mine, theirs = recorded.get(key), wanted.get(key)
+        if isinstance(mine, dict) and isinstance(theirs, dict):  # nested settings: name the inner field
+            out += [f"{key}.{d}" for d in differences(mine, theirs, ignore_unrecorded=ignore_unrecorded)]
+        elif mine != theirs:
+            out.append(f"{key}: {_short(mine)} -> {_short(theirs)}")
     return out
 
 
