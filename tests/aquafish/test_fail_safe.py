@@ -478,6 +478,10 @@ def test_bad_settings_are_refused_up_front(argv, names, tmp_path, capsys, monkey
 # -- 9. nothing half-written on a validation error ----------------------------------------------------------
 
 @pytest.mark.parametrize("argv, names", [
+    (["gait", *TINY_GAIT, "--episode-duration-s", "-1"], ["--episode-duration-s"]),
+    (["eea", *TINY_EEA, "--estimation-population", "1000000000"], ["memory"]),
+    (["study", *TINY_STUDY, "--estimation-population", "1000000000"], ["memory"]),
+    (["rl", "--seed", "-1"], ["--seed"]),
     (["gait", *TINY_GAIT, "--env", "Nope"], ["Nope"]),
     (["gait", *TINY_GAIT, "--config", "missing.ini"], ["missing.ini"]),
     (["gait", *TINY_GAIT, "--damage", "broken"], ["broken"]),
