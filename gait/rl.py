@@ -46,7 +46,10 @@ def read_hyperparams_section(algo: str, path=None, env_id: str = DEFAULT_ENV_ID)
     path = Path(path) if path is not None else HYPERPARAMS_FILE
     if not path.is_file():
         raise ValueError(f"no hyperparameter file {path}")
-    data = yaml.safe_load(path.read_text()) or {}
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as err:
+        raise ValueError(f"{path}: not valid YAML ({' '.join(str(err).split())})") from None
     try:
         section = data[algo][env_id]
     except (KeyError, TypeError):
