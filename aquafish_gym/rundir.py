@@ -56,11 +56,12 @@ class FileError(ValueError):
 
     Attributes:
         path: the file.
+        problem: what is wrong with it.
     """
 
     def __init__(self, path: str | os.PathLike, problem: str,
                  fix: str = "delete it (or the run directory) and run again, or restore it from a copy"):
-        self.path = Path(path)
+        self.path, self.problem = Path(path), problem
         super().__init__(f"{self.path}: {problem}; {fix}")
 
 
@@ -136,11 +137,13 @@ def check_output_file(path: str | os.PathLike, flag: str = "--output") -> Path:
     path = Path(text)
     if path.is_dir():
         raise ValueError(f"{flag} {path} is a directory; give a file path")
-    parent = path.parent if str(path.parent) else Path(".")
-    try:
-        check_output_dir(parent, flag)
-    except ValueError as err:
-        raise ValueError(f"{flag} {path}: {str(err).removeprefix(flag + ' ')}") from None
+    existing = _first_existing(path.parent)
+    if not existing.is_dir():
+        raise ValueError(f"{flag} {path} cannot be created: {existing} is a file, not a directory; "
+                         "choose another path")
+    if not _writable(existing):
+        raise ValueError(f"{flag} {path} cannot be created: {existing} is not writable by this user; "
+                         "choose another directory")
     if path.exists() and not os.access(path, os.W_OK):
         raise ValueError(f"{flag} {path} exists and is not writable by this user; choose another file")
     return path

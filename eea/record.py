@@ -236,8 +236,13 @@ def read_rounds(out_dir: str | os.PathLike) -> list[dict]:
     path = Path(out_dir) / ROUNDS_FILE
     if not path.exists():
         return []
-    columns, rows = read_csv(path, _INT_COLUMNS)
-    check_rounds(path, columns, rows)
+    try:
+        columns, rows = read_csv(path, _INT_COLUMNS)
+        check_rounds(path, columns, rows)
+    except FileError as err:  # the checkpoint holds the rows: a resume rewrites the file
+        raise FileError(path, err.problem,
+                        "run the same `aquafish eea` command again to rewrite it from the checkpoint (state.pkl), "
+                        "or restore it from a copy") from None
     return rows
 
 
