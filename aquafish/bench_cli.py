@@ -10,14 +10,26 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import pkgutil
 
-__all__ = ["add_commands"]
+__all__ = ["add_commands", "benchmark_names"]
 
 #: Short names of benchmark modules.
 ALIASES = {"sim": "sim_throughput"}
 
 
+def benchmark_names() -> list[str]:
+    """The benchmark modules in :mod:`benchmarks` (and the short aliases), sorted."""
+    import benchmarks
+
+    modules = {m.name for m in pkgutil.iter_modules(benchmarks.__path__)}
+    return sorted(modules | set(ALIASES))
+
+
 def _bench(args: argparse.Namespace) -> int:
+    names = benchmark_names()
+    if args.what not in names:
+        raise ValueError(f"unknown benchmark {args.what!r}; known: {', '.join(names)}")
     bench_main = importlib.import_module(f"benchmarks.{ALIASES.get(args.what, args.what)}").main
     bench_main(args.rest)
     return 0

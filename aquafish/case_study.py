@@ -32,7 +32,9 @@ import eea
 import gait
 from aquafish_gym import MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology, get_damage
 from aquafish_gym.drawing import plot_morphologies
+from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
+from aquafish_gym.rundir import check_output_dir, run_lock
 from eea.config import EEAConfig
 
 
@@ -116,26 +118,39 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, inference: s
         progress: show progress bars.
 
     Raises:
-        ValueError: unknown preset, damage or inference.
+        ValueError: unknown preset, damage or inference, a bad seed or worker count, or an
+            ``out_dir`` that cannot be written (all checked before anything is created); an
+            ``out_dir`` that another process is writing (:class:`~aquafish_gym.rundir.BusyError`)
+            or whose steps were made with other settings (:class:`~aquafish_gym.rundir.MismatchError`,
+            naming the fields).
     """
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; valid: {sorted(PRESETS)}")
     settings = PRESETS[preset]
     target = get_damage(damage).apply()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    t0 = time.perf_counter()
-
-    # 2. self-model
+    check_int("seed", seed, 0)
+    if workers is not None:
+        check_int("workers", workers, 1)
     runs = {"plain_eea": "none", "self_model": inference}
     if inference != "out_of_band":
         runs["out_of_band"] = "out_of_band"
+    configs = {key: EEAConfig(inference=strategy, damage=damage, seed=seed, **settings.eea,
+                              **({"workers": workers} if workers else {})) for key, strategy in runs.items()}
+    out = check_output_dir(out_dir)
+    with run_lock(out):
+        return _run_locked(preset, settings, damage, target, seed, out, inference, workers, progress, runs, configs)
+
+
+def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int, out: Path,
+                inference: str, workers: int | None, progress: bool, runs: dict, configs: dict) -> dict:
+    """The body of :func:`run_case_study`, under the lock of ``out``."""
+    t0 = time.perf_counter()
+
+    # 2. self-model
     eea_results = {}
     for key, strategy in runs.items():
-        config = EEAConfig(inference=strategy, damage=damage, seed=seed, **settings.eea,
-                           **({"workers": workers} if workers else {}))
         run_dir = out / f"eea_{strategy}"
-        eea.run(config, run_dir, progress=progress)
+        eea.run(configs[key], run_dir, progress=progress)
         eea_results[key] = eea.load_result(run_dir)
     models = {key: result.best_morphology for key, result in eea_results.items()}
 

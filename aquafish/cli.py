@@ -5,34 +5,122 @@ function in its ``cli`` module; a sub-command's handler is stored as ``func`` an
 the parsed ``argparse.Namespace``. These modules import no optional dependency
 (stable-baselines3, torch, ray) at module level: a handler that needs one imports it
 itself, so every sub-command is listed whatever extras are installed.
+
+:func:`main` is the one error boundary of the command line: a bad setting, a file that
+cannot be written or read, a corrupt or foreign file, a busy run directory or a request
+that cannot fit in memory ends the command with one line on standard error,
+``aquafish COMMAND: error: ...`` naming the flag or the path, what was wrong and what to
+do, and exit status 2, without a traceback. ``--debug`` (before or after the command)
+re-raises instead, to show the traceback.
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
+import errno
 import importlib
+import os
+import pickle
 import sys
+import zlib
+from concurrent.futures.process import BrokenProcessPool
 
 #: Modules that contribute sub-commands, in help order.
 COMMAND_MODULES = ("aquafish_gym.cli", "aquafish.bench_cli", "eea.cli", "gait.cli", "aquafish.studies_cli",
                    "aquafish.doctor_cli")
 
+#: Exit status of a command that failed safe (bad input, unusable file, busy directory).
+EXIT_ERROR = 2
+
+#: What the boundary turns into one line: bad settings and unusable files.
+EXPECTED_ERRORS = (ValueError, OSError, pickle.UnpicklingError, EOFError, csv.Error, zlib.error, MemoryError,
+                   BrokenProcessPool)
+
+_OS_HINTS = {
+    errno.ENOTDIR: "a part of the path is a file, not a directory",
+    errno.EISDIR: "it is a directory, not a file",
+    errno.EACCES: "no permission; choose another path or fix the permissions",
+    errno.EPERM: "no permission; choose another path or fix the permissions",
+    errno.EROFS: "the file system is read-only; choose another path",
+    errno.ENOSPC: "the disk is full; free space or choose another path",
+    errno.EDQUOT: "the disk quota is exceeded; free space or choose another path",
+    errno.ENOENT: "it does not exist",
+    errno.EEXIST: "it already exists",
+}
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An ``ArgumentParser`` whose usage errors are one line (not the usage block, which for
+    ``aquafish eea`` runs to dozens of lines) and point to ``--help``."""
+
+    def error(self, message: str):
+        """Print ``PROG: error: MESSAGE (see PROG --help)`` and exit with status 2."""
+        self.exit(EXIT_ERROR, f"{self.prog}: error: {_one_line(message)} (see '{self.prog} --help')\n")
+
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="aquafish", description="Self-modeling aquatic robot: simulate, self-model (EEA), evolve gaits, transfer.")
+    """The ``aquafish`` parser with every sub-command of :data:`COMMAND_MODULES`, each with ``--debug``."""
+    parser = OneLineParser(prog="aquafish", description="Self-modeling aquatic robot: simulate, self-model (EEA), "
+                                                        "evolve gaits, transfer.")
+    parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMAND_MODULES:
         importlib.import_module(name).add_commands(sub)
+    for command in sub.choices.values():
+        command.add_argument("--debug", action="store_true", dest="debug_command", default=False,
+                             help="show the traceback of an error")
     return parser
 
 
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def describe_error(err: BaseException) -> str:
+    """One line for an error of :data:`EXPECTED_ERRORS`: what went wrong, on which path, and what to do."""
+    if isinstance(err, OSError) and not isinstance(err, BrokenProcessPool):
+        path = err.filename if err.filename is not None else None
+        reason = err.strerror or str(err) or type(err).__name__
+        hint = _OS_HINTS.get(err.errno or -1)
+        where = f" {os.fsdecode(path)}" if path is not None else ""
+        if err.filename2 is not None:
+            where += f" -> {os.fsdecode(err.filename2)}"
+        return _one_line(f"cannot use{where}: {reason}" + (f" ({hint})" if hint and hint.lower() != reason.lower() else ""))
+    if isinstance(err, MemoryError):
+        return _one_line(f"out of memory{': ' + str(err) if str(err) else ''}; lower the population, the duration "
+                         "or the number of workers")
+    if isinstance(err, BrokenProcessPool):
+        return _one_line(f"a worker process died ({err}); it may have run out of memory or been killed: run again "
+                         "(finished work is kept) or with fewer workers")
+    if isinstance(err, (pickle.UnpicklingError, EOFError, zlib.error)):
+        return _one_line(f"a file is truncated or corrupt ({type(err).__name__}: {err}); run again with --debug to "
+                         "see which")
+    return _one_line(str(err) or type(err).__name__)
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run ``aquafish ARGV``; return the command's exit status (0).
+
+    Raises:
+        SystemExit: status 2 after a one-line error on standard error (a usage error, or an
+            error of :data:`EXPECTED_ERRORS` raised by the command), status 130 after an
+            interrupt, status 0 after ``--help``.
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
+    debug = args.debug or getattr(args, "debug_command", False) or os.environ.get("AQUAFISH_DEBUG") == "1"
     try:
         result = args.func(args)
-    except ValueError as err:
-        parser.exit(2, f"aquafish {args.command}: error: {err}\n")
+    except KeyboardInterrupt:
+        if debug:
+            raise
+        parser.exit(130, f"aquafish {args.command}: interrupted; finished work is kept, run the same command "
+                         "to continue\n")
+    except EXPECTED_ERRORS as err:
+        if debug:
+            raise
+        parser.exit(EXIT_ERROR, f"aquafish {args.command}: error: {describe_error(err)}\n")
     return int(result or 0)
 
 

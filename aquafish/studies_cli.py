@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from aquafish_gym.argtypes import csv_list, int_at_least
+from aquafish_gym.rundir import check_output_dir, check_output_file, run_lock
 from eea.cli import add_config_flags, config_fields, config_flag_names
 from eea.config import INFERENCE_NAMES, EEAConfig
 
@@ -17,19 +19,10 @@ from eea.config import INFERENCE_NAMES, EEAConfig
 STUDY_EXCLUDED = ("inference", "duration_s", "seed", "workers")
 
 
-def _csv(kind):
-    def parse(text: str):
-        try:
-            return tuple(kind(v) for v in text.split(",") if v.strip())
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected comma-separated {kind.__name__} values, got {text!r}") from None
-
-    return parse
-
-
 def _case_study(args: argparse.Namespace) -> int:
     from aquafish.case_study import run_case_study
 
+    check_output_dir(args.out)
     report = run_case_study(args.preset, args.damage, args.seed, args.out, inference=args.inference,
                             workers=args.workers)
     print((Path(args.out) / "report.md").read_text())
@@ -50,7 +43,8 @@ def _study(args: argparse.Namespace) -> int:
 def _plot(args: argparse.Namespace) -> int:
     from eea.plot import plot_runs
 
-    out = Path(args.output) if args.output else Path(args.dirs[0]) / "objective_fitness.png"
+    out = Path(args.output) if args.output is not None else Path(args.dirs[0]) / "objective_fitness.png"
+    check_output_file(out, "--output")
     print(plot_runs(args.dirs, out))
     print(f"wrote {out}")
     return 0
@@ -60,6 +54,8 @@ def _compare(args: argparse.Namespace) -> int:
     from eea.compare import compare_variants, comparison_table, parse_variant, plot_variants
     from eea.plot import find_runs
 
+    if args.output is not None:
+        check_output_file(args.output, "--output")
     variants: dict[str, list] = {}
     for label, path in map(parse_variant, args.variants):  # a label given again: more of its runs
         variants.setdefault(label, []).append(path)
@@ -101,6 +97,8 @@ def _select(args: argparse.Namespace) -> int:
     from eea.ensemble import select_study
     from eea.plot import find_runs
 
+    if args.out is not None:
+        check_output_file(args.out, "--out")
     runs = find_runs(args.dirs)
     finished = [r for r in runs if (len(r.rounds) >= args.rounds if args.rounds else r.finished)]
     if len(finished) < len(runs):
@@ -132,9 +130,11 @@ def _select(args: argparse.Namespace) -> int:
 def _baselines(args: argparse.Namespace) -> int:
     from aquafish.task_table import BaselineBudget, format_table, task_table
 
+    check_output_dir(args.out)
     budget = BaselineBudget(args.neat_generations, args.neat_population, args.neat_episodes, args.ppo_timesteps,
                             args.seed, args.workers)
-    rows = task_table(args.out, env_ids=args.envs, budget=budget, starts=args.starts, eval_seed=args.eval_seed)
+    with run_lock(args.out):  # a second writer fails at once; each learner's directory is locked too
+        rows = task_table(args.out, env_ids=args.envs, budget=budget, starts=args.starts, eval_seed=args.eval_seed)
     print(format_table(rows, args.starts))
     print(f"wrote {args.out}/task_table.md and task_table.json")
     return 0
@@ -143,9 +143,11 @@ def _baselines(args: argparse.Namespace) -> int:
 def _damages(args: argparse.Namespace) -> int:
     from aquafish.damage_table import GaitBudget, damage_table, format_table
 
+    check_output_dir(args.out)
     budget = GaitBudget(args.generations, args.population_size, args.episodes_per_genome, args.seed, args.workers)
-    rows = damage_table(args.out, damages=args.damages, budget=budget, starts=args.starts, eval_seed=args.eval_seed,
-                        verbose=args.verbose)
+    with run_lock(args.out):  # a second writer fails at once; each gait's directory is locked too
+        rows = damage_table(args.out, damages=args.damages, budget=budget, starts=args.starts,
+                            eval_seed=args.eval_seed, verbose=args.verbose)
     print(format_table(rows, args.starts))
     print(f"wrote {Path(args.out) / 'damage_table.md'} and damage_table.json")
     return 0
@@ -159,22 +161,22 @@ def add_commands(sub) -> None:
                    help="the self-model's inference strategy (default out_of_band, the paper's; "
                         "another one adds out_of_band as a row)")
     c.add_argument("--damage", default="left_pectoral_half", help="damage of the target robot")
-    c.add_argument("--seed", type=int, default=0)
+    c.add_argument("--seed", type=int_at_least(0), default=0, help="seeds every run (default 0)")
     c.add_argument("--out", default="case_study_out", help="output directory (finished steps are reused)")
-    c.add_argument("--workers", type=int, default=None, help="processes for evaluation (default: all cores)")
+    c.add_argument("--workers", type=int_at_least(1), default=None, help="processes for evaluation (default: all cores)")
     c.set_defaults(func=_case_study)
 
     s = sub.add_parser("study", help="many resumable EEA runs: conditions x durations x replicates (Figures 5-10)")
-    s.add_argument("--conditions", type=_csv(str), default=("known", "none", "in_band", "out_of_band"), help="inference strategies")
-    s.add_argument("--durations", type=_csv(float), default=(1.28, 2.56, 5.12, 10.24), help="experiment durations (s)")
-    s.add_argument("--replicates", type=int, default=25,
+    s.add_argument("--conditions", type=csv_list(str), default=("known", "none", "in_band", "out_of_band"), help="inference strategies")
+    s.add_argument("--durations", type=csv_list(float), default=(1.28, 2.56, 5.12, 10.24), help="experiment durations (s)")
+    s.add_argument("--replicates", type=int_at_least(1), default=25,
                    help="seeds S..S+N-1 per (condition, duration), S the --first-seed")
-    s.add_argument("--first-seed", type=int, default=0,
+    s.add_argument("--first-seed", type=int_at_least(0), default=0,
                    help="the first seed S (default 0); shards of one study's seeds can share its --out")
     s.add_argument("--out", required=True, help="study directory")
     s.add_argument("--backend", choices=["local", "ray"], default="local", help="local process pool or Ray tasks")
     s.add_argument("--address", default=None, help="Ray cluster address (ray.init); default: start a local Ray")
-    s.add_argument("--processes", type=int, default=None, help="local pool size (default: all cores)")
+    s.add_argument("--processes", type=int_at_least(1), default=None, help="local pool size (default: all cores)")
     add_config_flags(s, exclude=STUDY_EXCLUDED)
     s.set_defaults(func=_study)
 
@@ -189,7 +191,7 @@ def add_commands(sub) -> None:
                    help="a variant's label and its runs' directory (searched recursively; one run per seed); "
                         "a label given again adds another directory's runs (e.g. seeds 0-9 and 10-19 kept apart)")
     m.add_argument("--baseline", default=None, help="label p is computed against (default: the first variant)")
-    m.add_argument("--rounds", type=int, default=None,
+    m.add_argument("--rounds", type=int_at_least(1), default=None,
                    help="round compared (default: the shortest planned run); runs short of it are left out")
     m.add_argument("--level", type=float, default=0.9, help="OBJ_FIT level whose first round is reported (default 0.9)")
     m.add_argument("--output", "-o", default=None, help="also draw the mean curves to this PNG")
@@ -203,10 +205,10 @@ def add_commands(sub) -> None:
                                         "(better); the median angle error of the run's final inferred angles and "
                                         "of the truth's own fitted ones (err run, err floor; degrees) (eea.diagnosis)")
     d.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
-    d.add_argument("--workers", type=int, default=1, help="simulation processes (default: 1)")
-    d.add_argument("--profile-generations", type=int, default=40,
+    d.add_argument("--workers", type=int_at_least(1), default=1, help="simulation processes (default: 1)")
+    d.add_argument("--profile-generations", type=int_at_least(1), default=40,
                    help="generations of the per-model angle fit of both models (eea.profile.Profile.fit; default: 40)")
-    d.add_argument("--refine", type=int, default=0,
+    d.add_argument("--refine", type=int_at_least(0), default=0,
                    help="profile runs: also the proposed truth after this many rounds of contender refinement "
                         "(column true@+R; what --profile-refine R would buy; default: 0 = not computed)")
     d.set_defaults(func=_diagnose)
@@ -216,45 +218,45 @@ def add_commands(sub) -> None:
                                       "not the paper's)")
     e.add_argument("dirs", nargs="+",
                    help="one variant's runs, one per seed (searched recursively; finished runs only)")
-    e.add_argument("--size", type=int, default=2, help="runs per ensemble, consecutive seeds (default 2)")
+    e.add_argument("--size", type=int_at_least(2), default=2, help="runs per ensemble, consecutive seeds (default 2)")
     e.add_argument("--out", default=None, help="CSV of the selections, rewritten after each ensemble; "
                                                "ensembles already in it are kept (resumable)")
-    e.add_argument("--rounds", type=int, default=None,
+    e.add_argument("--rounds", type=int_at_least(1), default=None,
                    help="each run as it stood after this round (its model then, its first R experiments; "
                         "default: the final round); two runs at round 5 have performed as many target "
                         "experiments as one at round 10")
-    e.add_argument("--seed", type=int, default=0, help="seed of the angle fit (default 0)")
-    e.add_argument("--generations", type=int, default=30,
+    e.add_argument("--seed", type=int_at_least(0), default=0, help="seed of the angle fit (default 0)")
+    e.add_argument("--generations", type=int_at_least(1), default=30,
                    help="random-perturbation generations of the angle fit (eea.profile.Profile.fit; default 30)")
-    e.add_argument("--scan-cycles", type=int, default=2,
+    e.add_argument("--scan-cycles", type=int_at_least(0), default=2,
                    help="per-flipper angle scan cycles before the compass polish (default 2)")
-    e.add_argument("--workers", type=int, default=1, help="simulation processes (default 1)")
+    e.add_argument("--workers", type=int_at_least(1), default=1, help="simulation processes (default 1)")
     e.set_defaults(func=_select)
 
     t = sub.add_parser("damages", help="which damages a gait must adapt to: healthy gait vs a gait evolved on the "
                                        "damaged robot, per damage preset (aquafish.damage_table)")
     t.add_argument("--out", required=True, help="output directory (gaits are evolved once and reused)")
-    t.add_argument("--damages", type=_csv(str), default=None, help="damage presets (default: all but none)")
-    t.add_argument("--generations", type=int, default=30, help="NEAT generations per gait (default 30)")
-    t.add_argument("--population-size", type=int, default=50, help="NEAT genomes per generation (default 50)")
-    t.add_argument("--episodes-per-genome", type=int, default=2, help="training starts per genome (default 2)")
-    t.add_argument("--starts", type=int, default=10, help="fresh starts per gait and robot (default 10)")
-    t.add_argument("--seed", type=int, default=0, help="NEAT seed and first training start (default 0)")
-    t.add_argument("--eval-seed", type=int, default=1000, help="seed of the first fresh start (default 1000)")
-    t.add_argument("--workers", type=int, default=1, help="NEAT evaluation processes (default 1)")
+    t.add_argument("--damages", type=csv_list(str), default=None, help="damage presets (default: all but none)")
+    t.add_argument("--generations", type=int_at_least(1), default=30, help="NEAT generations per gait (default 30)")
+    t.add_argument("--population-size", type=int_at_least(2), default=50, help="NEAT genomes per generation (default 50)")
+    t.add_argument("--episodes-per-genome", type=int_at_least(1), default=2, help="training starts per genome (default 2)")
+    t.add_argument("--starts", type=int_at_least(1), default=10, help="fresh starts per gait and robot (default 10)")
+    t.add_argument("--seed", type=int_at_least(0), default=0, help="NEAT seed and first training start (default 0)")
+    t.add_argument("--eval-seed", type=int_at_least(0), default=1000, help="seed of the first fresh start (default 1000)")
+    t.add_argument("--workers", type=int_at_least(1), default=1, help="NEAT evaluation processes (default 1)")
     t.add_argument("--verbose", action="store_true", help="NEAT's per-generation report")
     t.set_defaults(func=_damages)
 
     b = sub.add_parser("baselines", help="random policy, NEAT and PPO on every task of the env family "
                                          "(aquafish.task_table)")
     b.add_argument("--out", required=True, help="output directory (learners are trained once and reused)")
-    b.add_argument("--envs", type=_csv(str), default=None, help="task ids (default: every registered task)")
-    b.add_argument("--neat-generations", type=int, default=10, help="NEAT generations per task (default 10)")
-    b.add_argument("--neat-population", type=int, default=30, help="NEAT genomes per generation (default 30)")
-    b.add_argument("--neat-episodes", type=int, default=3, help="NEAT training starts per genome (default 3)")
-    b.add_argument("--ppo-timesteps", type=int, default=100_000, help="PPO env steps per task; 0: no PPO (default 1e5)")
-    b.add_argument("--starts", type=int, default=10, help="fresh starts per task and learner (default 10)")
-    b.add_argument("--seed", type=int, default=0, help="training seed (default 0)")
-    b.add_argument("--eval-seed", type=int, default=1000, help="seed of the first fresh start (default 1000)")
-    b.add_argument("--workers", type=int, default=1, help="NEAT evaluation processes (default 1)")
+    b.add_argument("--envs", type=csv_list(str), default=None, help="task ids (default: every registered task)")
+    b.add_argument("--neat-generations", type=int_at_least(1), default=10, help="NEAT generations per task (default 10)")
+    b.add_argument("--neat-population", type=int_at_least(2), default=30, help="NEAT genomes per generation (default 30)")
+    b.add_argument("--neat-episodes", type=int_at_least(1), default=3, help="NEAT training starts per genome (default 3)")
+    b.add_argument("--ppo-timesteps", type=int_at_least(0), default=100_000, help="PPO env steps per task; 0: no PPO (default 1e5)")
+    b.add_argument("--starts", type=int_at_least(1), default=10, help="fresh starts per task and learner (default 10)")
+    b.add_argument("--seed", type=int_at_least(0), default=0, help="training seed (default 0)")
+    b.add_argument("--eval-seed", type=int_at_least(0), default=1000, help="seed of the first fresh start (default 1000)")
+    b.add_argument("--workers", type=int_at_least(1), default=1, help="NEAT evaluation processes (default 1)")
     b.set_defaults(func=_baselines)

@@ -21,6 +21,7 @@ from tqdm.auto import tqdm
 
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
+from aquafish_gym.rundir import FileError, check_output_dir, die_with_parent, read_json, run_lock
 from eea.config import EEAConfig
 from eea.record import read_rounds
 
@@ -111,15 +112,28 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
             condition among the runs finished so far in its postfix.
 
     Raises:
-        ValueError: unknown backend, or ``study.json`` exists with a different spec (other
-            seeds of the same spec are the same study: new seeds extend it, and ``study.json``
-            records the union of its seeds).
+        ValueError: unknown backend, ``processes`` < 1, ``out_dir`` cannot be written
+            (checked before anything is created), another process is running a study there
+            (:class:`~aquafish_gym.rundir.BusyError`), a file in it is corrupt, or
+            ``study.json`` exists with a different spec (other seeds of the same spec are the
+            same study: new seeds extend it, and ``study.json`` records the union of its seeds).
         ModuleNotFoundError: ``backend="ray"`` without the ``[cluster]`` extra.
     """
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    if processes is not None:
+        check_int("--processes", processes, 1)
+    out_dir = check_output_dir(out_dir)
+    from eea.run import check_run_memory
+
+    for config, _ in spec.runs(out_dir):
+        check_run_memory(config)
+    with run_lock(out_dir):
+        return _run_study_locked(spec, out_dir, backend, address, processes, progress)
+
+
+def _run_study_locked(spec: StudySpec, out_dir: Path, backend: str, address: str | None, processes: int | None,
+                      progress: bool) -> list[Path]:
     _write_spec(spec, out_dir)
     runs = spec.runs(out_dir)
     todo = [(c, d) for c, d in runs if rounds_done(d) < c.rounds]
@@ -135,7 +149,9 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
         bar.update()
 
     if backend == "local":
-        with ProcessPoolExecutor(max_workers=processes or os.cpu_count()) as pool:
+        # workers die with this process (a killed study leaves no orphan running its queue)
+        with ProcessPoolExecutor(max_workers=processes or os.cpu_count(), initializer=die_with_parent,
+                                 initargs=(os.getpid(),)) as pool:
             futures = [pool.submit(_run_one, c.to_dict(), str(d)) for c, d in todo]
             for future in as_completed(futures):
                 finished(future.result())
@@ -166,14 +182,20 @@ def _write_spec(spec: StudySpec, out_dir: Path) -> None:
     data["base"].pop("workers", None)
     path = out_dir / "study.json"
     if path.exists():
-        old = json.loads(path.read_text())
-        # through EEAConfig: a spec written before a field was added gets its default
-        old["base"] = EEAConfig.from_dict(old["base"]).to_dict()
-        old["base"].pop("workers", None)
-        old_seeds = _study_seeds(old)
+        old = read_json(path)
+        try:
+            # through EEAConfig: a spec written before a field was added gets its default
+            old["base"] = EEAConfig.from_dict(old["base"]).to_dict()
+            old["base"].pop("workers", None)
+            old_seeds = _study_seeds(old)
+        except (KeyError, TypeError, ValueError) as err:
+            raise FileError(path, f"is not a study.json ({type(err).__name__}: {err})") from None
         if {k: v for k, v in old.items() if k not in ("seeds", "replicates")} \
                 != {k: v for k, v in data.items() if k != "seeds"}:
-            raise ValueError(f"{path} describes a different study; use another --out or delete it")
+            diff = [k for k in data if k not in ("seeds", "base") and old.get(k) != data[k]]
+            diff += [f"base.{k}" for k in data["base"] if old.get("base", {}).get(k) != data["base"][k]]
+            raise ValueError(f"{path} describes a different study (differs in {', '.join(diff) or 'its keys'}); "
+                             "use another --out or delete it")
         if set(data["seeds"]) <= set(old_seeds):  # a subset of its seeds: nothing to record
             return
         # other seeds of the same study: it grows, its finished seeds are kept

@@ -28,6 +28,7 @@ import numpy as np
 from aquafish_gym import ENV_IDS
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
+from aquafish_gym.rundir import read_json
 from gait.controller import RandomController, load_controller, sb3_sidecar
 from gait.neat_evolution import RUN_FILE, evolve_or_load_gait
 from gait.rl import train_or_load_rl
@@ -72,13 +73,13 @@ def _neat(env_id: str, budget: BaselineBudget, out: Path, progress: bool):
     controller = evolve_or_load_gait("healthy", out, generations=budget.neat_generations,
                                      population_size=budget.neat_population, seed=budget.seed, workers=budget.workers,
                                      episodes_per_genome=budget.neat_episodes, env_id=env_id, progress=progress)
-    return controller, json.loads((out / RUN_FILE).read_text())["wall_time_s"]
+    return controller, read_json(out / RUN_FILE).get("wall_time_s", 0.0)
 
 
 def _ppo(env_id: str, budget: BaselineBudget, out: Path, progress: bool):
     path = train_or_load_rl("ppo", "healthy", budget.ppo_timesteps, budget.seed, out, env_id=env_id, num_threads=1,
                             progress=progress)
-    return load_controller(path), json.loads(sb3_sidecar(path).read_text())["wall_time_s"]
+    return load_controller(path), read_json(sb3_sidecar(path)).get("wall_time_s", 0.0)
 
 
 def task_table(out, *, env_ids=None, budget: BaselineBudget = BaselineBudget(), starts: int = 10,

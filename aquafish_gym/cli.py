@@ -5,12 +5,24 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from aquafish_gym.argtypes import csv_list, positive_float
+
 
 def _swim(args: argparse.Namespace) -> int:
+    from aquafish_gym.damage import get_damage
+    from aquafish_gym.rundir import check_memory, check_output_dir
     from aquafish_gym.swim import plot_trajectories, swim_trajectories
 
-    damages = args.damages.split(",")
-    action = [float(v) for v in args.action.split(",")]
+    damages = list(args.damages)
+    for name in damages:
+        get_damage(name)  # an unknown name: the message lists the valid ones
+    action = list(args.action)
+    if len(action) != 3:
+        raise ValueError(f"--action needs 3 comma-separated numbers (left rev/s, right rev/s, caudal Hz), got {len(action)}")
+    # the trajectory: one (robots, 2) sample of ~150 bytes per 0.1 s, plus 16 bytes per robot
+    check_memory(f"--duration {args.duration:g}", args.duration / 0.1 * (150 + 16 * len(damages)),
+                 "give a shorter --duration")
+    check_output_dir(args.out)
     traj = swim_trajectories(damages, action, args.duration)
     labels = ["healthy" if d == "none" else d for d in damages]
     path = plot_trajectories(traj, labels, Path(args.out) / "trajectories.png",
@@ -44,10 +56,11 @@ def _envs(args: argparse.Namespace) -> int:
 def add_commands(sub) -> None:
     """Add the ``swim`` and ``envs`` sub-commands to an argparse ``subparsers`` object."""
     p = sub.add_parser("swim", help="swim the healthy and damaged robots with a fixed gait; plot trajectories")
-    p.add_argument("--damages", default="none,left_pectoral_half,caudal_half,caudal_missing",
+    p.add_argument("--damages", type=csv_list(str), default=("none", "left_pectoral_half", "caudal_half", "caudal_missing"),
                    help="comma-separated damage names (default none,left_pectoral_half,caudal_half,caudal_missing)")
-    p.add_argument("--action", default="0.25,0.25,1.0", help="servo command: left rev/s, right rev/s, caudal Hz")
-    p.add_argument("--duration", type=float, default=20.0, help="seconds of simulated swimming")
+    p.add_argument("--action", type=csv_list(float), default=(0.25, 0.25, 1.0),
+                   help="servo command: left rev/s, right rev/s, caudal Hz (default 0.25,0.25,1.0)")
+    p.add_argument("--duration", type=positive_float, default=20.0, help="seconds of simulated swimming (default 20)")
     p.add_argument("--out", default="demo_out", help="output directory")
     p.set_defaults(func=_swim)
 

@@ -17,6 +17,7 @@ import pickle
 from pathlib import Path
 
 from aquafish_gym.files import atomic_write
+from aquafish_gym.rundir import FileError, read_pickle
 
 __all__ = ["STATE_FILE", "RunState", "load_state", "save_state"]
 
@@ -65,14 +66,23 @@ def load_state(out_dir: str | os.PathLike) -> RunState | None:
     """The checkpoint in ``out_dir``, or None if there is none yet.
 
     Raises:
-        ValueError: if the file was written by another checkpoint version.
+        FileError: (a ``ValueError``) the file is truncated or garbled, is not an EEA
+            checkpoint, or was written by another checkpoint version; the message names it.
+        OSError: the file cannot be read.
     """
     path = Path(out_dir) / STATE_FILE
     if not path.exists():
         return None
-    with open(path, "rb") as f:
-        data = pickle.load(f)
+    data = read_pickle(path, what="EEA checkpoint")
+    if not isinstance(data, dict) or not {"config", "rows", "experiments"} <= set(data):
+        raise FileError(path, "is not an EEA checkpoint (state.pkl)")
     if data.get("version") != _VERSION:
-        raise ValueError(f"{path} has checkpoint version {data.get('version')!r}, expected {_VERSION}")
+        raise FileError(path, f"has checkpoint version {data.get('version')!r}, expected {_VERSION}",
+                        "use the version of aquafish that wrote it, or another directory")
     data.setdefault("inference", {})  # checkpoints written before strategies could keep state
-    return RunState(**{**data, "experiments": tuple(data["experiments"]), "rows": tuple(data["rows"])})
+    known = {f.name for f in dataclasses.fields(RunState)}
+    try:
+        return RunState(**{**{k: v for k, v in data.items() if k in known}, "experiments": tuple(data["experiments"]),
+                           "rows": tuple(data["rows"])})
+    except TypeError as err:
+        raise FileError(path, f"is not an EEA checkpoint ({err})") from None

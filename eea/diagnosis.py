@@ -54,7 +54,9 @@ from pathlib import Path
 
 import numpy as np
 
-from eea.checkpoint import load_state
+from aquafish_gym.rundir import check_fingerprint
+from eea.checkpoint import STATE_FILE, load_state
+from eea.config import RESULT_NEUTRAL_FIELDS
 from eea.encoding import decode_models, encode_models
 from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.behaviour import SIMILARITIES
@@ -62,7 +64,7 @@ from eea.evaluation import Evaluator
 from eea.experiment import Experiment, angle_errors_deg
 from eea.lineages import chosen_inference_state
 from eea.profile import Profile
-from eea.record import load_result
+from eea.record import CONFIG_FILE, load_result
 
 __all__ = ["RunDiagnosis", "diagnose_run", "median_error_deg"]
 
@@ -166,8 +168,17 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
         raise ValueError(f"refine must be >= 0, got {refine}")
     result = load_result(out_dir)
     state = load_state(out_dir)
-    if state is None or not result.rounds:
+    if not result.rounds:
         raise ValueError(f"{out_dir} has no finished round to diagnose")
+    if state is None:
+        raise ValueError(f"{out_dir} has no checkpoint ({STATE_FILE}): diagnose needs the run's experiments, which "
+                         f"only the checkpoint holds (rounds.csv alone is not enough); diagnose the run directory "
+                         "that wrote it")
+    recorded = {k: v for k, v in state.config.items() if k not in RESULT_NEUTRAL_FIELDS}
+    check_fingerprint(Path(out_dir) / STATE_FILE, recorded,
+                      {k: v for k, v in result.config.to_dict().items() if k not in RESULT_NEUTRAL_FIELDS},
+                      f"its {CONFIG_FILE} does not describe the checkpoint (edited, or copied from another run); "
+                      "restore the run's own config.json")
     experiments = [Experiment.from_state_dict(e) for e in state.experiments]
     inferred = np.stack([e.context.estimate() for e in experiments])[None]   # (1, E, 3)
     true = np.stack([e.true_angles for e in experiments])[None]

@@ -23,6 +23,7 @@ about ``225 N E_total`` simulations (``E_total`` the pooled experiments): 8,979 
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 from pathlib import Path
 from typing import Sequence
@@ -30,6 +31,8 @@ from typing import Sequence
 import numpy as np
 
 from aquafish_gym import MORPHOLOGY_FIELDS
+from aquafish_gym.files import atomic_write
+from aquafish_gym.rundir import FileError, MismatchError, check_fingerprint, check_output_file, read_json, run_lock
 from eea.behaviour import SIMILARITIES
 from eea.encoding import encode_models
 from eea.evaluation import Evaluator
@@ -224,15 +227,66 @@ def select_study(runs: Sequence[RunResult], size: int, out_csv: str | os.PathLik
         median error of its fitted angles over the pooled experiments
         (:meth:`Selection.angle_errors_deg`): oracles the selection does not see).
 
+    ``out_csv`` has a manifest next to it, ``OUT_CSV.json``: the settings that define its rows
+    (:func:`selection_fingerprint`). An existing file is extended only if the manifest matches
+    and every row's OBJ_FIT is the one its run has now (a file made from another variant, or
+    from runs that have changed since, is refused). The file is locked while it is written.
+
     Raises:
         ValueError: as :func:`ensemble_groups` and :func:`select_runs`, or if ``out_csv``
-            holds ensembles of other seeds.
+            cannot be written (checked before any work), holds ensembles of other seeds, was
+            made with other settings or from other runs (:class:`~aquafish_gym.rundir.MismatchError`),
+            is corrupt (:class:`~aquafish_gym.rundir.FileError`) or is being written by another
+            process (:class:`~aquafish_gym.rundir.BusyError`).
     """
     by_seed = {r.config.seed: r for r in runs}
     if len(by_seed) != len(runs):
         raise ValueError("one run per seed, please: the runs repeat seeds (several variants in one directory?)")
     groups, _ = ensemble_groups(list(by_seed), size)
-    rows = _read_rows(out_csv) if out_csv is not None and Path(out_csv).exists() else []
+    if out_csv is None:
+        return _select(by_seed, groups, None, rounds, seed, generations, scan_cycles, workers, progress)
+    out_csv = check_output_file(out_csv, "--out")
+    fingerprint = selection_fingerprint(by_seed, size, rounds, seed, generations, scan_cycles)
+    with run_lock(out_csv.parent, "--out", name=f".{out_csv.name}.lock"):
+        manifest = Path(f"{out_csv}.json")
+        if out_csv.exists():
+            if not manifest.is_file():
+                raise MismatchError(f"{out_csv} has no manifest {manifest.name} (written by another version, or by "
+                                    "hand): its settings are unknown; delete it or use another --out")
+            check_fingerprint(out_csv, read_json(manifest), fingerprint,
+                              "use another --out, or the settings and runs it was made with")
+        atomic_write(manifest, (json.dumps(fingerprint, indent=1) + "\n").encode())
+        return _select(by_seed, groups, out_csv, rounds, seed, generations, scan_cycles, workers, progress)
+
+
+def selection_fingerprint(by_seed: dict, size: int, rounds: int | None, seed: int, generations: int,
+                          scan_cycles: int) -> dict:
+    """The settings that define a selection file's rows: the selection's own and the variant's
+    (the config of its runs, seed and result-neutral fields aside)."""
+    from eea.config import RESULT_NEUTRAL_FIELDS
+
+    first = by_seed[min(by_seed)].config.to_dict()
+    variant = {k: v for k, v in first.items() if k not in RESULT_NEUTRAL_FIELDS and k != "seed"}
+    return {"size": size, "rounds": rounds, "seed": seed, "generations": generations, "scan_cycles": scan_cycles,
+            "variant": variant}
+
+
+def _select(by_seed: dict, groups, out_csv: Path | None, rounds, seed, generations, scan_cycles, workers,
+            progress) -> list[dict]:
+    """The body of :func:`select_study` (under the lock of ``out_csv``)."""
+    rows = _read_rows(out_csv) if out_csv is not None and out_csv.exists() else []
+    for row in rows:  # a row must describe the run of its seed as it is now
+        run = by_seed.get(row["seed"])
+        if run is None:
+            raise MismatchError(f"{out_csv}: seed {row['seed']} is not among the runs given; use the runs it was made "
+                                "from, or another --out")
+        if len(run.rounds) < (rounds or len(run.rounds)) or not run.rounds:
+            continue  # left out below
+        now = run.rounds[(rounds or len(run.rounds)) - 1]["objective_fitness"]
+        if now != row["objective_fitness"]:
+            raise MismatchError(f"{out_csv}: seed {row['seed']} has OBJ_FIT {row['objective_fitness']!r} there but "
+                                f"{now!r} in {run.out_dir}: it was made from other runs (or these changed since); "
+                                "use another --out")
     done = {}
     for row in rows:
         done.setdefault(row["ensemble"], []).append(row["seed"])
@@ -260,5 +314,8 @@ def select_study(runs: Sequence[RunResult], size: int, out_csv: str | os.PathLik
 def _read_rows(path) -> list[dict]:
     columns, rows = read_csv(path, ("ensemble", "seed", "chosen"))
     if columns != SELECTION_COLUMNS:
-        raise ValueError(f"{path}: columns {list(columns)}, expected {list(SELECTION_COLUMNS)}")
+        raise FileError(path, f"has columns {list(columns)}, expected {list(SELECTION_COLUMNS)}")
+    bad = [i + 2 for i, row in enumerate(rows) if not all(np.isfinite(v) for v in row.values())]
+    if bad:
+        raise FileError(path, f"line {bad[0]} has a non-finite value")
     return rows

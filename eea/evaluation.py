@@ -24,6 +24,7 @@ fresh simulation of the same key are bit-for-bit equal.
 from __future__ import annotations
 
 import multiprocessing
+import os
 from concurrent.futures import ProcessPoolExecutor
 from typing import Sequence
 
@@ -31,6 +32,7 @@ import numpy as np
 
 from aquafish_gym import SimParams, simulate_batch
 from aquafish_gym.checks import check_int
+from aquafish_gym.rundir import die_with_parent
 from eea.behaviour import behaviour_summary, similarity
 from eea.encoding import MODEL_BITS, decode_models
 from eea.experiment import Experiment, check_params, quantise_angles
@@ -130,7 +132,8 @@ class Evaluator:
             parts = [_simulate_chunk(*chunk) for chunk in chunks]
         else:
             if self._pool is None:
-                self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"))
+                self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
+                                                 initializer=die_with_parent, initargs=(os.getpid(),))
             parts = list(self._pool.map(_simulate_chunk, *zip(*chunks)))
         self.simulations += n
         return np.concatenate(parts)

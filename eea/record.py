@@ -37,13 +37,14 @@ import numpy as np
 
 from aquafish_gym import ACTION_FIELDS, MORPHOLOGY_FIELDS, Morphology, get_damage
 from aquafish_gym.files import atomic_write
+from aquafish_gym.rundir import FileError, read_json
 from eea.config import EEAConfig
 from eea.encoding import decode_models
 from eea.experiment import FLIPPERS, angle_errors_deg
 from eea.fitness import objective_fitness
 
-__all__ = ["CONFIG_FILE", "ROUNDS_FILE", "ROUND_COLUMNS", "RunResult", "load_result", "read_rounds",
-           "read_csv", "round_row", "write_config", "write_csv", "write_rounds"]
+__all__ = ["CONFIG_FILE", "ROUNDS_FILE", "ROUND_COLUMNS", "RunResult", "check_rounds", "load_result", "read_rounds",
+           "read_config", "read_csv", "round_row", "write_config", "write_csv", "write_rounds"]
 
 CONFIG_FILE = "config.json"
 ROUNDS_FILE = "rounds.csv"
@@ -147,11 +148,21 @@ def write_config(out_dir: str | os.PathLike, config: EEAConfig) -> None:
 
 
 def read_config(out_dir: str | os.PathLike) -> EEAConfig | None:
-    """The config in ``out_dir/config.json``, or None if there is none."""
+    """The config in ``out_dir/config.json``, or None if there is none.
+
+    Raises:
+        FileError: (a ``ValueError``) the file is not valid JSON or not a valid config; the
+            message names the file and the problem.
+        OSError: the file cannot be read.
+    """
     path = Path(out_dir) / CONFIG_FILE
     if not path.exists():
         return None
-    return EEAConfig.from_dict(json.loads(path.read_text()))
+    data = read_json(path)
+    try:
+        return EEAConfig.from_dict(data)
+    except (ValueError, TypeError) as err:
+        raise FileError(path, f"is not a valid EEA config ({err})") from None
 
 
 def write_csv(path: str | os.PathLike, columns: Sequence[str], rows: Iterable[dict]) -> None:
@@ -177,13 +188,33 @@ def read_csv(path: str | os.PathLike, int_columns: Iterable[str] = ()) -> tuple[
         of ``int_columns`` as ``int`` and every other value as ``float``.
 
     Raises:
-        ValueError: if a value does not parse as its column's type.
+        FileError: (a ``ValueError``) a line has too few or too many values (a truncated
+            file) or a value does not parse as its column's type; the message names the file
+            and the line.
+        OSError: the file cannot be read.
     """
     int_columns = frozenset(int_columns)
-    with open(path, newline="") as f:
-        reader = csv.DictReader(f)
-        rows = [{k: int(v) if k in int_columns else float(v) for k, v in row.items()} for row in reader]
-        return tuple(reader.fieldnames or ()), rows
+    rows = []
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            reader = csv.DictReader(f)
+            for row in reader:
+                line = reader.line_num
+                if None in row or None in row.values():
+                    raise FileError(path, f"line {line} has {'more' if None in row else 'fewer'} values than the "
+                                          "header (a truncated or edited file)")
+                rows.append({k: _parse(v, int if k in int_columns else float, path, line, k) for k, v in row.items()})
+            return tuple(reader.fieldnames or ()), rows
+    except (csv.Error, UnicodeDecodeError) as err:
+        raise FileError(path, f"is not a readable CSV file ({err})") from None
+
+
+def _parse(text: str, kind: type, path, line: int, column: str):
+    try:
+        return kind(text)
+    except ValueError:
+        raise FileError(path, f"line {line}, column {column}: {text!r} is not {'an int' if kind is int else 'a number'}") \
+            from None
 
 
 def write_rounds(out_dir: str | os.PathLike, rows: list) -> None:
@@ -192,11 +223,51 @@ def write_rounds(out_dir: str | os.PathLike, rows: list) -> None:
 
 
 def read_rounds(out_dir: str | os.PathLike) -> list[dict]:
-    """Rows of ``out_dir/rounds.csv`` as dicts of ints and floats ([] if there is no file)."""
+    """Rows of ``out_dir/rounds.csv`` as dicts of ints and floats ([] if there is no file).
+
+    The file is checked: its header is :data:`ROUND_COLUMNS`, every value is finite, and the
+    rounds are 1, 2, 3, ... (unique and consecutive).
+
+    Raises:
+        FileError: (a ``ValueError``) the file breaks one of these rules or is not a
+            readable CSV file; the message names the file, the line and the problem.
+        OSError: the file cannot be read.
+    """
     path = Path(out_dir) / ROUNDS_FILE
     if not path.exists():
         return []
-    return read_csv(path, _INT_COLUMNS)[1]
+    try:
+        columns, rows = read_csv(path, _INT_COLUMNS)
+        check_rounds(path, columns, rows)
+    except FileError as err:  # the checkpoint holds the rows: a resume rewrites the file
+        raise FileError(path, err.problem,
+                        "run the same `aquafish eea` command again to rewrite it from the checkpoint (state.pkl), "
+                        "or restore it from a copy") from None
+    return rows
+
+
+def check_rounds(path: str | os.PathLike, columns: Sequence[str], rows: Sequence[dict]) -> None:
+    """Check the rows of a ``rounds.csv`` (see :func:`read_rounds`).
+
+    Raises:
+        FileError: a column is missing or unknown, a value is not finite, or the rounds are
+            not 1, 2, 3, ... in order.
+    """
+    missing = [c for c in ROUND_COLUMNS if c not in columns]
+    unknown = [c for c in columns if c not in ROUND_COLUMNS]
+    if missing or unknown:
+        raise FileError(path, "is not a rounds.csv: " + "; ".join(
+            part for part in (f"missing columns {missing}" if missing else "",
+                              f"unknown columns {unknown}" if unknown else "") if part))
+    for i, row in enumerate(rows):
+        line = i + 2  # the header is line 1
+        bad = [k for k, v in row.items() if not np.isfinite(v)]
+        if bad:
+            raise FileError(path, f"line {line} (round {row['round']}) has non-finite values in {bad}")
+        if row["round"] != i + 1:
+            problem = ("repeats round" if any(r["round"] == row["round"] for r in rows[:i])
+                       else "skips to round" if row["round"] > i + 1 else "goes back to round")
+            raise FileError(path, f"line {line} {problem} {row['round']}; the rounds must be 1, 2, 3, ... in order")
 
 
 def load_result(out_dir: str | os.PathLike) -> RunResult:

@@ -27,26 +27,55 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from eea.checkpoint import RunState, load_state, save_state
+from aquafish_gym.rundir import FileError, MismatchError, check_fingerprint, check_memory, check_output_dir, run_lock
+from eea.checkpoint import STATE_FILE, RunState, load_state, save_state
 from eea.config import RESULT_NEUTRAL_FIELDS, EEAConfig
 from eea.behaviour import SIMILARITIES
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from eea.lineages import Lineages, estimation_from_state, write_lineages
-from eea.record import RunResult, read_config, round_row, write_config, write_rounds
+from eea.record import ROUNDS_FILE, RunResult, read_config, round_row, write_config, write_rounds
 from eea.round import RoundParts, run_round
 
-__all__ = ["run"]
+__all__ = ["check_run_memory", "run"]
 
 
-def _check_config(out_dir: Path, config: EEAConfig) -> None:
-    existing = read_config(out_dir)
-    if existing is None or config.same_results_as(existing):
-        return
-    mine, theirs = config.to_dict(), existing.to_dict()
-    diff = [f"{k}: {theirs[k]!r} -> {mine[k]!r}" for k in mine if k not in RESULT_NEUTRAL_FIELDS and mine[k] != theirs[k]]
-    raise ValueError(f"{out_dir} holds a run with a different config ({'; '.join(diff)}); "
-                     "use another directory or the same settings to resume it")
+def _fingerprint(config: dict) -> dict:
+    """The fields of a config dict that define a run's results (all but RESULT_NEUTRAL_FIELDS)."""
+    return {k: v for k, v in config.items() if k not in RESULT_NEUTRAL_FIELDS}
+
+
+def _check_config(out_dir: Path, config: EEAConfig, existing: EEAConfig | None, state: RunState | None) -> None:
+    """Refuse a directory whose ``config.json`` or checkpoint holds another run (naming the fields)."""
+    fix = "use another --out, or the same settings to resume it"
+    if existing is not None and not config.same_results_as(existing):
+        mine, theirs = config.to_dict(), existing.to_dict()
+        diff = [f"{k}: {theirs[k]!r} -> {mine[k]!r}" for k in mine
+                if k not in RESULT_NEUTRAL_FIELDS and mine[k] != theirs[k]]
+        raise MismatchError(f"{out_dir} holds a run with a different config ({'; '.join(diff)}); {fix}")
+    if state is not None:  # the checkpoint carries its run's config: a copied-in or edited run is refused
+        check_fingerprint(out_dir / STATE_FILE, _fingerprint(state.config), _fingerprint(config.to_dict()),
+                          f"the checkpoint belongs to another run: {fix} (or delete {STATE_FILE} and "
+                          f"{ROUNDS_FILE} to start this one over)")
+        if len(state.rows) != state.rounds_done:
+            raise FileError(out_dir / STATE_FILE, f"holds {len(state.rows)} rows for {state.rounds_done} rounds")
+
+
+def check_run_memory(config: EEAConfig) -> None:
+    """Refuse, up front, a config whose simulation batches cannot fit in memory.
+
+    The estimate is the largest batch of one round (every estimation genome on every
+    experiment, or every exploration action on every candidate model), each robot with its
+    joint log and behaviour summary (about 56 bytes per simulation step).
+
+    Raises:
+        ValueError: the estimate exceeds the available memory (the message gives both).
+    """
+    robots = max(config.estimation_population * config.rounds * max(1, config.lineages),
+                 config.exploration_population * config.exploration_models * max(1, config.exploration_angles))
+    check_memory(f"estimation population {config.estimation_population} x {config.rounds} rounds x "
+                 f"{config.steps} steps", 56.0 * robots * config.steps,
+                 "lower the populations, the rounds or the duration")
 
 
 def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True) -> RunResult:
@@ -58,22 +87,34 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
             config, the run continues after its last finished round; a finished run is
             returned without simulating. ``rounds``, ``workers`` and ``max_batch_robots``
             may differ from the stored config (they do not change results; a larger
-            ``rounds`` extends the run).
+            ``rounds`` extends the run, a smaller one leaves ``config.json`` as it is).
         progress: show a tqdm bar over rounds with the current phase as postfix.
 
     Returns:
         The :class:`~eea.record.RunResult` (all finished rounds).
 
     Raises:
-        ValueError: if ``out_dir`` holds a run with a different config (the message lists
-            the differing fields).
+        ValueError: if ``out_dir`` cannot be written (checked before anything is created),
+            holds a run with a different config, or a checkpoint of another run (the message
+            lists the differing fields); if another process is writing it
+            (:class:`~aquafish_gym.rundir.BusyError`); if a file in it is corrupt
+            (:class:`~aquafish_gym.rundir.FileError`); or if the config cannot fit in memory.
     """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    _check_config(out, config)
-    write_config(out, config)
-    rng = np.random.default_rng(config.seed)
+    out = check_output_dir(out_dir)
+    check_run_memory(config)
+    with run_lock(out):
+        return _run_locked(config, out, progress)
+
+
+def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
+    existing = read_config(out)
     state = load_state(out)
+    _check_config(out, config, existing, state)
+    if existing is None or config.rounds >= existing.rounds:
+        write_config(out, config)
+    else:  # fewer rounds asked than planned: the run's record keeps its plan
+        config = config.replace(rounds=max(config.rounds, state.rounds_done if state is not None else 0))
+    rng = np.random.default_rng(config.seed)
     if state is not None:
         rng.bit_generator.state = state.rng_state
         estimation = estimation_from_state(state.estimation, rng)

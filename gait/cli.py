@@ -11,6 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from aquafish_gym.argtypes import int_at_least, path, positive_float
+from aquafish_gym.rundir import check_output_dir
+
 ROBOT_HELP = "'healthy', a damage name (the healthy robot with that damage), 9 comma-separated numbers, or a JSON/text file"
 
 
@@ -22,17 +25,17 @@ def add_commands(subparsers) -> None:
     p.add_argument("--env", default="AquaFish-v0", help="task (`aquafish envs` lists them; default AquaFish-v0)")
     p.add_argument("--morphology", default="healthy", help=f"robot to evolve for: {ROBOT_HELP} (default healthy)")
     p.add_argument("--damage", default="none", help="damage applied to --morphology (default none)")
-    p.add_argument("--generations", type=int, default=30, help="total generations (default 30)")
-    p.add_argument("--population-size", type=int, default=None, help="genomes per generation (default: the config's, 50)")
-    p.add_argument("--seed", type=int, default=0, help="seeds NEAT and the fitness episode's initial flipper angles (default 0)")
-    p.add_argument("--out", type=Path, default=Path("runs/gait"), help="output directory (default runs/gait)")
-    p.add_argument("--workers", type=int, default=os.cpu_count(), help="evaluation processes (default: all CPUs)")
-    p.add_argument("--config", type=Path, default=None, help="NEAT INI file (default gait/neat_config.ini)")
+    p.add_argument("--generations", type=int_at_least(1), default=30, help="total generations (default 30)")
+    p.add_argument("--population-size", type=int_at_least(2), default=None, help="genomes per generation (default: the config's, 50)")
+    p.add_argument("--seed", type=int_at_least(0), default=0, help="seeds NEAT and the fitness episode's initial flipper angles (default 0)")
+    p.add_argument("--out", type=path, default=Path("runs/gait"), help="output directory (default runs/gait)")
+    p.add_argument("--workers", type=int_at_least(1), default=os.cpu_count(), help="evaluation processes (default: all CPUs)")
+    p.add_argument("--config", type=path, default=None, help="NEAT INI file (default gait/neat_config.ini)")
     p.add_argument("--resume", default=None, help="checkpoint file to continue from, or 'latest' (in --out)")
-    p.add_argument("--episode-duration-s", type=float, default=20.0, help="simulated seconds per evaluation (default 20)")
-    p.add_argument("--episodes-per-genome", type=int, default=1,
+    p.add_argument("--episode-duration-s", type=positive_float, default=20.0, help="simulated seconds per evaluation (default 20)")
+    p.add_argument("--episodes-per-genome", type=int_at_least(1), default=1,
                    help="episodes per evaluation from different initial angles (seeds seed, seed+1, ...); fitness is their mean (default 1)")
-    p.add_argument("--checkpoint-every", type=int, default=5, help="generations between checkpoints (default 5)")
+    p.add_argument("--checkpoint-every", type=int_at_least(1), default=5, help="generations between checkpoints (default 5)")
     p.add_argument("--verbose", action="store_true", help="NEAT's per-generation report (species, fitness statistics)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run_gait)
@@ -40,16 +43,16 @@ def add_commands(subparsers) -> None:
     p = subparsers.add_parser("transfer", help="score controllers on their native robot and on a target (Figure 12)",
                               description="Run each controller on its native robot and on the target from the same "
                                           "initial flipper angles; write distances, trajectories and a Figure-12 plot.")
-    p.add_argument("--controller", nargs="+", required=True, type=Path,
+    p.add_argument("--controller", nargs="+", required=True, type=path,
                    help="controller files (.pkl NEAT, .zip SB3) or run directories, one panel each")
     p.add_argument("--native", nargs="+", default=["healthy"], help=f"each controller's own robot: {ROBOT_HELP}; one, or one per controller")
     p.add_argument("--target", required=True, help=f"robot to transfer to: {ROBOT_HELP}")
-    p.add_argument("--seed", type=int, default=0, help="seed of the first episode: draws the initial angles (default 0, as `aquafish gait`)")
-    p.add_argument("--episodes", type=int, default=1,
+    p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of the first episode: draws the initial angles (default 0, as `aquafish gait`)")
+    p.add_argument("--episodes", type=int_at_least(1), default=1,
                    help="paired episodes per robot (seeds seed, seed+1, ...); distances are their means (default 1)")
     p.add_argument("--initial-angles", default=None, help="3 comma-separated angles (rad): left, right pectoral, caudal")
     p.add_argument("--title", nargs="+", default=None, help="one title per controller")
-    p.add_argument("--out", type=Path, default=Path("runs/transfer"), help="writes transfer.json and transfer.png (default runs/transfer)")
+    p.add_argument("--out", type=path, default=Path("runs/transfer"), help="writes transfer.json and transfer.png (default runs/transfer)")
     p.set_defaults(func=run_transfer)
 
     p = subparsers.add_parser("rl", help="train a stable-baselines3 PPO/SAC baseline (needs the [rl] extra)",
@@ -58,12 +61,12 @@ def add_commands(subparsers) -> None:
     p.add_argument("--env", default="AquaFish-v0", help="task (`aquafish envs` lists them; default AquaFish-v0)")
     p.add_argument("--morphology", default="healthy", help=f"robot: {ROBOT_HELP} (default healthy)")
     p.add_argument("--damage", default="none", help="damage applied to --morphology (default none)")
-    p.add_argument("--timesteps", type=int, default=None, help="env steps of 0.1 s (default: the YAML's n_timesteps)")
-    p.add_argument("--seed", type=int, default=0, help="training seed (default 0)")
-    p.add_argument("--out", type=Path, default=Path("runs/rl"), help="output directory (default runs/rl)")
-    p.add_argument("--hyperparams", type=Path, default=None, help="RL-Zoo-style YAML (default gait/rl_hyperparams.yml)")
-    p.add_argument("--episode-duration-s", type=float, default=20.0, help="simulated seconds per training episode (default 20)")
-    p.add_argument("--num-threads", type=int, default=1, help="torch CPU threads (default 1)")
+    p.add_argument("--timesteps", type=int_at_least(1), default=None, help="env steps of 0.1 s (default: the YAML's n_timesteps)")
+    p.add_argument("--seed", type=int_at_least(0), default=0, help="training seed (default 0)")
+    p.add_argument("--out", type=path, default=Path("runs/rl"), help="output directory (default runs/rl)")
+    p.add_argument("--hyperparams", type=path, default=None, help="RL-Zoo-style YAML (default gait/rl_hyperparams.yml)")
+    p.add_argument("--episode-duration-s", type=positive_float, default=20.0, help="simulated seconds per training episode (default 20)")
+    p.add_argument("--num-threads", type=int_at_least(1), default=1, help="torch CPU threads (default 1)")
     p.add_argument("--verbose", type=int, default=0, choices=(0, 1, 2), help="SB3 verbosity (default 0)")
     p.set_defaults(func=run_rl)
 
@@ -71,6 +74,7 @@ def add_commands(subparsers) -> None:
 def run_gait(args: argparse.Namespace) -> int:
     from gait.neat_evolution import latest_checkpoint, evolve_gait
 
+    check_output_dir(args.out)
     resume = latest_checkpoint(args.out) if args.resume == "latest" else args.resume
     result = evolve_gait(args.morphology, damage=args.damage, generations=args.generations,
                          population_size=args.population_size, seed=args.seed, out_dir=args.out, workers=args.workers,
@@ -107,6 +111,7 @@ def run_transfer(args: argparse.Namespace) -> int:
     if args.title is not None and len(args.title) != len(args.controller):
         raise ValueError(f"give one --title per --controller ({len(args.controller)}), got {len(args.title)}")
     angles = _angles(args.initial_angles)
+    check_output_dir(args.out)
     results = []
     for path, native in zip(args.controller, natives):
         result = score_transfer(load_controller(path), native, args.target, seed=args.seed, episodes=args.episodes,
@@ -130,6 +135,10 @@ def run_rl(args: argparse.Namespace) -> int:
                     hyperparams_path=args.hyperparams, episode_duration_s=args.episode_duration_s,
                     num_threads=args.num_threads, verbose=args.verbose, env_id=args.env)
     meta = json.loads(path.with_suffix(".json").read_text())
+    asked = meta.get("timesteps_requested", meta["timesteps"])
+    if asked != meta["timesteps"]:
+        print(f"note: --timesteps {asked} was rounded up to {meta['timesteps']} steps ({args.algo.upper()} trains whole "
+              "rollouts of n_steps x n_envs steps; see the hyperparameter file)")
     print(f"{args.algo.upper()} on {args.env}: {meta['timesteps']} steps in {meta['wall_time_s']:.0f} s; forward distance "
           f"{meta['eval_distance']:.3f} units, return {meta['eval_return']:.3f} in 20 s (seed {meta['eval_seed']}); "
           f"wrote {path}")

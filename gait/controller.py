@@ -17,8 +17,8 @@ reads either from disk.
 
 from __future__ import annotations
 
-import json
 import pickle
+import zipfile
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
@@ -26,6 +26,7 @@ import neat
 import numpy as np
 
 from aquafish_gym.files import atomic_write
+from aquafish_gym.rundir import FileError, read_json, read_pickle
 from gait.clock import CLOCK_DIM, CLOCK_PERIOD_S, OBS_DIM, check_clock_period, with_clock
 
 #: File names inside a run directory that :func:`load_controller` looks for.
@@ -249,7 +250,8 @@ def load_controller(path) -> Controller:
             loaded: load only files you trust.
 
     Raises:
-        ValueError: no such file, an unknown file type, or a pickle that is not a controller.
+        ValueError: no such file, an unknown file type, or a pickle that is not a controller;
+            :class:`~aquafish_gym.rundir.FileError` for a truncated or garbled file.
     """
     path = Path(path)
     if path.is_dir():
@@ -260,8 +262,7 @@ def load_controller(path) -> Controller:
     if not path.is_file():
         raise ValueError(f"no controller file {path}")
     if path.suffix == ".pkl":
-        with path.open("rb") as f:
-            controller = pickle.load(f)
+        controller = read_pickle(path, what="controller")
         if not isinstance(controller, Controller):
             raise ValueError(f"{path} does not hold a controller (got {type(controller).__name__})")
         return controller
@@ -269,6 +270,10 @@ def load_controller(path) -> Controller:
         sidecar = sb3_sidecar(path)
         if not sidecar.is_file():
             raise ValueError(f"{path}: missing {sidecar.name} (algo and clock period, written by train_rl)")
-        meta = json.loads(sidecar.read_text())
-        return SB3PolicyController.load(path, meta.get("algo"), meta.get("clock_period_s", CLOCK_PERIOD_S))
+        meta = read_json(sidecar)
+        try:
+            return SB3PolicyController.load(path, meta.get("algo"), meta.get("clock_period_s", CLOCK_PERIOD_S))
+        except (EOFError, KeyError, zipfile.BadZipFile, pickle.UnpicklingError) as err:
+            raise FileError(path, f"is not a readable SB3 model: truncated or corrupt ({type(err).__name__}: {err})") \
+                from None
     raise ValueError(f"unknown controller file {path}; expected a .pkl (NEAT), a .zip (SB3) or a run directory")

@@ -26,6 +26,7 @@ from __future__ import annotations
 import configparser
 import dataclasses
 import functools
+import inspect
 import itertools
 import json
 import os
@@ -40,6 +41,8 @@ import numpy as np
 
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
+from aquafish_gym.rundir import (FileError, MismatchError, check_fingerprint, check_memory, check_output_dir,
+                                 read_json, read_pickle, run_lock)
 from gait.clock import CLOCK_DIM, CLOCK_PERIOD_S, check_clock_period
 from gait.controller import NEAT_CONTROLLER_FILE, NEATController, load_controller
 from gait.neat_progress import GenerationBar, PoolEvaluator, QuietCheckpointer
@@ -56,6 +59,12 @@ CHECKPOINT_PREFIX = "neat-checkpoint-"
 SETTINGS_FILE = "fitness_settings.json"
 #: Written last by :func:`evolve_gait`: its presence marks a finished run.
 RUN_FILE = "run.json"
+#: The attribute of a run's ``neat.Config`` that carries its fingerprint (fitness settings and
+#: population size) into every checkpoint; ``fitness_settings.json`` holds the same dict.
+FINGERPRINT_ATTR = "aquafish_fingerprint"
+#: Rough memory per NEAT genome (bytes; Python objects of its nodes and connections), and per
+#: simulated 0.01 s step of an episode (trajectory and logs): the up-front memory estimate.
+GENOME_BYTES, STEP_BYTES = 50_000, 200
 
 
 class _GenomeConfig(neat.genome.DefaultGenomeConfig):
@@ -271,14 +280,31 @@ def latest_checkpoint(out_dir) -> Path:
     return found[-1]
 
 
-def _restore(resume, population_size: int | None) -> neat.Population:
+def _restore(resume, population_size: int | None, settings: dict[str, Any]) -> neat.Population:
+    """The population of the checkpoint ``resume``, checked against the run's fitness ``settings``.
+
+    Raises:
+        ValueError: no such file; :class:`~aquafish_gym.rundir.FileError` if it is truncated
+            or not a NEAT checkpoint; :class:`~aquafish_gym.rundir.MismatchError` if it was
+            written by a run with other fitness settings (its fingerprint) or another population size.
+    """
     path = Path(resume)
     if not path.is_file():
         raise ValueError(f"no NEAT checkpoint {path}")
+    data = read_pickle(path, gzipped=True, what="NEAT checkpoint",
+                       fix="delete it to resume from the checkpoint before it, or restore it from a copy")
+    if not (isinstance(data, tuple) and len(data) == 5 and isinstance(data[1], neat.Config)):
+        raise FileError(path, "is not a NEAT checkpoint")
+    recorded = getattr(data[1], FINGERPRINT_ATTR, None)
+    if recorded is not None:  # checkpoints written before fingerprints were recorded have none
+        check_fingerprint(path, {k: v for k, v in recorded.items() if k != "population_size"}, settings,
+                          "cannot resume: the checkpoint belongs to another run; give the settings it was made "
+                          "with, or start a new run in another --out")
     population = neat.Checkpointer.restore_checkpoint(str(path))
     _pickle_safe(population.config)
     if population_size is not None and population_size != population.config.pop_size:
-        raise ValueError(f"population_size {population_size} differs from the checkpoint's {population.config.pop_size}")
+        raise MismatchError(f"cannot resume: --population-size {population_size} differs from the checkpoint's "
+                            f"{population.config.pop_size} ({path})")
     return population
 
 
@@ -286,7 +312,10 @@ def _previous_run(out_dir: Path | None, generation: int) -> tuple[list[dict], NE
     """History before ``generation`` and the best controller saved in ``out_dir``."""
     if out_dir is None or not (out_dir / HISTORY_FILE).is_file():
         return [], None, -np.inf
-    history = [h for h in json.loads((out_dir / HISTORY_FILE).read_text()) if h["generation"] < generation]
+    try:
+        history = [h for h in read_json(out_dir / HISTORY_FILE, list) if h["generation"] < generation]
+    except (KeyError, TypeError) as err:
+        raise FileError(out_dir / HISTORY_FILE, f"is not a fitness history ({type(err).__name__}: {err})") from None
     if not history or not (out_dir / NEAT_CONTROLLER_FILE).is_file():
         return history, None, -np.inf
     return history, load_controller(out_dir / NEAT_CONTROLLER_FILE), history[-1]["best_so_far"]
@@ -302,20 +331,13 @@ def _settings(task: FitnessTask) -> dict[str, Any]:
 
 def _attach_reporters(population: neat.Population, task: FitnessTask, out_dir: Path | None, resuming: bool,
                       verbose: bool, checkpoint_every: int) -> tuple[HistoryReporter, neat.Checkpointer | None]:
-    """Add StdOutReporter (if verbose), the HistoryReporter and a Checkpointer (if out_dir).
-
-    Raises:
-        ValueError: resuming into an ``out_dir`` whose run had other fitness settings.
-    """
+    """Add StdOutReporter (if verbose), the HistoryReporter and a Checkpointer (if out_dir); write
+    ``fitness_settings.json`` (the run's fingerprint)."""
     history, best, best_fitness = _previous_run(out_dir, population.generation) if resuming else ([], None, -np.inf)
     if out_dir is not None:
-        settings_file = out_dir / SETTINGS_FILE
-        if resuming and settings_file.is_file():
-            before = json.loads(settings_file.read_text())
-            if before != json.loads(json.dumps(_settings(task))):
-                raise ValueError(f"cannot resume: {settings_file} has fitness settings {before}, this run has {_settings(task)}")
         (out_dir / CHECKPOINT_DIR).mkdir(parents=True, exist_ok=True)
-        atomic_write(settings_file, json.dumps(_settings(task), indent=1).encode())
+        atomic_write(out_dir / SETTINGS_FILE,
+                     json.dumps(getattr(population.config, FINGERPRINT_ATTR), indent=1).encode())
     recorder = HistoryReporter(task, out_dir, history, best, best_fitness)
     if verbose:
         population.add_reporter(neat.StdOutReporter(show_species_detail=False))
@@ -364,40 +386,103 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
         :class:`GaitResult`.
 
     Raises:
-        ValueError: invalid robot, counts, config, checkpoint, or a checkpoint already at or
-            beyond ``generations``.
+        ValueError: invalid robot, counts, duration, config, checkpoint, or a checkpoint
+            already at or beyond ``generations``; an ``out_dir`` that cannot be written
+            (checked before anything is created), that another process is writing
+            (:class:`~aquafish_gym.rundir.BusyError`), that holds a run with other settings, or
+            (without ``resume``) any run with checkpoints (:class:`~aquafish_gym.rundir.MismatchError`);
+            a truncated checkpoint (:class:`~aquafish_gym.rundir.FileError`); a population or
+            episode that cannot fit in memory.
     """
     robot = as_robot(morphology if morphology is not None else "healthy", damage=damage)
     generations = check_int("generations", generations, 1)
     seed = check_int("seed", seed, 0)
     workers = check_int("workers", workers if workers is not None else (os.cpu_count() or 1), 1)
     checkpoint_every = check_int("checkpoint_every", checkpoint_every, 1)
-    angles = None if initial_angles is None else tuple(float(a) for a in np.asarray(initial_angles, dtype=float).reshape(3))
-    task = FitnessTask(robot, seed, angles, float(episode_duration_s), check_clock_period(clock_period_s),
-                       check_int("episodes_per_genome", episodes_per_genome, 1), env_id)
-    out_dir = Path(out_dir) if out_dir is not None else None
+    task = _make_task(robot, seed, initial_angles, episode_duration_s, clock_period_s, episodes_per_genome, env_id)
+    out_dir = check_output_dir(out_dir) if out_dir is not None else None
+    with make_env(robot, env_id=env_id, episode_duration_s=task.episode_duration_s) as env:  # checks the duration
+        num_inputs = env.observation_space.shape[0] + CLOCK_DIM
+    config = None
+    if resume is None:
+        config = load_neat_config(config_path, population_size=population_size)
+    _check_gait_memory(population_size or (config.pop_size if config is not None else 0), task, workers)
 
     random.seed(seed)
     np.random.seed(seed)
     if resume is not None:
-        population = _restore(resume, population_size)
+        population = _restore(resume, population_size, _settings(task))
         config_text = None
     else:
-        config = load_neat_config(config_path, population_size=population_size)
         config_text = Path(config_path or DEFAULT_CONFIG).read_text()
-        with make_env(robot, env_id=env_id) as env:
-            set_num_inputs(config, env.observation_space.shape[0] + CLOCK_DIM)
+        set_num_inputs(config, num_inputs)
         population = neat.Population(config, seed=seed)
+    setattr(population.config, FINGERPRINT_ATTR, _settings(task) | {"population_size": population.config.pop_size})
     remaining = generations - population.generation
     if remaining < 1:
         raise ValueError(f"the checkpoint is at generation {population.generation}; generations must exceed it, got {generations}")
+    if out_dir is None:
+        return _evolve(population, task, None, resume is not None, verbose, checkpoint_every, generations, workers,
+                       progress)
+    with run_lock(out_dir):
+        _check_run_dir(out_dir, getattr(population.config, FINGERPRINT_ATTR), resume is not None)
+        if config_text is not None:
+            atomic_write(out_dir / "neat_config.ini", config_text.encode())
+        return _evolve(population, task, out_dir, resume is not None, verbose, checkpoint_every, generations, workers,
+                       progress)
 
-    recorder, checkpointer = _attach_reporters(population, task, out_dir, resume is not None, verbose, checkpoint_every)
-    if out_dir is not None and config_text is not None:
-        atomic_write(out_dir / "neat_config.ini", config_text.encode())
 
+def _make_task(robot: Robot, seed: int, initial_angles, episode_duration_s, clock_period_s, episodes_per_genome,
+               env_id: str) -> FitnessTask:
+    angles = None if initial_angles is None else tuple(float(a) for a in np.asarray(initial_angles, dtype=float).reshape(3))
+    if isinstance(episode_duration_s, bool) or not isinstance(episode_duration_s, (int, float, np.floating)) \
+            or not (np.isfinite(episode_duration_s) and episode_duration_s > 0):
+        raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
+    return FitnessTask(robot, seed, angles, float(episode_duration_s), check_clock_period(clock_period_s),
+                       check_int("episodes_per_genome", episodes_per_genome, 1), env_id)
+
+
+def _check_gait_memory(population_size: int, task: FitnessTask, workers: int) -> None:
+    """Refuse a population or an episode that cannot fit in memory (estimate: :data:`GENOME_BYTES`
+    per genome, :data:`STEP_BYTES` per simulated step and worker)."""
+    steps = task.episode_duration_s / 0.01
+    check_memory(f"a population of {population_size} genomes and {task.episode_duration_s:g} s episodes on "
+                 f"{workers} workers", GENOME_BYTES * population_size + STEP_BYTES * steps * workers,
+                 "lower --population-size or --episode-duration-s")
+
+
+def _check_run_dir(out_dir: Path, fingerprint: dict[str, Any], resuming: bool) -> None:
+    """Refuse an ``out_dir`` that holds a gait run with other settings, or any run unless resuming.
+
+    Raises:
+        MismatchError: ``fitness_settings.json`` records other settings (the fields are named),
+            or a new run would overwrite a run that has checkpoints or is finished.
+    """
+    settings_file = out_dir / SETTINGS_FILE
+    if settings_file.is_file():
+        recorded = read_json(settings_file)
+        if not resuming:  # a new run may reuse a directory of the same settings that has nothing to resume
+            check_fingerprint(out_dir, recorded, fingerprint, "use another --out, or the same settings")
+        else:
+            check_fingerprint(settings_file, {k: v for k, v in recorded.items() if k != "population_size"},
+                              {k: v for k, v in fingerprint.items() if k != "population_size"},
+                              "cannot resume: give the settings of the run in it, or use another --out")
+    if not resuming:
+        checkpoints = sorted((out_dir / CHECKPOINT_DIR).glob(CHECKPOINT_PREFIX + "*"))
+        if checkpoints or (out_dir / RUN_FILE).is_file():
+            raise MismatchError(f"{out_dir} already holds a gait run ({len(checkpoints)} checkpoints"
+                                f"{', finished' if (out_dir / RUN_FILE).is_file() else ''}); continue it with "
+                                "--resume latest, or use another --out")
+
+
+def _evolve(population: neat.Population, task: FitnessTask, out_dir: Path | None, resuming: bool, verbose: bool,
+            checkpoint_every: int, generations: int, workers: int, progress: bool) -> GaitResult:
+    """Run ``population`` up to ``generations`` and write the outputs (the body of :func:`evolve_gait`)."""
+    recorder, checkpointer = _attach_reporters(population, task, out_dir, resuming, verbose, checkpoint_every)
+    remaining = generations - population.generation
     evaluate = functools.partial(evaluate_genome, task=task)
-    bar = GenerationBar(generations, population.generation, desc=f"NEAT gait on {robot.label}", disable=not progress)
+    bar = GenerationBar(generations, population.generation, desc=f"NEAT gait on {task.robot.label}",
+                        disable=not progress)
     population.add_reporter(bar)
     try:
         if workers == 1:
@@ -416,8 +501,9 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
         # always leave a checkpoint of the final state, so a finished run can be extended
         checkpointer.save_checkpoint(population.config, population.population, population.species, population.generation)
     best_rollout = task.run(recorder.best_controller)
-    result = GaitResult(recorder.best_controller, recorder.best_fitness, recorder.history, best_rollout, robot, seed,
-                        best_rollout.initial_angles, population.generation, recorder.history[-1]["wall_time_s"], out_dir)
+    result = GaitResult(recorder.best_controller, recorder.best_fitness, recorder.history, best_rollout, task.robot,
+                        task.seed, best_rollout.initial_angles, population.generation,
+                        recorder.history[-1]["wall_time_s"], out_dir)
     if out_dir is not None:
         _write_outputs(result, task, population.config)
     return result
@@ -436,16 +522,38 @@ def evolve_or_load_gait(morphology, out_dir, **kwargs) -> NEATController:
         **kwargs: further :func:`evolve_gait` arguments (not ``out_dir`` or ``resume``).
 
     Raises:
-        ValueError: as :func:`evolve_gait`.
+        ValueError: as :func:`evolve_gait`; :class:`~aquafish_gym.rundir.MismatchError` if the
+            finished run was made with other settings or another budget (``generations``,
+            ``population_size``), naming the fields.
     """
-    out_dir = Path(out_dir)
-    if (out_dir / RUN_FILE).is_file():
-        return load_controller(out_dir / NEAT_CONTROLLER_FILE)
-    try:
-        resume = latest_checkpoint(out_dir)
-    except ValueError:
-        resume = None
-    return evolve_gait(morphology, out_dir=out_dir, resume=resume, **kwargs).best_controller
+    out_dir = check_output_dir(out_dir)
+    with run_lock(out_dir):
+        if (out_dir / RUN_FILE).is_file():
+            _check_finished(out_dir, morphology, kwargs)
+            return load_controller(out_dir / NEAT_CONTROLLER_FILE)
+        try:
+            resume = latest_checkpoint(out_dir)
+        except ValueError:
+            resume = None
+        return evolve_gait(morphology, out_dir=out_dir, resume=resume, **kwargs).best_controller
+
+
+def _check_finished(out_dir: Path, morphology, kwargs: dict[str, Any]) -> None:
+    """Refuse to reuse the finished run in ``out_dir`` if it was made with other settings than
+    :func:`evolve_gait` would use with ``kwargs`` (its budget included)."""
+    bound = inspect.signature(evolve_gait).bind(morphology, **kwargs)
+    bound.apply_defaults()
+    a = bound.arguments
+    robot = as_robot(a["morphology"] if a["morphology"] is not None else "healthy", damage=a["damage"])
+    task = _make_task(robot, check_int("seed", a["seed"], 0), a["initial_angles"], a["episode_duration_s"],
+                      a["clock_period_s"], a["episodes_per_genome"], a["env_id"])
+    population_size = a["population_size"] or load_neat_config(a["config_path"]).pop_size
+    run = read_json(out_dir / RUN_FILE)
+    recorded = dict(read_json(out_dir / SETTINGS_FILE)) if (out_dir / SETTINGS_FILE).is_file() else {}
+    recorded |= {"population_size": run.get("population_size"), "generations": run.get("generations")}
+    check_fingerprint(out_dir, recorded, _settings(task) | {"population_size": population_size,
+                                                            "generations": a["generations"]},
+                      "use another --out for this budget, or the settings it was made with")
 
 
 def _write_outputs(result: GaitResult, task: FitnessTask, config: neat.Config) -> None:

@@ -8,14 +8,20 @@ here instead, and adds ``StdOutReporter`` only when asked (``verbose``).
 
 from __future__ import annotations
 
-import contextlib
+import gzip
 import io
 import multiprocessing
+import os
+import pickle
+import random
 from concurrent.futures import ProcessPoolExecutor
 
 import neat
 import numpy as np
 from tqdm.auto import tqdm
+
+from aquafish_gym.files import atomic_write
+from aquafish_gym.rundir import die_with_parent
 
 __all__ = ["GenerationBar", "PoolEvaluator", "QuietCheckpointer"]
 
@@ -56,11 +62,22 @@ class GenerationBar(neat.reporting.BaseReporter):
 
 
 class QuietCheckpointer(neat.Checkpointer):
-    """``neat.Checkpointer`` without its "Saving checkpoint to ..." line (the bar shows progress)."""
+    """``neat.Checkpointer`` that writes each checkpoint atomically and without its "Saving
+    checkpoint to ..." line (the bar shows progress).
+
+    The file has neat-python's format (a gzip-compressed pickle of ``(generation, config,
+    population, species_set, random state)``, read by ``neat.Checkpointer.restore_checkpoint``),
+    but is compressed in memory and written with :func:`aquafish_gym.files.atomic_write`, so a
+    kill while saving leaves the previous checkpoints and no truncated one.
+    """
 
     def save_checkpoint(self, config, population, species_set, generation):
-        with contextlib.redirect_stdout(io.StringIO()):
-            super().save_checkpoint(config, population, species_set, generation)
+        """Write ``PREFIX<generation>`` atomically (see the class)."""
+        buffer = io.BytesIO()
+        with gzip.GzipFile(fileobj=buffer, mode="wb", compresslevel=5, mtime=0) as f:
+            pickle.dump((generation, config, population, species_set, random.getstate()), f,
+                        protocol=pickle.HIGHEST_PROTOCOL)
+        atomic_write(f"{self.filename_prefix}{generation}", buffer.getvalue())
 
 
 class PoolEvaluator:
@@ -71,12 +88,13 @@ class PoolEvaluator:
         evaluate: ``evaluate(genome, config) -> fitness``, a picklable top-level callable.
 
     Use as a context manager; the pool ("spawn" start method: PyBullet clients must not be
-    forked) lives until exit.
+    forked) lives until exit, and its workers die with the process that made it.
     """
 
     def __init__(self, workers: int, evaluate):
         self.evaluate = evaluate
-        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"))
+        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                                        initializer=die_with_parent, initargs=(os.getpid(),))
 
     def __call__(self, genomes, config) -> None:
         genomes = list(genomes)

@@ -20,6 +20,7 @@ import yaml
 
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
+from aquafish_gym.rundir import MismatchError, check_fingerprint, check_output_dir, read_json, run_lock
 from gait.clock import CLOCK_PERIOD_S, ClockObservation, check_clock_period
 from gait.controller import SB3_ALGOS, SB3_MODEL_FILE, SB3PolicyController, sb3_algorithm, sb3_sidecar
 from gait.plots import plot_learning_curve
@@ -45,7 +46,10 @@ def read_hyperparams_section(algo: str, path=None, env_id: str = DEFAULT_ENV_ID)
     path = Path(path) if path is not None else HYPERPARAMS_FILE
     if not path.is_file():
         raise ValueError(f"no hyperparameter file {path}")
-    data = yaml.safe_load(path.read_text()) or {}
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as err:
+        raise ValueError(f"{path}: not valid YAML ({' '.join(str(err).split())})") from None
     try:
         section = data[algo][env_id]
     except (KeyError, TypeError):
@@ -152,10 +156,16 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
         progress: show a tqdm bar over env steps with the mean and best episode return.
 
     Returns:
-        Path of ``model.zip`` (load it with :func:`gait.load_controller`).
+        Path of ``model.zip`` (load it with :func:`gait.load_controller`). ``model.json``
+        records ``timesteps``, the env steps actually trained (PPO trains whole rollouts of
+        ``n_steps x n_envs`` steps, so it can exceed the ``timesteps_requested``), and the
+        run's ``fingerprint`` (the settings that define the model).
 
     Raises:
-        ValueError: invalid algorithm, robot, hyperparameters or counts.
+        ValueError: invalid algorithm, robot, hyperparameters or counts; an ``out_dir`` that
+            cannot be written (checked before anything is created), that another process is
+            writing (:class:`~aquafish_gym.rundir.BusyError`), or that already holds a
+            trained model (:class:`~aquafish_gym.rundir.MismatchError`; nothing is overwritten).
         ImportError: stable-baselines3, or pandas (for SB3's ``load_results``), is missing
             (install the ``[rl]`` extra); raised before training.
     """
@@ -171,15 +181,53 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
     hp = load_hyperparams(algo, hyperparams_path, env_id)
     n_timesteps = hp.pop("n_timesteps") if timesteps is None else timesteps
     check_int("timesteps", n_timesteps, 1)
+    check_int("seed", seed, 0)
+    check_int("eval_seed", eval_seed, 0)
+    if num_threads is not None:
+        check_int("num_threads", num_threads, 1)
     hp.pop("n_timesteps", None)
+    fingerprint = rl_fingerprint(algo, robot, n_timesteps, seed, hyperparams_path, episode_duration_s,
+                                 clock_period_s, env_id)
+    out_dir = check_output_dir(out_dir)
+    make_rl_env(robot, episode_duration_s=episode_duration_s, clock_period_s=clock_period_s, env_id=env_id).close()
+    with run_lock(out_dir):
+        model_path = out_dir / SB3_MODEL_FILE
+        if sb3_sidecar(model_path).is_file():
+            recorded = _recorded_fingerprint(sb3_sidecar(model_path))
+            check_fingerprint(out_dir, recorded, fingerprint, "use another --out (nothing was overwritten)")
+            raise MismatchError(f"{out_dir} already holds this trained model ({SB3_MODEL_FILE}); use another --out "
+                                "or delete it to train again (nothing was overwritten)")
+        return _train(algo_cls, algo, robot, int(n_timesteps), seed, out_dir, hp, hyperparams_path, episode_duration_s,
+                      clock_period_s, eval_seed, num_threads, verbose, env_id, progress, fingerprint, make_vec_env,
+                      load_results)
+
+
+def rl_fingerprint(algo: str, robot: Robot, timesteps: int, seed: int, hyperparams_path, episode_duration_s: float,
+                   clock_period_s: float, env_id: str) -> dict[str, Any]:
+    """The settings that define a trained model (recorded in ``model.json`` as ``fingerprint``)."""
+    return {"algo": algo, "env_id": env_id, "robot": robot.to_dict(), "seed": int(seed), "timesteps": int(timesteps),
+            "episode_duration_s": float(episode_duration_s), "clock_period_s": float(clock_period_s),
+            "hyperparams": read_hyperparams_section(algo, hyperparams_path, env_id)}
+
+
+def _recorded_fingerprint(sidecar: Path) -> dict[str, Any]:
+    """The fingerprint in a ``model.json`` (built from its fields for one written before fingerprints)."""
+    meta = read_json(sidecar)
+    if "fingerprint" in meta:
+        return meta["fingerprint"]
+    return {k: meta[k] for k in ("algo", "env_id", "robot", "seed", "timesteps", "episode_duration_s", "clock_period_s")
+            if k in meta}
+
+
+def _train(algo_cls, algo, robot, n_timesteps, seed, out_dir, hp, hyperparams_path, episode_duration_s, clock_period_s,
+           eval_seed, num_threads, verbose, env_id, progress, fingerprint, make_vec_env, load_results) -> Path:
+    """Train, save and score (the body of :func:`train_rl`, under the run lock)."""
     policy, n_envs = hp.pop("policy"), hp.pop("n_envs")
     if num_threads is not None:
         import torch
 
         torch.set_num_threads(int(num_threads))
 
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     venv = make_vec_env(lambda: make_rl_env(robot, episode_duration_s=episode_duration_s, clock_period_s=clock_period_s,
                                             env_id=env_id),
                         n_envs=n_envs, seed=seed, monitor_dir=str(out_dir / "monitor"))
@@ -195,17 +243,18 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
     score = rollout(SB3PolicyController(model, clock_period_s), robot, seed=eval_seed, env_id=env_id)
     meta = {
         "algo": algo, "env_id": env_id, "clock_period_s": clock_period_s, "robot": robot.to_dict(), "seed": seed,
-        "timesteps": int(n_timesteps), "episode_duration_s": episode_duration_s, "wall_time_s": wall_time_s,
+        "timesteps": int(model.num_timesteps), "timesteps_requested": int(n_timesteps),
+        "episode_duration_s": episode_duration_s, "wall_time_s": wall_time_s,
         "eval_seed": eval_seed, "eval_distance": score.distance, "eval_return": score.episode_return,
-        "eval_initial_angles_rad": score.initial_angles.tolist(),
+        "eval_initial_angles_rad": score.initial_angles.tolist(), "fingerprint": fingerprint,
     }
-    atomic_write(sb3_sidecar(model_path), json.dumps(meta, indent=1).encode())
     used = read_hyperparams_section(algo, hyperparams_path, env_id) | {"n_timesteps": int(n_timesteps)}
     atomic_write(out_dir / "hyperparams.yml", yaml.safe_dump({algo: {env_id: used}}, sort_keys=False).encode())
     # return, length and wall time (s since the first env started) of every episode, in time order
     curve = load_results(str(out_dir / "monitor"))[["r", "l", "t"]].to_numpy(dtype=np.float64)
     if len(curve):
         plot_learning_curve(curve, out_dir / "learning_curve.png", title=f"{algo.upper()} on {robot.label}")
+    atomic_write(sb3_sidecar(model_path), json.dumps(meta, indent=1).encode())  # last: marks a finished run
     return model_path
 
 
@@ -220,9 +269,21 @@ def train_or_load_rl(algo: str, morphology, timesteps: int | None, seed: int, ou
         algo, morphology, timesteps, seed, out_dir, **kwargs: as :func:`train_rl`.
 
     Raises:
-        As :func:`train_rl` (only when training).
+        As :func:`train_rl` (only when training); :class:`~aquafish_gym.rundir.MismatchError`
+        if the finished model was trained with other settings (the fields are named).
     """
-    model_path = Path(out_dir) / SB3_MODEL_FILE
+    model_path = check_output_dir(out_dir) / SB3_MODEL_FILE
     if sb3_sidecar(model_path).is_file():
+        kw = {k: kwargs[k] for k in ("damage", "hyperparams_path", "episode_duration_s", "clock_period_s", "env_id")
+              if k in kwargs}
+        robot = as_robot(morphology if morphology is not None else "healthy", damage=kw.pop("damage", "none"))
+        hyperparams_path, env_id = kw.get("hyperparams_path"), kw.get("env_id", DEFAULT_ENV_ID)
+        if timesteps is None:
+            timesteps = load_hyperparams(algo, hyperparams_path, env_id)["n_timesteps"]
+        wanted = rl_fingerprint(algo, robot, timesteps, seed, hyperparams_path,
+                                kw.get("episode_duration_s", EPISODE_DURATION_S),
+                                kw.get("clock_period_s", CLOCK_PERIOD_S), env_id)
+        check_fingerprint(Path(out_dir), _recorded_fingerprint(sb3_sidecar(model_path)), wanted,
+                          "use another --out for these settings, or the settings it was trained with")
         return model_path
     return train_rl(algo, morphology, timesteps, seed, out_dir, **kwargs)

@@ -89,18 +89,23 @@ def test_select_study_chooses_the_highest_mod_fit_and_resumes_from_its_file(tmp_
     assert all(0.0 <= r["error_caudal_deg"] <= 60.0 and 0.0 <= r["error_left_deg"] <= 180.0 for r in rows)
     # a second call finds the ensemble in the file and selects nothing again
     assert select_study(runs, 2, out, generations=1, scan_cycles=0, progress=shown.append) == rows and len(shown) == 1
-    # the command line prints each ensemble and the summary from the same file
-    assert main(["select", str(tmp_path), "--out", str(out)]) == 0
+    # the command line prints each ensemble and the summary from the same file (made with the same settings)
+    assert main(["select", str(tmp_path), "--out", str(out), "--generations", "1", "--scan-cycles", "0"]) == 0
     summary = capsys.readouterr().out.splitlines()[-2]
     assert summary.startswith(f"1 ensembles of 2: chosen OBJ_FIT {chosen['objective_fitness']:.3f} ± 0.000;")
     # at round 1: each run's round-1 model and its one experiment
     early = select_study(runs, 2, rounds=1, generations=1, scan_cycles=0)
     for r in early:
         assert r["objective_fitness"] == by_seed[r["seed"]].rounds[0]["objective_fitness"]
+    # other settings are refused, naming the fields, and the file is left as it was
+    before = out.read_text()
+    with pytest.raises(ValueError, match="generations: 1 -> 30; scan_cycles: 0 -> 2"):
+        select_study(runs, 2, out)
+    assert out.read_text() == before
     # the file of another study's seeds is refused, not overwritten
     out.write_text(out.read_text().replace("\n0,1,", "\n0,7,"))
-    with pytest.raises(ValueError, match="ensemble 0 holds seeds"):
-        select_study(runs, 2, out)
+    with pytest.raises(ValueError, match="seed 7 is not among the runs given"):
+        select_study(runs, 2, out, generations=1, scan_cycles=0)
 
 
 def test_select_runs_needs_two_runs_of_one_target(tmp_path, tiny_config):

@@ -122,9 +122,12 @@ def test_several_episodes_per_genome_average_starts():
 
 def test_evolve_or_load_gait_reuses_a_finished_run_and_resumes_an_interrupted_one(tmp_path):
     full = evolve_gait(None, generations=3, out_dir=tmp_path / "a", **TINY)
-    # finished: loaded, not evolved again (a different budget would raise or change it)
-    loaded = evolve_or_load_gait(None, tmp_path / "a", generations=99, **TINY)
+    # finished: loaded, not evolved again
+    loaded = evolve_or_load_gait(None, tmp_path / "a", generations=3, **TINY)
     assert rollout(loaded, seed=3, episode_duration_s=1.0).distance == pytest.approx(full.best_fitness)
+    # another budget is refused, naming the field (it must not be reused under the new budget's label)
+    with pytest.raises(ValueError, match="generations: 3 -> 99"):
+        evolve_or_load_gait(None, tmp_path / "a", generations=99, **TINY)
     # interrupted after generation 2 (no run.json, later checkpoints gone): resumed to the same result
     shutil.copytree(tmp_path / "a", tmp_path / "b")
     (tmp_path / "b" / "run.json").unlink()

@@ -1,0 +1,63 @@
+"""``argparse`` types shared by every package's command line: a bad value is refused while the
+command line is parsed, before any work, with a message that names the flag and what is allowed
+(``argument --seed: must be an int >= 0, got '-1'``)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+__all__ = ["csv_list", "int_at_least", "path", "positive_float"]
+
+
+def int_at_least(minimum: int):
+    """An argparse ``type``: an integer >= ``minimum``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an int >= {minimum}, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be an int >= {minimum}, got {text!r}")
+        return value
+
+    parse.__name__ = f"int >= {minimum}"
+    return parse
+
+
+def path(text: str) -> Path:
+    """An argparse ``type``: a non-empty path (``Path("")`` would mean the current directory)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("is empty; give a path")
+    return Path(text)
+
+
+def positive_float(text: str) -> float:
+    """An argparse ``type``: a finite number > 0 (``nan``, ``inf``, 0 and negatives are refused)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return value
+
+
+def csv_list(kind=str):
+    """An argparse ``type``: a non-empty comma-separated list of ``kind`` values, as a tuple."""
+
+    def parse(text: str) -> tuple:
+        try:
+            values = tuple(kind(v.strip()) for v in text.split(",") if v.strip())
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected comma-separated {kind.__name__} values, got {text!r}") from None
+        if not values:
+            raise argparse.ArgumentTypeError(f"expected at least one comma-separated {kind.__name__} value, got {text!r}")
+        if kind is float and not all(math.isfinite(v) for v in values):
+            raise argparse.ArgumentTypeError(f"expected finite numbers, got {text!r}")
+        return values
+
+    parse.__name__ = f"comma-separated {kind.__name__} list"
+    return parse
