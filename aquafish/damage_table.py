@@ -86,8 +86,8 @@ def qualifies(recovery_needed: float | None, oracle_on_damaged: float, healthy_o
     """Whether a damage qualifies for the case study (module docstring): the healthy gait keeps at most
     :data:`QUALIFY_RATIO` of the oracle's distance on the damaged robot, and the oracle reaches at least
     :data:`QUALIFY_RATIO` of the healthy gait's distance on the healthy robot (mean distances, units)."""
-    return recovery_needed is not None and recovery_needed <= QUALIFY_RATIO \
-        and oracle_on_damaged >= QUALIFY_RATIO * healthy_on_healthy
+    return bool(recovery_needed is not None and recovery_needed <= QUALIFY_RATIO
+                and oracle_on_damaged >= QUALIFY_RATIO * healthy_on_healthy)
 
 
 def _summary(values: np.ndarray) -> dict[str, Any]:

@@ -2,6 +2,8 @@
 
 import json
 
+import numpy as np
+
 import pytest
 
 from aquafish.damage_table import QUALIFY_RATIO, GaitBudget, damage_table, format_table
@@ -70,4 +72,5 @@ def test_cli_reports_a_bad_damage(tmp_path, capsys):
 def test_qualification_needs_a_broken_healthy_gait_and_an_oracle_that_swims(ratio, oracle, healthy, expected):
     from aquafish.damage_table import qualifies
 
-    assert qualifies(ratio, oracle, healthy) is expected
+    # a Python bool also from NumPy means (the table is written as JSON)
+    assert qualifies(ratio, np.float64(oracle), np.float64(healthy)) is expected
