@@ -1,7 +1,7 @@
 """Studies: many independent, resumable EEA runs, and the paper's Figures 5-10.
 
 A study is conditions (inference strategies) x experiment durations x replicate seeds
-(paper section 4, DESIGN.md section 8). Each (condition, duration, replicate) is one
+(paper section 4; docs/self_modeling.md). Each (condition, duration, replicate) is one
 :func:`eea.run` in ``OUT/<condition>/<duration>s/seed<k>``; a run whose ``rounds.csv``
 already holds every round is skipped, and an interrupted one resumes from its last
 finished round. Runs execute in a local process pool (one process per core, each run

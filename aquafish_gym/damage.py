@@ -1,4 +1,4 @@
-"""Damage presets: a transformation of a morphology plus servo faults (DESIGN.md section 3).
+"""Damage presets: a transformation of a morphology plus servo faults (docs/simulator.md).
 
 Damage is not a different robot class: :class:`Damage` maps a healthy :class:`Morphology`
 to a damaged one and carries :class:`ServoFaults` that the simulator applies to the motors.
@@ -23,7 +23,7 @@ class ServoFaults:
 
     Attributes:
         seized: per servo, True if the motor has failed and holds the flipper at its
-            initial angle (DESIGN.md section 3, ``seized_left_pectoral``).
+            initial angle (``seized_left_pectoral``).
         speed_scale: per servo, a gain on the commanded speed (pectorals, in [-1, 1]) or
             frequency (caudal, in [0, 1]); 1.0 is a healthy servo, a fraction a weak one, 0 a
             dead one, and a negative pectoral gain a servo that turns the wrong way

@@ -70,7 +70,7 @@ class AquaFishEnv(gym.Env):
     ## Description
     The aquatic robot of Rose et al. (ERLARS 2013, section 3.1) in PyBullet with a
     per-face fluid-drag model and Lighthill's reactive thrust at the caudal fin's trailing
-    edge (DESIGN.md section 3; ``reactive_thrust=False`` for pure drag). Two pectoral flippers on
+    edge (docs/physics.md; ``reactive_thrust=False`` for pure drag). Two pectoral flippers on
     continuous-rotation servos (no position feedback) and a caudal fin oscillating over
     a +-30 degree sweep. The goal is to swim as far as possible along the initial heading.
     Morphology (nine flipper dimensions) and damage are parameters, so the same env is

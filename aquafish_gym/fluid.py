@@ -1,4 +1,4 @@
-"""Vectorised fluid model: per-face drag, buoyancy righting moment (DESIGN.md section 3).
+"""Vectorised fluid model: per-face drag, buoyancy righting moment (docs/physics.md).
 
 Every link (body, left pectoral, right pectoral, caudal) is described by six faces with
 outward normal n, area A and centre r (relative to the link's centre of mass, link frame).

@@ -1,4 +1,4 @@
-"""Simulated IMU: the robot's own roll, pitch and yaw (DESIGN.md section 3, "Sensing").
+"""Simulated IMU: the robot's own roll, pitch and yaw (docs/simulator.md).
 
 The robot's axes are x lateral, y forward, z up, so (unlike PyBullet's
 ``getEulerFromQuaternion``, whose "roll" is about world x) we define, with the

@@ -1,6 +1,6 @@
 """Robot morphology: the nine flipper dimensions the self-modeling algorithm estimates.
 
-Source: paper section 3.1; DESIGN.md section 3. Units are simulator units: the body
+Source: paper section 3.1; docs/simulator.md. Units are simulator units: the body
 diameter is 1.0 and stands for 8 cm of the physical robot.
 """
 

@@ -1,4 +1,4 @@
-"""Physical parameters of the robot, its servos and the water (DESIGN.md section 3).
+"""Physical parameters of the robot, its servos and the water (docs/physics.md).
 
 Units: length in simulator units (1 unit = body diameter = 8 cm), mass in units of
 (water density x unit volume) so that water has density 1, time in seconds. Gravity is
@@ -16,7 +16,7 @@ DT_S = 0.01  #: physics step (s), paper section 4.
 DRAG_LAWS = ("quadratic", "linear")
 #: Default height of the free surface above the body's centre at rest (units): the surface
 #: swimmer floats with the top 0.2 units (1.6 cm) of its 1.0-unit hull above water, its
-#: pectoral hinges 0.3 units (2.4 cm) deep (README, "The robot and its simulator").
+#: pectoral hinges 0.3 units (2.4 cm) deep (docs/physics.md).
 DEFAULT_WATERLINE = 0.3
 
 

@@ -1,4 +1,4 @@
-"""Robot geometry and construction in a PyBullet world (DESIGN.md section 3).
+"""Robot geometry and construction in a PyBullet world (docs/physics.md).
 
 Frame (body): x lateral (to the robot's right), y longitudinal (forward is +y), z up.
 The body is a capsule along y (radius 0.5, total length 1.625). Pectoral flippers are

@@ -1,7 +1,7 @@
 """Batched simulator: many robots in one PyBullet world, stepped together.
 
 This is the boundary between ``aquafish_gym`` and the rest of the project
-(DESIGN.md section 4): the EEA calls :func:`simulate_batch`; the Gymnasium env drives a
+(docs/design.md): the EEA calls :func:`simulate_batch`; the Gymnasium env drives a
 :class:`BatchWorld` of one robot. The fluid forces of all robots are computed in one NumPy
 pass per step (:mod:`aquafish_gym.fluid`), then applied with one force and one torque call
 per link.
@@ -355,8 +355,8 @@ def simulate_batch(morphologies, actions, initial_angles, steps: int, *, faults=
     """Simulate N robots performing one action each; return their IMU logs.
 
     All N robots live in one PyBullet world with collisions masked off and are stepped
-    together; robot i's result does not depend on N or on its neighbours (DESIGN.md
-    section 4). ``dt`` = 0.01 s.
+    together; robot i's result does not depend on N or on its neighbours (docs/design.md).
+    ``dt`` = 0.01 s.
 
     Args:
         morphologies: ``(N, 9)`` flipper dimensions (simulator units), or ``(9,)``.

@@ -28,7 +28,7 @@ class StationKeepingEnv(AquaFishEnv):
 
     ## Description
     The robot of ``AquaFish-v0`` in a uniform, horizontal water current (the fluid model's
-    ``water_current``, DESIGN.md section 3). Speed and direction are fixed or drawn per
+    ``water_current``, docs/physics.md). Speed and direction are fixed or drawn per
     episode. Like the real robot, the controller senses only its IMU: the observation does
     not contain the current, which it must infer from how the water moves the body.
 

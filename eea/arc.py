@@ -81,7 +81,7 @@ def angle_distance(a, b, period: float | None = TWO_PI) -> np.ndarray:
     """Distance between angles: the shorter way round the circle, or ``|a - b|`` on a line.
 
     Used to score inference: the error of an inferred initial angle against the true one
-    (DESIGN 6: "inference error can be measured as well as OBJ_FIT").
+    (inference error is measured beside OBJ_FIT).
 
     Args:
         a, b: angles of any broadcastable shapes (radians unless ``period`` says otherwise).

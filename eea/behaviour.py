@@ -6,7 +6,7 @@ Two summaries are compared coefficient by coefficient with equation 2::
 
     sim(B, B') = 1/f * sum_k clip(1 - |c_k(B) - c_k(B')| / MAX, 0, 1),   MAX = 100
 
-Scaling (DESIGN section 6): the coefficients are the *unnormalised* ``|numpy.fft.rfft|``
+Scaling (docs/self_modeling.md): the coefficients are the *unnormalised* ``|numpy.fft.rfft|``
 (a sum over samples, not divided by their number), so a sinusoid of amplitude A degrees
 over N samples gives a peak of about A * N / 2. Normalised coefficients are so small next
 to MAX = 100 that sim is about 0.999 for a healthy versus a damaged robot and the search is

@@ -9,7 +9,7 @@ any simulation runs::
     config.steps          # 128 (= duration_s / 0.01 s)
 
 Named bundles of settings (:data:`PRESETS`, ``--preset`` on the command line) spell out the
-settings the README's studies use, so a run is one name instead of a dozen flags::
+settings the studies use (docs/studies.md), so a run is one name instead of a dozen flags::
 
     EEAConfig.from_presets("reduced", "library", damage="caudal_half", seed=3)
 """
@@ -136,10 +136,10 @@ FIELD_HELP: dict[str, str] = {
 #: the paper's settings, so ``paper`` changes nothing.
 PRESETS: dict[str, dict[str, object]] = {
     "paper": {},
-    # the README's reduced setting (Studies): every issue-14 part-2 table, about a quarter of
+    # the reduced setting (docs/studies.md): every issue-14 part-2 table, about a quarter of
     # the paper's simulations per run
     "reduced": {"rounds": 10, "estimation_generations": 30, "exploration_generations": 10, "oob_period": 10},
-    # the best single-run method under unknown initial angles (README, "Beyond the paper";
+    # the best single-run method under unknown initial angles (docs/studies.md, "Beyond the paper";
     # not the paper's): per-model angles, robust and diverse exploration, CMA-ES with a carried
     # covariance and a global share, contender refinement and an angle library
     "library": {"inference": "profile", "exploration_angles": 4, "exploration_diversity": 0.05,
@@ -149,7 +149,7 @@ PRESETS: dict[str, dict[str, object]] = {
 # the best method under unknown initial angles (issue 14: mean OBJ_FIT 0.958-0.965 at round 10
 # on three damages): "library" and two independent estimation lineages sharing each round's
 # experiment, the round's model chosen by an equal angle fit, each lineage's global CMA-ES kept
-# (eea.lineages; README, "Beyond the paper"; not the paper's)
+# (eea.lineages; docs/studies.md, "Beyond the paper"; not the paper's)
 PRESETS["lineages"] = {**PRESETS["library"], "cma_global_keep": 3, "lineages": 2}
 
 

@@ -1,4 +1,4 @@
-"""Batched, cached, parallel simulation of candidate models (paper section 3.2; DESIGN 6).
+"""Batched, cached, parallel simulation of candidate models (paper section 3.2; docs/design.md).
 
 Every fitness evaluation of a population goes through :class:`Evaluator`: the missing
 (model, action, initial angles) simulations of the whole request are gathered into ONE

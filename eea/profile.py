@@ -2,7 +2,7 @@
 
 The paper's strategies give all models of a generation the same context per experiment;
 out-of-band fits that one set of angles to the current best models, the models then fit
-those angles, and the pair locks in (README, "Why out-of-band inference helps so little").
+those angles, and the pair locks in (docs/studies.md, "Why out-of-band inference helps so little").
 Here the initial angles are nuisance parameters profiled out per model: a model is scored
 by MOD_FIT (eq. 3) under the best angles found *for it*, so the true morphology, given its
 true angles, scores 1 whatever the other models believe.

@@ -1,4 +1,4 @@
-"""What a run leaves on disk and how to read it back (paper section 4; DESIGN 8).
+"""What a run leaves on disk and how to read it back (paper section 4; docs/self_modeling.md).
 
 A run directory holds ``config.json`` (the :class:`~eea.config.EEAConfig`),
 ``rounds.csv`` (one row per round, columns :data:`ROUND_COLUMNS`) and the checkpoint

@@ -2,7 +2,7 @@
 
 A flipper on a continuous-rotation servo at constant speed is a fully submerged paddle wheel:
 its power and recovery strokes mirror each other, so its mean thrust is zero by symmetry
-(README, "Pectoral flippers"). This script measures it: every pair of constant pectoral
+(docs/physics.md, "Pectoral flippers in deep water"). This script measures it: every pair of constant pectoral
 speeds on a 5 x 5 grid in [-0.5, 0.5] rev/s, 10 random starts each, 20 s, all 250 robots
 in one batch (about a minute on one core).
 

@@ -1,4 +1,4 @@
-"""How the surface swimmer swims, and which damages break an open-loop gait (README tables).
+"""How the surface swimmer swims, and which damages break an open-loop gait (docs/physics.md tables).
 
 Prints Markdown: (1) speeds in body lengths per second with the tail only, the pectorals
 only and both, and the turning rate under differential paddling; (2) the open-loop damage

@@ -83,7 +83,7 @@ def test_presets_on_the_command_line_and_flags_over_them(monkeypatch, tmp_path):
     argv = ["study", "--preset", "reduced", "--preset", "library", "--conditions", "profile", "--damage", "caudal_half",
             "--profile-library", "4", "--out", str(tmp_path)]
     assert main(argv) == 0
-    # the README's library studies ran with these settings (docs/results keeps their study.json)
+    # the library studies of docs/studies.md ran with these settings (docs/results keeps their study.json)
     published = json.loads((Path(__file__).parents[2] / "docs/results/lph_cs8_lib8/study.json").read_text())["base"]
     published.update(damage="caudal_half", profile_library=4, workers=1)        # the flags given beside the presets
     # (they ran in deep water, before the surface swimmer became the default)

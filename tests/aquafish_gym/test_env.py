@@ -1,4 +1,4 @@
-"""The Gymnasium env AquaFish-v0 (DESIGN.md section 5)."""
+"""The Gymnasium env AquaFish-v0 (docs/simulator.md)."""
 
 import warnings
 

@@ -1,4 +1,4 @@
-"""The fluid model against hand-computed values (DESIGN.md section 3)."""
+"""The fluid model against hand-computed values (docs/physics.md)."""
 
 import numpy as np
 import pytest

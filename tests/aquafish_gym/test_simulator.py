@@ -1,4 +1,4 @@
-"""simulate_batch: shapes, validation, batch independence, IMU conventions (DESIGN.md section 4)."""
+"""simulate_batch: shapes, validation, batch independence, IMU conventions (docs/design.md)."""
 
 import math
 

@@ -22,7 +22,7 @@ def test_summary_shape_and_unnormalised_scale():
 
 
 def test_unnormalised_summary_separates_a_small_amplitude_change():
-    # DESIGN section 6: normalised DFT coefficients make sim ~ 0.999 (blind search).
+    # docs/self_modeling.md: normalised DFT coefficients make sim ~ 0.999 (blind search).
     steps = 256
     t = np.arange(steps) * 0.01
     log_a = np.zeros((steps, 3))

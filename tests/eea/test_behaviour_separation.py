@@ -1,4 +1,4 @@
-"""DESIGN section 6: with the real simulator, sim() separates damage and initial angles.
+"""docs/self_modeling.md: with the real simulator, sim() separates damage and initial angles.
 
 Unnormalised |rfft| coefficients (eea.behaviour) against MAX = 100: a healthy and a damaged
 robot, or one robot from two initial angle sets, must score clearly below sim = 1, while

@@ -60,7 +60,7 @@ def test_same_results_ignores_workers_chunking_and_rounds():
 
 
 def test_the_lineages_preset_spells_out_the_published_lineage_runs():
-    # docs/results/lph_lin2 (README, "Beyond the paper") ran with --preset reduced --preset library and two flags
+    # docs/results/lph_lin2 (docs/studies.md) ran with --preset reduced --preset library and two flags
     published = json.loads((Path(__file__).parents[2] / "docs/results/lph_lin2/study.json").read_text())["base"]
     ran = EEAConfig.from_dict(published)
     assert ran.waterline is None                                      # written before the surface swimmer: deep water

@@ -1,4 +1,4 @@
-"""examples/: the scripts the README quotes run and compute what they say."""
+"""examples/: the scripts the docs quote run and compute what they say."""
 
 import importlib.util
 from pathlib import Path

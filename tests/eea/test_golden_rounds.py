@@ -1,5 +1,5 @@
 """Golden ``rounds.csv`` of tiny runs: every inference strategy with both estimation searches,
-and the README's ``library`` preset with and without the options tried on top of it.
+and the ``library`` preset with and without the options tried on top of it.
 
 The files in ``tests/eea/test_golden_rounds/`` were recorded on main before the EEA's
 composition was reshaped (issue 12) and must stay identical, byte for byte, except the
@@ -32,7 +32,7 @@ VARIANTS = {
 
 #: Not the paper's, CMA-ES only (the global share and the carried covariance are CMA-ES
 #: options): the ``library`` preset (population 10, the smallest its global share of 8
-#: allows), and the same with every option measured on top of it (README, "Beyond the
+#: allows), and the same with every option measured on top of it (docs/studies.md, "Beyond the
 #: paper"; the kept global lineage both restarts at random, round 2, and keeps its lineage,
 #: round 3).
 CMA_VARIANTS = {
