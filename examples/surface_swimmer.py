@@ -94,17 +94,12 @@ def damage_table(params, angles) -> None:
     grid = np.array(list(itertools.product(GRID_PECTORAL, GRID_PECTORAL, GRID_CAUDAL)))
     names = sorted(DAMAGES)
     n, g = len(angles), len(grid)
-    morphs, faults, actions, init = [], [], [], []
-    for name in names:
+    mean = np.empty((len(names), g, len(CHECKPOINTS_S)))   # (damage, command, horizon)
+    for i, name in enumerate(names):   # one world per damage: g * n robots
         d = get_damage(name)
-        for cmd in grid:
-            for a in angles:
-                morphs.append(d.apply().to_array())
-                faults.append(d.faults)
-                actions.append(cmd)
-                init.append(a)
-    dist, _ = swim(np.array(morphs), faults, np.array(actions), np.array(init), params, CHECKPOINTS_S)
-    mean = dist.reshape(len(names), g, n, len(CHECKPOINTS_S)).mean(axis=2)   # (damage, command, horizon)
+        morphs = np.tile(d.apply().to_array(), (g * n, 1))
+        dist, _ = swim(morphs, d.faults, np.repeat(grid, n, axis=0), np.tile(angles, (g, 1)), params, CHECKPOINTS_S)
+        mean[i] = dist.reshape(g, n, len(CHECKPOINTS_S)).mean(axis=1)
     healthy = names.index("none")
     print("| damage | horizon | healthy command | its distance on the damaged robot | best command for the damaged body "
           "| its distance | kept |")
