@@ -56,10 +56,13 @@ def _envs(args: argparse.Namespace) -> int:
 def add_commands(sub) -> None:
     """Add the ``swim`` and ``envs`` sub-commands to an argparse ``subparsers`` object."""
     p = sub.add_parser("swim", help="swim the healthy and damaged robots with a fixed gait; plot trajectories")
-    p.add_argument("--damages", type=csv_list(str), default=("none", "left_pectoral_half", "caudal_half", "caudal_missing"),
-                   help="comma-separated damage names (default none,left_pectoral_half,caudal_half,caudal_missing)")
-    p.add_argument("--action", type=csv_list(float), default=(0.25, 0.25, 1.0),
-                   help="servo command: left rev/s, right rev/s, caudal Hz (default 0.25,0.25,1.0)")
+    p.add_argument("--damages", type=csv_list(str),
+                   default=("none", "left_pectoral_half", "reversed_left_pectoral", "caudal_missing"),
+                   help="comma-separated damage names (default none,left_pectoral_half,reversed_left_pectoral,"
+                        "caudal_missing)")
+    p.add_argument("--action", type=csv_list(float), default=(-0.5, -0.5, 1.0),
+                   help="servo command: left rev/s, right rev/s, caudal Hz (default -0.5,-0.5,1.0: both paddles "
+                        "pushing backwards under water, the tail at 1 Hz)")
     p.add_argument("--duration", type=positive_float, default=20.0, help="seconds of simulated swimming (default 20)")
     p.add_argument("--out", default="demo_out", help="output directory")
     p.set_defaults(func=_swim)
