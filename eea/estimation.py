@@ -1,7 +1,8 @@
 """Estimation phase of the EEA: evolve models that explain the experiments (paper 3.2-3.4).
 
 A model search (:mod:`eea.model_search`; the paper's bit-string GA over 45-bit model
-genomes, population 25, 100 generations per round) whose fitness is MOD_FIT (eq. 3), a
+genomes, 57-bit with servo gains in the ``morphology+servos`` model space, population 25,
+100 generations per round) whose fitness is MOD_FIT (eq. 3), a
 model's mean similarity (eq. 2) to the target over all recorded experiments, simulated from
 the initial angles the inference strategy chooses for each (model, experiment). One search
 lives for the whole run: each round continues from where the previous round ended (the

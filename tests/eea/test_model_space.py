@@ -305,3 +305,15 @@ def test_the_model_space_flag():
     assert "model_space" not in config_fields(parser.parse_args([]), config_flag_names())
     with pytest.raises(SystemExit):
         parser.parse_args(["--model-space", "servos"])
+
+
+def test_diagnosis_of_a_servo_run_scores_the_truth_with_its_gains(tmp_path, tiny_config):
+    from eea.diagnosis import diagnose_run
+
+    eea.run(tiny_config(model_space="morphology+servos", damage="reversed_left_pectoral", inference="known"),
+            tmp_path / "servos", progress=False)
+    d = diagnose_run(tmp_path / "servos", profile_generations=2)
+    assert d.true_true_angles == 1.0                      # the truth with gain -1 is the target
+    assert d.seen >= 1 and 0.0 < d.closest_seen <= 1.0
+    eea.run(tiny_config(damage="reversed_left_pectoral", inference="known"), tmp_path / "paper", progress=False)
+    assert diagnose_run(tmp_path / "paper", profile_generations=2).true_true_angles < 1.0   # no gain to model it
