@@ -5,7 +5,9 @@ in Self-Modeling Aquatic Robots" (ERLARS 2013), sections 3.2-3.4 and 4. The modu
 are pure NumPy; they take the robot's constants (morphology fields and bounds, servo
 ranges, the caudal sweep) from ``aquafish_gym`` but never simulate:
 
-* ``eea.encoding``  -- 45-bit model and 18-bit action genomes (section 3.2, Figure 4).
+* ``eea.encoding``  -- 45-bit model and 18-bit action genomes (section 3.2, Figure 4), and
+  the model spaces: the paper's ``morphology`` or ``morphology+servos`` (57 bits: a gain per
+  servo too; ``EEAConfig.model_space``, not the paper's).
 * ``eea.ga``        -- generational bit-string GA with ask/tell (section 4).
 * ``eea.cma_search`` -- CMA-ES over the nine dimensions with the same ask/tell: an
   optional estimation search (``estimation_search="cma"``), not the paper's.
@@ -39,6 +41,7 @@ from eea.behaviour import CHANNELS, MAX_COEFFICIENT, behaviour_summary, similari
 from eea.encoding import ACTION_BITS, ACTION_FIELD_BITS, MODEL_BITS, MODEL_FIELD_BITS
 from eea.encoding import decode_actions, decode_fields, decode_models
 from eea.encoding import encode_actions, encode_fields, encode_models
+from eea.encoding import MODEL_SPACES, ModelSpace, get_model_space
 from eea.fitness import action_fitness, model_fitness, objective_fitness
 from eea.ga import BitGA
 from eea.cma_search import CMAModelSearch

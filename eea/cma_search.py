@@ -15,6 +15,13 @@ level ``floor(x_d * 2**bits_d)`` (the top level for ``x_d = 1``), i.e. the cell 
 half-open model grid that contains it. ``ask`` returns those genomes, so the rest of the
 EEA (evaluation cache, inference, records) sees ordinary 45-bit model genomes.
 
+In the ``morphology+servos`` model space (``model_space``, not the paper's;
+:class:`eea.encoding.ModelSpace`) the cube is ``[0, 1]^12``: the nine dimensions as above and
+one coordinate per servo gain, whose 4-bit field holds code ``floor(x_d * 16)`` (15 for
+``x_d = 1``), i.e. the cube's coordinate is spread evenly over the field's 16 codes, and code c
+is gain level ``k = c + (c > 0)`` of :func:`eea.encoding.decode_gains` (so the lowest code's
+cell covers twice the gain step: one gain level is left out of the grid).
+
 Global restarts (``global_period`` k > 0, off by default): every k-th :meth:`restart`
 starts a fresh distribution at a uniformly random point of the cube instead of at the best
 point, so a run whose incumbent sits in a wrong basin gets to propose models far from it
@@ -77,7 +84,8 @@ import numpy as np
 
 from aquafish_gym import MORPHOLOGY_BOUNDS
 from aquafish_gym.checks import check_int
-from eea.encoding import MODEL_BITS, MODEL_FIELD_BITS, decode_models, encode_models
+from eea.encoding import (MODEL_BITS, MODEL_FIELD_BITS, _bits_to_ints, _ints_to_bits, decode_models, encode_models,
+                          get_model_space)
 from eea.ga import TellRecord
 
 __all__ = ["CMAModelSearch", "carried_shape", "genomes_to_unit", "unit_to_genomes"]
@@ -85,41 +93,53 @@ __all__ = ["CMAModelSearch", "carried_shape", "genomes_to_unit", "unit_to_genome
 _LEVELS = 2 ** np.asarray(MODEL_FIELD_BITS)
 
 
-def unit_to_genomes(x) -> np.ndarray:
+def unit_to_genomes(x, model_space="morphology") -> np.ndarray:
     """Model genomes of points of the unit cube (see the module docstring).
 
     Args:
-        x: ``(P, 9)`` coordinates in [0, 1], order ``aquafish_gym.MORPHOLOGY_FIELDS``.
+        x: ``(P, n)`` coordinates in [0, 1], order ``ModelSpace.fields`` (n = 9:
+            ``aquafish_gym.MORPHOLOGY_FIELDS``; 12 in ``morphology+servos``, the gains last).
+        model_space: a :class:`eea.encoding.ModelSpace` or its name.
 
     Returns:
-        ``(P, 45)`` uint8 model genomes.
+        ``(P, n_bits)`` uint8 model genomes (45 bits; 57).
 
     Raises:
-        ValueError: if ``x`` is not ``(P, 9)`` or holds a value outside [0, 1] or NaN.
+        ValueError: if ``x`` is not ``(P, n)`` or holds a value outside [0, 1] or NaN.
     """
+    space = get_model_space(model_space)
+    levels_per_field = 2 ** np.asarray(space.field_bits)
     x = np.asarray(x, dtype=np.float64)
-    if x.ndim != 2 or x.shape[1] != len(_LEVELS):
-        raise ValueError(f"x must have shape (P, {len(_LEVELS)}), got {x.shape}")
+    if x.ndim != 2 or x.shape[1] != len(levels_per_field):
+        raise ValueError(f"x must have shape (P, {len(levels_per_field)}), got {x.shape}")
     if not np.all((x >= 0.0) & (x <= 1.0)):
-        raise ValueError("x must lie in the unit cube [0, 1]^9 (no NaN)")
+        raise ValueError(f"x must lie in the unit cube [0, 1]^{len(levels_per_field)} (no NaN)")
+    if space.servos:  # every field's code straight from its coordinate
+        codes = np.minimum(np.floor(x * levels_per_field), levels_per_field - 1)
+        return _ints_to_bits(codes.astype(np.int64), space.field_bits)
     levels = np.minimum(np.floor(x * _LEVELS), _LEVELS - 1)
     lo, hi = MORPHOLOGY_BOUNDS[:, 0], MORPHOLOGY_BOUNDS[:, 1]
     return encode_models(lo + (hi - lo) * levels / _LEVELS)
 
 
-def genomes_to_unit(genomes) -> np.ndarray:
+def genomes_to_unit(genomes, model_space="morphology") -> np.ndarray:
     """The centres of the model genomes' cells in the unit cube: the inverse of
     :func:`unit_to_genomes` (``unit_to_genomes(genomes_to_unit(g))`` is ``g``).
 
     Args:
-        genomes: ``(P, 45)`` model genomes (0/1).
+        genomes: ``(P, n_bits)`` model genomes (0/1).
+        model_space: a :class:`eea.encoding.ModelSpace` or its name.
 
     Returns:
-        ``(P, 9)`` coordinates in (0, 1), order ``aquafish_gym.MORPHOLOGY_FIELDS``.
+        ``(P, n)`` coordinates in (0, 1), order ``ModelSpace.fields``.
 
     Raises:
         ValueError: as :func:`eea.encoding.decode_models` does for a malformed genome.
     """
+    space = get_model_space(model_space)
+    if space.servos:
+        codes, _ = _bits_to_ints(genomes, space.field_bits)
+        return (codes + 0.5) / 2 ** np.asarray(space.field_bits)
     lo, hi = MORPHOLOGY_BOUNDS[:, 0], MORPHOLOGY_BOUNDS[:, 1]
     return (np.atleast_2d(decode_models(genomes)) - lo) / (hi - lo) + 0.5 / _LEVELS
 
@@ -162,10 +182,10 @@ class _StandardNormal:
 
 
 class CMAModelSearch(TellRecord):
-    """CMA-ES over the 9 morphology dimensions, asked and told like a :class:`~eea.ga.BitGA`.
+    """CMA-ES over the 9 morphology dimensions (and 3 servo gains), asked and told like a :class:`~eea.ga.BitGA`.
 
     Each ``tell`` updates the distribution (``cma.CMAEvolutionStrategy``, population
-    ``population_size``, box [0, 1]^9) and, with ``elitism``, injects the generation's best
+    ``population_size``, box [0, 1]^9, or [0, 1]^12 with the gains) and, with ``elitism``, injects the generation's best
     point into the next population, so a round's best model is re-evaluated (against the
     grown experiment set) rather than lost.
 
@@ -186,6 +206,8 @@ class CMAModelSearch(TellRecord):
             docstring); 0 = at a random point every round.
         global_first_round: r >= 1, the round the global share joins (module docstring;
             r = 1 needs ``global_share``).
+        model_space: ``"morphology"`` (the default, 9 coordinates, 45-bit genomes) or
+            ``"morphology+servos"`` (12, 57-bit; module docstring).
 
     Raises:
         ValueError: if an argument is outside the ranges above, ``global_period`` > 0 with
@@ -199,7 +221,9 @@ class CMAModelSearch(TellRecord):
 
     def __init__(self, population_size: int, rng: np.random.Generator, *, sigma0: float = 0.3,
                  elitism: int = 1, global_period: int = 0, global_share: int = 0,
-                 carry_condition: float = 0.0, global_keep: int = 0, global_first_round: int = 2) -> None:
+                 carry_condition: float = 0.0, global_keep: int = 0, global_first_round: int = 2,
+                 model_space="morphology") -> None:
+        space = get_model_space(model_space)
         check_int("population_size", population_size, 2)
         check_int("global_keep", global_keep, 0)
         check_int("global_first_round", global_first_round, 1)
@@ -225,6 +249,9 @@ class CMAModelSearch(TellRecord):
                 or not (carry_condition == 0 or 1 <= carry_condition < np.inf):
             raise ValueError(f"carry_condition must be 0 (off) or a finite number >= 1, got {carry_condition!r}")
         self.carry_condition = float(carry_condition)
+        if space.servos:  # the paper's space keeps the class attributes (and its checkpoints their layout)
+            self.model_space, self.n_bits = space.name, space.n_bits
+        n_dims = self._n_dims
         self.population_size, self.sigma0, self.elitism = population_size, float(sigma0), int(elitism)
         self.global_period, self.global_share = int(global_period), int(global_share)
         self.global_keep, self.global_first_round = int(global_keep), int(global_first_round)
@@ -234,11 +261,11 @@ class CMAModelSearch(TellRecord):
         self._local_best_x: np.ndarray | None = None   # the local one's, when both sampled (9,)
         self._global_restarts = 0                  # its starts so far (every global_keep-th is at random)
         if self.global_first_round == 1:
-            self._es = self._new_strategy(self._stream.random(len(_LEVELS)), population_size - global_share)
-            self._global_es = self._new_strategy(self._stream.random(len(_LEVELS)), global_share)
+            self._es = self._new_strategy(self._stream.random(n_dims), population_size - global_share)
+            self._global_es = self._new_strategy(self._stream.random(n_dims), global_share)
             self._global_restarts = 1
         else:
-            self._es = self._new_strategy(self._stream.random(len(_LEVELS)), population_size)
+            self._es = self._new_strategy(self._stream.random(n_dims), population_size)
         self._restarts = 0                         # restarts so far (every global_period-th is global)
         self._incumbent: np.ndarray | None = None  # (9,) evaluated beside a global round's samples, else None
         self._x: np.ndarray | None = None          # sampled points (P, 9), None after tell
@@ -248,15 +275,28 @@ class CMAModelSearch(TellRecord):
         self._best_fitness = float("nan")
         self._generation = 0
 
+    #: The model space's name; the class value is the paper's (and that of checkpoints written
+    #: before model spaces), an instance of ``morphology+servos`` sets its own.
+    model_space: ClassVar[str] = "morphology"
+
+    @property
+    def _n_dims(self) -> int:
+        """Coordinates of the cube: 9, or 12 with the servo gains."""
+        return len(get_model_space(self.model_space).field_bits)
+
+    def _genomes(self, x: np.ndarray) -> np.ndarray:
+        return unit_to_genomes(x, self.model_space)
+
     @classmethod
     def from_config(cls, config, rng: np.random.Generator) -> "CMAModelSearch":
         """Sized and tuned by an :class:`eea.config.EEAConfig` (``estimation_population``,
-        ``cma_sigma``, ``cma_global_period``, ``cma_global_share``, ``cma_carry_condition``; any
-        ``elitism`` >= 1 carries the one best point)."""
+        ``cma_sigma``, ``cma_global_period``, ``cma_global_share``, ``cma_carry_condition``,
+        ``model_space``; any ``elitism`` >= 1 carries the one best point)."""
         return cls(config.estimation_population, rng, sigma0=config.cma_sigma, elitism=1 if config.elitism else 0,
                    global_period=config.cma_global_period, global_share=config.cma_global_share,
                    carry_condition=config.cma_carry_condition, global_keep=config.cma_global_keep,
-                   global_first_round=config.cma_global_first_round)
+                   global_first_round=config.cma_global_first_round,
+                   model_space=getattr(config, "model_space", "morphology"))
 
     def _new_strategy(self, mean: np.ndarray, popsize: int):
         import cma  # here, not at module level: importing cma takes ~1.5 s, and only cma runs need it
@@ -282,7 +322,7 @@ class CMAModelSearch(TellRecord):
         self._restarts += 1
         if self.global_period and self._restarts % self.global_period == 0:
             self._incumbent = self._best_x.copy()
-            self._es = self._new_strategy(self._stream.random(len(_LEVELS)), self.population_size - 1)
+            self._es = self._new_strategy(self._stream.random(self._n_dims), self.population_size - 1)
         else:
             self._incumbent = None
             joined = self.global_share and self._restarts + 1 >= self.global_first_round  # this round's number
@@ -291,7 +331,7 @@ class CMAModelSearch(TellRecord):
             if joined:
                 keep = self.global_keep and self._global_es is not None and self._global_restarts % self.global_keep
                 self._global_es = self._restarted(self._global_es, self._global_best_x, self.global_share) if keep \
-                    else self._new_strategy(self._stream.random(len(_LEVELS)), self.global_share)
+                    else self._new_strategy(self._stream.random(self._n_dims), self.global_share)
                 self._global_restarts += 1
         self._x, self._asked = None, False
 
@@ -315,8 +355,8 @@ class CMAModelSearch(TellRecord):
         stand (study record, "Two lineages from round 1")."""
         if self._global_es is None or self._global_best_x is None or self._local_best_x is None:
             return {}
-        return {"local": unit_to_genomes(self._local_best_x[None])[0],
-                "global": unit_to_genomes(self._global_best_x[None])[0]}
+        return {"local": self._genomes(self._local_best_x[None])[0],
+                "global": self._genomes(self._global_best_x[None])[0]}
 
     @property
     def global_round(self) -> bool:
@@ -336,7 +376,7 @@ class CMAModelSearch(TellRecord):
                 self._x = np.vstack([self._x, np.clip(np.asarray(self._global_es.ask(), dtype=np.float64), 0.0, 1.0)])
             if self._incumbent is not None:  # the last row: evaluated, never told to CMA-ES
                 self._x = np.vstack([self._x, self._incumbent])
-        return unit_to_genomes(self._x)
+        return self._genomes(self._x)
 
     def ask(self) -> np.ndarray:
         """The current population as ``(P, 45)`` uint8 model genomes, to be evaluated.
@@ -366,7 +406,7 @@ class CMAModelSearch(TellRecord):
             raise ValueError(f"fitness must be finite, got non-finite values at rows {np.flatnonzero(~np.isfinite(f)).tolist()}")
         best = int(np.argmax(f))
         self._best_x = self._x[best].copy()
-        self._best_genome = unit_to_genomes(self._x[best : best + 1])[0]
+        self._best_genome = self._genomes(self._x[best : best + 1])[0]
         self._best_fitness = float(f[best])
         if self._global_es is not None:  # local rows first, then the global distribution's G rows
             local = self.population_size - self.global_share
@@ -395,7 +435,7 @@ class CMAModelSearch(TellRecord):
             ValueError: if ``genome`` is not one 45-bit genome or ``fitness`` is not finite.
         """
         super().adopt(genome, fitness)
-        self._best_x = genomes_to_unit(self._best_genome[None])[0]
+        self._best_x = genomes_to_unit(self._best_genome[None], self.model_space)[0]
 
     def state_dict(self) -> dict:
         """The whole search (distribution, its random stream, asked points) for the checkpoint."""

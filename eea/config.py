@@ -24,15 +24,20 @@ from aquafish_gym import DT_S, SimParams, get_damage
 from aquafish_gym.params import DEFAULT_WATERLINE
 from aquafish_gym.checks import check_int, check_weight
 from eea.behaviour import SIMILARITIES
+from eea.encoding import MODEL_SPACES
 from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
 from eea.model_search import SEARCH_NAMES
 from eea.profile import INHERIT_RULES
 
-__all__ = ["ESTIMATION_SEARCHES", "EEAConfig", "FIELD_HELP", "PRESETS", "RESULT_NEUTRAL_FIELDS", "preset_fields"]
+__all__ = ["ESTIMATION_SEARCHES", "MODEL_SPACE_NAMES", "EEAConfig", "FIELD_HELP", "PRESETS", "RESULT_NEUTRAL_FIELDS", "preset_fields"]
 
 #: Names of the estimation searches (:data:`eea.model_search.MODEL_SEARCHES`): the paper's
 #: GA and CMA-ES (:mod:`eea.cma_search`).
 ESTIMATION_SEARCHES: tuple[str, ...] = SEARCH_NAMES
+
+#: Names of the model spaces (:data:`eea.encoding.MODEL_SPACES`): the paper's flipper
+#: dimensions, or those and one gain per servo (not the paper's).
+MODEL_SPACE_NAMES: tuple[str, ...] = tuple(MODEL_SPACES)
 
 #: Fields that never change a run's results (resuming with other values is allowed):
 #: the number of worker processes and the chunk size of simulator calls, and ``rounds``,
@@ -43,6 +48,9 @@ RESULT_NEUTRAL_FIELDS: tuple[str, ...] = ("workers", "max_batch_robots", "rounds
 FIELD_HELP: dict[str, str] = {
     "inference": f"context inference strategy, one of {', '.join(INFERENCE_NAMES)} (paper 3.3, 3.4, 4)",
     "damage": "named damage of the target robot (aquafish_gym.DAMAGES), paper section 5",
+    "model_space": "what a self-model holds: morphology (the paper's 9 flipper dimensions, 45-bit genomes) or "
+                   "morphology+servos (those and a gain per servo, pectorals in [-1, 1], caudal in [0, 1], 57-bit "
+                   "genomes, OBJ_FIT over 12; eea.encoding; not the paper's)",
     "duration_s": "length of every experiment in seconds, a multiple of 0.01 s (paper: 1.28 ... 10.24)",
     "rounds": "EEA rounds (one exploration, one target experiment and one estimation each)",
     "seed": "seed of the run's only random generator (target angles, GAs, inference)",
@@ -186,6 +194,7 @@ class EEAConfig:
 
     inference: str = "out_of_band"
     damage: str = "left_pectoral_half"
+    model_space: str = "morphology"
     duration_s: float = 1.28
     rounds: int = 25
     seed: int = 0
@@ -244,6 +253,8 @@ class EEAConfig:
         if self.inference not in INFERENCE_NAMES:
             raise ValueError(f"unknown inference {self.inference!r}; valid names: {', '.join(INFERENCE_NAMES)}")
         get_damage(self.damage)  # raises ValueError listing the valid names
+        if self.model_space not in MODEL_SPACE_NAMES:
+            raise ValueError(f"unknown model_space {self.model_space!r}; valid names: {', '.join(MODEL_SPACE_NAMES)}")
         if self.estimation_search not in ESTIMATION_SEARCHES:
             raise ValueError(f"unknown estimation_search {self.estimation_search!r}; "
                              f"valid names: {', '.join(ESTIMATION_SEARCHES)}")
@@ -358,7 +369,9 @@ class EEAConfig:
         """Inverse of :meth:`to_dict` (what ``config.json`` holds).
 
         A dict without ``waterline`` was written before the surface swimmer became the
-        default physics: it describes a deep-water run and loads as ``waterline=None``.
+        default physics: it describes a deep-water run and loads as ``waterline=None``. One
+        without ``model_space`` was written before servo gains could be modelled: it loads as
+        the default, ``"morphology"``.
 
         Raises:
             ValueError: on an unknown key (typos fail fast) or an invalid value.

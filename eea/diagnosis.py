@@ -35,6 +35,10 @@ proposed better models than the one it ended with and rejected them (``better_se
 that many scored models have a higher OBJ_FIT, eq. 4, than the final one). A run whose final
 model is the truth gets the verdict ``found``.
 
+In the ``morphology+servos`` model space (``EEAConfig.model_space``, not the paper's) "the
+truth" is the damaged morphology *and* its servo faults' gains (:meth:`eea.encoding.ModelSpace.truth`),
+and OBJ_FIT is over the 12 values.
+
 The angles get the same comparison (issue 14: "initial-angle errors close to what the true
 morphology itself allows"). ``run_error_deg`` is how far the run's final inferred angles are
 from the true ones, median over its experiments; ``floor_error_deg`` is how far the truth's
@@ -57,7 +61,7 @@ import numpy as np
 from aquafish_gym.rundir import check_fingerprint
 from eea.checkpoint import STATE_FILE, load_state
 from eea.config import RESULT_NEUTRAL_FIELDS
-from eea.encoding import decode_models, encode_models
+from eea.encoding import get_model_space
 from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.behaviour import SIMILARITIES
 from eea.evaluation import Evaluator
@@ -82,7 +86,8 @@ class RunDiagnosis:
         true_inferred: the true (damaged) morphology under the inferred angles.
         final_true_angles: the final model under the true angles.
         true_true_angles: the true morphology under the true angles (1.0 unless the
-            damage has servo faults, which models do not simulate).
+            damage has servo faults, which models of the paper's ``morphology`` space do not
+            simulate; in ``morphology+servos`` the truth includes the faults' gains, 1.0).
         final_profiled: the final model under its own best angles
             (:meth:`eea.profile.Profile.fit`, started from the inferred angles too).
         true_profiled: the true morphology under its own best angles, fitted as hard.
@@ -182,12 +187,14 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
     experiments = [Experiment.from_state_dict(e) for e in state.experiments]
     inferred = np.stack([e.context.estimate() for e in experiments])[None]   # (1, E, 3)
     true = np.stack([e.true_angles for e in experiments])[None]
-    final = encode_models(result.best_morphology.to_array()[None])
-    true_dims = result.target_morphology.to_array()
-    truth = encode_models(true_dims[None])
-    seen = _seen(state.evaluator, result.config.steps, true_dims, result.best_morphology.to_array())
+    space = result.model_space
+    final = space.encode(result.best_model[None])
+    true_dims = result.true_model
+    truth = space.encode(true_dims[None])
+    seen = _seen(state.evaluator, result.config.steps, true_dims, result.best_model, space)
     with Evaluator(result.config.steps, workers=workers, max_batch_robots=result.config.max_batch_robots,
-                   similarity_fn=SIMILARITIES[result.config.model_similarity], params=result.config.sim_params) as ev:
+                   similarity_fn=SIMILARITIES[result.config.model_similarity], params=result.config.sim_params,
+                   model_space=space) as ev:
         def fit(genome, angles):
             return float(model_fitness_from_similarities(ev.similarities(genome, experiments, angles))[0])
 
@@ -235,19 +242,20 @@ def median_error_deg(angles, true_angles) -> np.ndarray:
     return np.median(angle_errors_deg(angles, true_angles), axis=0)
 
 
-def _seen(cache: dict, steps: int, true_dims: np.ndarray, final_dims: np.ndarray) -> dict:
+def _seen(cache: dict, steps: int, true_dims: np.ndarray, final_dims: np.ndarray, model_space="morphology") -> dict:
     """``seen``, ``closest_seen`` and ``better_seen`` of :class:`RunDiagnosis` from a checkpoint's
     evaluator state (all None if it has none), read by an evaluator of its own so that the
     diagnosis's simulations, the truth's among them, are not counted."""
     if not cache:
         return {}
-    evaluator = Evaluator(steps)
+    space = get_model_space(model_space)
+    evaluator = Evaluator(steps, model_space=space)
     evaluator.load_state_dict(cache)
     genomes, _ = evaluator.scored_models()
     if not len(genomes):
         return {"seen": 0}
-    objective = objective_fitness(decode_models(genomes), true_dims)
-    final = objective_fitness(final_dims, true_dims)
+    objective = objective_fitness(space.decode(genomes), true_dims, space.bounds)
+    final = objective_fitness(final_dims, true_dims, space.bounds)
     return {"seen": len(genomes), "closest_seen": float(objective.max()),
             "better_seen": int((objective > final + 1e-12).sum())}
 

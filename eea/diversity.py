@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from eea.encoding import decode_models
+from eea.encoding import model_space_of
 from eea.fitness import objective_fitness
 
 __all__ = ["diverse_indices", "diverse_ranked", "model_distance"]
@@ -19,16 +19,22 @@ __all__ = ["diverse_indices", "diverse_ranked", "model_distance"]
 def model_distance(a, b) -> np.ndarray:
     """``1 - OBJ_FIT`` (eq. 4) of model genomes ``a`` against model genome ``b`` as the target.
 
-    The mean range-normalised absolute difference of the decoded dimensions, in [0, 1).
+    The mean range-normalised absolute difference of the decoded dimensions, in [0, 1) (with
+    servo gains, 57-bit genomes of ``morphology+servos``: over the 9 dimensions and 3 gains,
+    as :func:`eea.fitness.objective_fitness` describes).
 
     Args:
-        a: ``(..., 45)`` model genomes.
-        b: ``(45,)`` one model genome.
+        a: ``(..., n_bits)`` model genomes (45 bits, or 57).
+        b: ``(n_bits,)`` one model genome.
 
     Returns:
         ``(...)`` float64 distances.
+
+    Raises:
+        ValueError: if no model space has genomes of ``b``'s length, or as its decoding raises.
     """
-    return 1.0 - objective_fitness(decode_models(a), decode_models(b))
+    space = model_space_of(np.shape(b)[-1])
+    return 1.0 - objective_fitness(space.decode(a), space.decode(b), space.bounds)
 
 
 def diverse_indices(genomes: np.ndarray, fitness: np.ndarray, limit: int, min_distance: float) -> np.ndarray:

@@ -26,29 +26,70 @@ The two genomes use them as follows:
   the ranges are ``aquafish_gym.ACTION_BOUNDS``), so full speed either way and 1 Hz are
   commands.
 
+Model spaces (``EEAConfig.model_space``, :data:`MODEL_SPACES`): what a model genome holds.
+
+* ``morphology`` (the paper's, the default): the 45-bit genome above, 9 flipper dimensions.
+* ``morphology+servos`` (not the paper's): the same 45 bits followed by 12 bits of servo
+  gains, 4 per servo in the order left pectoral, right pectoral, caudal
+  (:data:`SERVO_GAIN_FIELDS`), 57 bits, 12 values. A gain multiplies the commanded speed
+  (pectorals, in [-1, 1]: negative = turning the wrong way, 0 = seized or dead, a fraction =
+  weak) or the commanded frequency (caudal, in [0, 1]); the model is simulated with
+  ``ServoFaults(speed_scale=gains)``, so these are what the target's
+  :class:`~aquafish_gym.ServoFaults` are modelled by (a seized servo is gain 0: it
+  simulates bit for bit like ``seized``, see :func:`servo_gains`).
+
+  Gain levels: the uniform grid of 1/16 of the gain's range, ``lo + (hi - lo) k / 16`` for
+  k in {0, 2, 3, ..., 16}, the 16 values of a 4-bit field (code c is k = c for c = 0 and
+  k = c + 1 otherwise). Pectorals: -1, -0.75, -0.625, ..., -0.125, 0, 0.125, ..., 0.875,
+  1 (steps of 0.125; -0.875 left out); caudal: 0, 0.125, 0.1875, ..., 0.9375, 1 (steps of
+  0.0625; 0.0625 left out). Why this grid, as for the half-open morphology grid: the
+  gains of every damage preset (1 healthy, 0.5 weak, 0 seized or dead, -1 reversed) and
+  both ends of each range must be exact levels, so that the truth is a model genome and
+  reproduces the target bit for bit (MOD_FIT = 1, OBJ_FIT = 1). A 4-bit field has 16
+  levels, an even number, and a uniform grid of an even number of levels that contains
+  both ends of a range does not contain its middle (a closed field: 0 is no level of
+  [-1, 1]), while one that contains the middle misses an end (a half-open field: +1 is
+  no level of [-1, 1)). So one level of the 17-point grid is left out, the one next to the
+  lower end: a reversed-and-slightly-weak pectoral (-0.875) and an almost dead tail (0.0625),
+  the least likely faults. Resolution: 1/16 of each range (0.125 of a pectoral gain, 0.0625
+  of the caudal's), twice that between the two lowest levels. Encoding a value rounds it
+  to the nearest level (half-way between the two lowest: to the upper one).
+
 Genomes may be given as bool, integer or float arrays whose entries are exactly 0 or 1;
 encoders return ``uint8``.
 """
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
-from aquafish_gym import ACTION_BOUNDS, MORPHOLOGY_BOUNDS
+from aquafish_gym import ACTION_BOUNDS, MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, ServoFaults, get_damage
 
 __all__ = [
     "ACTION_BITS",
     "ACTION_FIELD_BITS",
     "MODEL_BITS",
     "MODEL_FIELD_BITS",
+    "MODEL_SPACES",
+    "ModelSpace",
+    "SERVO_GAIN_BITS",
+    "SERVO_GAIN_BOUNDS",
+    "SERVO_GAIN_FIELDS",
     "decode_actions",
     "decode_fields",
+    "decode_gains",
     "decode_models",
     "encode_actions",
     "encode_fields",
+    "encode_gains",
     "encode_models",
     "genome_keys",
     "genomes_from_keys",
+    "get_model_space",
+    "model_space_of",
+    "servo_gains",
 ]
 
 MODEL_FIELD_BITS: tuple[int, ...] = (5, 6, 4) * 3
@@ -257,3 +298,225 @@ def genomes_from_keys(keys, n_bits: int) -> np.ndarray:
     if any(len(k) != n_bits for k in keys):
         raise ValueError(f"every genome key must be {n_bits} bytes long")
     return np.frombuffer(b"".join(keys), dtype=np.uint8).reshape(len(keys), n_bits)
+
+
+# -- servo gains and model spaces -------------------------------------------------------------
+
+#: The servo gains of the ``morphology+servos`` model space, in genome order.
+SERVO_GAIN_FIELDS: tuple[str, ...] = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")
+#: Their ranges: ``ServoFaults.speed_scale``'s (pectorals [-1, 1], caudal [0, 1]).
+SERVO_GAIN_BOUNDS: np.ndarray = np.array([[-1.0, 1.0], [-1.0, 1.0], [0.0, 1.0]])
+SERVO_GAIN_BOUNDS.setflags(write=False)
+#: Bits per gain: 16 levels each (the module docstring).
+SERVO_GAIN_BITS: tuple[int, ...] = (4, 4, 4)
+_GAIN_STEPS = 16  # the grid lo + (hi - lo) k / 16, k in {0, 2, 3, ..., 16}
+
+
+def _bits_to_ints(genomes, widths) -> tuple[np.ndarray, bool]:
+    """``(P, n_fields)`` int64 field values of 0/1 genomes (most-significant bit first)."""
+    widths = np.asarray(widths, dtype=np.int64)
+    g = np.asarray(genomes)
+    if not (np.issubdtype(g.dtype, np.number) or g.dtype == np.bool_):
+        raise ValueError(f"genomes must be a numeric or bool array, got dtype {g.dtype}")
+    g2, single = _as_2d(g, int(widths.sum()), "genomes", f"{len(widths)} fields of {widths.tolist()} bits")
+    if g2.dtype != np.bool_ and not np.all((g2 == 0) | (g2 == 1)):
+        bad = g2[~((g2 == 0) | (g2 == 1))].flat[0]
+        raise ValueError(f"genomes must contain only 0 and 1, found {bad!r}")
+    field_of_bit = np.repeat(np.arange(widths.size), widths)
+    shift_of_bit = np.cumsum(widths)[field_of_bit] - 1 - np.arange(field_of_bit.size)
+    weights = np.zeros((field_of_bit.size, widths.size), dtype=np.int64)
+    weights[np.arange(field_of_bit.size), field_of_bit] = np.left_shift(1, shift_of_bit)
+    return g2.astype(np.int64) @ weights, single
+
+
+def _ints_to_bits(ints: np.ndarray, widths) -> np.ndarray:
+    """``(P, sum(widths))`` uint8 genomes of ``(P, n_fields)`` field values."""
+    widths = np.asarray(widths, dtype=np.int64)
+    field_of_bit = np.repeat(np.arange(widths.size), widths)
+    shift_of_bit = np.cumsum(widths)[field_of_bit] - 1 - np.arange(field_of_bit.size)
+    return (np.right_shift(np.asarray(ints, dtype=np.int64)[:, field_of_bit], shift_of_bit) & 1).astype(np.uint8)
+
+
+def decode_gains(genomes) -> np.ndarray:
+    """Decode servo-gain genomes (the 12 bits a ``morphology+servos`` model genome appends).
+
+    Args:
+        genomes: ``(P, 12)`` or ``(12,)`` array of 0/1.
+
+    Returns:
+        ``(P, 3)`` or ``(3,)`` float64 gains (left pectoral, right pectoral in [-1, 1];
+        caudal in [0, 1]) on the grid of the module docstring: field value c is level
+        ``lo + (hi - lo) * k / 16`` with ``k = c + (c > 0)``.
+
+    Raises:
+        ValueError: if the width is not 12 or an entry is not 0 or 1.
+    """
+    codes, single = _bits_to_ints(genomes, SERVO_GAIN_BITS)
+    k = codes + (codes > 0)
+    lo, hi = SERVO_GAIN_BOUNDS[:, 0], SERVO_GAIN_BOUNDS[:, 1]
+    gains = lo + (hi - lo) * (k / _GAIN_STEPS)
+    return gains[0] if single else gains
+
+
+def encode_gains(gains) -> np.ndarray:
+    """Encode servo gains onto the nearest gain genome (inverse of :func:`decode_gains`).
+
+    Args:
+        gains: ``(P, 3)`` or ``(3,)`` gains inside :data:`SERVO_GAIN_BOUNDS` (by 1e-9 of the
+            range at most).
+
+    Returns:
+        ``(P, 12)`` or ``(12,)`` uint8 genomes; a value between the two lowest levels goes to
+        the nearer one (half-way: the upper one).
+
+    Raises:
+        ValueError: if the width is not 3, or a value is NaN, infinite or outside its range.
+    """
+    v = np.asarray(gains, dtype=np.float64)
+    v2, single = _as_2d(v, 3, "gains", "left pectoral, right pectoral, caudal")
+    if not np.all(np.isfinite(v2)):
+        raise ValueError("gains must be finite (found NaN or infinity)")
+    lo, hi = SERVO_GAIN_BOUNDS[:, 0], SERVO_GAIN_BOUNDS[:, 1]
+    frac = (v2 - lo) / (hi - lo)
+    outside = (frac < -_RANGE_TOLERANCE) | (frac > 1 + _RANGE_TOLERANCE)
+    if np.any(outside):
+        row, col = np.argwhere(outside)[0]
+        raise ValueError(f"gains[{row}, {col}] = {v2[row, col]!r} is outside its range [{lo[col]}, {hi[col]}]")
+    scaled = frac * _GAIN_STEPS
+    k = np.clip(np.rint(scaled), 0, _GAIN_STEPS).astype(np.int64)
+    k = np.where(k == 1, np.where(scaled < 1.0, 0, 2), k)  # level 1 is left out: the nearer of 0 and 2
+    bits = _ints_to_bits(k - (k > 0), SERVO_GAIN_BITS)
+    return bits[0] if single else bits
+
+
+def servo_gains(faults: ServoFaults) -> np.ndarray:
+    """The gains that model servo faults: ``speed_scale``, 0 where a servo is seized.
+
+    A seized servo and a gain of 0 are the same servo in the simulator, bit for bit:
+    a seized pectoral is commanded velocity 0, as a gain of 0 commands, so its motor
+    holds the flipper where it is (its initial angle), and a seized caudal fin holds its
+    current (initial) angle, as a caudal frequency of 0 does (``BatchWorld.set_actions``;
+    ``tests/eea/test_model_space.py`` checks both, in deep water and at the surface).
+
+    Returns:
+        ``(3,)`` float64, left pectoral, right pectoral, caudal.
+    """
+    return np.where(np.asarray(faults.seized, dtype=bool), 0.0, np.asarray(faults.speed_scale, dtype=np.float64))
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelSpace:
+    """What a model genome holds: the flipper dimensions, and with ``servos`` the servo gains.
+
+    Get one with :func:`get_model_space` (by name) or :func:`model_space_of` (by genome width).
+
+    Attributes:
+        name: ``"morphology"`` or ``"morphology+servos"`` (:data:`MODEL_SPACES`).
+        servos: whether the genome appends the 12 gain bits.
+    """
+
+    name: str
+    servos: bool
+
+    @property
+    def n_bits(self) -> int:
+        """Genome length: 45, or 57 with the servo gains."""
+        return MODEL_BITS + (sum(SERVO_GAIN_BITS) if self.servos else 0)
+
+    @property
+    def field_bits(self) -> tuple[int, ...]:
+        """Bits of every field, in genome order."""
+        return MODEL_FIELD_BITS + (SERVO_GAIN_BITS if self.servos else ())
+
+    @property
+    def fields(self) -> tuple[str, ...]:
+        """Names of the decoded values: ``MORPHOLOGY_FIELDS``, then :data:`SERVO_GAIN_FIELDS`."""
+        return MORPHOLOGY_FIELDS + (SERVO_GAIN_FIELDS if self.servos else ())
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """``(n, 2)`` [min, max] of every decoded value: OBJ_FIT's normalisation (eq. 4)."""
+        return np.vstack([MORPHOLOGY_BOUNDS, SERVO_GAIN_BOUNDS]) if self.servos else MORPHOLOGY_BOUNDS
+
+    def decode(self, genomes) -> np.ndarray:
+        """``(P, n)`` (or ``(n,)``) values of ``(P, n_bits)`` model genomes: the 9 dimensions
+        (:func:`decode_models`), then the 3 gains (:func:`decode_gains`) with ``servos``.
+
+        Raises:
+            ValueError: a genome of another width, or an entry that is not 0 or 1.
+        """
+        if not self.servos:
+            return decode_models(genomes)
+        g = np.asarray(genomes)
+        if g.ndim not in (1, 2) or g.shape[-1] != self.n_bits:
+            raise ValueError(f"{self.name} genomes must have shape ({self.n_bits},) or (P, {self.n_bits}), "
+                             f"got {g.shape}")
+        return np.concatenate([decode_models(g[..., :MODEL_BITS]), decode_gains(g[..., MODEL_BITS:])], axis=-1)
+
+    def encode(self, values) -> np.ndarray:
+        """The nearest model genomes ``(P, n_bits)`` (or ``(n_bits,)``) of ``(P, n)`` values.
+
+        Raises:
+            ValueError: values of another width, or a value outside its range or not finite.
+        """
+        if not self.servos:
+            return encode_models(values)
+        v = np.asarray(values, dtype=np.float64)
+        n = len(self.fields)
+        if v.ndim not in (1, 2) or v.shape[-1] != n:
+            raise ValueError(f"{self.name} values must have shape ({n},) or (P, {n}), got {v.shape}")
+        return np.concatenate([encode_models(v[..., :9]), encode_gains(v[..., 9:])], axis=-1)
+
+    def morphologies(self, values) -> np.ndarray:
+        """``(..., 9)`` the flipper dimensions of decoded values."""
+        return np.asarray(values)[..., :9]
+
+    def faults(self, values) -> list[ServoFaults] | None:
+        """The servo faults that simulate ``(P, n)`` decoded models: one
+        ``ServoFaults(speed_scale=gains)`` per model with ``servos``, else None (healthy servos)."""
+        if not self.servos:
+            return None
+        return [ServoFaults(speed_scale=tuple(row)) for row in np.atleast_2d(values)[:, 9:].tolist()]
+
+    def truth(self, damage: str) -> np.ndarray:
+        """``(n,)`` the values of the damaged robot (the oracle of OBJ_FIT, eq. 4): the damaged
+        morphology, then with ``servos`` the gains of its faults (:func:`servo_gains`).
+
+        Raises:
+            ValueError: on an unknown damage name.
+        """
+        preset = get_damage(damage)
+        dims = preset.apply().to_array()
+        return np.concatenate([dims, servo_gains(preset.faults)]) if self.servos else dims
+
+
+#: The model spaces by name (``EEAConfig.model_space``); ``morphology`` is the paper's.
+MODEL_SPACES: dict[str, ModelSpace] = {s.name: s for s in (ModelSpace("morphology", False),
+                                                           ModelSpace("morphology+servos", True))}
+
+
+def get_model_space(space) -> ModelSpace:
+    """The :class:`ModelSpace` called ``space`` (a ModelSpace is returned as it is).
+
+    Raises:
+        ValueError: on an unknown name (the message lists the valid names).
+    """
+    if isinstance(space, ModelSpace):
+        return space
+    try:
+        return MODEL_SPACES[space]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown model space {space!r}; valid names: {', '.join(MODEL_SPACES)}") from None
+
+
+def model_space_of(n_bits: int) -> ModelSpace:
+    """The model space whose genomes are ``n_bits`` long (45: morphology, 57: morphology+servos).
+
+    Raises:
+        ValueError: if no space has genomes of that length.
+    """
+    for space in MODEL_SPACES.values():
+        if space.n_bits == n_bits:
+            return space
+    raise ValueError(f"no model space has {n_bits}-bit genomes; "
+                     f"{', '.join(f'{s.name}: {s.n_bits}' for s in MODEL_SPACES.values())}")

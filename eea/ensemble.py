@@ -34,7 +34,7 @@ from aquafish_gym import MORPHOLOGY_FIELDS
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, MismatchError, check_fingerprint, check_output_file, read_json, run_lock
 from eea.behaviour import SIMILARITIES
-from eea.encoding import encode_models
+from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
 from eea.experiment import FLIPPERS, Experiment, angle_errors_deg
 from eea.fitness import model_fitness_from_similarities
@@ -50,7 +50,8 @@ class Selection:
     """The outcome of :func:`select_model`.
 
     Attributes:
-        models: ``(N, 9)`` the candidate models (simulator units, ``MORPHOLOGY_FIELDS``).
+        models: ``(N, 9)`` the candidate models (simulator units, ``MORPHOLOGY_FIELDS``; ``(N, 12)``
+            with the servo gains in the ``morphology+servos`` model space).
         model_fitness: ``(N,)`` each model's MOD_FIT (eq. 3) on the pooled experiments under
             its own fitted angles.
         angles: ``(N, E, 3)`` those angles (rad), per model and experiment.
@@ -64,7 +65,7 @@ class Selection:
 
     @property
     def model(self) -> np.ndarray:
-        """``(9,)`` the chosen model."""
+        """``(9,)`` (or ``(12,)``) the chosen model."""
         return self.models[self.index]
 
     def angle_errors_deg(self, experiments: Sequence[Experiment]) -> np.ndarray:
@@ -85,12 +86,13 @@ class Selection:
 
 
 def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator, rng: np.random.Generator, *,
-                 generations: int = 30, scan_cycles: int = 2, start=None) -> Selection:
+                 generations: int = 30, scan_cycles: int = 2, start=None, model_space=None) -> Selection:
     """Fit every model's angles equally hard on the experiments; the highest MOD_FIT wins.
 
     Args:
         models: ``(N, 9)`` candidate morphologies (simulator units), N >= 1; a model given
-            twice is fitted once and scores the same.
+            twice is fitted once and scores the same. In the ``morphology+servos`` model space
+            ``(N, 12)``: the dimensions and the servo gains.
         experiments: the pooled target experiments, E >= 1, all of one length.
         evaluator: an :class:`eea.evaluation.Evaluator` of that length (its similarity is
             the one scored: eq. 2 by default).
@@ -100,17 +102,20 @@ def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator
         start: optional ``(N, E, 3)`` angles (rad) per model and experiment, tried beside the
             fit's random starts (e.g. the angles a run already found for its model; a model
             given twice starts from its first row's).
+        model_space: the models' :class:`~eea.encoding.ModelSpace` or its name (default: the
+            evaluator's).
 
     Returns:
         A :class:`Selection`.
 
     Raises:
-        ValueError: if ``models`` is not ``(N, 9)`` with N >= 1, there are no experiments,
+        ValueError: if ``models`` is not ``(N, 9)`` (``(N, 12)``) with N >= 1, there are no experiments,
             ``generations < 1``, ``scan_cycles < 0`` or ``start`` is not ``(N, E, 3)``.
     """
+    space = get_model_space(model_space if model_space is not None else getattr(evaluator, "model_space", "morphology"))
     models = np.asarray(models, dtype=np.float64)
-    if models.ndim != 2 or models.shape[1] != len(MORPHOLOGY_FIELDS) or not len(models):
-        raise ValueError(f"models must be (N >= 1, {len(MORPHOLOGY_FIELDS)}), got shape {models.shape}")
+    if models.ndim != 2 or models.shape[1] != len(space.fields) or not len(models):
+        raise ValueError(f"models must be (N >= 1, {len(space.fields)}), got shape {models.shape}")
     if not len(experiments):
         raise ValueError("select_model needs at least one experiment")
     if generations < 1:
@@ -121,7 +126,7 @@ def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator
         start = np.asarray(start, dtype=np.float64)
         if start.shape != (len(models), len(experiments), 3):
             raise ValueError(f"start must be (N, E, 3) = ({len(models)}, {len(experiments)}, 3), got {start.shape}")
-    genomes, first, inverse = np.unique(encode_models(models), axis=0, return_index=True, return_inverse=True)
+    genomes, first, inverse = np.unique(space.encode(models), axis=0, return_index=True, return_inverse=True)
     inverse = inverse.ravel()
     profile = Profile()
     angles, _ = profile.fit(genomes, experiments, evaluator, rng, generations,
@@ -165,15 +170,15 @@ def select_runs(run_dirs: Sequence[str | os.PathLike], *, rounds: int | None = N
         raise ValueError(f"an ensemble needs at least two runs, got {len(run_dirs)}")
     replays = [replay_run(d, rounds) for d in run_dirs]
     results = [r for r, _ in replays]
-    for field in ("damage", "steps", "model_similarity"):
+    for field in ("damage", "steps", "model_similarity", "model_space"):
         values = {getattr(r.config, field) for r in results}
         if len(values) > 1:
             raise ValueError(f"the runs differ in {field}: {sorted(map(str, values))}; an ensemble needs one target")
     experiments = [e for _, exps in replays for e in exps]
-    models = np.stack([r.best_morphology.to_array() for r in results])
+    models = np.stack([r.best_model for r in results])
     config = results[0].config
     with Evaluator(config.steps, workers=workers, similarity_fn=SIMILARITIES[config.model_similarity],
-                   params=config.sim_params) as evaluator:
+                   params=config.sim_params, model_space=config.model_space) as evaluator:
         selection = select_model(models, experiments, evaluator, np.random.default_rng(seed),
                                  generations=generations, scan_cycles=scan_cycles)
     return selection, results, experiments

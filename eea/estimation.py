@@ -1,7 +1,8 @@
 """Estimation phase of the EEA: evolve models that explain the experiments (paper 3.2-3.4).
 
 A model search (:mod:`eea.model_search`; the paper's bit-string GA over 45-bit model
-genomes, population 25, 100 generations per round) whose fitness is MOD_FIT (eq. 3), a
+genomes, 57-bit with servo gains in the ``morphology+servos`` model space, population 25,
+100 generations per round) whose fitness is MOD_FIT (eq. 3), a
 model's mean similarity (eq. 2) to the target over all recorded experiments, simulated from
 the initial angles the inference strategy chooses for each (model, experiment). One search
 lives for the whole run: each round continues from where the previous round ended (the
@@ -30,7 +31,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from eea.diversity import diverse_ranked
-from eea.encoding import MODEL_BITS, genome_keys, genomes_from_keys
+from eea.encoding import genome_keys, genomes_from_keys, model_space_of
 from eea.experiment import Experiment
 from eea.fitness import model_fitness_from_similarities
 from eea.strategy import InferenceStrategy
@@ -76,19 +77,27 @@ class Estimation:
     """The estimation phase: a model search carried over rounds, evaluated through an Evaluator.
 
     Args:
-        search: a :class:`~eea.model_search.ModelSearch` over ``MODEL_BITS`` = 45 bits.
+        search: a :class:`~eea.model_search.ModelSearch` over model genomes of one
+            :class:`~eea.encoding.ModelSpace`: ``MODEL_BITS`` = 45 bits (the paper's
+            ``morphology``), or 57 (``morphology+servos``).
+
+    Attributes:
+        model_space: the :class:`~eea.encoding.ModelSpace` of the search's genomes.
 
     Raises:
         ValueError: if ``search`` does not satisfy the interface or its genomes are not
-            45 bits long.
+            45 or 57 bits long.
     """
 
     def __init__(self, search: ModelSearch) -> None:
         check_model_search(search)
-        if search.n_bits != MODEL_BITS:
-            raise ValueError(f"the estimation search must evolve {MODEL_BITS}-bit model genomes, got {search.n_bits} bits")
+        try:
+            self.model_space = model_space_of(search.n_bits)
+        except ValueError as err:
+            raise ValueError(f"the estimation search must evolve 45-bit model genomes (57 with servo gains): "
+                             f"{err}") from None
         self.search = search
-        self._genomes: np.ndarray | None = None  # last evaluated generation (P, 45)
+        self._genomes: np.ndarray | None = None  # last evaluated generation (P, n_bits)
         self._fitness: np.ndarray | None = None  # and its fitness (P,)
         self._round: dict[bytes, float] = {}     # every model this round evaluated -> its best fitness
 
@@ -178,7 +187,7 @@ class Estimation:
             raise ValueError(f"min_distance must be in [0, 1), got {min_distance!r}")
         if min_distance and self._round:
             keys = list(self._round)
-            genomes = genomes_from_keys(keys, MODEL_BITS)
+            genomes = genomes_from_keys(keys, self.model_space.n_bits)
             return diverse_ranked(genomes, np.fromiter(self._round.values(), float, len(keys)),
                                   len(keys) if limit is None else limit, min_distance)
         if self._genomes is None:

@@ -19,6 +19,12 @@ Two caches keep a result from being simulated twice:
 
 Initial angles are snapped to a 1e-6 rad grid before simulating, so a cached value and a
 fresh simulation of the same key are bit-for-bit equal.
+
+The model space (``model_space``, :class:`eea.encoding.ModelSpace`) says what a genome holds:
+the paper's 9 flipper dimensions (45 bits, healthy servos), or those and 3 servo gains
+(57 bits, ``morphology+servos``), with which each model is simulated under its own
+``ServoFaults(speed_scale=gains)`` in the same batch (``simulate_batch`` takes one fault set
+per robot). The target keeps its own faults (:class:`eea.target.Target`).
 """
 
 from __future__ import annotations
@@ -34,15 +40,18 @@ from aquafish_gym import SimParams, simulate_batch
 from aquafish_gym.checks import check_int
 from aquafish_gym.rundir import die_with_parent
 from eea.behaviour import behaviour_summary, similarity
-from eea.encoding import MODEL_BITS, decode_models
+from eea.encoding import ModelSpace, get_model_space
 from eea.experiment import Experiment, check_params, quantise_angles
 
 __all__ = ["Evaluator"]
 
 
-def _simulate_chunk(morphologies, actions, angles, steps, params) -> np.ndarray:
-    """Worker: behaviour summaries ``(n, 3, F)`` of one contiguous chunk of robots."""
-    return behaviour_summary(simulate_batch(morphologies, actions, angles, steps, params=params))
+def _simulate_chunk(morphologies, actions, angles, steps, params, faults=None) -> np.ndarray:
+    """Worker: behaviour summaries ``(n, 3, F)`` of one contiguous chunk of robots (``faults``:
+    None for healthy servos, or one ServoFaults per robot)."""
+    if faults is None:
+        return behaviour_summary(simulate_batch(morphologies, actions, angles, steps, params=params))
+    return behaviour_summary(simulate_batch(morphologies, actions, angles, steps, faults=faults, params=params))
 
 
 def _genome_keys(genomes: np.ndarray) -> list[bytes]:
@@ -72,21 +81,27 @@ class Evaluator:
             equation 2, :func:`eea.behaviour.similarity`). Another function makes MOD_FIT
             another objective; the cache holds one function's values, so keep it for the
             evaluator's life (``examples/equal_fits.py`` compares two).
+        model_space: what a model genome holds, a :class:`eea.encoding.ModelSpace` or its name
+            (default ``"morphology"``, the paper's 45-bit genomes; ``"morphology+servos"``: 57
+            bits, each model simulated with its own servo gains).
 
     Attributes:
         simulations: number of robot simulations run so far (cache hits excluded).
 
     Raises:
-        ValueError: if ``steps``, ``workers`` or ``max_batch_robots`` is < 1.
+        ValueError: if ``steps``, ``workers`` or ``max_batch_robots`` is < 1, or on an unknown
+            model space.
     """
 
     def __init__(self, steps: int, *, workers: int = 1, max_batch_robots: int = 2048,
-                 params: SimParams | None = None, similarity_fn=similarity) -> None:
+                 params: SimParams | None = None, similarity_fn=similarity,
+                 model_space: str | ModelSpace = "morphology") -> None:
         for name, value in (("steps", steps), ("workers", workers), ("max_batch_robots", max_batch_robots)):
             check_int(name, value, 1)
         self.steps, self.workers, self.max_batch_robots = int(steps), int(workers), int(max_batch_robots)
         self.params = check_params(params)
         self.similarity_fn = similarity_fn
+        self.model_space = get_model_space(model_space)
         self.simulations = 0
         self._similarity: dict[bytes, float] = {}
         self._summaries: dict[bytes, np.ndarray] = {}
@@ -106,13 +121,14 @@ class Evaluator:
         self.close()
 
     # -- the one batched simulator call -----------------------------------------------
-    def simulate(self, morphologies, actions, angles) -> np.ndarray:
+    def simulate(self, morphologies, actions, angles, faults=None) -> np.ndarray:
         """Simulate N robots in one batch (chunked over workers) and summarise them.
 
         Args:
             morphologies: ``(N, 9)`` flipper dimensions (simulator units).
             actions: ``(N, 3)`` servo commands (rev/s, rev/s, Hz).
             angles: ``(N, 3)`` initial angles (rad), already on the quantisation grid.
+            faults: None (healthy servos) or N :class:`~aquafish_gym.ServoFaults`, one per robot.
 
         Returns:
             ``(N, 3, steps // 2 + 1)`` behaviour summaries (eq. 2's coefficients).
@@ -127,6 +143,7 @@ class Evaluator:
         n_chunks = min(n, max(self.workers, -(-n // self.max_batch_robots)))
         bounds = np.linspace(0, n, n_chunks + 1).astype(int)
         chunks = [(morphologies[a:b], actions[a:b], angles[a:b], self.steps, self.params)
+                  + (() if faults is None else (list(faults[a:b]),))
                   for a, b in zip(bounds[:-1], bounds[1:])]
         if self.workers == 1:
             parts = [_simulate_chunk(*chunk) for chunk in chunks]
@@ -138,12 +155,18 @@ class Evaluator:
         self.simulations += n
         return np.concatenate(parts)
 
+    def _simulate_models(self, genomes, actions, angles) -> np.ndarray:
+        """:meth:`simulate` of ``(N, model_space.n_bits)`` model genomes (decoded, with their
+        servo gains as faults in the ``morphology+servos`` space)."""
+        values = self.model_space.decode(genomes)
+        return self.simulate(self.model_space.morphologies(values), actions, angles, self.model_space.faults(values))
+
     # -- estimation: similarity to the target, cached for the run ----------------------
     def similarities(self, genomes, experiments: Sequence[Experiment], angles) -> np.ndarray:
         """Similarity (eq. 2) of every model's response to every experiment's target.
 
         Args:
-            genomes: ``(P, 45)`` model genomes.
+            genomes: ``(P, n_bits)`` model genomes (45 bits; 57 in ``morphology+servos``).
             experiments: E experiments (their ``index``, ``action`` and ``summary`` are used).
             angles: ``(P, E, 3)`` initial angles (rad) of model p in experiment e.
 
@@ -156,9 +179,10 @@ class Evaluator:
         genomes = np.asarray(genomes)
         p, e = len(genomes), len(experiments)
         angles = np.asarray(angles, dtype=np.float64)
-        if genomes.ndim != 2 or angles.shape != (p, e, 3):
-            raise ValueError(f"genomes must be (P, 45) and angles (P, E, 3) = ({p}, {e}, 3), "
-                             f"got {genomes.shape} and {angles.shape}")
+        n_bits = self.model_space.n_bits
+        if genomes.ndim != 2 or genomes.shape[1] != n_bits or angles.shape != (p, e, 3):
+            raise ValueError(f"genomes must be (P, {n_bits}) ({self.model_space.name} model genomes) and angles "
+                             f"(P, E, 3) = ({p}, {e}, 3), got {genomes.shape} and {angles.shape}")
         levels, values = quantise_angles(angles.reshape(-1, 3))
         gkeys = _genome_keys(genomes)
         level_bytes = [row.tobytes() for row in levels]
@@ -174,9 +198,8 @@ class Evaluator:
                 result[i] = cached
         if missing:
             first = np.array([rows[0] for rows in missing.values()])
-            models = decode_models(genomes[first // e])
             actions = np.stack([experiments[j].action for j in first % e])
-            summaries = self.simulate(models, actions, values[first])
+            summaries = self._simulate_models(genomes[first // e], actions, values[first])
             targets = np.stack([experiments[j].summary for j in first % e])
             sims = self.similarity_fn(summaries, targets)
             for (key, rows), s in zip(missing.items(), sims.tolist()):
@@ -189,7 +212,7 @@ class Evaluator:
         """Behaviour summaries of M models under A candidate actions, all from one context.
 
         Args:
-            genomes: ``(M, 45)`` model genomes.
+            genomes: ``(M, n_bits)`` model genomes.
             action_genomes: ``(A, 18)`` action genomes (cache keys).
             actions: ``(A, 3)`` the decoded actions (rev/s, rev/s, Hz).
             angles: ``(3,)`` initial angles (rad) of every simulation.
@@ -208,8 +231,7 @@ class Evaluator:
         if missing:
             where = {k: i for i, k in reversed(list(enumerate(keys)))}
             rows = np.array([where[k] for k in missing])
-            out = self.simulate(decode_models(genomes[rows % m]), actions[rows // m],
-                                np.repeat(values, len(rows), axis=0))
+            out = self._simulate_models(genomes[rows % m], actions[rows // m], np.repeat(values, len(rows), axis=0))
             self._summaries.update(zip(missing, out))
         return np.stack([self._summaries[k] for k in keys]).reshape(a, m, 3, -1)
 
@@ -239,13 +261,15 @@ class Evaluator:
         :mod:`eea.diagnosis` asks whether a run ever proposed a model near the truth.
 
         Returns:
-            ``(genomes, similarities)``: ``(N, 45)`` uint8 distinct model genomes, in the order
+            ``(genomes, similarities)``: ``(N, n_bits)`` uint8 distinct model genomes, in the order
             they were first scored, and ``(N, E)`` float64, each model's best cached similarity
             (eq. 2) per experiment over the initial angles it was scored under, NaN where it
             was never scored on that experiment; E is one more than the largest experiment
-            index in the cache (no models: shapes ``(0, 45)`` and ``(0, 0)``).
+            index in the cache (no models: shapes ``(0, n_bits)`` and ``(0, 0)``); ``n_bits`` is
+            the evaluator's model space's.
         """
-        width = -(-MODEL_BITS // 8)  # bytes of a genome's key (_genome_keys), then the experiment index
+        n_bits = self.model_space.n_bits
+        width = -(-n_bits // 8)  # bytes of a genome's key (_genome_keys), then the experiment index
         rows: dict[bytes, int] = {}
         entries = []
         for key, value in self._similarity.items():
@@ -256,4 +280,4 @@ class Evaluator:
         for row, e, value in entries:
             if not similarities[row, e] >= value:
                 similarities[row, e] = value
-        return _genomes_from_keys(list(rows), MODEL_BITS), similarities
+        return _genomes_from_keys(list(rows), n_bits), similarities

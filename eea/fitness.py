@@ -154,13 +154,22 @@ def model_fitness_from_similarities(similarities) -> np.ndarray:
 def objective_fitness(model_dims, target_dims, bounds=MORPHOLOGY_BOUNDS):
     """Oracle model quality, paper equation 4 (1 = exact, 0 = every dimension maximally off).
 
-    ``OBJ_FIT = 1 - 1/n * sum_i |model_i - target_i| / (max_i - min_i)``, n = 9.
+    ``OBJ_FIT = 1 - 1/n * sum_i |model_i - target_i| / (max_i - min_i)``: n = 9 in the
+    paper's ``morphology`` model space (the default ``bounds``). In the ``morphology+servos``
+    space (not the paper's; :class:`eea.encoding.ModelSpace`, pass its ``bounds``) n = 12:
+    the nine dimensions as above and the three servo gains, each gain's term normalised by
+    its range as the dimensions' are, 2 for a pectoral gain ([-1, 1]) and 1 for the caudal
+    one ([0, 1]), and the mean taken over all 12 terms; the target's gains are its faults'
+    (``speed_scale``, 0 where seized: :func:`eea.encoding.servo_gains`). A model with every
+    dimension right and the left pectoral gain +1 instead of -1 (``reversed_left_pectoral``)
+    scores 1 - (2/2)/12 = 0.9167.
 
     Args:
         model_dims: ``(..., n)`` model dimensions in simulator units (decoded genomes).
         target_dims: ``(n,)`` the target's true dimensions.
         bounds: ``(n, 2)`` [min, max] of each dimension; default
-            ``aquafish_gym.MORPHOLOGY_BOUNDS`` (the model genome's ranges).
+            ``aquafish_gym.MORPHOLOGY_BOUNDS`` (the model genome's ranges; the
+            ``morphology+servos`` space: ``ModelSpace.bounds``, 12 rows).
 
     Returns:
         ``(...)`` float64 in [0, 1] (a float for a single ``(n,)`` model).

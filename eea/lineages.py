@@ -47,7 +47,7 @@ import numpy as np
 
 from aquafish_gym import MORPHOLOGY_FIELDS
 from eea.checkpoint import load_state
-from eea.encoding import decode_models
+from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, model_space_of
 from eea.ensemble import select_model
 from eea.estimation import Estimation, EstimationResult, distinct_ranked
 from eea.experiment import Context, Experiment
@@ -57,7 +57,8 @@ from eea.record import load_result, read_csv, write_csv
 from eea.strategy import InferenceStrategy
 
 __all__ = ["LINEAGES_FILE", "LINEAGE_COLUMNS", "LineageStrategies", "Lineages", "SELECT_GENERATIONS",
-           "SELECT_SCAN_CYCLES", "chosen_inference_state", "estimation_from_state", "lineage_objective_fitness",
+           "SELECT_SCAN_CYCLES", "chosen_inference_state", "estimation_from_state", "lineage_columns",
+           "lineage_objective_fitness",
            "make_estimation", "make_strategy", "write_lineages"]
 
 #: The round's selection: generations of the equal angle fit and cycles of the per-flipper
@@ -68,10 +69,19 @@ SELECT_GENERATIONS, SELECT_SCAN_CYCLES = 30, 2
 #: (1-based), ``lineage`` (0-based), ``chosen`` (1 if its model was the round's model, else 0),
 #: ``model_fitness`` (the lineage's own MOD_FIT, eq. 3, under its own angles),
 #: ``selection_fitness`` (MOD_FIT under the round's equal angle fit) and ``model_<field>``
-#: (its best model's 9 dimensions, simulator units, ``aquafish_gym.MORPHOLOGY_FIELDS`` order).
+#: (its best model's 9 dimensions, simulator units, ``aquafish_gym.MORPHOLOGY_FIELDS`` order; in
+#: the ``morphology+servos`` model space also its servo gains, ``model_<servo>_gain``,
+#: :func:`lineage_columns`).
 LINEAGES_FILE = "lineages.csv"
 LINEAGE_COLUMNS: tuple[str, ...] = ("round", "lineage", "chosen", "model_fitness", "selection_fitness",
                                     *(f"model_{name}" for name in MORPHOLOGY_FIELDS))
+
+
+def lineage_columns(model_space="morphology") -> tuple[str, ...]:
+    """The columns of ``lineages.csv`` in a model space: :data:`LINEAGE_COLUMNS`, and the servo
+    gains' ``model_<servo>_gain`` after them in ``morphology+servos``."""
+    space = get_model_space(model_space)
+    return LINEAGE_COLUMNS + (tuple(f"model_{name}" for name in SERVO_GAIN_FIELDS) if space.servos else ())
 
 
 class LineageStrategies:
@@ -200,9 +210,10 @@ class Lineages:
             best.append((result.best_genome, result.best_fitness))
         genomes = np.stack([g for g, _ in best])
         start = np.stack([[e.context.estimate() for e in exps] for exps in self._experiments])  # (N, E, 3)
-        selection = select_model(decode_models(genomes), experiments, evaluator, rng,
+        space = model_space_of(genomes.shape[1])
+        selection = select_model(space.decode(genomes), experiments, evaluator, rng,
                                  generations=self.select_generations, scan_cycles=self.select_scan_cycles,
-                                 start=start)
+                                 start=start, model_space=space)
         chosen = selection.index
         self.history.append({"model_fitness": np.array([f for _, f in best]),
                              "selection_fitness": selection.model_fitness.copy(), "genomes": genomes.copy(),
@@ -292,39 +303,47 @@ def chosen_inference_state(estimation_state: dict, inference_state: dict) -> dic
 def write_lineages(out_dir: str | os.PathLike, history: Sequence[dict]) -> None:
     """Rewrite ``out_dir/lineages.csv`` atomically from a :class:`Lineages` ``history``.
 
-    One row per round and lineage, columns :data:`LINEAGE_COLUMNS`, floats as ``repr``
-    (round-trip exact, as ``rounds.csv``).
+    One row per round and lineage, columns :func:`lineage_columns` of the genomes' model space
+    (:data:`LINEAGE_COLUMNS` in the paper's), floats as ``repr`` (round-trip exact, as
+    ``rounds.csv``).
     """
     rows = []
+    space = model_space_of(history[0]["genomes"].shape[1]) if history else get_model_space("morphology")
     for number, h in enumerate(history, start=1):
-        for lineage, dims in enumerate(decode_models(h["genomes"])):
+        for lineage, values in enumerate(space.decode(h["genomes"])):
             rows.append({"round": number, "lineage": lineage, "chosen": int(lineage == h["chosen"]),
                          "model_fitness": float(h["model_fitness"][lineage]),
                          "selection_fitness": float(h["selection_fitness"][lineage]),
-                         **{f"model_{name}": float(v) for name, v in zip(MORPHOLOGY_FIELDS, dims)}})
-    write_csv(Path(out_dir) / LINEAGES_FILE, LINEAGE_COLUMNS, rows)
+                         **{f"model_{name}": float(v) for name, v in zip(space.fields, values)}})
+    write_csv(Path(out_dir) / LINEAGES_FILE, lineage_columns(space), rows)
 
 
 def _lineage_models(out_dir) -> tuple[np.ndarray, np.ndarray] | None:
-    """``(R, N, 9)`` the lineages' best models and ``(R,)`` the chosen lineage of every finished
-    round, from ``lineages.csv`` or else the checkpoint; None if neither holds a lineage run."""
+    """``(R, N, n)`` the lineages' best models (n values of their model space: 9, or 12 with servo
+    gains) and ``(R,)`` the chosen lineage of every finished round, from ``lineages.csv`` or else
+    the checkpoint; None if neither holds a lineage run."""
     path = Path(out_dir) / LINEAGES_FILE
     if path.exists():
         columns, rows = read_csv(path, ("round", "lineage", "chosen"))
-        if columns != LINEAGE_COLUMNS:
-            raise ValueError(f"{path}: columns {list(columns)}, expected {list(LINEAGE_COLUMNS)}")
+        space = get_model_space("morphology+servos" if f"model_{SERVO_GAIN_FIELDS[0]}" in columns else "morphology")
+        expected = lineage_columns(space)
+        if columns != expected:
+            raise ValueError(f"{path}: columns {list(columns)}, expected {list(expected)}")
         if rows:
             rounds, lineages = max(r["round"] for r in rows), max(r["lineage"] for r in rows) + 1
             if len(rows) != rounds * lineages:
                 raise ValueError(f"{path} has {len(rows)} rows, not {rounds} rounds x {lineages} lineages")
-            models = np.array([[r[f"model_{name}"] for name in MORPHOLOGY_FIELDS] for r in rows])
+            models = np.array([[r[f"model_{name}"] for name in space.fields] for r in rows])
             chosen = np.array([r["lineage"] for r in rows if r["chosen"] == 1], dtype=int)
             return models.reshape(rounds, lineages, -1), chosen
     state = load_state(out_dir)
     if state is None or "lineages" not in state.estimation:
         return None
     history = state.estimation["history"]
-    return (np.array([decode_models(h["genomes"]) for h in history]),
+    if not history:
+        return np.zeros((0, 0, 0)), np.zeros(0, dtype=int)
+    space = model_space_of(history[0]["genomes"].shape[1])
+    return (np.array([space.decode(h["genomes"]) for h in history]),
             np.array([h["chosen"] for h in history], dtype=int))
 
 
@@ -351,6 +370,11 @@ def lineage_objective_fitness(out_dir) -> tuple[np.ndarray, np.ndarray]:
     if found is None:
         raise ValueError(f"{out_dir} holds no {LINEAGES_FILE} and no checkpoint of a run with lineages >= 2")
     models, chosen = found
-    truth = load_result(out_dir).target_morphology.to_array()
-    objective = np.array([[objective_fitness(dims, truth) for dims in per_round] for per_round in models])
+    result = load_result(out_dir)
+    space, truth = result.model_space, result.true_model
+    if models.size and models.shape[-1] != len(truth):
+        raise ValueError(f"{out_dir}: the lineages' models have {models.shape[-1]} values, its model space "
+                         f"{space.name} {len(truth)}")
+    objective = np.array([[objective_fitness(values, truth, space.bounds) for values in per_round]
+                          for per_round in models])
     return objective.reshape(len(models), -1), chosen

@@ -1,6 +1,7 @@
 """Model searches of the estimation phase: one ask/tell interface, chosen by name.
 
-The estimation phase (:class:`eea.estimation.Estimation`) evolves 45-bit model genomes
+The estimation phase (:class:`eea.estimation.Estimation`) evolves model genomes (45 bits in
+the paper's ``morphology`` model space, 57 in ``morphology+servos``: :class:`eea.encoding.ModelSpace`)
 through any object that satisfies :class:`ModelSearch`; :data:`MODEL_SEARCHES` maps the
 names ``EEAConfig.estimation_search`` accepts to the classes:
 
@@ -8,8 +9,8 @@ names ``EEAConfig.estimation_search`` accepts to the classes:
 name     class                                       search
 =======  ==========================================  =======================================
 ``ga``   :class:`ModelGA`                            the paper's bit-string GA (section 4)
-``cma``  :class:`~eea.cma_search.CMAModelSearch`     CMA-ES over the nine dimensions (not
-                                                     the paper's)
+``cma``  :class:`~eea.cma_search.CMAModelSearch`     CMA-ES over the nine dimensions (and
+                                                     the three gains; not the paper's)
 =======  ==========================================  =======================================
 
 Misuse raises :class:`RuntimeError` naming it, as in pyribs: ``tell`` without a pending
@@ -23,7 +24,7 @@ from typing import ClassVar, Protocol
 import numpy as np
 
 from eea.cma_search import CMAModelSearch
-from eea.encoding import MODEL_BITS
+from eea.encoding import MODEL_BITS, get_model_space, model_space_of
 from eea.ga import BitGA
 
 __all__ = ["MODEL_SEARCHES", "SEARCH_NAMES", "ModelGA", "ModelSearch", "check_model_search", "make_model_search",
@@ -35,7 +36,7 @@ class ModelSearch(Protocol):
 
     Attributes:
         name: the registry name (``EEAConfig.estimation_search``).
-        n_bits: genome length, 45.
+        n_bits: genome length, 45 (57 in the ``morphology+servos`` model space).
         population_size: P, genomes per generation.
     """
 
@@ -73,22 +74,25 @@ class ModelSearch(Protocol):
 
 
 class ModelGA(BitGA):
-    """The paper's estimation GA: a :class:`~eea.ga.BitGA` over 45-bit model genomes.
+    """The paper's estimation GA: a :class:`~eea.ga.BitGA` over 45-bit model genomes (57-bit
+    with ``model_space="morphology+servos"``, not the paper's).
 
     Its population carries over between rounds (``restart`` is a no-op).
     """
 
     name: ClassVar[str] = "ga"
 
-    def __init__(self, population_size: int, rng: np.random.Generator, **options) -> None:
-        super().__init__(MODEL_BITS, population_size, rng, **options)
+    def __init__(self, population_size: int, rng: np.random.Generator, *, model_space="morphology",
+                 **options) -> None:
+        super().__init__(get_model_space(model_space).n_bits, population_size, rng, **options)
 
     @classmethod
     def from_config(cls, config, rng: np.random.Generator) -> "ModelGA":
-        """Sized and tuned by an :class:`eea.config.EEAConfig` (population, crossover,
-        mutation ``mutation_bits / 45``, tournament, elitism)."""
-        return cls(config.estimation_population, rng, crossover_rate=config.crossover_rate,
-                   mutation_rate=config.mutation_bits / MODEL_BITS, tournament_size=config.tournament_size,
+        """Sized and tuned by an :class:`eea.config.EEAConfig` (model space, population, crossover,
+        mutation ``mutation_bits / n_bits``, i.e. / 45 in the paper's space, tournament, elitism)."""
+        space = get_model_space(getattr(config, "model_space", "morphology"))
+        return cls(config.estimation_population, rng, model_space=space, crossover_rate=config.crossover_rate,
+                   mutation_rate=config.mutation_bits / space.n_bits, tournament_size=config.tournament_size,
                    elitism=config.elitism)
 
     def state_dict(self) -> dict:
@@ -97,16 +101,19 @@ class ModelGA(BitGA):
 
     @classmethod
     def _build(cls, n_bits: int, population_size: int, rng: np.random.Generator, **options) -> "ModelGA":
-        if n_bits != MODEL_BITS:
-            raise ValueError(f"a model GA evolves {MODEL_BITS}-bit genomes, the state has {n_bits} bits")
-        return cls(population_size, rng, **options)
+        try:
+            space = model_space_of(n_bits)
+        except ValueError:
+            raise ValueError(f"a model GA evolves {MODEL_BITS}-bit genomes (57 with servo gains), "
+                             f"the state has {n_bits} bits") from None
+        return cls(population_size, rng, model_space=space, **options)
 
     @classmethod
     def from_state_dict(cls, state: dict, rng: np.random.Generator) -> "ModelGA":
-        """Rebuild from :meth:`state_dict` (or a plain :meth:`BitGA.state_dict` of 45-bit genomes).
+        """Rebuild from :meth:`state_dict` (or a plain :meth:`BitGA.state_dict` of 45- or 57-bit genomes).
 
         Raises:
-            ValueError: if the state is not a 45-bit GA's, or as :meth:`BitGA.from_state_dict`.
+            ValueError: if the state is not a model GA's, or as :meth:`BitGA.from_state_dict`.
         """
         return super().from_state_dict({k: v for k, v in state.items() if k != "search"}, rng)
 

@@ -135,7 +135,7 @@ import numpy as np
 from aquafish_gym.checks import check_int
 from eea.arc import TWO_PI
 from eea.diversity import diverse_indices, model_distance
-from eea.encoding import MODEL_BITS, genome_keys, genomes_from_keys
+from eea.encoding import genome_keys, genomes_from_keys
 from eea.experiment import CAUDAL_LIMIT_RAD, Context, random_angles
 from eea.fitness import model_fitness_from_similarities
 from eea.strategy import Experiments, InferenceStrategy
@@ -245,7 +245,7 @@ class Profile(InferenceStrategy):
         sims = np.full((len(genomes), n_experiments), np.nan)
         fresh = np.zeros((len(genomes), n_experiments), dtype=bool)
         known = list(self._memory)
-        parents = genomes_from_keys(known, MODEL_BITS) if known else None
+        parents = genomes_from_keys(known, len(known[0])) if known else None  # 45 bits, 57 with servo gains
         for u, key in enumerate(genome_keys(genomes)):
             entry = self._memory.get(key)
             if entry is None and parents is not None:  # the nearest model of the last generation

@@ -10,6 +10,13 @@ A run directory holds ``config.json`` (the :class:`~eea.config.EEAConfig`),
   action performed);
 * ``model_<field>``: the best model's 9 dimensions (simulator units,
   ``aquafish_gym.MORPHOLOGY_FIELDS`` order);
+* only in the ``morphology+servos`` model space (``EEAConfig.model_space``, not the paper's;
+  :func:`round_columns`), right after them: ``model_left_pectoral_gain``,
+  ``model_right_pectoral_gain``, ``model_caudal_gain`` (the best model's servo gains) and
+  ``true_left_pectoral_gain``, ``true_right_pectoral_gain``, ``true_caudal_gain`` (the
+  target's: its faults' ``speed_scale``, 0 where seized), and ``objective_fitness`` is over
+  the 12 values (:func:`eea.fitness.objective_fitness`). The paper's space's file is
+  unchanged;
 * ``action_left_pectoral_rev_s``, ``action_right_pectoral_rev_s``, ``action_caudal_hz``:
   the action performed on the target this round;
 * ``true_<flipper>_rad`` and ``inferred_<flipper>_rad``: the newest experiment's true
@@ -35,16 +42,17 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from aquafish_gym import ACTION_FIELDS, MORPHOLOGY_FIELDS, Morphology, get_damage
+from aquafish_gym import ACTION_FIELDS, MORPHOLOGY_FIELDS, Morphology, ServoFaults, get_damage
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, read_json
 from eea.config import EEAConfig
-from eea.encoding import decode_models
+from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, servo_gains
 from eea.experiment import FLIPPERS, angle_errors_deg
 from eea.fitness import objective_fitness
 
-__all__ = ["CONFIG_FILE", "ROUNDS_FILE", "ROUND_COLUMNS", "RunResult", "check_rounds", "load_result", "read_rounds",
-           "read_config", "read_csv", "round_row", "write_config", "write_csv", "write_rounds"]
+__all__ = ["CONFIG_FILE", "GAIN_COLUMNS", "ROUNDS_FILE", "ROUND_COLUMNS", "RunResult", "TRUE_GAIN_COLUMNS",
+           "check_rounds", "load_result", "read_rounds", "read_config", "read_csv", "round_columns", "round_row",
+           "write_config", "write_csv", "write_rounds"]
 
 CONFIG_FILE = "config.json"
 ROUNDS_FILE = "rounds.csv"
@@ -56,6 +64,22 @@ ROUND_COLUMNS: tuple[str, ...] = (
     "target_experiments", "simulations", "wall_seconds",
 )
 _INT_COLUMNS = ("round", "target_experiments", "simulations")
+#: The ``morphology+servos`` space's extra columns: the best model's servo gains and the target's.
+GAIN_COLUMNS = tuple(f"model_{name}" for name in SERVO_GAIN_FIELDS)
+TRUE_GAIN_COLUMNS = tuple(f"true_{name}" for name in SERVO_GAIN_FIELDS)
+_SERVO_ROUND_COLUMNS = (*ROUND_COLUMNS[:4 + len(MODEL_COLUMNS)], *GAIN_COLUMNS, *TRUE_GAIN_COLUMNS,
+                        *ROUND_COLUMNS[4 + len(MODEL_COLUMNS):])
+
+
+def round_columns(model_space="morphology") -> tuple[str, ...]:
+    """The columns of ``rounds.csv`` in a model space: :data:`ROUND_COLUMNS` in the paper's
+    ``morphology``; with ``morphology+servos`` also :data:`GAIN_COLUMNS` and
+    :data:`TRUE_GAIN_COLUMNS`, after the ``model_<field>`` columns.
+
+    Raises:
+        ValueError: on an unknown model space.
+    """
+    return _SERVO_ROUND_COLUMNS if get_model_space(model_space).servos else ROUND_COLUMNS
 
 
 @dataclasses.dataclass(frozen=True)
@@ -84,8 +108,33 @@ class RunResult:
         return get_damage(self.config.damage).apply()
 
     @property
+    def model_space(self):
+        """The run's :class:`~eea.encoding.ModelSpace` (``config.model_space``)."""
+        return get_model_space(self.config.model_space)
+
+    @property
+    def true_model(self) -> np.ndarray:
+        """``(n,)`` the target's values in the run's model space (the oracle of OBJ_FIT): its 9
+        dimensions, and in ``morphology+servos`` its 3 servo gains (:meth:`ModelSpace.truth`)."""
+        return self.model_space.truth(self.config.damage)
+
+    @property
+    def best_model(self) -> np.ndarray:
+        """``(n,)`` the final round's best model in the run's model space: its 9 dimensions, and
+        in ``morphology+servos`` its 3 servo gains.
+
+        Raises:
+            ValueError: if no round has finished yet.
+        """
+        dims = self.best_morphology.to_array()
+        if not self.model_space.servos:
+            return dims
+        return np.concatenate([dims, [self.rounds[-1][c] for c in GAIN_COLUMNS]])
+
+    @property
     def best_morphology(self) -> Morphology:
-        """The final round's best model as a :class:`~aquafish_gym.Morphology`.
+        """The final round's best model as a :class:`~aquafish_gym.Morphology` (its dimensions;
+        its servo gains, in ``morphology+servos``, are in :attr:`best_model`).
 
         Raises:
             ValueError: if no round has finished yet.
@@ -117,23 +166,34 @@ class RunResult:
         return angle_errors_deg(inferred, true)
 
 
-def round_row(record, target_morphology: Morphology, wall_seconds: float) -> dict:
+def round_row(record, target_morphology: Morphology, wall_seconds: float, *, model_space="morphology",
+              target_faults: ServoFaults | None = None) -> dict:
     """The ``rounds.csv`` row of a :class:`eea.round.RoundRecord`.
 
     Args:
         record: the round.
         target_morphology: the target's true morphology (the oracle of OBJ_FIT, eq. 4).
         wall_seconds: cumulative wall seconds of the run after this round.
+        model_space: the run's model space (name or :class:`~eea.encoding.ModelSpace`).
+        target_faults: the target's servo faults (``morphology+servos``: its true gains,
+            :func:`eea.encoding.servo_gains`; None: healthy servos).
 
     Returns:
-        A dict with keys :data:`ROUND_COLUMNS` (ints and floats).
+        A dict with keys :func:`round_columns` (ints and floats).
     """
-    dims = decode_models(record.best_genome)
+    space = get_model_space(model_space)
+    values = space.decode(record.best_genome)
+    truth = target_morphology.to_array()
+    if space.servos:
+        truth = np.concatenate([truth, servo_gains(target_faults or ServoFaults())])
     experiment = record.experiment
     row = {"round": int(record.number),
-           "objective_fitness": objective_fitness(dims, target_morphology.to_array()),
+           "objective_fitness": objective_fitness(values, truth, space.bounds),
            "model_fitness": float(record.model_fitness), "action_fitness": float(record.action_fitness)}
-    row.update(zip(MODEL_COLUMNS, dims.tolist()))
+    row.update(zip(MODEL_COLUMNS, values[:9].tolist()))
+    if space.servos:
+        row.update(zip(GAIN_COLUMNS, values[9:].tolist()))
+        row.update(zip(TRUE_GAIN_COLUMNS, truth[9:].tolist()))
     row.update(zip(ACTION_COLUMNS, np.asarray(record.action, dtype=float).tolist()))
     row.update({f"true_{f}_rad": a for f, a in zip(FLIPPERS, experiment.true_angles.tolist())})
     row.update({f"inferred_{f}_rad": a for f, a in zip(FLIPPERS, experiment.context.estimate().tolist())})
@@ -217,16 +277,18 @@ def _parse(text: str, kind: type, path, line: int, column: str):
             from None
 
 
-def write_rounds(out_dir: str | os.PathLike, rows: list) -> None:
-    """Rewrite ``rounds.csv`` with all ``rows`` atomically (floats as ``repr``)."""
-    write_csv(Path(out_dir) / ROUNDS_FILE, ROUND_COLUMNS, rows)
+def write_rounds(out_dir: str | os.PathLike, rows: list, model_space="morphology") -> None:
+    """Rewrite ``rounds.csv`` with all ``rows`` atomically (floats as ``repr``; the columns of
+    the run's model space, :func:`round_columns`)."""
+    write_csv(Path(out_dir) / ROUNDS_FILE, round_columns(model_space), rows)
 
 
-def read_rounds(out_dir: str | os.PathLike) -> list[dict]:
+def read_rounds(out_dir: str | os.PathLike, model_space=None) -> list[dict]:
     """Rows of ``out_dir/rounds.csv`` as dicts of ints and floats ([] if there is no file).
 
-    The file is checked: its header is :data:`ROUND_COLUMNS`, every value is finite, and the
-    rounds are 1, 2, 3, ... (unique and consecutive).
+    The file is checked: its header is :data:`ROUND_COLUMNS` (or the ``morphology+servos``
+    space's :func:`round_columns`, and with ``model_space`` given, that space's), every value
+    is finite, and the rounds are 1, 2, 3, ... (unique and consecutive).
 
     Raises:
         FileError: (a ``ValueError``) the file breaks one of these rules or is not a
@@ -238,7 +300,7 @@ def read_rounds(out_dir: str | os.PathLike) -> list[dict]:
         return []
     try:
         columns, rows = read_csv(path, _INT_COLUMNS)
-        check_rounds(path, columns, rows)
+        check_rounds(path, columns, rows, model_space)
     except FileError as err:  # the checkpoint holds the rows: a resume rewrites the file
         raise FileError(path, err.problem,
                         "run the same `aquafish eea` command again to rewrite it from the checkpoint (state.pkl), "
@@ -246,15 +308,22 @@ def read_rounds(out_dir: str | os.PathLike) -> list[dict]:
     return rows
 
 
-def check_rounds(path: str | os.PathLike, columns: Sequence[str], rows: Sequence[dict]) -> None:
+def check_rounds(path: str | os.PathLike, columns: Sequence[str], rows: Sequence[dict], model_space=None) -> None:
     """Check the rows of a ``rounds.csv`` (see :func:`read_rounds`).
+
+    Args:
+        model_space: the run's model space; None: the one the columns name (the servo gains'
+            columns make it ``morphology+servos``).
 
     Raises:
         FileError: a column is missing or unknown, a value is not finite, or the rounds are
             not 1, 2, 3, ... in order.
     """
-    missing = [c for c in ROUND_COLUMNS if c not in columns]
-    unknown = [c for c in columns if c not in ROUND_COLUMNS]
+    if model_space is None:
+        model_space = "morphology+servos" if any(c in GAIN_COLUMNS for c in columns) else "morphology"
+    expected = round_columns(model_space)
+    missing = [c for c in expected if c not in columns]
+    unknown = [c for c in columns if c not in expected]
     if missing or unknown:
         raise FileError(path, "is not a rounds.csv: " + "; ".join(
             part for part in (f"missing columns {missing}" if missing else "",
@@ -279,4 +348,4 @@ def load_result(out_dir: str | os.PathLike) -> RunResult:
     config = read_config(out_dir)
     if config is None:
         raise ValueError(f"{out_dir} is not an EEA run directory (no {CONFIG_FILE})")
-    return RunResult(Path(out_dir), config, read_rounds(out_dir))
+    return RunResult(Path(out_dir), config, read_rounds(out_dir, config.model_space))

@@ -121,7 +121,7 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
         experiments = tuple(Experiment.from_state_dict(e) for e in state.experiments)
     else:
         estimation, experiments, state = None, (), RunState(config.to_dict())
-    _write_records(out, state.rows, estimation)  # repairs a kill between the checkpoint and the csv
+    _write_records(out, state.rows, estimation, config.model_space)  # repairs a kill between checkpoint and csv
     bar = tqdm(total=config.rounds, initial=min(state.rounds_done, config.rounds), unit="round",
                desc=f"eea {config.inference} seed {config.seed}", disable=not progress)
 
@@ -135,7 +135,8 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
         return report
 
     with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots,
-                   similarity_fn=SIMILARITIES[config.model_similarity], params=config.sim_params) as evaluator, bar:
+                   similarity_fn=SIMILARITIES[config.model_similarity], params=config.sim_params,
+                   model_space=config.model_space) as evaluator, bar:
         if state.evaluator:
             evaluator.load_state_dict(state.evaluator)
         parts = RoundParts.from_config(config, rng, evaluator, estimation)
@@ -144,21 +145,22 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
             record = run_round(number, experiments, parts, rng, on_phase)
             experiments = record.experiments
             wall = state.wall_seconds + record.wall_s
-            row = round_row(record, parts.target.morphology, wall)
+            row = round_row(record, parts.target.morphology, wall, model_space=config.model_space,
+                            target_faults=parts.target.faults)
             state = RunState(config=config.to_dict(), rounds_done=number, rng_state=rng.bit_generator.state,
                              estimation=parts.estimation.state_dict(),
                              experiments=tuple(e.state_dict() for e in experiments),
                              evaluator=evaluator.state_dict(), inference=parts.strategy.state_dict(),
                              wall_seconds=wall, rows=(*state.rows, row))
             save_state(out, state)
-            _write_records(out, state.rows, parts.estimation)
+            _write_records(out, state.rows, parts.estimation, config.model_space)
             bar.update(1)
             bar.set_postfix_str(f"obj {row['objective_fitness']:.3f}")
     return RunResult(out, config, list(state.rows))
 
 
-def _write_records(out: Path, rows, estimation) -> None:
+def _write_records(out: Path, rows, estimation, model_space: str) -> None:
     """``rounds.csv`` from the checkpoint's rows, and a lineage run's ``lineages.csv``."""
-    write_rounds(out, rows)
+    write_rounds(out, rows, model_space)
     if isinstance(estimation, Lineages):
         write_lineages(out, estimation.history)
