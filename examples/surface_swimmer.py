@@ -8,7 +8,7 @@ damaged body's own best on the damaged robot, over 20 s and 60 s. Distances are 
 initial heading (+y), means over ``--starts`` random initial flipper angles (seeds 0, 1, ...).
 All robots of a table run in one batched world.
 
-    python examples/surface_swimmer.py [--starts 10] [--waterline 0.3 | deep] [--draft-sweep]
+    python examples/surface_swimmer.py [--starts 10] [--waterline 0.3 | deep] [--draft-sweep | --feedback]
 """
 
 from __future__ import annotations
@@ -113,11 +113,29 @@ def damage_table(params, angles) -> None:
                   f"{tuple(grid[best])} | {mean[i, best, h]:.1f} | {100 * kept:.0f} % |")
 
 
+def feedback_table(angles) -> None:
+    """:class:`gait.HeadingHoldController` (differential paddling on the yaw error, gain 2 per rad,
+    base (-1, -1, 1)) on every damage preset, 20 s and 60 s, from the same starts."""
+    from gait import HeadingHoldController
+    from gait.rollout import rollout
+
+    controller = HeadingHoldController()
+    print("| damage | heading hold, 20 s | heading hold, 60 s |")
+    print("|---|---|---|")
+    for name in sorted(DAMAGES):
+        cells = []
+        for t in CHECKPOINTS_S:
+            d = np.array([rollout(controller, name, initial_angles=a, episode_duration_s=t).distance for a in angles])
+            cells.append(f"{d.mean():.1f} [{d.min():.1f}, {d.max():.1f}]")
+        print(f"| `{name}` | {cells[0]} | {cells[1]} |")
+
+
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--starts", type=int, default=10, help="random initial flipper angles per command (>= 1)")
     parser.add_argument("--waterline", default="0.3", help="free surface above the body's centre (units), or 'deep'")
     parser.add_argument("--draft-sweep", action="store_true", help="only the table of speeds against the draft")
+    parser.add_argument("--feedback", action="store_true", help="only the heading-hold controller's table")
     args = parser.parse_args(argv)
     if args.starts < 1:
         parser.error(f"--starts must be >= 1, got {args.starts}")
@@ -126,6 +144,9 @@ def main(argv=None) -> None:
     angles = starts(args.starts)
     if args.draft_sweep:
         draft_sweep(angles)
+        return
+    if args.feedback:
+        feedback_table(angles)
         return
     print(f"physics: {'deep water' if waterline is None else f'surface, waterline {waterline}'}; "
           f"{args.starts} starts\n")

@@ -19,8 +19,8 @@ Public API:
 """
 
 from gait.clock import CLOCK_PERIOD_S, ClockObservation, clock_features, with_clock
-from gait.controller import (ConstantController, Controller, NEATController, RandomController, SB3PolicyController,
-                             load_controller)
+from gait.controller import (ConstantController, Controller, HeadingHoldController, NEATController, RandomController,
+                             SB3PolicyController, load_controller)
 from gait.neat_evolution import GaitResult, evolve_gait, evolve_or_load_gait, latest_checkpoint, load_neat_config
 from gait.plots import plot_fitness_history, plot_transfer
 from gait.robots import Robot, as_robot, parse_robot
@@ -30,7 +30,7 @@ from gait.rl import train_or_load_rl, train_rl  # stable-baselines3 is imported 
 
 
 __all__ = [
-    "CLOCK_PERIOD_S", "EPISODE_DURATION_S", "ClockObservation", "ConstantController", "Controller", "GaitResult",
+    "CLOCK_PERIOD_S", "EPISODE_DURATION_S", "ClockObservation", "ConstantController", "Controller", "GaitResult", "HeadingHoldController",
     "NEATController", "RandomController", "Robot", "Rollout", "SB3PolicyController", "TransferResult", "as_robot", "clock_features",
     "evolve_gait", "evolve_or_load_gait", "latest_checkpoint", "load_controller", "load_neat_config", "make_env", "parse_robot", "plot_fitness_history",
     "plot_transfer", "rollout", "save_transfer", "score_transfer", "train_or_load_rl", "train_rl", "with_clock",

@@ -75,6 +75,46 @@ class ConstantController:
         return f"ConstantController({self.action.tolist()})"
 
 
+class HeadingHoldController:
+    """A hand-made feedback baseline: paddle ahead and steer back to the initial heading.
+
+    Differential paddling on the yaw error (yaw is read off the IMU part of the observation,
+    ``atan2(obs[2], obs[5])``: 0 is the initial heading, counter-clockwise positive). With
+    ``u = gain * yaw`` (rad), the paddle on the side the robot must turn towards eases off:
+    ``left = base_left + max(-u, 0)``, ``right = base_right + max(u, 0)`` (clipped to
+    [-1, 1]); the caudal command stays ``base_caudal``. On the surface swimmer ``(-1, -1,
+    1)`` is full paddling backwards under water and the tail at 1 Hz.
+
+    Args:
+        base: ``(3,)`` env action in [-1, 1] with no heading error.
+        gain: ``u`` per radian of yaw error (>= 0); 0 is :class:`ConstantController`.
+
+    Raises:
+        ValueError: a bad ``base`` (as :class:`ConstantController`) or a negative or
+            non-finite ``gain``.
+    """
+
+    def __init__(self, base=(-1.0, -1.0, 1.0), gain: float = 2.0) -> None:
+        self.base = ConstantController(base).action
+        if not np.isfinite(gain) or gain < 0:
+            raise ValueError(f"gain must be a finite number >= 0 (per radian of yaw error), got {gain!r}")
+        self.gain = float(gain)
+
+    def reset(self) -> None:
+        """Nothing to clear (the error is read from each observation)."""
+
+    def act(self, obs: np.ndarray, time_s: float) -> np.ndarray:
+        """The action ``(3,)`` for observation ``obs`` (the IMU's sin/cos of roll, pitch, yaw first)."""
+        u = self.gain * float(np.arctan2(obs[2], obs[5]))
+        action = self.base.copy()
+        action[0] += max(-u, 0.0)
+        action[1] += max(u, 0.0)
+        return np.clip(action, -1.0, 1.0)
+
+    def __repr__(self) -> str:
+        return f"HeadingHoldController(base={self.base.tolist()}, gain={self.gain})"
+
+
 class RandomController:
     """Uniform random actions in [-1, 1]^3: the "learned nothing" baseline of every task.
 

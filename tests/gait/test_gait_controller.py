@@ -5,6 +5,7 @@ import copy
 import gymnasium as gym
 import neat
 import numpy as np
+import pytest
 
 from gait import NEATController, SB3PolicyController, with_clock
 
@@ -51,3 +52,34 @@ def test_sb3_controller_clips_the_policy_action_and_feeds_the_clock():
     (seen, deterministic), = model.seen
     np.testing.assert_array_equal(seen, with_clock(obs, 0.5, 2.0))
     assert deterministic is True
+
+
+def test_heading_hold_eases_the_paddle_on_the_side_it_must_turn_to():
+    import math
+
+    from gait import HeadingHoldController
+
+    c = HeadingHoldController(base=(-1.0, -1.0, 1.0), gain=2.0)
+    obs = np.zeros(12)
+    obs[3:6] = 1.0                                                  # level, on the initial heading
+    np.testing.assert_array_equal(c.act(obs, 0.0), [-1.0, -1.0, 1.0])
+    yaw = math.radians(15)                                          # turned left: steer right
+    obs[2], obs[5] = math.sin(yaw), math.cos(yaw)
+    np.testing.assert_allclose(c.act(obs, 0.0), [-1.0, -1.0 + 2.0 * yaw, 1.0])
+    obs[2] = -obs[2]                                                # turned right: steer left
+    np.testing.assert_allclose(c.act(obs, 0.0), [-1.0 + 2.0 * yaw, -1.0, 1.0])
+    with pytest.raises(ValueError, match="gain"):
+        HeadingHoldController(gain=-1.0)
+
+
+def test_heading_hold_keeps_a_half_left_pectoral_on_course_where_the_open_loop_command_veers():
+    from gait import ConstantController, HeadingHoldController
+    from gait.rollout import rollout
+
+    # the surface swimmer's paddles turn a robot with a weaker left paddle left; over 40 s the
+    # open-loop command loses its heading, the feedback keeps it
+    hold = rollout(HeadingHoldController(), "left_pectoral_half", seed=3, episode_duration_s=40.0)
+    open_loop = rollout(ConstantController((-1.0, -1.0, 1.0)), "left_pectoral_half", seed=3, episode_duration_s=40.0)
+    assert hold.distance > 1.5 * open_loop.distance
+    dx, dy = hold.trajectory[-1, :2] - hold.trajectory[0, :2]
+    assert abs(dx) < dy                                             # within 45 deg of the initial heading
