@@ -109,8 +109,8 @@ def damage_table(params, angles) -> None:
         for i, name in enumerate(names):
             best = int(np.argmax(mean[i, :, h]))
             kept = mean[i, best_healthy, h] / mean[i, best, h] if mean[i, best, h] > 0 else float("nan")
-            print(f"| `{name}` | {t:.0f} s | {tuple(grid[best_healthy])} | {mean[i, best_healthy, h]:.1f} | "
-                  f"{tuple(grid[best])} | {mean[i, best, h]:.1f} | {100 * kept:.0f} % |")
+            print(f"| `{name}` | {t:.0f} s | {tuple(grid[best_healthy].tolist())} | {mean[i, best_healthy, h]:.1f} | "
+                  f"{tuple(grid[best].tolist())} | {mean[i, best, h]:.1f} | {100 * kept:.0f} % |")
 
 
 def feedback_table(angles) -> None:
