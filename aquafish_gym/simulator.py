@@ -112,7 +112,9 @@ class BatchWorld:
         self.home = np.array([[ROBOT_SPACING * (i % _GRID_COLUMNS), ROBOT_SPACING * (i // _GRID_COLUMNS), 0.0] for i in range(self.n)])
         self.bodies = [create_robot(self.client, self.spec, i, position=self.home[i], visual=visual) for i in range(self.n)]
         # links that feel drag: the body always, flippers only when they have area
-        self._active = [[0] + [k + 1 for k in range(3) if self.spec.face_areas[i, k + 1].any()] for i in range(self.n)]
+        # at the surface the body carries the pectorals' forces (aquafish_gym.surface)
+        fins = (3,) if self.params.surface else (1, 2, 3)
+        self._active = [[0] + [k for k in fins if self.spec.face_areas[i, k].any()] for i in range(self.n)]
         self.time_s = 0.0
         self.actions = np.zeros((self.n, 3))
         self.initial_angles = np.zeros((self.n, 3))

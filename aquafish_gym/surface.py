@@ -24,9 +24,13 @@ a pectoral's weight is 1.7 % of the body's buoyancy). A water current acts on ev
 wetted part (velocities are taken relative to the water). Left out: wave making, splash,
 impulsive entry forces, added mass, and the free surface's own motion.
 
-As for the caudal reactive force, the strips' moment about each pectoral's centre of mass
-is added to the body's torque (a couple; the servos hold the flippers to their commanded
-motion), so each link still gets one force call and the body one torque call.
+The pectorals' forces act on the body (the force at the body's centre of mass, its moment
+about the flipper's centre of mass plus the strips' moment as a couple in the body's
+torque), and so does the caudal reactive force's moment: the servos hold the flippers to
+their commanded motion, so the rigid robot moves the same, and each robot needs two
+PyBullet force calls (body and caudal fin) and one torque call per step instead of four and
+one. (The pectoral servos are velocity-controlled with a torque limit far above the fluid's
+torque on them; the caudal fin keeps its own force, as its position servo is soft.)
 
 Every sum runs over a leading axis, term after term, and every product is written in the
 order the compiled step evaluates it, so both paths give the same doubles.
@@ -128,8 +132,8 @@ def surface_wrench(surface: SurfaceSpec, spec, params: SimParams, rotation, posi
 
     Returns:
         ``force (N, 4, 3)`` at each link's centre of mass and ``torque (N, 4, 3)`` about
-        it, each in the link's own frame; only the body's torque is non-zero (the couples
-        of the fins are carried by the body, see the module docstring).
+        it, each in the link's own frame; the pectorals' forces and every torque but the
+        body's are zero (the body carries them, see the module docstring).
     """
     quadratic = params.drag_law == "quadratic"
     drag_c = (-0.5 * params.drag_coefficient * params.fluid_density) if quadratic else -params.drag_coefficient
@@ -174,11 +178,20 @@ def surface_wrench(surface: SurfaceSpec, spec, params: SimParams, rotation, posi
     fx = _drag(drag_c, quadratic, areas[..., 0] * strip_wet, ux)
     fy = _drag(drag_c, quadratic, areas[..., 1] * strip_wet, uy)
     fz = _drag(drag_c, quadratic, areas[..., 2] * strip_wet, uz)
-    force[:, 1:3] = np.stack([_sum0(fx), _sum0(fy), _sum0(fz)], axis=-1)
+    fin_force = (_sum0(fx), _sum0(fy), _sum0(fz))                # (N, 2) each, flipper frame
     tx, tz = _sum0(ys * fz), _sum0(-(ys * fx))     # (0, y, 0) x F, about the centre of mass
+    push = np.zeros((n, 3))                        # world frame: the pectorals' forces, carried by the body
     for k in range(2):
         r = fins[:, k]
-        couple = couple + np.stack([r[:, i, 0] * tx[:, k] + r[:, i, 2] * tz[:, k] for i in range(3)], axis=-1)
+        world = [r[:, i, 0] * fin_force[0][:, k] + r[:, i, 1] * fin_force[1][:, k] + r[:, i, 2] * fin_force[2][:, k]
+                 for i in range(3)]
+        arm = position[:, k + 1] - position[:, 0]
+        moment = (arm[:, 1] * world[2] - arm[:, 2] * world[1], arm[:, 2] * world[0] - arm[:, 0] * world[2],
+                  arm[:, 0] * world[1] - arm[:, 1] * world[0])
+        couple = couple + np.stack([(r[:, i, 0] * tx[:, k] + r[:, i, 2] * tz[:, k]) + moment[i] for i in range(3)],
+                                   axis=-1)
+        push = push + np.stack(world, axis=-1)
+    force[:, 0] = force[:, 0] + _local(body, push)
 
     # caudal fin: wetted drag and the reactive force of its wetted height
     fin = rotation[:, 3]

@@ -263,8 +263,8 @@ static void surface_wrench(const struct af_surface* sf, int i, double rot[4][3][
         force[0][k] = (buoyancy - weight) * up[k] + f_drag[k];
     }
     cross(box_offset, f_drag, t_drag);
-    double couple[3] = {0.0, 0.0, 0.0};
-    /* pectorals: wetted blade-element strips */
+    double couple[3] = {0.0, 0.0, 0.0}, push[3] = {0.0, 0.0, 0.0};
+    /* pectorals: wetted blade-element strips; the body carries their force and moments */
     for (int f = 0; f < 2; ++f) {
         double (*r)[3] = rot[f + 1];
         const double* areas = rb + 2 + 3 * f;
@@ -284,11 +284,19 @@ static void surface_wrench(const struct af_surface* sf, int i, double rot[4][3][
             if (j == 0) { fx = gx; fy = gy; fz = gz; tx = hx; tz = hz; }
             else { fx += gx; fy += gy; fz += gz; tx += hx; tz += hz; }
         }
-        force[f + 1][0] = fx;
-        force[f + 1][1] = fy;
-        force[f + 1][2] = fz;
-        for (int k = 0; k < 3; ++k) couple[k] = couple[k] + (r[k][0] * tx + r[k][2] * tz);
+        double fw[3];
+        for (int k = 0; k < 3; ++k) fw[k] = r[k][0] * fx + r[k][1] * fy + r[k][2] * fz;
+        const double* pf = pos + 3 * (f + 1);
+        double arm[3] = {pf[0] - pos[0], pf[1] - pos[1], pf[2] - pos[2]};
+        double mom[3] = {arm[1] * fw[2] - arm[2] * fw[1], arm[2] * fw[0] - arm[0] * fw[2],
+                         arm[0] * fw[1] - arm[1] * fw[0]};
+        for (int k = 0; k < 3; ++k) {
+            couple[k] = couple[k] + ((r[k][0] * tx + r[k][2] * tz) + mom[k]);
+            push[k] = push[k] + fw[k];
+            force[f + 1][k] = 0.0;
+        }
     }
+    for (int k = 0; k < 3; ++k) force[0][k] = force[0][k] + rt_dot(r0, k, push);
     /* caudal fin: wetted drag and the reactive force of its wetted height */
     double (*r3)[3] = rot[3];
     double fin_wet = wetted(surface_z, pos[11], half_height(r3, rb + 14));

@@ -151,7 +151,10 @@ def _pectoral_held_still(angle, omega, strips, waterline=0.3):
     linear = np.zeros((1, 4, 3))
     linear[0, 1] = np.cross(angular[0, 1], position[0, 1] - hinge)
     force, _ = surface_wrench(surface, spec, prm, rot, position, linear, angular)
-    return force[0, 1], rot[0, 1] @ force[0, 1], prm
+    # the body carries the pectoral's force; the level body at rest at its draft feels nothing else
+    on_body = force[0, 0]
+    assert np.all(force[0, 1:3] == 0)
+    return rot[0, 1].T @ on_body, on_body, prm
 
 
 @pytest.mark.parametrize("angle_deg", [30.0, -15.0, -30.0, -60.0])
