@@ -87,3 +87,13 @@ def test_surface_rounds_csv_matches_the_recorded_run(tmp_path, tiny_config, file
 def test_library_rounds_csv_matches_the_recorded_run(tmp_path, tiny_config, file_regression, variant):
     _check_recorded_run(tmp_path, tiny_config(rounds=3, seed=7, **CMA_VARIANTS[variant]), file_regression,
                         f"{variant}_cma")
+
+
+def test_lineages_rounds_and_lineages_csv_match_the_recorded_run(tmp_path, tiny_config, file_regression):
+    """The best method (the ``lineages`` preset, issue 14): its ``rounds.csv`` and its
+    ``lineages.csv`` (recorded before issue 40 split :mod:`eea` into subpackages)."""
+    config = tiny_config(rounds=3, seed=7, **dict(preset_fields("lineages"), estimation_population=10))
+    _check_recorded_run(tmp_path, config, file_regression, "lineages_cma")
+    lineages = (tmp_path / "lineages.csv").read_text()
+    assert lineages.count("\n") == 1 + 3 * 2                      # header + 3 rounds x 2 lineages
+    file_regression.check(lineages, basename="lineages_cma_lineages", extension=".csv")
