@@ -33,7 +33,6 @@ import numpy as np
 from aquafish_gym import MORPHOLOGY_FIELDS
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, MismatchError, check_fingerprint, check_output_file, read_json, run_lock
-from eea.behaviour import SIMILARITIES
 from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
 from eea.experiment import FLIPPERS, Experiment, angle_errors_deg
@@ -145,11 +144,10 @@ def select_runs(run_dirs: Sequence[str | os.PathLike], *, rounds: int | None = N
     """:func:`select_model` over finished runs' final models and their pooled experiments.
 
     The experiments are rebuilt from each run's ``rounds.csv`` (:mod:`eea.replay`), so
-    ``docs/results`` is enough. The runs' similarity (``model_similarity``) is scored.
+    ``docs/results`` is enough.
 
     Args:
-        run_dirs: two or more run directories on the same damage, experiment length and
-            similarity.
+        run_dirs: two or more run directories on the same damage and experiment length.
         rounds: optional R: each run as it stood after round R (round R's model, the first R
             experiments; :func:`eea.replay.replay_run`). Two runs stopped at round 5 have
             performed as many target experiments as one run at round 10.
@@ -164,20 +162,20 @@ def select_runs(run_dirs: Sequence[str | os.PathLike], *, rounds: int | None = N
     Raises:
         ValueError: if fewer than two runs are given, a directory is not a run with a
             finished round (or fewer than ``rounds``), or the runs differ in damage, steps or
-            similarity.
+            model space.
     """
     if len(run_dirs) < 2:
         raise ValueError(f"an ensemble needs at least two runs, got {len(run_dirs)}")
     replays = [replay_run(d, rounds) for d in run_dirs]
     results = [r for r, _ in replays]
-    for field in ("damage", "steps", "model_similarity", "model_space"):
+    for field in ("damage", "steps", "model_space"):
         values = {getattr(r.config, field) for r in results}
         if len(values) > 1:
             raise ValueError(f"the runs differ in {field}: {sorted(map(str, values))}; an ensemble needs one target")
     experiments = [e for _, exps in replays for e in exps]
     models = np.stack([r.best_model for r in results])
     config = results[0].config
-    with Evaluator(config.steps, workers=workers, similarity_fn=SIMILARITIES[config.model_similarity],
+    with Evaluator(config.steps, workers=workers,
                    params=config.sim_params, model_space=config.model_space) as evaluator:
         selection = select_model(models, experiments, evaluator, np.random.default_rng(seed),
                                  generations=generations, scan_cycles=scan_cycles)
