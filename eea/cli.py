@@ -7,7 +7,7 @@ dataclass default, and ``--preset NAME`` (repeatable) applies a named bundle of 
 (:data:`eea.config.PRESETS`) that the flags given explicitly override
 (:func:`add_config_flags` and :func:`config_fields`, which ``aquafish study`` uses too).
 
-``aquafish plot`` (:func:`eea.plot.plot_runs`) is added by ``aquafish.studies_cli``.
+``aquafish plot`` (:func:`eea.analysis.plot.plot_runs`) is added by ``aquafish.studies_cli``.
 """
 
 from __future__ import annotations

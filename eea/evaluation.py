@@ -252,7 +252,7 @@ class Evaluator:
     def scored_models(self) -> tuple[np.ndarray, np.ndarray]:
         """Every model the estimation cache holds: the models a run has scored, and how well.
 
-        :mod:`eea.diagnosis` asks whether a run ever proposed a model near the truth.
+        :mod:`eea.analysis.diagnosis` asks whether a run ever proposed a model near the truth.
 
         Returns:
             ``(genomes, similarities)``: ``(N, n_bits)`` uint8 distinct model genomes, in the order

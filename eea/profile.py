@@ -48,7 +48,7 @@ or 32 sets 0.4 rad apart) and refined for 10 rounds of 2 proposals, it scores 0.
 per generation with new models.
 
 Compass polish and per-flipper scan (:meth:`Profile.polish_angles`, :meth:`Profile.scan_angles`;
-used by the round's equal angle fit of ``--lineages``, :func:`eea.ensemble.select_model`; not
+used by the round's equal angle fit of ``--lineages``, :func:`eea.selection.select_model`; not
 the paper's): MOD_FIT is
 a narrow cone around the true morphology's true angles. On the 10 experiments of finished
 ``left_pectoral_half`` runs, the truth at its true angles scores exactly 1, and loses about
@@ -368,7 +368,7 @@ class Profile(InferenceStrategy):
 
         A remembered model's own angles; any other model's are those of the nearest
         remembered model (in Hamming distance), as in :meth:`before_generation`; random angles for experiments
-        nobody has angles for yet. :mod:`eea.diagnosis` scores the truth under them: what it
+        nobody has angles for yet. :mod:`eea.analysis.diagnosis` scores the truth under them: what it
         would be judged by the moment the search proposed it.
 
         Args:
@@ -402,7 +402,7 @@ class Profile(InferenceStrategy):
         search described in the module docstring, without the shared best-model candidate
         and without contender refinement:
         the first tries ``initial`` random angle sets per model and experiment (and then
-        ``start``, if given). Used by :mod:`eea.diagnosis` and
+        ``start``, if given). Used by :mod:`eea.analysis.diagnosis` and
         ``examples/angle_identifiability.py``. Costs about
         ``P E (initial + 1 + generations proposals)`` simulations.
 

@@ -81,7 +81,7 @@ def test_wrong_basins_flags_a_massless_flipper_only_where_the_target_has_volume(
 
 
 def test_lineage_choices_reports_each_lineage_and_the_chosen_one(tmp_path, tiny_config, capsys):
-    from eea.lineages import lineage_objective_fitness
+    from eea.analysis.lineage_report import lineage_objective_fitness
     from eea.run import run
 
     run(tiny_config(inference="profile", lineages=2), tmp_path / "lin", progress=False)
