@@ -38,12 +38,26 @@ def test_a_checkpoint_written_before_issue_40_resumes_to_the_golden_rows(tmp_pat
         assert (out / "lineages.csv").read_text() == (GOLDEN / "lineages_cma_lineages.csv").read_text()
 
 
-@pytest.mark.parametrize("name", RUNS)
-def test_a_checkpoint_pickles_no_eea_class(name):
-    """Checkpoints hold plain dicts, tuples and numpy arrays only, so moving an :mod:`eea` module
-    to a subpackage cannot break unpickling a checkpoint written before the move."""
-    data = (DATA / f"{name}_round2" / "state.pkl").read_bytes()
-    modules = {arg.split()[0] for op, arg, _ in pickletools.genops(data)
-               if op.name in ("GLOBAL", "SHORT_BINUNICODE", "BINUNICODE", "UNICODE") and isinstance(arg, str)
-               and arg.split(".")[0] == "eea"}
-    assert not modules
+def _eea_globals(data: bytes) -> set[str]:
+    """Modules of the eea classes a pickle references, also inside pickles nested as bytes."""
+    found, last = set(), []
+    for op, arg, _ in pickletools.genops(data):
+        if isinstance(arg, bytes) and arg[:1] == b"\x80":
+            try:
+                found |= _eea_globals(arg)
+            except Exception:
+                pass
+        if isinstance(arg, str):
+            last.append(arg)
+            if op.name == "GLOBAL":
+                last = [arg.split()[0]]
+            if last[-1].split(".")[0] == "eea":
+                found.add(last[-1])
+    return found
+
+
+def test_checkpoints_pickle_only_the_cma_search_class():
+    """The CMA-ES search is pickled whole (its pycma state), under eea.cma_search: moving that
+    module needs an alias for these checkpoints; every other eea object is a plain dict."""
+    assert _eea_globals((DATA / "out_of_band_ga_round2" / "state.pkl").read_bytes()) == set()
+    assert _eea_globals((DATA / "lineages_cma_round2" / "state.pkl").read_bytes()) == {"eea.cma_search"}
