@@ -41,7 +41,7 @@ def _study(args: argparse.Namespace) -> int:
 
 
 def _plot(args: argparse.Namespace) -> int:
-    from eea.plot import plot_runs
+    from eea.analysis.plot import plot_runs
 
     out = Path(args.output) if args.output is not None else Path(args.dirs[0]) / "objective_fitness.png"
     check_output_file(out, "--output")
@@ -51,8 +51,8 @@ def _plot(args: argparse.Namespace) -> int:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from eea.compare import compare_variants, comparison_table, parse_variant, plot_variants
-    from eea.plot import find_runs
+    from eea.analysis.compare import compare_variants, comparison_table, parse_variant, plot_variants
+    from eea.analysis.plot import find_runs
 
     if args.output is not None:
         check_output_file(args.output, "--output")
@@ -71,8 +71,8 @@ def _compare(args: argparse.Namespace) -> int:
 
 
 def _diagnose(args: argparse.Namespace) -> int:
-    from eea.diagnosis import diagnose_run
-    from eea.plot import find_runs
+    from eea.analysis.diagnosis import diagnose_run
+    from eea.analysis.plot import find_runs
 
     print(f"{'run':<40} {'inference':<12} {'E':>3} {'final@inf':>9} {'true@inf':>9} {'final@true':>10} "
           f"{'true@true':>9} {'final@own':>9} {'true@own':>9} {'true@new':>9} {f'true@+{args.refine}':>9} "
@@ -94,8 +94,8 @@ def _diagnose(args: argparse.Namespace) -> int:
 def _select(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from eea.ensemble import select_study
-    from eea.plot import find_runs
+    from eea.analysis.ensemble import select_study
+    from eea.analysis.plot import find_runs
 
     if args.out is not None:
         check_output_file(args.out, "--out")
@@ -186,7 +186,7 @@ def add_commands(sub) -> None:
     p.set_defaults(func=_plot)
 
     m = sub.add_parser("compare", help="variants on the same seeds: final OBJ_FIT, Welch's p against a baseline, "
-                                       "rounds to a level, angle errors, simulations per round (eea.compare)")
+                                       "rounds to a level, angle errors, simulations per round (eea.analysis.compare)")
     m.add_argument("variants", nargs="+", metavar="LABEL=DIR",
                    help="a variant's label and its runs' directory (searched recursively; one run per seed); "
                         "a label given again adds another directory's runs (e.g. seeds 0-9 and 10-19 kept apart)")
@@ -203,7 +203,7 @@ def add_commands(sub) -> None:
                                         "proposed (true@new); how many models the run scored (seen), the "
                                         "closest to the truth (best OBJ) and how many beat the final model "
                                         "(better); the median angle error of the run's final inferred angles and "
-                                        "of the truth's own fitted ones (err run, err floor; degrees) (eea.diagnosis)")
+                                        "of the truth's own fitted ones (err run, err floor; degrees) (eea.analysis.diagnosis)")
     d.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
     d.add_argument("--workers", type=int_at_least(1), default=1, help="simulation processes (default: 1)")
     d.add_argument("--profile-generations", type=int_at_least(1), default=40,
@@ -214,7 +214,7 @@ def add_commands(sub) -> None:
     d.set_defaults(func=_diagnose)
 
     e = sub.add_parser("select", help="ensembles of independent runs: each ensemble's final models fitted equally "
-                                      "hard on all its runs' experiments, the highest MOD_FIT chosen (eea.ensemble; "
+                                      "hard on all its runs' experiments, the highest MOD_FIT chosen (eea.analysis.ensemble; "
                                       "not the paper's)")
     e.add_argument("dirs", nargs="+",
                    help="one variant's runs, one per seed (searched recursively; finished runs only)")

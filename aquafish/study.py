@@ -6,7 +6,7 @@ A study is conditions (inference strategies) x experiment durations x replicate 
 already holds every round is skipped, and an interrupted one resumes from its last
 finished round. Runs execute in a local process pool (one process per core, each run
 serial) or, with ``backend="ray"``, as Ray tasks on a cluster (the ``[cluster]`` extra).
-The results are read back and plotted by :mod:`eea.plot` (``aquafish plot``).
+The results are read back and plotted by :mod:`eea.analysis.plot` (``aquafish plot``).
 """
 
 from __future__ import annotations

@@ -31,7 +31,7 @@ On top of ``aquafish_gym.simulate_batch``:
 * ``eea.config``     -- ``EEAConfig``, the paper's defaults (section 4).
 * ``eea.run``        -- ``run(config, out_dir)``: a resumable run of rounds; ``eea.record``
   writes and reads it back (``round_row``, ``load_result``), ``eea.checkpoint`` saves its
-  state, ``eea.plot`` draws studies, ``eea.diagnosis`` tells a search failure from an
+  state, ``eea.analysis.plot`` draws studies, ``eea.analysis.diagnosis`` tells a search failure from an
   inference failure.
 """
 

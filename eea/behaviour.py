@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CHANNELS", "MAX_COEFFICIENT", "SIMILARITIES", "behaviour_summary", "similarity", "squared_similarity"]
+__all__ = ["CHANNELS", "MAX_COEFFICIENT", "behaviour_summary", "similarity"]
 
 #: Channel order of IMU logs and of behaviour summaries (kept as the simulator logs them).
 CHANNELS: tuple[str, ...] = ("roll", "pitch", "yaw")
@@ -88,24 +88,6 @@ def similarity(a, b, max_coefficient: float = MAX_COEFFICIENT) -> np.ndarray:
     return terms.mean(axis=(-2, -1))
 
 
-def squared_similarity(a, b, max_coefficient: float = MAX_COEFFICIENT) -> np.ndarray:
-    """Equation 2 with squared differences (not the paper's): the mean of
-    ``clip(1 - ((c_k(a) - c_k(b)) / max_coefficient)**2, 0, 1)``.
-
-    Equation 2 loses similarity in proportion to ``|c_k(a) - c_k(b)|``, so MOD_FIT falls off
-    the true morphology's true angles as a cone: an angle a few degrees off, or a dimension
-    one level off, costs as much as a wrong morphology (study record, "Equal fits and the
-    needle"). Squared, the loss is second order at the peak and grows to the same 0 at
-    ``max_coefficient``: a smooth peak whose neighbourhood the search can climb. Identical
-    summaries score 1 under both.
-
-    Args, returns and errors: as :func:`similarity`.
-    """
-    a, b = _checked(a, b, max_coefficient)
-    d = (a - b) / max_coefficient
-    return np.clip(1.0 - d * d, 0.0, 1.0).mean(axis=(-2, -1))
-
-
 def _checked(a, b, max_coefficient) -> tuple[np.ndarray, np.ndarray]:
     """``a`` and ``b`` as float64 arrays, validated as :func:`similarity` documents."""
     a = np.asarray(a, dtype=np.float64)
@@ -132,8 +114,3 @@ def _checked(a, b, max_coefficient) -> tuple[np.ndarray, np.ndarray]:
     if not valid:
         raise ValueError(f"max_coefficient must be a finite number > 0, got {max_coefficient!r}")
     return a, b
-
-
-#: The similarities a model's behaviour summary can be scored with against the target's
-#: (``EEAConfig.model_similarity``): ``"paper"`` is equation 2.
-SIMILARITIES = {"paper": similarity, "squared": squared_similarity}

@@ -7,7 +7,7 @@ dataclass default, and ``--preset NAME`` (repeatable) applies a named bundle of 
 (:data:`eea.config.PRESETS`) that the flags given explicitly override
 (:func:`add_config_flags` and :func:`config_fields`, which ``aquafish study`` uses too).
 
-``aquafish plot`` (:func:`eea.plot.plot_runs`) is added by ``aquafish.studies_cli``.
+``aquafish plot`` (:func:`eea.analysis.plot.plot_runs`) is added by ``aquafish.studies_cli``.
 """
 
 from __future__ import annotations
@@ -17,16 +17,13 @@ import dataclasses
 from typing import Iterable
 
 from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, MODEL_SPACE_NAMES, PRESETS, EEAConfig, preset_fields
-from eea.behaviour import SIMILARITIES
-from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
-from eea.profile import INHERIT_RULES
+from eea.inference import INFERENCE_NAMES
 
 __all__ = ["add_commands", "add_config_flags", "config_fields", "config_flag_names"]
 
 _SHORT_FLAGS = {"duration_s": ("--duration",)}
 #: The allowed values of the fields that take a name.
-_CHOICES = {"inference": INFERENCE_NAMES, "estimation_search": ESTIMATION_SEARCHES, "oob_experiments": OOB_EXPERIMENTS,
-            "profile_inherit": INHERIT_RULES, "model_similarity": tuple(SIMILARITIES), "model_space": MODEL_SPACE_NAMES}
+_CHOICES = {"inference": INFERENCE_NAMES, "estimation_search": ESTIMATION_SEARCHES, "model_space": MODEL_SPACE_NAMES}
 
 
 def _waterline(text: str) -> float | None:
@@ -65,7 +62,7 @@ def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = (
     Field ``estimation_population`` becomes ``--estimation-population`` (``duration_s``
     also ``--duration``), stored under the field's name, with the field's type and
     :data:`eea.config.FIELD_HELP` as help (which names the dataclass default); named settings
-    (``inference``, ``estimation_search``, ``model_similarity``, ``model_space``, ``oob_experiments``, ``profile_inherit``) list their
+    (``inference``, ``estimation_search``, ``model_space``) list their
     choices. Also adds ``--preset NAME`` (repeatable, :data:`eea.config.PRESETS`). A flag not
     given parses as None, so that :func:`config_fields` can tell it from one given.
 

@@ -22,24 +22,15 @@ one coordinate per servo gain, whose 4-bit field holds code ``floor(x_d * 16)`` 
 is gain level ``k = c + (c > 0)`` of :func:`eea.encoding.decode_gains` (so the lowest code's
 cell covers twice the gain step: one gain level is left out of the grid).
 
-Global restarts (``global_period`` k > 0, off by default): every k-th :meth:`restart`
-starts a fresh distribution at a uniformly random point of the cube instead of at the best
-point, so a run whose incumbent sits in a wrong basin gets to propose models far from it
-(study record, "Where the best variant stops"). The incumbent is not lost: during that round
-it is evaluated beside the P - 1 sampled points in every generation (its fitness tracks the grown
-experiment set, its angles keep improving under profile inference) but is never told to
-CMA-ES, so it does not pull the fresh distribution back; the next restart starts at
-whichever is better at the end of the round. The cost per generation is unchanged (P models).
-
-Local and global search in the same round (``global_share`` G > 0, off by default; exclusive
-with ``global_period``): every round two distributions share the P points of a generation.
+Local and global search in the same round (``global_share`` G > 0, off by default): every round two distributions share the P points of a generation.
 The local one restarts at the best point with P - G samples, as without; the global one
 restarts at a uniformly random point with G samples. Each is told its own points. The
 generation's best point, from either, is injected into the local one (elitism), and the
 global one's own best into the global one, so a better basin found globally pulls the local
 search there within the round, while runs that are climbing keep most of their local search
 every round (study record, "Global restarts": global rounds alone cost seeds that were
-climbing a round of local search each time).
+climbing a round of local search each time). The global share joins in round 2: round 1
+samples all P points from the local distribution.
 
 A global share that keeps its lineage (``global_keep`` k > 0, off by default; needs
 ``global_share``): restarted at a random point every round, the global distribution has 30
@@ -50,14 +41,6 @@ at its own best point of the last round, with its own carried covariance (``carr
 like the local one: a second, independent lineage whose models inherit angles from their
 own parents. Runs that stay in a wrong basin from round 1 (e.g. a flipper of zero
 thickness and nearly twice the length, study record) need such a lineage to get out.
-
-The global share's first round (``global_first_round`` r, default 2): the global
-distribution joins at round r, before which the local one samples all P points. With r = 1
-the two lineages start together, at two random points, so round 1 (one experiment, where a
-run's wrong basin is mostly decided; study record) ends with two independently found
-models instead of one, and the next action is chosen among both lineages' models. With
-``global_keep`` k the lineage then restarts at random every k-th round of its life
-(rounds k + r, 2k + r, ...).
 
 Carried covariance (``carry_condition`` c >= 1, off by default): a restart at the best point
 keeps the shape of the covariance the previous round's distribution learned, not only its
@@ -195,7 +178,6 @@ class CMAModelSearch(TellRecord):
             stream.
         sigma0: initial step size as a fraction of every dimension's range, in (0, 1].
         elitism: 0 or 1, whether the best point of a generation is carried into the next.
-        global_period: k >= 0; every k-th restart is a global one (module docstring), 0 = never.
         global_share: G = 0 (off) or 2 <= G <= P - 2, points per generation sampled by a second,
             global distribution restarted every round (module docstring).
         carry_condition: c = 0 (off: every restart is isotropic) or c >= 1, the largest
@@ -204,43 +186,29 @@ class CMAModelSearch(TellRecord):
         global_keep: k >= 0 (needs ``global_share``): the global distribution restarts at a
             random point every k-th round and at its own best point otherwise (module
             docstring); 0 = at a random point every round.
-        global_first_round: r >= 1, the round the global share joins (module docstring;
-            r = 1 needs ``global_share``).
         model_space: ``"morphology"`` (the default, 9 coordinates, 45-bit genomes) or
             ``"morphology+servos"`` (12, 57-bit; module docstring).
 
     Raises:
-        ValueError: if an argument is outside the ranges above, ``global_period`` > 0 with
-            ``population_size`` < 3 (a global round samples P - 1 >= 2 points), or both
-            ``global_period`` and ``global_share`` > 0, or ``global_keep`` > 0 or
-            ``global_first_round`` = 1 without ``global_share``.
+        ValueError: if an argument is outside the ranges above, or ``global_keep`` > 0 without
+            ``global_share``.
     """
 
     name: ClassVar[str] = "cma"
     n_bits: int = MODEL_BITS
 
     def __init__(self, population_size: int, rng: np.random.Generator, *, sigma0: float = 0.3,
-                 elitism: int = 1, global_period: int = 0, global_share: int = 0,
-                 carry_condition: float = 0.0, global_keep: int = 0, global_first_round: int = 2,
+                 elitism: int = 1, global_share: int = 0, carry_condition: float = 0.0, global_keep: int = 0,
                  model_space="morphology") -> None:
         space = get_model_space(model_space)
         check_int("population_size", population_size, 2)
         check_int("global_keep", global_keep, 0)
-        check_int("global_first_round", global_first_round, 1)
         if global_keep and not global_share:
             raise ValueError(f"global_keep > 0 needs a global_share (a global distribution to keep), got {global_keep}")
-        if global_first_round == 1 and not global_share:
-            raise ValueError("global_first_round = 1 needs a global_share (a global distribution to start)")
-        check_int("global_period", global_period, 0)
         check_int("global_share", global_share, 0)
         if global_share and not 2 <= global_share <= population_size - 2:
             raise ValueError(f"global_share must be 0 or in [2, population_size - 2] = [2, {population_size - 2}] "
                              f"(each distribution samples at least 2 points), got {global_share}")
-        if global_share and global_period:
-            raise ValueError(f"set global_period or global_share, not both (got {global_period} and {global_share})")
-        if global_period and population_size < 3:
-            raise ValueError(f"global restarts need population_size >= 3 (P - 1 sampled points and the incumbent), "
-                             f"got {population_size}")
         if not (isinstance(sigma0, (int, float)) and 0.0 < sigma0 <= 1.0):
             raise ValueError(f"sigma0 must be in (0, 1], got {sigma0!r}")
         if elitism not in (0, 1):
@@ -253,21 +221,12 @@ class CMAModelSearch(TellRecord):
             self.model_space, self.n_bits = space.name, space.n_bits
         n_dims = self._n_dims
         self.population_size, self.sigma0, self.elitism = population_size, float(sigma0), int(elitism)
-        self.global_period, self.global_share = int(global_period), int(global_share)
-        self.global_keep, self.global_first_round = int(global_keep), int(global_first_round)
+        self.global_share, self.global_keep = int(global_share), int(global_keep)
         self._stream = np.random.default_rng(int(rng.integers(2**63)))
-        self._global_es = None                     # the global distribution (global_share > 0, from global_first_round)
+        self._global_es = None                     # the global distribution (global_share > 0, from round 2)
         self._global_best_x: np.ndarray | None = None  # its best point of the last told generation (9,)
-        self._local_best_x: np.ndarray | None = None   # the local one's, when both sampled (9,)
         self._global_restarts = 0                  # its starts so far (every global_keep-th is at random)
-        if self.global_first_round == 1:
-            self._es = self._new_strategy(self._stream.random(n_dims), population_size - global_share)
-            self._global_es = self._new_strategy(self._stream.random(n_dims), global_share)
-            self._global_restarts = 1
-        else:
-            self._es = self._new_strategy(self._stream.random(n_dims), population_size)
-        self._restarts = 0                         # restarts so far (every global_period-th is global)
-        self._incumbent: np.ndarray | None = None  # (9,) evaluated beside a global round's samples, else None
+        self._es = self._new_strategy(self._stream.random(n_dims), population_size)
         self._x: np.ndarray | None = None          # sampled points (P, 9), None after tell
         self._asked = False
         self._best_x: np.ndarray | None = None     # best point of the last told generation (9,)
@@ -290,12 +249,11 @@ class CMAModelSearch(TellRecord):
     @classmethod
     def from_config(cls, config, rng: np.random.Generator) -> "CMAModelSearch":
         """Sized and tuned by an :class:`eea.config.EEAConfig` (``estimation_population``,
-        ``cma_sigma``, ``cma_global_period``, ``cma_global_share``, ``cma_carry_condition``,
+        ``cma_sigma``, ``cma_global_share``, ``cma_carry_condition``,
         ``model_space``; any ``elitism`` >= 1 carries the one best point)."""
         return cls(config.estimation_population, rng, sigma0=config.cma_sigma, elitism=1 if config.elitism else 0,
-                   global_period=config.cma_global_period, global_share=config.cma_global_share,
-                   carry_condition=config.cma_carry_condition, global_keep=config.cma_global_keep,
-                   global_first_round=config.cma_global_first_round,
+                   global_share=config.cma_global_share, carry_condition=config.cma_carry_condition,
+                   global_keep=config.cma_global_keep,
                    model_space=getattr(config, "model_space", "morphology"))
 
     def _new_strategy(self, mean: np.ndarray, popsize: int):
@@ -308,31 +266,22 @@ class CMAModelSearch(TellRecord):
              "tolstagnation": np.inf, "tolflatfitness": np.inf, "maxiter": np.inf, "maxfevals": np.inf})
 
     def restart(self) -> None:
-        """Restart the distribution with the initial step size, at the best point of the last
-        generation or, every ``global_period``-th time, at a uniformly random point.
+        """Restart the distribution with the initial step size at the best point of the last
+        generation (and the global share's, from round 2; module docstring).
 
         Called by the estimation phase at the start of every round: a new experiment
         changes MOD_FIT, and a distribution that converged on the old one cannot move.
-        At the best point, that point is injected into the first population (elitism); at a
-        random point, it is evaluated beside the samples for the whole round instead (the
-        module docstring). No-op before the first ``tell``.
+        That point is injected into the first population (elitism). No-op before the first
+        ``tell``.
         """
         if self._best_x is None:
             return
-        self._restarts += 1
-        if self.global_period and self._restarts % self.global_period == 0:
-            self._incumbent = self._best_x.copy()
-            self._es = self._new_strategy(self._stream.random(self._n_dims), self.population_size - 1)
-        else:
-            self._incumbent = None
-            joined = self.global_share and self._restarts + 1 >= self.global_first_round  # this round's number
-            self._es = self._restarted(self._es, self._best_x,
-                                       self.population_size - (self.global_share if joined else 0))
-            if joined:
-                keep = self.global_keep and self._global_es is not None and self._global_restarts % self.global_keep
-                self._global_es = self._restarted(self._global_es, self._global_best_x, self.global_share) if keep \
-                    else self._new_strategy(self._stream.random(self._n_dims), self.global_share)
-                self._global_restarts += 1
+        self._es = self._restarted(self._es, self._best_x, self.population_size - self.global_share)
+        if self.global_share:
+            keep = self.global_keep and self._global_es is not None and self._global_restarts % self.global_keep
+            self._global_es = self._restarted(self._global_es, self._global_best_x, self.global_share) if keep \
+                else self._new_strategy(self._stream.random(self._n_dims), self.global_share)
+            self._global_restarts += 1
         self._x, self._asked = None, False
 
     def _restarted(self, es, best_x: np.ndarray, popsize: int):
@@ -348,22 +297,6 @@ class CMAModelSearch(TellRecord):
         return new
 
     @property
-    def lineage_best_genomes(self) -> dict[str, np.ndarray]:
-        """Each lineage's own best model of the last told generation, ``{"local": (45,),
-        "global": (45,)}`` uint8 genomes, when a global share sampled beside the local
-        distribution (``{}`` otherwise, e.g. before the share joins): where the two lineages
-        stand (study record, "Two lineages from round 1")."""
-        if self._global_es is None or self._global_best_x is None or self._local_best_x is None:
-            return {}
-        return {"local": self._genomes(self._local_best_x[None])[0],
-                "global": self._genomes(self._global_best_x[None])[0]}
-
-    @property
-    def global_round(self) -> bool:
-        """Whether the current round started from a global restart (the incumbent rides along)."""
-        return self._incumbent is not None
-
-    @property
     def population(self) -> np.ndarray:
         """The population the next (or pending) ``ask`` returns, ``(P, 45)`` uint8 model genomes.
 
@@ -374,8 +307,6 @@ class CMAModelSearch(TellRecord):
             self._x = np.clip(np.asarray(self._es.ask(), dtype=np.float64), 0.0, 1.0)
             if self._global_es is not None:  # the last G rows: the global distribution's
                 self._x = np.vstack([self._x, np.clip(np.asarray(self._global_es.ask(), dtype=np.float64), 0.0, 1.0)])
-            if self._incumbent is not None:  # the last row: evaluated, never told to CMA-ES
-                self._x = np.vstack([self._x, self._incumbent])
         return self._genomes(self._x)
 
     def ask(self) -> np.ndarray:
@@ -413,29 +344,15 @@ class CMAModelSearch(TellRecord):
             self._es.tell(list(self._x[:local]), list(-f[:local]))  # cma minimises
             self._global_es.tell(list(self._x[local:]), list(-f[local:]))
             self._global_best_x = self._x[local + int(np.argmax(f[local:]))].copy()
-            self._local_best_x = self._x[int(np.argmax(f[:local]))].copy()
             if self.elitism:  # the generation's best into the local distribution, the global one's best into it
                 self._es.inject([self._x[best]], force=True)
                 self._global_es.inject([self._global_best_x], force=True)
         else:
-            sampled = len(self._x) - (self._incumbent is not None)
-            self._es.tell(list(self._x[:sampled]), list(-f[:sampled]))  # cma minimises
-            if self.elitism:  # the best of the distribution's own points
-                own = int(np.argmax(f[:sampled]))
-                self._es.inject([self._x[own]], force=True)
+            self._es.tell(list(self._x), list(-f))  # cma minimises
+            if self.elitism:  # the best point
+                self._es.inject([self._x[best]], force=True)
         self._x, self._asked = None, False
         self._generation += 1
-
-    def adopt(self, genome, fitness: float) -> None:
-        """:meth:`TellRecord.adopt`, and the next :meth:`restart` starts at the genome's cell
-        centre (:func:`genomes_to_unit`).
-
-        Raises:
-            RuntimeError: while a population is asked and not told.
-            ValueError: if ``genome`` is not one 45-bit genome or ``fitness`` is not finite.
-        """
-        super().adopt(genome, fitness)
-        self._best_x = genomes_to_unit(self._best_genome[None], self.model_space)[0]
 
     def state_dict(self) -> dict:
         """The whole search (distribution, its random stream, asked points) for the checkpoint."""
@@ -455,16 +372,12 @@ class CMAModelSearch(TellRecord):
             raise ValueError("state holds no CMAModelSearch")
         if not hasattr(search, "_asked"):  # checkpoints written before ask/tell misuse was checked
             search._asked = search._x is not None
-        if not hasattr(search, "global_period"):  # checkpoints written before global restarts
-            search.global_period, search._restarts, search._incumbent = 0, 0, None
         if not hasattr(search, "global_share"):  # checkpoints written before the global share
             search.global_share, search._global_es = 0, None
         if not hasattr(search, "carry_condition"):  # checkpoints written before the carried covariance
             search.carry_condition = 0.0
         if not hasattr(search, "global_keep"):  # checkpoints written before the kept global lineage
             search.global_keep, search._global_best_x, search._global_restarts = 0, None, 0
-        if not hasattr(search, "global_first_round"):  # checkpoints written before it could be chosen
-            search.global_first_round = 2
-        if not hasattr(search, "_local_best_x"):  # checkpoints written before lineage_best_genomes
-            search._local_best_x = None
+        for retired in ("global_period", "global_first_round", "_restarts", "_incumbent", "_local_best_x"):
+            search.__dict__.pop(retired, None)  # checkpoints written before issue 40 retired global restarts
         return search

@@ -22,14 +22,13 @@ import os
 
 from aquafish_gym import DT_S, SimParams, get_damage
 from aquafish_gym.params import DEFAULT_WATERLINE
-from aquafish_gym.checks import check_int, check_weight
-from eea.behaviour import SIMILARITIES
+from aquafish_gym.checks import check_int
 from eea.encoding import MODEL_SPACES
-from eea.inference import INFERENCE_NAMES, OOB_EXPERIMENTS
+from eea.inference import INFERENCE_NAMES
 from eea.model_search import SEARCH_NAMES
-from eea.profile import INHERIT_RULES
 
-__all__ = ["ESTIMATION_SEARCHES", "MODEL_SPACE_NAMES", "EEAConfig", "FIELD_HELP", "PRESETS", "RESULT_NEUTRAL_FIELDS", "preset_fields"]
+__all__ = ["ESTIMATION_SEARCHES", "MODEL_SPACE_NAMES", "EEAConfig", "FIELD_HELP", "PRESETS", "RESULT_NEUTRAL_FIELDS",
+           "RETIRED_FIELDS", "preset_fields"]
 
 #: Names of the estimation searches (:data:`eea.model_search.MODEL_SEARCHES`): the paper's
 #: GA and CMA-ES (:mod:`eea.cma_search`).
@@ -43,6 +42,16 @@ MODEL_SPACE_NAMES: tuple[str, ...] = tuple(MODEL_SPACES)
 #: the number of worker processes and the chunk size of simulator calls, and ``rounds``,
 #: the stopping criterion (a finished run can be extended to more rounds).
 RESULT_NEUTRAL_FIELDS: tuple[str, ...] = ("workers", "max_batch_robots", "rounds")
+
+#: Fields of variants retired in issue 40 (docs/studies/retired_variants.md) and the default
+#: each had: a ``config.json`` written before holds them, and loads (:meth:`EEAConfig.from_dict`)
+#: if each has its default, i.e. the run did not use the retired variant.
+RETIRED_FIELDS: dict[str, object] = {
+    "cma_global_period": 0, "cma_global_first_round": 2, "profile_contender_distance": 0.0,
+    "profile_inherit": "hamming", "profile_library_newcomers": 0, "profile_select": 0, "profile_select_refine": 30,
+    "profile_fine_steps": 0, "profile_polish": 0, "profile_scan": 0, "exploration_spread_weight": 1.0,
+    "model_similarity": "paper", "oob_experiments": "newest",
+}
 
 #: One help line per field (command-line ``--help`` and documentation).
 FIELD_HELP: dict[str, str] = {
@@ -61,8 +70,6 @@ FIELD_HELP: dict[str, str] = {
     "exploration_angles": "0: every model is simulated from the zero state during exploration (the paper's); "
                           "K >= 2: from K random angle sets per round, and an action scores the models' "
                           "disagreement minus the spread the angles cause (eq. 1 with an angle term; not the paper's)",
-    "exploration_spread_weight": "exploration_angles >= 2: the weight w of the angle spread in the robust action "
-                                 "fitness, disagreement - w * spread (default 1; w < 1 penalises less; not the paper's)",
     "exploration_diversity": "0: the exploration's candidate models are the distinct models of the last "
                              "estimation generation (the paper's); d > 0: the fittest models the whole round "
                              "evaluated, each at least d apart (1 - OBJ_FIT between them; not the paper's)",
@@ -70,12 +77,7 @@ FIELD_HELP: dict[str, str] = {
     "estimation_generations": "estimation GA generations per round (paper: 100)",
     "estimation_search": "estimation search: ga (the paper's bit-string GA) or cma (CMA-ES over the nine "
                          "dimensions, eea.cma_search; not the paper's)",
-    "model_similarity": "how a model's response is compared with the target's in MOD_FIT (eq. 3): paper (eq. 2, "
-                        "1 - |difference| / MAX per coefficient) or squared (1 - (difference / MAX)**2: a smooth peak; "
-                        "eea.behaviour.squared_similarity; not the paper's)",
     "cma_sigma": "cma: initial step size as a fraction of each dimension's range, in (0, 1]",
-    "cma_global_period": "cma: every this many rounds the search restarts at a uniformly random point, the "
-                         "incumbent evaluated beside it (0 = always at the best model; not the paper's)",
     "cma_carry_condition": "cma: 0: every restart at the best model is isotropic; c >= 1: it keeps the shape of "
                            "the covariance the last round learned, condition number capped at c (not the paper's)",
     "cma_global_share": "cma: G >= 2 of the estimation_population models of every generation come from a second "
@@ -83,9 +85,6 @@ FIELD_HELP: dict[str, str] = {
     "cma_global_keep": "cma: 0: the global share restarts at a random point every round; k > 0: only every k-th "
                        "round, otherwise at its own best point with its own covariance, a second lineage (needs "
                        "cma_global_share; not the paper's)",
-    "cma_global_first_round": "cma: the round the global share joins (default 2); 1: it starts with the local search "
-                              "in round 1, a second lineage from the first experiment on (needs cma_global_share; "
-                              "not the paper's)",
     "lineages": "1: one estimation search (the paper's); N >= 2: N independent estimation lineages, each with its "
                 "own search and inference state, share each round's experiment (chosen to split the union of their "
                 "models) and the round's model is the lineage best whose angles, fitted equally hard, score the "
@@ -109,28 +108,8 @@ FIELD_HELP: dict[str, str] = {
     "profile_refine": "profile: extra perturbation rounds of the angles of each contender, a model new this "
                       "generation, before it is scored (0 = off; not the paper's)",
     "profile_contenders": "profile: the fittest new models refined per generation (with profile_refine > 0)",
-    "profile_contender_distance": "profile: 0: the contenders are the fittest new models; d > 0: the fittest new "
-                                  "models at least d apart (1 - OBJ_FIT between them; not the paper's)",
-    "profile_inherit": "profile: a new model inherits the angles of the nearest remembered model in hamming "
-                       "distance (a GA child's parent) or in morphology (1 - OBJ_FIT; a CMA-ES sample's nearest point; "
-                       "not the paper's)",
     "profile_library": "profile: 0: off; L > 0: every contender (profile_refine > 0) first tries, per experiment, "
                        "the L best-scoring angle sets any model has tried, at least 0.5 rad apart (not the paper's)",
-    "profile_library_newcomers": "profile: 0: off; S in [1, profile_library]: every model new in a generation first "
-                                 "tries, per experiment, the S best sets of the angle library (not the paper's)",
-    "profile_select": "profile: 0: off; K > 0: after each round's last generation, the round's K fittest models "
-                      "at least 0.02 apart (1 - OBJ_FIT) get their angles fitted equally hard (every library set, then "
-                      "profile_select_refine perturbation rounds) and the best becomes the round's model (not the paper's)",
-    "profile_select_refine": "profile: perturbation rounds of every round-end selection candidate's angles (>= 1)",
-    "profile_fine_steps": "profile: 0: off; n > 0: the angle perturbations also use steps 3, 9, ... 3**n times finer "
-                          "than the finest (0.1 rad pectoral, 0.02 rad caudal; not the paper's)",
-    "profile_polish": "profile: 0: off; P in [1, profile_contenders]: after their refinement (profile_refine > 0) "
-                      "the P fittest contenders' angles get a compass search with steps halved from 0.1 rad "
-                      "(pectorals) and 0.02 rad (caudal) to 1/32 of them (not the paper's)",
-    "profile_scan": "profile: 0: off; C > 0: before the polish (profile_polish > 0), C cycles of a per-flipper scan "
-                    "of each polished contender's angles (24 pectoral angles 15 deg apart, 9 caudal; not the paper's)",
-    "oob_experiments": "out_of_band: angles refined by each inference: newest (the paper's: only the newest "
-                       "experiment) or all (also every older experiment at generation 0 of each round; not the paper's)",
     "waterline": "height of the free surface above the body's centre (units; the surface swimmer, default 0.3); "
                  "None: deep water, the physics of every run published before the surface swimmer",
     "workers": "worker processes for simulations (1 = serial); never changes results",
@@ -203,17 +182,13 @@ class EEAConfig:
     exploration_models: int = 25
     exploration_angles: int = 0
     exploration_diversity: float = 0.0
-    exploration_spread_weight: float = 1.0
     estimation_population: int = 25
     estimation_generations: int = 100
     estimation_search: str = "ga"
-    model_similarity: str = "paper"
     cma_sigma: float = 0.3
-    cma_global_period: int = 0
     cma_global_share: int = 0
     cma_carry_condition: float = 0.0
     cma_global_keep: int = 0
-    cma_global_first_round: int = 2
     lineages: int = 1
     crossover_rate: float = 0.75
     tournament_size: int = 2
@@ -227,20 +202,11 @@ class EEAConfig:
     oob_population: int = 10
     oob_generations: int = 10
     oob_bits: int = 8
-    oob_experiments: str = "newest"
     profile_proposals: int = 2
     profile_initial: int = 8
     profile_refine: int = 0
     profile_contenders: int = 3
-    profile_contender_distance: float = 0.0
-    profile_inherit: str = "hamming"
     profile_library: int = 0
-    profile_library_newcomers: int = 0
-    profile_select: int = 0
-    profile_select_refine: int = 30
-    profile_fine_steps: int = 0
-    profile_polish: int = 0
-    profile_scan: int = 0
     workers: int = dataclasses.field(default_factory=_default_workers)
     max_batch_robots: int = 64
     waterline: float | None = DEFAULT_WATERLINE
@@ -258,18 +224,10 @@ class EEAConfig:
         if self.estimation_search not in ESTIMATION_SEARCHES:
             raise ValueError(f"unknown estimation_search {self.estimation_search!r}; "
                              f"valid names: {', '.join(ESTIMATION_SEARCHES)}")
-        if self.model_similarity not in SIMILARITIES:
-            raise ValueError(f"unknown model_similarity {self.model_similarity!r}; valid names: {', '.join(SIMILARITIES)}")
-        if self.oob_experiments not in OOB_EXPERIMENTS:
-            raise ValueError(f"unknown oob_experiments {self.oob_experiments!r}; valid names: {', '.join(OOB_EXPERIMENTS)}")
-        if self.profile_inherit not in INHERIT_RULES:
-            raise ValueError(f"unknown profile_inherit {self.profile_inherit!r}; valid names: {', '.join(INHERIT_RULES)}")
         if isinstance(self.cma_sigma, bool) or not isinstance(self.cma_sigma, (int, float)) \
                 or not 0.0 < self.cma_sigma <= 1.0:
             raise ValueError(f"EEAConfig.cma_sigma must be in (0, 1], got {self.cma_sigma!r}")
         object.__setattr__(self, "cma_sigma", float(self.cma_sigma))
-        object.__setattr__(self, "exploration_spread_weight",
-                           check_weight("EEAConfig.exploration_spread_weight", self.exploration_spread_weight))
         value = self.cma_carry_condition
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not (value == 0 or 1 <= value < math.inf):
             raise ValueError(f"EEAConfig.cma_carry_condition must be 0 (off) or a finite number >= 1, got {value!r}")
@@ -280,10 +238,7 @@ class EEAConfig:
             "tournament_size": 1, "elitism": 0, "k_best": 1, "oob_period": 1, "oob_sample": 1,
             "oob_population": 1, "oob_generations": 1, "oob_bits": 2, "workers": 1,
             "profile_proposals": 1, "profile_initial": 1, "profile_refine": 0, "profile_contenders": 1,
-            "profile_library": 0, "profile_library_newcomers": 0, "profile_select": 0, "profile_select_refine": 1,
-            "profile_fine_steps": 0, "profile_polish": 0, "profile_scan": 0,
-            "max_batch_robots": 1, "cma_global_period": 0, "cma_global_share": 0, "cma_global_keep": 0,
-            "cma_global_first_round": 1, "lineages": 1,
+            "profile_library": 0, "max_batch_robots": 1, "cma_global_share": 0, "cma_global_keep": 0, "lineages": 1,
         }
         for name, low in minimum.items():
             check_int(f"EEAConfig.{name}", getattr(self, name), low, 30 if name == "oob_bits" else None)
@@ -291,9 +246,6 @@ class EEAConfig:
         if self.exploration_angles == 1:
             raise ValueError("EEAConfig.exploration_angles must be 0 (the zero state) or >= 2 (a spread needs "
                              "two angle sets), got 1")
-        if self.exploration_spread_weight != 1.0 and not self.exploration_angles:
-            raise ValueError(f"EEAConfig.exploration_spread_weight {self.exploration_spread_weight} needs "
-                             "exploration_angles >= 2 (the zero state has no angle spread)")
         for name, population in (("elitism", "exploration_population"), ("elitism", "estimation_population"),
                                  ("k_best", "estimation_population"), ("oob_sample", "estimation_population")):
             if getattr(self, name) > getattr(self, population):
@@ -301,32 +253,13 @@ class EEAConfig:
         if self.cma_global_keep and not self.cma_global_share:
             raise ValueError(f"EEAConfig.cma_global_keep > 0 needs cma_global_share > 0 (a global share to keep), "
                              f"got {self.cma_global_keep} and {self.cma_global_share}")
-        if self.cma_global_first_round == 1 and not self.cma_global_share:
-            raise ValueError("EEAConfig.cma_global_first_round = 1 needs cma_global_share > 0 (a global share to "
-                             "start), got cma_global_share 0")
-        for name in ("cma_global_period", "cma_global_share", "cma_carry_condition"):
+        for name in ("cma_global_share", "cma_carry_condition"):
             if getattr(self, name) and self.estimation_search != "cma":
                 raise ValueError(f"EEAConfig.{name} > 0 needs estimation_search='cma', got {self.estimation_search!r}")
-        if self.cma_global_period and self.estimation_population < 3:
-            raise ValueError(f"EEAConfig.cma_global_period > 0 needs estimation_population >= 3, "
-                             f"got {self.estimation_population}")
         if self.cma_global_share and not 2 <= self.cma_global_share <= self.estimation_population - 2:
             raise ValueError(f"EEAConfig.cma_global_share must be 0 or in [2, estimation_population - 2] "
                              f"= [2, {self.estimation_population - 2}] (each CMA-ES needs 2 points), "
                              f"got {self.cma_global_share}")
-        if self.cma_global_share and self.cma_global_period:
-            raise ValueError("EEAConfig.cma_global_share and cma_global_period are two ways to search globally; "
-                             f"set one of them, got {self.cma_global_share} and {self.cma_global_period}")
-        if self.profile_library_newcomers > self.profile_library:
-            raise ValueError(f"EEAConfig.profile_library_newcomers ({self.profile_library_newcomers}) must be <= "
-                             f"profile_library ({self.profile_library}): a newcomer tries sets of the library")
-        if self.profile_polish and not (self.profile_refine and self.profile_polish <= self.profile_contenders):
-            raise ValueError(f"EEAConfig.profile_polish ({self.profile_polish}) needs profile_refine > 0 and at most "
-                             f"profile_contenders ({self.profile_contenders}) contenders to polish, "
-                             f"got profile_refine {self.profile_refine}")
-        if self.profile_scan and not self.profile_polish:
-            raise ValueError(f"EEAConfig.profile_scan ({self.profile_scan}) needs profile_polish > 0: the scan "
-                             "comes before the polish of a contender")
         if self.elitism > self.oob_population:
             raise ValueError(f"EEAConfig.elitism ({self.elitism}) must be <= oob_population ({self.oob_population})")
         for name in ("crossover_rate", "in_band_confidence"):
@@ -334,7 +267,7 @@ class EEAConfig:
             if not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:  # NaN fails
                 raise ValueError(f"EEAConfig.{name} must be in [0, 1], got {value!r}")
             object.__setattr__(self, name, float(value))
-        for name in ("exploration_diversity", "profile_contender_distance"):
+        for name in ("exploration_diversity",):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value < 1.0:
                 raise ValueError(f"EEAConfig.{name} must be in [0, 1), got {value!r}")
@@ -371,14 +304,22 @@ class EEAConfig:
         A dict without ``waterline`` was written before the surface swimmer became the
         default physics: it describes a deep-water run and loads as ``waterline=None``. One
         without ``model_space`` was written before servo gains could be modelled: it loads as
-        the default, ``"morphology"``.
+        the default, ``"morphology"``. A field of :data:`RETIRED_FIELDS` at its default is
+        dropped (the run did not use the retired variant).
 
         Raises:
-            ValueError: on an unknown key (typos fail fast) or an invalid value.
+            ValueError: on an unknown key (typos fail fast), an invalid value, or a retired
+                field with another value than its default (the run used a retired variant;
+                rerun it at the commit docs/studies/retired_variants.md names).
         """
         if "waterline" not in data:  # written before the surface swimmer: a deep-water run
             data = {**data, "waterline": None}
-        return cls._from_fields(data)
+        for name in set(data) & set(RETIRED_FIELDS):
+            if data[name] != RETIRED_FIELDS[name]:
+                raise ValueError(f"EEAConfig.{name} = {data[name]!r}: this run used a variant retired in issue 40 "
+                                 f"(docs/studies/retired_variants.md names the commit that runs it); only its "
+                                 f"default {RETIRED_FIELDS[name]!r} loads")
+        return cls._from_fields({k: v for k, v in data.items() if k not in RETIRED_FIELDS})
 
     @classmethod
     def _from_fields(cls, data: dict) -> "EEAConfig":

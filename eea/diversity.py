@@ -2,8 +2,8 @@
 
 Used where a set of models should not be one hypothesis in several near-copies: the
 exploration's candidate models (``EEAConfig.exploration_diversity``,
-:meth:`eea.estimation.Estimation.ranked_models`) and the contenders whose angles profile
-inference refines (``EEAConfig.profile_contender_distance``, :class:`eea.profile.Profile`).
+:meth:`eea.estimation.Estimation.ranked_models`) and the distinct contenders whose angles
+profile inference refines (:class:`eea.profile.Profile`).
 """
 
 from __future__ import annotations

@@ -8,10 +8,8 @@ the initial angles the inference strategy chooses for each (model, experiment). 
 lives for the whole run: each round continues from where the previous round ended (the
 GA's models carry over; CMA-ES restarts its distribution at the best model, since a new
 experiment changes the landscape it had converged on; :mod:`eea.cma_search` describes the
-global restarts, the global share and the carried covariance), and the final hypothesis of a
-round is the fittest model of its last generation, or, with a round-end selection (a
-strategy's ``select_models`` > 0, not the paper's), the one the strategy picks among the
-round's fittest models and the search adopts.
+global share and the carried covariance), and the final hypothesis of a round is the
+fittest model of its last generation.
 
 The phase also hands the exploration its candidate models (:meth:`Estimation.ranked_models`):
 the paper's are the distinct models of the last generation, best first. With a minimum
@@ -117,9 +115,7 @@ class Estimation:
         ``(P, E)``; MOD_FIT (eq. 3, :func:`eea.fitness.model_fitness_from_similarities`);
         ``strategy.after_generation``; ``search.tell``. ``search.restart`` and
         ``strategy.begin_round``/``end_round`` bracket the phase. Each hook's experiments
-        are passed on to the next. A strategy with ``select_models`` K > 0 (not the paper's)
-        then picks the round's hypothesis among the round's K fittest models at least
-        ``select_distance`` apart (:meth:`ranked_models`), and the search adopts it.
+        are passed on to the next.
 
         Args:
             experiments: the E >= 1 recorded experiments, newest last.
@@ -157,10 +153,6 @@ class Estimation:
             if on_generation is not None:
                 on_generation(generation, self.search.best_fitness)
         experiments = strategy.end_round(experiments)
-        if strategy.select_models:
-            candidates = self.ranked_models(strategy.select_models, strategy.select_distance)
-            index, fitness, experiments = strategy.select(candidates, experiments, evaluator, rng)
-            self.search.adopt(candidates[index], fitness)
         return EstimationResult(tuple(experiments), self.search.best_genome, self.search.best_fitness)
 
     def ranked_models(self, limit: int | None = None, min_distance: float = 0.0) -> np.ndarray:

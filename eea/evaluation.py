@@ -76,11 +76,6 @@ class Evaluator:
         max_batch_robots: at most this many robots per ``simulate_batch`` call.
         params: simulator parameters of the models (default: the defaults); the caudal
             sweep must be the default one (:func:`eea.experiment.check_params`).
-        similarity_fn: how :meth:`similarities` compares a model's behaviour summary with the
-            target's, ``(N, 3, F), (N, 3, F) -> (N,)`` in [0, 1] (default: the paper's
-            equation 2, :func:`eea.behaviour.similarity`). Another function makes MOD_FIT
-            another objective; the cache holds one function's values, so keep it for the
-            evaluator's life (``examples/equal_fits.py`` compares two).
         model_space: what a model genome holds, a :class:`eea.encoding.ModelSpace` or its name
             (default ``"morphology"``, the paper's 45-bit genomes; ``"morphology+servos"``: 57
             bits, each model simulated with its own servo gains).
@@ -94,13 +89,12 @@ class Evaluator:
     """
 
     def __init__(self, steps: int, *, workers: int = 1, max_batch_robots: int = 2048,
-                 params: SimParams | None = None, similarity_fn=similarity,
+                 params: SimParams | None = None,
                  model_space: str | ModelSpace = "morphology") -> None:
         for name, value in (("steps", steps), ("workers", workers), ("max_batch_robots", max_batch_robots)):
             check_int(name, value, 1)
         self.steps, self.workers, self.max_batch_robots = int(steps), int(workers), int(max_batch_robots)
         self.params = check_params(params)
-        self.similarity_fn = similarity_fn
         self.model_space = get_model_space(model_space)
         self.simulations = 0
         self._similarity: dict[bytes, float] = {}
@@ -201,7 +195,7 @@ class Evaluator:
             actions = np.stack([experiments[j].action for j in first % e])
             summaries = self._simulate_models(genomes[first // e], actions, values[first])
             targets = np.stack([experiments[j].summary for j in first % e])
-            sims = self.similarity_fn(summaries, targets)
+            sims = similarity(summaries, targets)
             for (key, rows), s in zip(missing.items(), sims.tolist()):
                 self._similarity[key] = s
                 result[rows] = s
@@ -258,7 +252,7 @@ class Evaluator:
     def scored_models(self) -> tuple[np.ndarray, np.ndarray]:
         """Every model the estimation cache holds: the models a run has scored, and how well.
 
-        :mod:`eea.diagnosis` asks whether a run ever proposed a model near the truth.
+        :mod:`eea.analysis.diagnosis` asks whether a run ever proposed a model near the truth.
 
         Returns:
             ``(genomes, similarities)``: ``(N, n_bits)`` uint8 distinct model genomes, in the order

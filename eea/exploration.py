@@ -20,8 +20,7 @@ Choices the paper leaves open, made here:
   model is simulated from K random angle sets, drawn once per round from the run's
   generator and shared by all actions, and an action scores
   :func:`eea.fitness.robust_action_fitness` (the disagreement minus the spread the angles
-  cause). It costs K times the simulations of the paper's exploration. ``spread_weight`` w
-  (``EEAConfig.exploration_spread_weight``, default 1) weights the spread term.
+  cause). It costs K times the simulations of the paper's exploration.
 * A new action GA starts every round (actions do not carry over).
 """
 
@@ -31,7 +30,6 @@ from typing import Callable
 
 import numpy as np
 
-from aquafish_gym.checks import check_weight
 from eea.encoding import ACTION_BITS, decode_actions
 from eea.experiment import random_angles
 from eea.fitness import action_fitness, robust_action_fitness
@@ -53,23 +51,17 @@ class Exploration:
             mutation_rate, tournament_size, elitism).
         angle_sets: 0 for the paper's zero state, or K >= 2 random angle sets per round
             (the angle-robust action fitness, see the module docstring).
-        spread_weight: w >= 0, the weight of the angle spread in the robust action fitness
-            (:func:`eea.fitness.robust_action_fitness`; needs ``angle_sets`` >= 2 unless 1).
 
     Raises:
-        ValueError: if ``population`` or ``generations`` is < 1, ``angle_sets`` is 1 or < 0,
-            or ``spread_weight`` is negative, or not 1 with ``angle_sets`` 0.
+        ValueError: if ``population`` or ``generations`` is < 1, or ``angle_sets`` is 1 or < 0.
     """
 
     def __init__(self, population: int = 25, generations: int = 25, ga_options: dict | None = None,
-                 angle_sets: int = 0, spread_weight: float = 1.0) -> None:
+                 angle_sets: int = 0) -> None:
         if population < 1 or generations < 1:
             raise ValueError(f"population and generations must be >= 1, got {population}, {generations}")
         if angle_sets < 0 or angle_sets == 1:
             raise ValueError(f"angle_sets must be 0 (zero state) or >= 2, got {angle_sets}")
-        self.spread_weight = check_weight("spread_weight", spread_weight)
-        if self.spread_weight != 1.0 and not angle_sets:
-            raise ValueError(f"spread_weight {spread_weight} needs angle_sets >= 2 (no spread from the zero state)")
         self.population, self.generations = int(population), int(generations)
         self.ga_options = dict(ga_options or {})
         self.angle_sets = int(angle_sets)
@@ -80,7 +72,7 @@ class Exploration:
         return cls(config.exploration_population, config.exploration_generations,
                    {"crossover_rate": config.crossover_rate, "mutation_rate": config.mutation_bits / ACTION_BITS,
                     "tournament_size": config.tournament_size, "elitism": config.elitism},
-                   config.exploration_angles, config.exploration_spread_weight)
+                   config.exploration_angles)
 
     def run(self, models: np.ndarray, evaluator, rng: np.random.Generator,
             on_generation: Callable[[int, float], None] | None = None) -> tuple[np.ndarray, np.ndarray, float]:
@@ -116,7 +108,7 @@ class Exploration:
             else:
                 summaries = np.stack([evaluator.summaries(models, genomes, actions, angles) for angles in angle_sets],
                                      axis=1)                                                # (A, K, M, 3, F)
-                ga.tell(np.atleast_1d(robust_action_fitness(summaries, spread_weight=self.spread_weight)))
+                ga.tell(np.atleast_1d(robust_action_fitness(summaries)))
             if on_generation is not None:
                 on_generation(generation, ga.best_fitness)
         evaluator.clear_summaries()

@@ -73,32 +73,6 @@ class TellRecord:
             raise RuntimeError("tell() called without a preceding ask(): call ask() to get generation "
                                f"{self._generation}'s population, evaluate it, then tell() its fitness once")
 
-    def adopt(self, genome, fitness: float) -> None:
-        """Make ``genome`` the best genome, as if a ``tell`` had found it with ``fitness``.
-
-        For a choice made outside the search between generations, e.g. the round-end
-        selection of :meth:`eea.profile.Profile.select`, which re-scores a round's best
-        models under equally well fitted angles. A subclass also puts the genome where its
-        next generation starts from (:meth:`BitGA.adopt`,
-        :meth:`eea.cma_search.CMAModelSearch.adopt`).
-
-        Args:
-            genome: ``(n_bits,)`` genome of 0/1.
-            fitness: its fitness (finite).
-
-        Raises:
-            RuntimeError: while a population is asked and not told.
-            ValueError: if ``genome`` is not one ``(n_bits,)`` genome of 0/1 or ``fitness`` is not finite.
-        """
-        if self._asked:
-            raise RuntimeError("adopt() called between ask() and tell(): tell the asked population first")
-        genome = np.asarray(genome)
-        if genome.shape != (self.n_bits,) or not np.all((genome == 0) | (genome == 1)):
-            raise ValueError(f"genome must be one ({self.n_bits},) genome of 0 and 1, got shape {genome.shape}")
-        if isinstance(fitness, bool) or not isinstance(fitness, (int, float, np.floating)) or not np.isfinite(fitness):
-            raise ValueError(f"fitness must be a finite number, got {fitness!r}")
-        self._best_genome, self._best_fitness = genome.astype(np.uint8), float(fitness)
-
     @property
     def generation(self) -> int:
         """Number of completed ``tell`` calls (0 before the first)."""
@@ -257,19 +231,6 @@ class BitGA(TellRecord):
         self._population = np.concatenate([self._population[order[: self.elitism]], children])
         self._generation += 1
         self._asked = False
-
-    def adopt(self, genome, fitness: float) -> None:
-        """:meth:`TellRecord.adopt`, and with ``elitism`` >= 1 the genome replaces the first
-        elite of the next population (the last told best), so it is bred from; with
-        ``elitism`` 0 only :attr:`best_genome` reports it.
-
-        Raises:
-            RuntimeError: while a population is asked and not told.
-            ValueError: if ``genome`` is not one ``(n_bits,)`` genome of 0/1 or ``fitness`` is not finite.
-        """
-        super().adopt(genome, fitness)
-        if self.elitism:
-            self._population[0] = self._best_genome
 
     # -- operators ----------------------------------------------------------------------
 

@@ -39,11 +39,7 @@ from eea.profile import Profile
 from eea.strategy import InferenceStrategy
 
 __all__ = ["INFERENCE_NAMES", "INFERENCE_STRATEGIES", "InBand", "InferenceStrategy", "Known", "NoInference",
-           "OOB_EXPERIMENTS", "OutOfBand", "make_inference"]
-
-#: Which experiments an out-of-band inference refines: the paper's newest one, or (at the
-#: first inference of every round) all of them; see :class:`OutOfBand`.
-OOB_EXPERIMENTS: tuple[str, ...] = ("newest", "all")
+           "OutOfBand", "make_inference"]
 
 
 class Known(InferenceStrategy):
@@ -136,28 +132,19 @@ class OutOfBand(InferenceStrategy):
     inference never forgets a better earlier answer for the same models. The context is
     set to the best angles with confidence 1.0 (all models use them).
 
-    ``experiments="all"`` (not the paper's) also re-infers every older experiment at
-    generation 0 of each round, seeded with its current angles, with the models of the
-    previous round: in the paper an experiment's angles are fixed once its round ends,
-    although they were inferred with the models of that early round. The inner GAs of all
-    experiments run in lockstep, one batched evaluation per inner generation.
-
     Raises:
-        ValueError: if any count is < 1 (``bits`` < 2) or ``experiments`` is not one of
-            :data:`OOB_EXPERIMENTS`.
+        ValueError: if any count is < 1 (``bits`` < 2).
     """
 
     name = "out_of_band"
 
     def __init__(self, period: int = 35, sample: int = 5, population: int = 10, generations: int = 10,
-                 bits: int = 8, ga_options: dict | None = None, experiments: str = "newest") -> None:
+                 bits: int = 8, ga_options: dict | None = None) -> None:
         if min(period, sample, population, generations) < 1 or bits < 2:
             raise ValueError(f"OutOfBand needs period, sample, population, generations >= 1 and bits >= 2; "
                              f"got {period}, {sample}, {population}, {generations}, {bits}")
-        if experiments not in OOB_EXPERIMENTS:
-            raise ValueError(f"OutOfBand experiments must be one of {', '.join(OOB_EXPERIMENTS)}, got {experiments!r}")
         self.period, self.sample, self.population = int(period), int(sample), int(population)
-        self.generations, self.bits, self.experiments = int(generations), int(bits), experiments
+        self.generations, self.bits = int(generations), int(bits)
         self.ga_options = dict(ga_options or {})
         step = TWO_PI / 2 ** self.bits
         self.field_bits = (self.bits,) * 3
@@ -168,7 +155,7 @@ class OutOfBand(InferenceStrategy):
         options = {"crossover_rate": config.crossover_rate, "tournament_size": config.tournament_size,
                    "mutation_rate": config.mutation_bits / (3 * config.oob_bits), "elitism": config.elitism}
         return cls(config.oob_period, config.oob_sample, config.oob_population, config.oob_generations,
-                   config.oob_bits, options, config.oob_experiments)
+                   config.oob_bits, options)
 
     def new_context(self, true_angles):
         return Context.exact(np.zeros(3))  # replaced by the first inference (generation 0)
@@ -180,7 +167,7 @@ class OutOfBand(InferenceStrategy):
         if generation % self.period:
             return experiments
         experiments = tuple(experiments)
-        first = 0 if self.experiments == "all" and generation == 0 else len(experiments) - 1
+        first = len(experiments) - 1
         targets = experiments[first:]
         seeded = [generation > 0 or i < len(targets) - 1 for i in range(len(targets))]  # the newest: fresh at 0
         best = self.infer_angles(ranked_genomes[: self.sample], targets, evaluator, rng, seed_current=seeded)

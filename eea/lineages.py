@@ -4,7 +4,7 @@ Under unknown initial angles a run of the EEA settles early in one basin of MOD_
 basin decides where it ends: the same variant ends at the truth on one seed and on a wrong
 model (a massless flipper, a mimic) on the next (docs/studies/unknown_angles.md). Two
 independent runs, their final models' angles fitted equally hard on both runs' experiments
-and the higher MOD_FIT kept (:mod:`eea.ensemble`), pick the better run in 9 of 10 pairs,
+and the higher MOD_FIT kept (:mod:`eea.analysis.ensemble`), pick the better run in 9 of 10 pairs,
 but they perform two target experiments per round.
 
 Here one run keeps N independent estimations ("lineages"), each with its own model search
@@ -18,7 +18,7 @@ from its own random population. Every round:
 * **estimation**: every lineage runs its estimation phase on all experiments
   (:meth:`eea.estimation.Estimation.run`), independently of the others;
 * **selection**: the lineages' best models get their own initial angles fitted equally hard
-  on all experiments (:func:`eea.ensemble.select_model`: :meth:`eea.profile.Profile.fit`
+  on all experiments (:func:`eea.selection.select_model`: :meth:`eea.profile.Profile.fit`
   from random starts and each lineage's own angles, then a per-flipper scan and a compass
   polish), and the highest MOD_FIT (eq. 3) is the round's self-model. No oracle is used.
   The lineages do not adopt it: each keeps its own search, so a lineage in a wrong basin
@@ -46,23 +46,20 @@ from typing import Callable, Sequence
 import numpy as np
 
 from aquafish_gym import MORPHOLOGY_FIELDS
-from eea.checkpoint import load_state
 from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, model_space_of
-from eea.ensemble import select_model
 from eea.estimation import Estimation, EstimationResult, distinct_ranked
 from eea.experiment import Context, Experiment
-from eea.fitness import objective_fitness
 from eea.inference import make_inference
-from eea.record import load_result, read_csv, write_csv
+from eea.record import write_csv
+from eea.selection import select_model
 from eea.strategy import InferenceStrategy
 
 __all__ = ["LINEAGES_FILE", "LINEAGE_COLUMNS", "LineageStrategies", "Lineages", "SELECT_GENERATIONS",
            "SELECT_SCAN_CYCLES", "chosen_inference_state", "estimation_from_state", "lineage_columns",
-           "lineage_objective_fitness",
            "make_estimation", "make_strategy", "write_lineages"]
 
 #: The round's selection: generations of the equal angle fit and cycles of the per-flipper
-#: scan before the polish (the settings of ``aquafish select``, :func:`eea.ensemble.select_model`).
+#: scan before the polish (the settings of ``aquafish select``, :func:`eea.selection.select_model`).
 SELECT_GENERATIONS, SELECT_SCAN_CYCLES = 30, 2
 
 #: A lineage run's per-round record of every lineage (:func:`write_lineages`): ``round``
@@ -288,7 +285,7 @@ def chosen_inference_state(estimation_state: dict, inference_state: dict) -> dic
 
     A plain run's ``inference_state`` as it is; of a :class:`Lineages` run, the state of the
     lineage the last round chose (its remembered angles are the ones its model was found
-    with; :mod:`eea.diagnosis` uses them).
+    with; :mod:`eea.analysis.diagnosis` uses them).
 
     Raises:
         ValueError: if a lineage run's checkpoint has no finished round.
@@ -316,65 +313,3 @@ def write_lineages(out_dir: str | os.PathLike, history: Sequence[dict]) -> None:
                          "selection_fitness": float(h["selection_fitness"][lineage]),
                          **{f"model_{name}": float(v) for name, v in zip(space.fields, values)}})
     write_csv(Path(out_dir) / LINEAGES_FILE, lineage_columns(space), rows)
-
-
-def _lineage_models(out_dir) -> tuple[np.ndarray, np.ndarray] | None:
-    """``(R, N, n)`` the lineages' best models (n values of their model space: 9, or 12 with servo
-    gains) and ``(R,)`` the chosen lineage of every finished round, from ``lineages.csv`` or else
-    the checkpoint; None if neither holds a lineage run."""
-    path = Path(out_dir) / LINEAGES_FILE
-    if path.exists():
-        columns, rows = read_csv(path, ("round", "lineage", "chosen"))
-        space = get_model_space("morphology+servos" if f"model_{SERVO_GAIN_FIELDS[0]}" in columns else "morphology")
-        expected = lineage_columns(space)
-        if columns != expected:
-            raise ValueError(f"{path}: columns {list(columns)}, expected {list(expected)}")
-        if rows:
-            rounds, lineages = max(r["round"] for r in rows), max(r["lineage"] for r in rows) + 1
-            if len(rows) != rounds * lineages:
-                raise ValueError(f"{path} has {len(rows)} rows, not {rounds} rounds x {lineages} lineages")
-            models = np.array([[r[f"model_{name}"] for name in space.fields] for r in rows])
-            chosen = np.array([r["lineage"] for r in rows if r["chosen"] == 1], dtype=int)
-            return models.reshape(rounds, lineages, -1), chosen
-    state = load_state(out_dir)
-    if state is None or "lineages" not in state.estimation:
-        return None
-    history = state.estimation["history"]
-    if not history:
-        return np.zeros((0, 0, 0)), np.zeros(0, dtype=int)
-    space = model_space_of(history[0]["genomes"].shape[1])
-    return (np.array([space.decode(h["genomes"]) for h in history]),
-            np.array([h["chosen"] for h in history], dtype=int))
-
-
-def lineage_objective_fitness(out_dir) -> tuple[np.ndarray, np.ndarray]:
-    """Each lineage's OBJ_FIT (eq. 4) round by round, from a lineage run's directory.
-
-    OBJ_FIT needs the true morphology, an oracle the run never uses: this tells how often
-    the round's selection kept the best lineage, and what one lineage alone would score.
-
-    Args:
-        out_dir: a run directory of a run with ``lineages`` >= 2: its ``lineages.csv``
-            (:func:`write_lineages`), or else its checkpoint ``state.pkl`` (runs from before
-            the file existed).
-
-    Returns:
-        ``(objective, chosen)``: ``(R, N)`` each lineage's best model's OBJ_FIT after each
-        of the R finished rounds, and ``(R,)`` int the lineage chosen in each.
-
-    Raises:
-        ValueError: if ``out_dir`` holds neither file of a lineage run, or a ``lineages.csv``
-            whose columns are not :data:`LINEAGE_COLUMNS` or whose rows are not rounds x lineages.
-    """
-    found = _lineage_models(out_dir)
-    if found is None:
-        raise ValueError(f"{out_dir} holds no {LINEAGES_FILE} and no checkpoint of a run with lineages >= 2")
-    models, chosen = found
-    result = load_result(out_dir)
-    space, truth = result.model_space, result.true_model
-    if models.size and models.shape[-1] != len(truth):
-        raise ValueError(f"{out_dir}: the lineages' models have {models.shape[-1]} values, its model space "
-                         f"{space.name} {len(truth)}")
-    objective = np.array([[objective_fitness(values, truth, space.bounds) for values in per_round]
-                          for per_round in models])
-    return objective.reshape(len(models), -1), chosen

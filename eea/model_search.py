@@ -62,10 +62,6 @@ class ModelSearch(Protocol):
     def best_fitness(self) -> float:
         """Its fitness."""
 
-    def adopt(self, genome, fitness: float) -> None:
-        """Make ``(45,)`` ``genome`` the best, with ``fitness``, and start the next generation
-        (or round) from it. Raises RuntimeError while a population is asked and not told."""
-
     def restart(self) -> None:
         """Called at the start of every round (a new experiment changes the landscape)."""
 
@@ -120,7 +116,7 @@ class ModelGA(BitGA):
 
 #: What :func:`check_model_search` looks for on a search's class.
 _MEMBERS = ("name", "n_bits", "population_size", "population", "ask", "tell", "best_genome", "best_fitness",
-            "adopt", "restart", "state_dict", "from_state_dict", "from_config")
+            "restart", "state_dict", "from_state_dict", "from_config")
 
 
 def check_model_search(search) -> None:

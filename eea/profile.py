@@ -15,17 +15,13 @@ experiment, :class:`Profile` tries
   guess for its neighbours),
 * ``proposals`` perturbations of its own best (each flipper moved with probability 1/2,
   at least one: pectorals by a normal step of 0.1, 0.4 or 1.2 rad, the caudal fin by 0.02,
-  0.08 or 0.2 rad, one scale drawn per candidate; one in four a uniform random draw; with
-  ``fine_steps`` n > 0 also the scales 0.1 / 3**k and 0.02 / 3**k, k = 1 ... n),
+  0.08 or 0.2 rad, one scale drawn per candidate; one in four a uniform random draw),
 
 in one batched :meth:`Evaluator.similarities` call (every candidate row carries one
 candidate for every experiment: an experiment's similarity depends only on its own
 angles), and keeps the best per experiment. A model never seen before inherits the memory
-of the nearest model of the previous generation, i.e. of its parent: nearest in Hamming
-distance between genomes (``inherit="hamming"``, the default: a GA child's parent) or in
-morphology, 1 - OBJ_FIT between the two models (``inherit="morphology"``,
-:func:`eea.diversity.model_distance`: a CMA-ES sample's nearest point; with the binary
-genome a step of one level can flip up to all bits of a field, e.g. level 15 -> 16 flips 5). A new
+of the nearest model of the previous generation in Hamming distance between genomes, i.e.
+of its parent (a GA child's; a CMA-ES sample's nearest point). A new
 experiment is first tried from ``initial`` random angle sets per model. The estimation
 generation itself then simulates nothing new: its angles are the remembered ones.
 
@@ -34,11 +30,7 @@ generation it survives, so an incumbent's have had many steps and a newly propos
 one; the truth, proposed late, loses to a wrong incumbent although it wins when both are
 fitted as hard (study record, "Where the best variant stops"). With ``refine`` R, the
 ``contenders`` K fittest models that are new this generation get R more rounds of
-``proposals`` perturbations each before the generation is scored. With
-``contender_distance`` d > 0 the contenders are picked greedily, fittest first, skipping any
-new model within d (1 - OBJ_FIT, :func:`eea.diversity.model_distance`) of one already
-picked: the fittest new models are mostly near-copies of the incumbent whose inherited
-angles already fit, while a model far from its parent gains the most from refinement.
+``proposals`` perturbations each before the generation is scored.
 
 Angle library (``library`` L > 0, off by default, with ``refine`` > 0): a contender's
 inherited angles sit in its parent's basin of each experiment's angle landscape, which has
@@ -55,48 +47,16 @@ or 32 sets 0.4 rad apart) and refined for 10 rounds of 2 proposals, it scores 0.
 (0.9994), where the final model gets 0.9991 the same way. Cost: ``K L E`` more simulations
 per generation with new models.
 
-Library trial for every newcomer (``library_newcomers`` S > 0, off by default, with
-``library`` >= S): the contenders are the fittest new models under *inherited* angles, so
-nearly always near-copies of the incumbent; a model far from it, e.g. a sample of the
-global CMA-ES share, never reaches the library. With S, every model new this generation
-first tries the S best sets of every experiment's library (after its inherited angles,
-before its perturbations), so it is ranked, and picked as a contender or not, under the
-best angles any model has found. Cost: ``N S E`` more simulations per generation for N
-new models (cached sets are free; 1.11x per round with S = 2). On six seeds of
-``left_pectoral_half`` it ends level with the library alone (0.925 against 0.924; study record,
-"A library trial for every newcomer").
-
-Round-end selection (``select`` K > 0, off by default; not the paper's): within a round, a
-model is scored under angles refined for as long as it has survived, so the round's
-hypothesis is the fittest model under unequal fits. With K, after the last generation the
-estimation phase hands :meth:`Profile.select` the round's K fittest models at least
-:data:`SELECTION_SPACING` apart (:meth:`eea.estimation.Estimation.ranked_models`, the
-incumbent among them); each tries every library set of every experiment and then gets
-``select_refine`` R rounds of ``proposals`` perturbations, and the one with the highest
-MOD_FIT becomes the round's hypothesis (the search adopts it and restarts there next round).
-Cost: at most ``K E (L + R proposals)`` simulations per round.
-
-Finer steps (``fine_steps`` n > 0, off by default; not the paper's): MOD_FIT differences
-between the incumbent and a better model are of the order of 1e-4 (e.g. 0.99929 against
-0.99919), and so is what the last few hundredths of a radian of one experiment's angles are
-worth; with 0.1 rad as the finest pectoral step a model's fit stops short of its peak, and
-the longer a model has been refined the closer it gets. The finer scales let every model's
-angles converge to the peak of its basin: on the 10 experiments of a finished
-``left_pectoral_half`` run, 15 rounds of 2 proposals with n = 2 fit the truth as well as 30
-rounds without (0.99933 against 0.99930), and 30 rounds fit it to 0.99943. In runs, together
-with the round-end selection (K = 8), ``left_pectoral_half`` scores 0.859 over 8 seeds, below
-the library variant without either (0.931; study record, "Round-end selection + finer steps
-in runs"): the hard fit on few experiments favours massless-flipper mimics.
-
-Polish (``polish`` P > 0, off by default, with ``refine`` > 0; not the paper's): MOD_FIT is
+Compass polish and per-flipper scan (:meth:`Profile.polish_angles`, :meth:`Profile.scan_angles`;
+used by the round's equal angle fit of ``--lineages``, :func:`eea.selection.select_model`; not
+the paper's): MOD_FIT is
 a narrow cone around the true morphology's true angles. On the 10 experiments of finished
 ``left_pectoral_half`` runs, the truth at its true angles scores exactly 1, and loses about
 0.00015-0.0005 per experiment for every degree a pectoral angle is off (0.001 per degree of
 the caudal fin), so the truth fitted to within the finest random step (0.1 rad, 5.7 deg)
 scores no better than the wrong models the runs end with (0.9987-0.9990): the random
 perturbations leave the last 0.001 on the table, and that is the margin a wrong model wins
-by (study record, "The angle cone"). With P, after its refinement the P fittest contenders'
-angles get a compass search, one experiment at a time (they are independent given the
+by (study record, "The angle cone"). The polish is a compass search, one experiment at a time (they are independent given the
 model): from the finest random step (0.1 rad pectorals, 0.02 rad caudal), each of the 3
 angles is moved by +-step, the best of the 6 moves is kept if it scores higher, up to
 ``POLISH_ITERATIONS`` times, and the step is halved ``len(POLISH_STEPS_RAD) - 1`` times
@@ -106,15 +66,17 @@ scale it stops at a nearby maximum (the truth 5 deg off in a 1.28 s experiment: 
 them). Cost: at most ``6 P E`` simulations per iteration, about
 60-90 per experiment and contender in practice (cached moves are free).
 
-Scan before the polish (``scan`` C > 0, off by default, with ``polish``; not the paper's): the
-polish is local, and a wrong incumbent's angles for the flipper it gets wrong are often in
+The scan before the polish: the polish is local, and a wrong incumbent's angles for the flipper it gets wrong are often in
 another basin of the truth's angle landscape (36-68 deg away in the massless-flipper runs).
-With C, each polished contender first gets C cycles of a per-flipper scan: for each flipper
+A cycle of the per-flipper scan: for each flipper
 in turn, its angle in every experiment is set to each of :data:`SCAN_PECTORAL` values round
 the circle (:data:`SCAN_CAUDAL` across the caudal sweep) with the other two kept, and the
 best is kept per experiment. On 11 finished runs the truth started from the final model's
 angles and scanned (1 or 2 cycles) and polished beats the final model fitted the same way in 9
-(polish alone: 5). Cost: ``C (2 SCAN_PECTORAL + SCAN_CAUDAL) E`` simulations per contender.
+(polish alone: 5). Cost: ``2 SCAN_PECTORAL + SCAN_CAUDAL`` simulations per cycle, model and experiment.
+The options that ran them inside every generation (``profile_polish``, ``profile_scan``), the
+round-end selection, finer steps, the newcomers' library trial, contender distance and
+inheritance by morphology were retired in issue 40 (docs/studies/retired_variants.md).
 
 "Study record" is ``docs/studies/unknown_angles.md``, where each option was measured.
 
@@ -134,17 +96,14 @@ import numpy as np
 
 from aquafish_gym.checks import check_int
 from eea.arc import TWO_PI
-from eea.diversity import diverse_indices, model_distance
+from eea.diversity import diverse_indices
 from eea.encoding import genome_keys, genomes_from_keys
 from eea.experiment import CAUDAL_LIMIT_RAD, Context, random_angles
 from eea.fitness import model_fitness_from_similarities
 from eea.strategy import Experiments, InferenceStrategy
 
-__all__ = ["INHERIT_RULES", "LIBRARY_SPACING_RAD", "POLISH_ITERATIONS", "POLISH_STEPS_RAD", "Profile",
-           "SCAN_CAUDAL", "SCAN_PECTORAL", "SELECTION_SPACING"]
-
-#: How a new model picks the remembered model whose angles it inherits (module docstring).
-INHERIT_RULES: tuple[str, ...] = ("hamming", "morphology")
+__all__ = ["LIBRARY_SPACING_RAD", "POLISH_ITERATIONS", "POLISH_STEPS_RAD", "Profile", "SCAN_CAUDAL",
+           "SCAN_PECTORAL"]
 
 #: Normal step sizes of a perturbation (rad): pectorals, caudal fin; one pair drawn per candidate.
 _STEPS_RAD = np.array([[0.1, 0.02], [0.4, 0.08], [1.2, 0.2]])
@@ -152,8 +111,6 @@ _RANDOM_SHARE = 0.25
 
 #: Minimum distance between two angle sets of one experiment's library (rad; module docstring).
 LIBRARY_SPACING_RAD = 0.5
-#: Minimum distance (1 - OBJ_FIT) between two candidates of the round-end selection (module docstring).
-SELECTION_SPACING = 0.02
 #: The polish's compass steps (rad): pectorals, caudal fin; the finest random step halved 5 times.
 POLISH_STEPS_RAD = _STEPS_RAD[0] / 2.0 ** np.arange(6)[:, None]
 #: Compass moves per step size at most (one per angle suffices once the step before converged).
@@ -172,67 +129,32 @@ class Profile(InferenceStrategy):
         initial: random angle sets tried per model for a new experiment (>= 1).
         refine: extra perturbation rounds for each contender (>= 0; 0 = off).
         contenders: new models refined per generation, the fittest first (>= 1).
-        contender_distance: minimum distance between contenders, in [0, 1) (0: the fittest
-            new models, whatever their distance).
-        inherit: which remembered model a new one inherits angles from, the nearest in
-            ``"hamming"`` distance or in ``"morphology"`` (:data:`INHERIT_RULES`).
         library: L >= 0, angle sets per experiment every contender tries before its
-            refinement (0: off; needs ``refine`` > 0 or ``library_newcomers`` > 0 to matter).
-        library_newcomers: S in [0, ``library``], best library sets per experiment every new
-            model tries before its perturbations (0: off).
-        select: K >= 0, candidates of the round-end selection (0: off; module docstring).
-        select_refine: R >= 1, perturbation rounds of every selection candidate's angles.
-        fine_steps: n >= 0, finer perturbation scales (0: off; module docstring).
-        polish: P in [0, ``contenders``], refined contenders whose angles then get the compass
-            search (0: off; needs ``refine`` > 0 to matter; module docstring).
-        scan: C >= 0, cycles of the per-flipper scan before each polish (0: off; needs
-            ``polish`` > 0 to matter; module docstring).
+            refinement (0: off; needs ``refine`` > 0 to matter).
 
     Raises:
-        ValueError: if ``proposals``, ``initial`` or ``contenders`` is < 1, ``refine`` or
-            ``library`` < 0, ``library_newcomers`` is outside [0, ``library``], ``select`` < 0,
-            ``select_refine`` < 1, ``fine_steps`` < 0, ``polish`` outside [0, ``contenders``], ``scan`` < 0,
-            ``contender_distance`` is outside [0, 1) or ``inherit`` is not a rule name.
+        ValueError: if ``proposals``, ``initial`` or ``contenders`` is < 1, or ``refine`` or
+            ``library`` < 0.
     """
 
     name = "profile"
 
     def __init__(self, proposals: int = 2, initial: int = 8, refine: int = 0, contenders: int = 3,
-                 contender_distance: float = 0.0, inherit: str = "hamming", library: int = 0,
-                 library_newcomers: int = 0, select: int = 0, select_refine: int = 30,
-                 fine_steps: int = 0, polish: int = 0, scan: int = 0) -> None:
+                 library: int = 0) -> None:
         if proposals < 1 or initial < 1 or contenders < 1 or refine < 0:
             raise ValueError(f"Profile needs proposals >= 1, initial >= 1, refine >= 0 and contenders >= 1, "
                              f"got {proposals}, {initial}, {refine}, {contenders}")
-        if isinstance(contender_distance, bool) or not isinstance(contender_distance, (int, float)) \
-                or not 0.0 <= contender_distance < 1.0:
-            raise ValueError(f"Profile needs contender_distance in [0, 1), got {contender_distance!r}")
-        if inherit not in INHERIT_RULES:
-            raise ValueError(f"Profile needs inherit in {INHERIT_RULES}, got {inherit!r}")
-        self.inherit = inherit
         self.library = check_int("Profile library", library, 0)
-        self.library_newcomers = check_int("Profile library_newcomers", library_newcomers, 0, self.library)
-        self.select_models = check_int("Profile select", select, 0)
-        self.select_refine = check_int("Profile select_refine", select_refine, 1)
-        self.select_distance = SELECTION_SPACING
-        self.fine_steps = check_int("Profile fine_steps", fine_steps, 0)
-        self.polish = check_int("Profile polish", polish, 0, contenders)
-        self.scan = check_int("Profile scan", scan, 0)
-        self._steps = np.concatenate([_STEPS_RAD[:1] / 3.0 ** np.arange(self.fine_steps, 0, -1)[:, None], _STEPS_RAD])
         self._library: list[tuple[np.ndarray, np.ndarray]] = []        # per experiment: (L_e, 3) angles, (L_e,) sims
         self.proposals, self.initial = int(proposals), int(initial)
         self.refine, self.contenders = int(refine), int(contenders)
-        self.contender_distance = float(contender_distance)
         self._memory: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}  # genome -> ((E, 3) angles, (E,) sims)
         self._best: bytes | None = None                                 # the best genome of the last generation
 
     @classmethod
     def from_config(cls, config):
         return cls(config.profile_proposals, config.profile_initial, config.profile_refine,
-                   config.profile_contenders, config.profile_contender_distance, config.profile_inherit,
-                   config.profile_library, config.profile_library_newcomers, config.profile_select,
-                   config.profile_select_refine, config.profile_fine_steps, config.profile_polish,
-                   config.profile_scan)
+                   config.profile_contenders, config.profile_library)
 
     def new_context(self, true_angles):
         return Context.exact(np.zeros(3))  # replaced by the best model's angles after each generation
@@ -249,9 +171,7 @@ class Profile(InferenceStrategy):
         for u, key in enumerate(genome_keys(genomes)):
             entry = self._memory.get(key)
             if entry is None and parents is not None:  # the nearest model of the last generation
-                distance = (parents != genomes[u]).sum(axis=1) if self.inherit == "hamming" \
-                    else model_distance(parents, genomes[u])
-                nearest = int(np.argmin(distance))
+                nearest = int(np.argmin((parents != genomes[u]).sum(axis=1)))
                 entry = self._memory[known[nearest]]
                 entry = (entry[0], np.full(len(entry[1]), np.nan))  # its angles, not its scores
             m = 0 if entry is None else len(entry[1])
@@ -277,7 +197,7 @@ class Profile(InferenceStrategy):
     def _perturb(self, angles: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """One perturbed copy of ``(U, E, 3)`` angles (a quarter of the entries redrawn at random)."""
         u, e = angles.shape[:2]
-        steps = self._steps[rng.integers(0, len(self._steps), size=(u, e))]            # (U, E, 2)
+        steps = _STEPS_RAD[rng.integers(0, len(_STEPS_RAD), size=(u, e))]            # (U, E, 2)
         moved = rng.random((u, e, 3)) < 0.5                                             # each flipper: 1 in 2
         moved[np.arange(u)[:, None], np.arange(e), rng.integers(0, 3, (u, e))] = True   # at least one
         out = angles + rng.standard_normal((u, e, 3)) * steps[..., [0, 0, 1]] * moved
@@ -309,12 +229,6 @@ class Profile(InferenceStrategy):
         keys = genome_keys(distinct)
         new = np.array([key not in self._memory for key in keys])
         angles, sims = self._recall_scored(distinct, experiments, evaluator, rng)
-        if self.library_newcomers and new.any() and self._library_ready(n_exp):
-            rows = np.flatnonzero(new)
-            a, s = angles[rows], sims[rows]
-            self._try(self._library_candidates(len(rows), n_exp, self.library_newcomers), distinct[rows], a, s,
-                      experiments, evaluator)
-            angles[rows], sims[rows] = a, s
         candidates = [self._perturb(angles, rng) for _ in range(self.proposals)]
         if self._best is not None and self._best in self._memory:
             shared = self._memory[self._best][0]
@@ -362,18 +276,12 @@ class Profile(InferenceStrategy):
         return out
 
     def _refine(self, rows: np.ndarray, genomes, angles, sims, experiments, evaluator, rng) -> None:
-        """``refine`` more perturbation rounds for the ``contenders`` fittest of ``rows``, at least
-        ``contender_distance`` apart, after a try of every library set (in place)."""
+        """``refine`` more perturbation rounds for the ``contenders`` fittest distinct models of
+        ``rows``, after a try of every library set (in place)."""
         fitness = model_fitness_from_similarities(sims[rows])
-        top = rows[diverse_indices(genomes[rows], fitness, self.contenders, self.contender_distance)]
+        top = rows[diverse_indices(genomes[rows], fitness, self.contenders, 0.0)]
         a, s = angles[top], sims[top]
         self._fit_hard(genomes[top], a, s, experiments, evaluator, rng, self.refine)
-        if self.polish:
-            best = np.argsort(-model_fitness_from_similarities(s), kind="stable")[:self.polish]
-            pa, ps = a[best], s[best]
-            self.scan_angles(genomes[top[best]], pa, ps, experiments, evaluator, self.scan)
-            self.polish_angles(genomes[top[best]], pa, ps, experiments, evaluator)
-            a[best], s[best] = pa, ps
         angles[top], sims[top] = a, s
 
     def scan_angles(self, genomes, angles, sims, experiments, evaluator, cycles: int) -> None:
@@ -448,42 +356,6 @@ class Profile(InferenceStrategy):
             self._try(np.stack([self._perturb(angles, rng) for _ in range(self.proposals)]), genomes, angles, sims,
                       experiments, evaluator)
 
-    def select(self, candidates, experiments, evaluator, rng):
-        """The round-end selection (module docstring): fit every candidate's angles as hard
-        and pick the one with the highest MOD_FIT.
-
-        The candidates start from their remembered angles (a model of the round's last
-        generation) or their nearest remembered model's; the fitted angles are remembered,
-        and the chosen model becomes the best model whose angles the experiments' contexts
-        hold.
-
-        Args:
-            candidates: ``(K, 45)`` distinct model genomes, K >= 1.
-            experiments: the E >= 1 experiments.
-            evaluator: an :class:`eea.evaluation.Evaluator` of the experiments' length.
-            rng: draws the perturbations.
-
-        Returns:
-            ``(index, fitness, experiments)``: the chosen row, its MOD_FIT (eq. 3) and the
-            experiments with its angles as contexts.
-
-        Raises:
-            ValueError: if there are no candidates or no experiments.
-        """
-        candidates = np.atleast_2d(np.asarray(candidates, dtype=np.uint8))
-        if not len(candidates) or not len(experiments):
-            raise ValueError(f"Profile.select needs candidates and experiments, got {len(candidates)} and "
-                             f"{len(experiments)}")
-        angles, sims = self._recall_scored(candidates, experiments, evaluator, rng)
-        self._fit_hard(candidates, angles, sims, experiments, evaluator, rng, self.select_refine)
-        fitness = model_fitness_from_similarities(sims)
-        keys = genome_keys(candidates)
-        self._memory.update({key: (angles[u].copy(), sims[u].copy()) for u, key in enumerate(keys)})
-        best = int(np.argmax(fitness))
-        self._best = keys[best]
-        return best, float(fitness[best]), tuple(e.with_context(Context.exact(angles[best, i]))
-                                                 for i, e in enumerate(experiments))
-
     def library_sets(self, experiment: int) -> tuple[np.ndarray, np.ndarray]:
         """Experiment ``experiment``'s angle library: ``(L_e, 3)`` angles (rad), best first, and
         ``(L_e,)`` the similarity each scored (L_e = 0 before any was scored or with ``library`` 0)."""
@@ -495,8 +367,8 @@ class Profile(InferenceStrategy):
         """The angles models would start from if the search proposed them now, before any fit.
 
         A remembered model's own angles; any other model's are those of the nearest
-        remembered model (by the ``inherit`` rule), as in :meth:`before_generation`; random angles for experiments
-        nobody has angles for yet. :mod:`eea.diagnosis` scores the truth under them: what it
+        remembered model (in Hamming distance), as in :meth:`before_generation`; random angles for experiments
+        nobody has angles for yet. :mod:`eea.analysis.diagnosis` scores the truth under them: what it
         would be judged by the moment the search proposed it.
 
         Args:
@@ -530,7 +402,7 @@ class Profile(InferenceStrategy):
         search described in the module docstring, without the shared best-model candidate
         and without contender refinement:
         the first tries ``initial`` random angle sets per model and experiment (and then
-        ``start``, if given). Used by :mod:`eea.diagnosis` and
+        ``start``, if given). Used by :mod:`eea.analysis.diagnosis` and
         ``examples/angle_identifiability.py``. Costs about
         ``P E (initial + 1 + generations proposals)`` simulations.
 
@@ -559,8 +431,8 @@ class Profile(InferenceStrategy):
             raise ValueError(f"generations must be >= 1, got {generations}")
         self._memory, self._best, self._library = {}, None, []
         keys = genome_keys(genomes)
-        # every model fitted as hard: no contenders, no library trial for newcomers
-        refine, newcomers, self.refine, self.library_newcomers = self.refine, self.library_newcomers, 0, 0
+        # every model fitted as hard: no contenders
+        refine, self.refine = self.refine, 0
         try:
             for generation in range(generations):
                 self.before_generation(generation, genomes, experiments, evaluator, rng, genomes=genomes)
@@ -570,7 +442,7 @@ class Profile(InferenceStrategy):
                     self._try(np.asarray(start, dtype=np.float64)[None], genomes, angles, sims, experiments, evaluator)
                     self._memory = {key: (angles[u], sims[u]) for u, key in enumerate(keys)}
         finally:
-            self.refine, self.library_newcomers = refine, newcomers
+            self.refine = refine
         angles = np.stack([self._memory[k][0] for k in keys])
         return angles, model_fitness_from_similarities(np.stack([self._memory[k][1] for k in keys]))
 

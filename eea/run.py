@@ -30,7 +30,6 @@ from tqdm.auto import tqdm
 from aquafish_gym.rundir import FileError, MismatchError, check_fingerprint, check_memory, check_output_dir, run_lock
 from eea.checkpoint import STATE_FILE, RunState, load_state, save_state
 from eea.config import RESULT_NEUTRAL_FIELDS, EEAConfig
-from eea.behaviour import SIMILARITIES
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from eea.lineages import Lineages, estimation_from_state, write_lineages
@@ -54,7 +53,9 @@ def _check_config(out_dir: Path, config: EEAConfig, existing: EEAConfig | None, 
                 if k not in RESULT_NEUTRAL_FIELDS and mine[k] != theirs[k]]
         raise MismatchError(f"{out_dir} holds a run with a different config ({'; '.join(diff)}); {fix}")
     if state is not None:  # the checkpoint carries its run's config: a copied-in or edited run is refused
-        check_fingerprint(out_dir / STATE_FILE, _fingerprint(state.config), _fingerprint(config.to_dict()),
+        # through from_dict: a checkpoint written before issue 40 holds the retired fields at their defaults
+        check_fingerprint(out_dir / STATE_FILE, _fingerprint(EEAConfig.from_dict(state.config).to_dict()),
+                          _fingerprint(config.to_dict()),
                           f"the checkpoint belongs to another run: {fix} (or delete {STATE_FILE} and "
                           f"{ROUNDS_FILE} to start this one over)")
         if len(state.rows) != state.rounds_done:
@@ -135,7 +136,7 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
         return report
 
     with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots,
-                   similarity_fn=SIMILARITIES[config.model_similarity], params=config.sim_params,
+                   params=config.sim_params,
                    model_space=config.model_space) as evaluator, bar:
         if state.evaluator:
             evaluator.load_state_dict(state.evaluator)

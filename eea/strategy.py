@@ -15,8 +15,6 @@ Hook order within one estimation phase (:class:`eea.estimation.Estimation`)::
         angles = angles(experiments, genomes, rng)   # (P, E, 3), then fitness, then
         experiments = after_generation(genomes, angles, fitness, experiments)
     experiments = end_round(experiments)
-    if select_models:                                # not the paper's; Profile only
-        index, fitness, experiments = select(candidates, experiments, evaluator, rng)
 
 Experiments are immutable: a hook that refines a context returns new experiments
 (:meth:`Experiment.with_context`) and the estimation phase passes them on. The paper's
@@ -43,11 +41,6 @@ class InferenceStrategy:
     """Interface of a context inference strategy; the base class's hooks return the experiments unchanged."""
 
     name: ClassVar[str] = ""
-    #: K > 0: after :meth:`end_round` the estimation phase hands :meth:`select` the round's K
-    #: fittest models at least ``select_distance`` apart (1 - OBJ_FIT between two models) and
-    #: adopts the one it picks as the round's hypothesis. 0 (the paper's): no selection.
-    select_models: int = 0
-    select_distance: float = 0.0
 
     @classmethod
     def from_config(cls, config) -> "InferenceStrategy":
@@ -101,19 +94,6 @@ class InferenceStrategy:
     def end_round(self, experiments: Experiments) -> Experiments:
         """Called once after the estimation generations of a round; returns the final experiments."""
         return experiments
-
-    def select(self, candidates: np.ndarray, experiments: Experiments, evaluator,
-               rng: np.random.Generator) -> tuple[int, float, Experiments]:
-        """Pick the round's hypothesis among ``(K, 45)`` candidate models (``select_models`` > 0).
-
-        Returns:
-            ``(index, fitness, experiments)``: the chosen candidate's row, its MOD_FIT (eq. 3)
-            and the experiments with the contexts it implies.
-
-        Raises:
-            NotImplementedError: the strategy has no selection (``select_models`` is 0).
-        """
-        raise NotImplementedError(f"inference {self.name!r} has no round-end selection")
 
     def state_dict(self) -> dict:
         """What the strategy remembers between generations beyond the contexts (checkpointed

@@ -25,7 +25,6 @@ from pathlib import Path
 import numpy as np
 
 from aquafish_gym import get_damage
-from eea.behaviour import SIMILARITIES
 from eea.checkpoint import load_state
 from eea.encoding import decode_models, encode_models, genomes_from_keys, MODEL_BITS
 from eea.config import EEAConfig
@@ -58,7 +57,7 @@ def polished(evaluator, genome, angles, experiments) -> tuple[float, float, np.n
     angles = np.array(angles, dtype=np.float64)[None]
     sims = evaluator.similarities(genome, experiments, angles)
     before = float(sims.mean())
-    Profile(refine=1, polish=1).polish_angles(genome, angles, sims, experiments, evaluator)
+    Profile().polish_angles(genome, angles, sims, experiments, evaluator)
     return before, float(sims.mean()), angles[0]
 
 
@@ -71,7 +70,6 @@ def main(argv=None) -> None:
         raise SystemExit(f"{args.run}: no checkpoint of a profile run (state.pkl) here")
     experiments = [Experiment.from_state_dict(e) for e in state.experiments]
     evaluator = Evaluator(len(experiments[0].imu_log),
-                          similarity_fn=SIMILARITIES[state.config.get("model_similarity", "paper")],
                           params=EEAConfig.from_dict(state.config).sim_params)   # the run's physics
     truth = get_damage(state.config["damage"]).apply().to_array()
     truth_genome = encode_models(truth[None])

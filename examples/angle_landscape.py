@@ -18,7 +18,6 @@ import argparse
 
 import numpy as np
 
-from eea.behaviour import SIMILARITIES
 from eea.checkpoint import load_state
 from eea.encoding import encode_models
 from eea.evaluation import Evaluator
@@ -59,7 +58,6 @@ def main(argv=None) -> None:
     angles[:, 0, 0] = np.mod(angles[:, 0, 0] + left.ravel(), 2 * np.pi)
     angles[:, 0, 1] = np.mod(angles[:, 0, 1] + right.ravel(), 2 * np.pi)
     with Evaluator(result.config.steps, workers=1, max_batch_robots=result.config.max_batch_robots,
-                   similarity_fn=SIMILARITIES[result.config.model_similarity],
                    params=result.config.sim_params) as evaluator:
         sims = evaluator.similarities(np.repeat(encode_models(morphology[None]), n * n, axis=0), [experiment],
                                       angles)[:, 0].reshape(n, n)

@@ -20,14 +20,9 @@ the final model's (positive: the truth wins) and the final model's deficit 1 - M
 and the truth's mean loss when one angle is 0.1 rad off its true value (the caudal fin's
 0.025 rad): the cone of docs/studies/unknown_angles.md, "The angle cone".
 
-``--similarity squared`` repeats it under :func:`eea.behaviour.squared_similarity`, every
-coefficient contributing ``clip(1 - (d / MAX)**2, 0, 1)`` instead of equation 2's
-``clip(1 - |d| / MAX, 0, 1)``: with squared differences a small angle error costs second
-order, not first (study record, "Equal fits and the needle").
+    python examples/equal_fits.py docs/results/lph_keep3_scan1/profile/1.28s/seed{2,4}
 
-    python examples/equal_fits.py docs/results/lph_keep3_scan1/profile/1.28s/seed{2,4} --similarity paper squared
-
-Costs about 5000 simulations per run, fit seed and similarity at 10 experiments (about 10 s
+Costs about 5000 simulations per run and fit seed at 10 experiments (about 10 s
 on one core at 1.28 s).
 """
 
@@ -38,7 +33,6 @@ from pathlib import Path
 
 import numpy as np
 
-from eea.behaviour import SIMILARITIES
 from eea.encoding import encode_models
 from eea.evaluation import Evaluator
 from eea.experiment import CAUDAL_LIMIT_RAD, Experiment
@@ -89,14 +83,13 @@ def cone_loss(evaluator, truth_genome, experiments) -> np.ndarray:
     return 1.0 - evaluator.similarities(np.repeat(truth_genome, 3, axis=0), experiments, moved).mean(axis=1)
 
 
-def compare(run_dir, kind: str, fits: int) -> dict:
-    """The numbers one output line shows, for one run and one similarity."""
+def compare(run_dir, fits: int) -> dict:
+    """The numbers one output line shows, for one run."""
     experiments, truth, final, obj = rebuild(run_dir)
     genomes = encode_models(np.stack([truth, final]))
     if (genomes[0] == genomes[1]).all():
         raise ValueError(f"{run_dir}: the final model is the truth; nothing to compare")
-    evaluator = Evaluator(len(experiments[0].imu_log), similarity_fn=SIMILARITIES[kind],
-                          params=read_config(run_dir).sim_params)   # the run's physics
+    evaluator = Evaluator(len(experiments[0].imu_log), params=read_config(run_dir).sim_params)   # the run's physics
     true = np.stack([e.true_angles for e in experiments])
     out = {"obj": obj, "at_true": float(evaluator.similarities(genomes[:1], experiments, true[None]).mean()),
            "cone": cone_loss(evaluator, genomes[:1], experiments)}
@@ -109,7 +102,6 @@ def compare(run_dir, kind: str, fits: int) -> dict:
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", type=Path, help="finished run directories (rounds.csv + config.json)")
-    parser.add_argument("--similarity", nargs="+", choices=sorted(SIMILARITIES), default=["paper"])
     parser.add_argument("--fits", type=int, default=2, help="fit seeds averaged per budget (default 2)")
     args = parser.parse_args(argv)
     if args.fits < 1:
@@ -117,11 +109,10 @@ def main(argv=None) -> None:
     print("truth - final model MOD_FIT under equal fits (final model's deficit 1 - MOD_FIT in brackets); "
           "cone: the truth's loss with one angle 0.1 rad off (caudal 0.025)")
     for run_dir in args.runs:
-        for kind in args.similarity:
-            r = compare(run_dir, kind, args.fits)
-            fits = " ".join(f"{name} {r[name][0]:+.5f} ({r[name][1]:.5f})" for name, _, _ in BUDGETS)
-            print(f"{run_dir} OBJ {r['obj']:.3f} {kind:>7}: truth at true angles {r['at_true']:.6f}; cone L/R/C "
-                  f"{' / '.join(f'{v:.5f}' for v in r['cone'])}; {fits}")
+        r = compare(run_dir, args.fits)
+        fits = " ".join(f"{name} {r[name][0]:+.5f} ({r[name][1]:.5f})" for name, _, _ in BUDGETS)
+        print(f"{run_dir} OBJ {r['obj']:.3f}: truth at true angles {r['at_true']:.6f}; cone L/R/C "
+            f"{' / '.join(f'{v:.5f}' for v in r['cone'])}; {fits}")
 
 
 if __name__ == "__main__":

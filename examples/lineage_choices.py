@@ -19,8 +19,8 @@ import argparse
 
 import numpy as np
 
-from eea.lineages import lineage_objective_fitness
-from eea.plot import find_runs
+from eea.analysis.lineage_report import lineage_objective_fitness
+from eea.analysis.plot import find_runs
 
 
 def main(argv=None) -> None:

@@ -25,7 +25,7 @@ from aquafish_gym import ACTION_BOUNDS, MORPHOLOGY_BOUNDS, simulate_batch
 from eea.behaviour import behaviour_summary, similarity
 from eea.experiment import random_angles
 from eea.fitness import objective_fitness
-from eea.plot import find_runs
+from eea.analysis.plot import find_runs
 
 #: The morphology fields of each flipper, in :data:`aquafish_gym.MORPHOLOGY_BOUNDS` order.
 FLIPPER_FIELDS = {"left_pectoral": slice(0, 3), "right_pectoral": slice(3, 6), "caudal": slice(6, 9)}

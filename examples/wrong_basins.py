@@ -24,7 +24,7 @@ import argparse
 import numpy as np
 
 from aquafish_gym import MORPHOLOGY_FIELDS
-from eea.plot import find_runs
+from eea.analysis.plot import find_runs
 
 #: A caudal command below this (Hz) leaves the tail still for a 1.28 s experiment.
 STILL_TAIL_HZ = 0.05

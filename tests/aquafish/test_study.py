@@ -9,7 +9,7 @@ import pytest
 from aquafish.cli import main
 from aquafish.study import StudySpec, rounds_done, run_study
 from eea.config import EEAConfig
-from eea.plot import find_runs, summarise_runs
+from eea.analysis.plot import find_runs, summarise_runs
 
 TINY = EEAConfig(rounds=2, exploration_population=3, exploration_generations=1, exploration_models=2,
                  estimation_population=4, estimation_generations=2, k_best=2, oob_period=1, oob_sample=2,

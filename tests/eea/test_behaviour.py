@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from eea.behaviour import SIMILARITIES, behaviour_summary, similarity, squared_similarity
+from eea.behaviour import behaviour_summary, similarity
 
 
 def test_summary_shape_and_unnormalised_scale():
@@ -86,22 +86,9 @@ def test_broadcast_population_against_one_summary():
     ],
 )
 def test_similarity_rejects_bad_input(a, b, kwargs, match):
-    for function in SIMILARITIES.values():
+    for function in (similarity,):
         with pytest.raises(ValueError, match=match):
             function(a, b, **kwargs)
-
-
-def test_squared_similarity_squares_each_coefficients_difference():
-    a = np.zeros((3, 2))
-    b = a.copy()
-    b[0, 0], b[1, 1], b[2, 0] = 50.0, 300.0, -10.0              # half of MAX, beyond MAX, a tenth
-    assert squared_similarity(a, b) == pytest.approx((0.75 + 0.0 + 0.99 + 3) / 6)   # 1 - 0.5**2, clipped 0, 1 - 0.01
-    assert similarity(a, b) == pytest.approx((0.5 + 0.0 + 0.9 + 3) / 6)            # eq. 2: 1 - 0.5, 0, 1 - 0.1
-    assert squared_similarity(a, a) == 1.0 and squared_similarity(a, b, 1000.0) == pytest.approx(
-        (0.9975 + 0.91 + 0.9999 + 3) / 6)                      # MAX scales the differences as in eq. 2
-    pop = np.stack([a, b, a + 1.0])
-    np.testing.assert_allclose(squared_similarity(pop, a), [1.0, squared_similarity(b, a), 1 - 1e-4])
-
 
 @pytest.mark.parametrize("log", [np.zeros((256, 4)), np.zeros(256), np.zeros((1, 0, 3))])
 def test_summary_rejects_bad_shape(log):

@@ -151,60 +151,6 @@ def test_genomes_to_unit_is_the_cell_centre_and_inverts_unit_to_genomes():
     levels = 2.0 ** np.array([5, 6, 4] * 3)
     np.testing.assert_allclose(genomes_to_unit(encode_models(MODEL_BOUNDS[None, :, 0]))[0], 0.5 / levels)
 
-
-def test_an_adopted_genome_is_the_best_and_the_next_restart_starts_there():
-    fitness = _ridge_fitness(np.full(9, 0.25))
-    search = CMAModelSearch(10, np.random.default_rng(3), sigma0=0.3)
-    for _ in range(5):
-        search.tell(fitness(search.ask()))
-    chosen = encode_models(np.array([[0.5, 1.0, 0.25, 0.5, 1.0, 0.25, 0.25, 1.0, 0.5]]))[0]
-    search.ask()
-    with pytest.raises(RuntimeError, match="between ask"):
-        search.adopt(chosen, 0.5)
-    search.tell(np.zeros(10))
-    with pytest.raises(ValueError, match="finite"):
-        search.adopt(chosen, float("nan"))
-    with pytest.raises(ValueError, match=r"\(45,\) genome"):
-        search.adopt(chosen[:44], 0.5)
-    search.adopt(chosen, 0.5)
-    np.testing.assert_array_equal(search.best_genome, chosen)
-    assert search.best_fitness == 0.5
-    search.restart()
-    np.testing.assert_array_equal(search.ask()[0], chosen)           # injected: the restart's first point
-
-
-def test_every_kth_restart_is_global_and_carries_the_incumbent_without_telling_it():
-    fitness = _ridge_fitness(np.full(9, 0.25))
-    search = CMAModelSearch(8, np.random.default_rng(4), global_period=2)
-    for _ in range(40):
-        search.tell(fitness(search.ask()))
-    incumbent, incumbent_fitness = search.best_genome, search.best_fitness
-    search.restart()                                                   # restart 1: at the best point
-    assert not search.global_round
-    np.testing.assert_array_equal(search.ask()[0], incumbent)
-    search.tell(fitness(search.population))
-    incumbent = search.best_genome
-    search.restart()                                                   # restart 2: global
-    assert search.global_round
-    for _ in range(3):
-        genomes = search.ask()
-        assert genomes.shape == (8, 45)
-        np.testing.assert_array_equal(genomes[-1], incumbent)          # evaluated every generation
-        f = fitness(genomes)
-        search.tell(f)
-        assert search.best_fitness == f.max()                          # the best of all P rows
-    # CMA-ES saw only the 7 sampled points: its mean is still far from the incumbent
-    span = MODEL_BOUNDS[:, 1] - MODEL_BOUNDS[:, 0]
-    mean_dims = MODEL_BOUNDS[:, 0] + span * search._es.mean
-    assert np.abs((mean_dims - decode_models(incumbent[None])[0]) / span).max() > 0.05
-    assert search.best_fitness >= incumbent_fitness                    # the incumbent is never lost
-    resumed = CMAModelSearch.from_state_dict(pickle.loads(pickle.dumps(search.state_dict())))
-    np.testing.assert_array_equal(resumed.ask(), search.ask())
-    search.tell(fitness(search.population))
-    search.restart()                                                   # restart 3: at the best point again
-    assert not search.global_round and len(search.ask()) == 8
-
-
 def test_a_global_share_samples_beside_the_local_search_and_pulls_it_to_a_better_point():
     fitness = _ridge_fitness(np.full(9, 0.25))
     search = CMAModelSearch(10, np.random.default_rng(3), global_share=4)
@@ -214,7 +160,7 @@ def test_a_global_share_samples_beside_the_local_search_and_pulls_it_to_a_better
     for round_ in range(2):
         search.restart()                                               # every restart: local + global
         genomes = search.ask()
-        assert genomes.shape == (10, 45) and not search.global_round
+        assert genomes.shape == (10, 45)
         np.testing.assert_array_equal(genomes[0], incumbent)           # local: at the best point
         span = MODEL_BOUNDS[:, 1] - MODEL_BOUNDS[:, 0]
         global_mean = MODEL_BOUNDS[:, 0] + span * search._global_es.mean
@@ -258,56 +204,14 @@ def test_a_kept_global_share_restarts_at_its_own_best_and_at_random_every_kth_ro
     with pytest.raises(ValueError, match="cma_global_keep > 0 needs cma_global_share"):
         EEAConfig(estimation_search="cma", cma_global_keep=2)
 
-
-def test_the_global_share_joins_at_its_first_round_and_keeps_its_lineage_from_there():
-    fitness = _ridge_fitness(np.full(9, 0.25))
-    search = CMAModelSearch(10, np.random.default_rng(3), global_share=4, global_keep=3, global_first_round=1)
-    genomes = search.ask()                                             # round 1: two lineages from the start
-    assert search._es.popsize == 6 and search._global_es.popsize == 4
-    assert np.abs(search._es.mean - search._global_es.mean).max() > 0.05  # two random starting points
-    assert search.lineage_best_genomes == {}                        # nothing told yet
-    f = fitness(genomes)
-    search.tell(f)
-    assert search._es.countiter == search._global_es.countiter == 1
-    bests = search.lineage_best_genomes                                # each lineage's own best row
-    np.testing.assert_array_equal(bests["local"], genomes[int(np.argmax(f[:6]))])
-    np.testing.assert_array_equal(bests["global"], genomes[6 + int(np.argmax(f[6:]))])
-    random_start = []
-    for round_ in range(2, 9):                                         # rounds 2 ... 8
-        previous_best = search._global_best_x.copy()
-        search.restart()
-        kept = np.abs(search._global_es.mean - previous_best).max() < 0.05
-        random_start.append(not kept)
-        search.tell(fitness(search.ask()))
-    assert random_start == [False, False, True, False, False, True, False]  # rounds 4 and 7 (k + 1, 2k + 1)
-    late = CMAModelSearch(10, np.random.default_rng(3), global_share=4, global_first_round=3)
-    sizes = []
-    for round_ in range(1, 5):
-        if round_ > 1:
-            late.restart()
-        sizes.append((late._es.popsize, None if late._global_es is None else late._global_es.popsize))
-        late.tell(fitness(late.ask()))
-    assert sizes == [(10, None), (10, None), (6, 4), (6, 4)]
-    with pytest.raises(ValueError, match="global_first_round = 1 needs a global_share"):
-        CMAModelSearch(10, np.random.default_rng(0), global_first_round=1)
-    with pytest.raises(ValueError, match="cma_global_first_round = 1 needs cma_global_share"):
-        EEAConfig(estimation_search="cma", cma_global_first_round=1)
-    with pytest.raises(ValueError, match="global_first_round"):
-        CMAModelSearch(10, np.random.default_rng(0), global_share=4, global_first_round=0)
-
-
 def test_a_global_share_leaves_two_points_to_each_distribution():
     for share in (1, 9):
         with pytest.raises(ValueError, match=r"global_share must be 0 or in .* = \[2, 8\]"):
             CMAModelSearch(10, np.random.default_rng(0), global_share=share)
-    with pytest.raises(ValueError, match="not both"):
-        CMAModelSearch(10, np.random.default_rng(0), global_share=2, global_period=2)
     with pytest.raises(ValueError, match="cma_global_share must be 0 or in"):
         EEAConfig(cma_global_share=24, estimation_search="cma")
     with pytest.raises(ValueError, match="needs estimation_search='cma'"):
         EEAConfig(cma_global_share=8)
-    with pytest.raises(ValueError, match="set one of them"):
-        EEAConfig(cma_global_share=8, cma_global_period=2, estimation_search="cma")
     assert CMAModelSearch.from_config(EEAConfig(cma_global_share=8, estimation_search="cma"),
                                       np.random.default_rng(0)).global_share == 8
 
@@ -353,12 +257,3 @@ def test_a_restart_with_carry_condition_samples_along_the_learned_ridge():
         EEAConfig(cma_carry_condition=float("nan"), estimation_search="cma")
     with pytest.raises(ValueError, match="needs estimation_search='cma'"):
         EEAConfig(cma_carry_condition=100)
-
-
-def test_global_restarts_need_three_models():
-    with pytest.raises(ValueError, match="population_size >= 3"):
-        CMAModelSearch(2, np.random.default_rng(0), global_period=1)
-    with pytest.raises(ValueError, match="estimation_population >= 3"):
-        EEAConfig(cma_global_period=2, estimation_search="cma", estimation_population=2, k_best=1, oob_sample=1)
-    with pytest.raises(ValueError, match="needs estimation_search='cma'"):
-        EEAConfig(cma_global_period=2)

@@ -1,13 +1,13 @@
-"""eea.compare: variants paired by seed, Welch's p on the common seeds, rounds to a level."""
+"""eea.analysis.compare: variants paired by seed, Welch's p on the common seeds, rounds to a level."""
 
 import numpy as np
 import pytest
 from scipy.stats import ttest_ind
 
 from aquafish.cli import main
-from eea.compare import compare_variants, comparison_table, parse_variant, plot_variants
+from eea.analysis.compare import compare_variants, comparison_table, parse_variant, plot_variants
 from eea.config import EEAConfig
-from eea.plot import find_runs
+from eea.analysis.plot import find_runs
 from eea.record import ROUND_COLUMNS, write_config, write_rounds
 
 

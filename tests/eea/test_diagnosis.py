@@ -1,11 +1,11 @@
-"""eea.diagnosis: MOD_FIT of the final and the true morphology under inferred and true angles."""
+"""eea.analysis.diagnosis: MOD_FIT of the final and the true morphology under inferred and true angles."""
 
 from pathlib import Path
 
 import pytest
 
 from aquafish.cli import main
-from eea.diagnosis import RunDiagnosis, diagnose_run
+from eea.analysis.diagnosis import RunDiagnosis, diagnose_run
 from eea.run import run
 
 
@@ -128,7 +128,7 @@ def test_shared_angle_runs_have_no_proposed_truth(tmp_path, tiny_config):
 def test_median_error_by_hand():
     import numpy as np
 
-    from eea.diagnosis import median_error_deg
+    from eea.analysis.diagnosis import median_error_deg
 
     true = np.zeros((3, 3))
     angles = np.array([[0.1, 6.2, 0.05], [0.3, 0.0, -0.1], [3.0, 0.2, 0.2]])
@@ -148,7 +148,7 @@ def test_angle_errors_of_the_run_and_of_the_truths_own_fit(tmp_path, tiny_config
 
     from aquafish_gym import get_damage
     from eea.checkpoint import load_state
-    from eea.diagnosis import median_error_deg
+    from eea.analysis.diagnosis import median_error_deg
     from eea.encoding import encode_models
     from eea.evaluation import Evaluator
     from eea.experiment import Experiment

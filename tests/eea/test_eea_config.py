@@ -37,8 +37,6 @@ def test_every_field_has_help():
     ({"in_band_confidence": float("nan")}, "in_band_confidence"),
     ({"mutation_bits": -1}, "mutation_bits"),
     ({"workers": 0}, "workers"),
-    ({"oob_experiments": "oldest"}, "oob_experiments .*valid names: newest, all"),
-    ({"model_similarity": "cosine"}, "model_similarity .*valid names: paper, squared"),
 ])
 def test_invalid_values_raise(changes, match):
     with pytest.raises(ValueError, match=match):
@@ -87,3 +85,33 @@ def test_presets_apply_in_order_and_fields_win():
         EEAConfig.from_presets("reduced", "fast")
     with pytest.raises(ValueError, match="unknown EEAConfig keys"):
         EEAConfig.from_presets("reduced", round=3)
+
+
+def test_a_config_written_before_issue_40_loads_unless_it_used_a_retired_variant():
+    from eea.config import RETIRED_FIELDS
+
+    old = {**EEAConfig(workers=1).to_dict(), **RETIRED_FIELDS}          # config.json of a run before issue 40
+    assert EEAConfig.from_dict(old) == EEAConfig(workers=1)
+    assert not set(RETIRED_FIELDS) & set(EEAConfig().to_dict())
+    with pytest.raises(ValueError, match=r"EEAConfig.profile_scan = 1: this run used a variant retired in issue 40"):
+        EEAConfig.from_dict({**old, "profile_scan": 1})
+    with pytest.raises(ValueError, match="unknown EEAConfig keys"):
+        EEAConfig.from_presets("library", profile_scan=0)               # a new config cannot set one
+
+
+def test_every_published_config_loads_or_names_its_retired_variant():
+    from eea.config import RETIRED_FIELDS
+
+    results = Path(__file__).parents[2] / "docs/results"
+    loaded = refused = 0
+    for path in sorted(results.glob("**/config.json")):
+        data = json.loads(path.read_text())
+        retired = [k for k in RETIRED_FIELDS if k in data and data[k] != RETIRED_FIELDS[k]]
+        if retired:
+            with pytest.raises(ValueError, match="used a variant retired in issue 40"):
+                EEAConfig.from_dict(data)
+            refused += 1
+        else:
+            EEAConfig.from_dict(data)
+            loaded += 1
+    assert loaded > 100 and refused > 0

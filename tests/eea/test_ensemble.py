@@ -1,4 +1,4 @@
-"""eea.ensemble: one self-model chosen from several runs by an equal, hard angle fit."""
+"""eea.analysis.ensemble: one self-model chosen from several runs by an equal, hard angle fit."""
 
 import numpy as np
 import pytest
@@ -6,10 +6,10 @@ import pytest
 from aquafish.cli import main
 from aquafish_gym import get_damage
 from eea.encoding import decode_models, encode_models
-from eea.ensemble import SELECTION_COLUMNS, ensemble_groups, select_model, select_runs, select_study
+from eea.analysis.ensemble import SELECTION_COLUMNS, ensemble_groups, select_model, select_runs, select_study
 from eea.evaluation import Evaluator
 from eea.fitness import model_fitness_from_similarities
-from eea.plot import find_runs
+from eea.analysis.plot import find_runs
 from eea.run import run
 
 

@@ -81,7 +81,7 @@ def test_wrong_basins_flags_a_massless_flipper_only_where_the_target_has_volume(
 
 
 def test_lineage_choices_reports_each_lineage_and_the_chosen_one(tmp_path, tiny_config, capsys):
-    from eea.lineages import lineage_objective_fitness
+    from eea.analysis.lineage_report import lineage_objective_fitness
     from eea.run import run
 
     run(tiny_config(inference="profile", lineages=2), tmp_path / "lin", progress=False)
@@ -95,20 +95,6 @@ def test_lineage_choices_reports_each_lineage_and_the_chosen_one(tmp_path, tiny_
     assert f"best lineage (oracle) {final.max():.3f}" in lines[2]
     with pytest.raises(SystemExit, match="no run with lineages >= 2"):
         _load("lineage_choices").main([str(tmp_path / "plain")])
-
-
-def test_round1_lineages_reports_each_lineages_own_best_model(tmp_path, tiny_config, monkeypatch):
-    from eea.checkpoint import load_state
-
-    monkeypatch.syspath_prepend(str(EXAMPLES))                  # it imports wrong_basins beside it
-    config = tiny_config(inference="profile", estimation_search="cma", cma_global_share=2, cma_global_first_round=1,
-                         rounds=3)
-    bests = _load("round1_lineages").lineages(config, tmp_path)
-    state = load_state(tmp_path)
-    genomes, fitness = state.estimation["genomes"], state.estimation["fitness"]
-    assert len(state.experiments) == 1 and len(genomes) == 5    # round 1 only, whatever config.rounds says
-    np.testing.assert_array_equal(bests["local"], genomes[int(np.argmax(fitness[:3]))])    # rows 0-2: the local CMA-ES
-    np.testing.assert_array_equal(bests["global"], genomes[3 + int(np.argmax(fitness[3:]))])
 
 
 def test_angle_cone_scores_the_truth_1_at_its_angles_and_less_off_them(tmp_path, tiny_config, capsys):
@@ -154,10 +140,10 @@ def test_equal_fits_rebuilds_the_runs_experiments_exactly(tmp_path, tiny_config,
         np.testing.assert_array_equal(mine.action, theirs.action)
     if np.allclose(final, truth):
         pytest.skip("this tiny run ended on the truth")
-    fits.main([str(tmp_path), "--similarity", "paper", "squared", "--fits", "1"])
+    fits.main([str(tmp_path), "--fits", "1"])
     lines = capsys.readouterr().out.splitlines()
-    assert len(lines) == 3 and all("truth at true angles 1.000000" in line for line in lines[1:])
-    r = fits.compare(tmp_path, "paper", 1)
+    assert len(lines) == 2 and "truth at true angles 1.000000" in lines[1]
+    r = fits.compare(tmp_path, 1)
     assert np.all(r["cone"] > 0) and r["at_true"] == 1.0
     assert 0.0 < r["hard"][1] < 1.0                             # a wrong model's deficit under its best fit
     with pytest.raises(ValueError, match="not an EEA run directory"):

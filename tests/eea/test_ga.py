@@ -40,23 +40,6 @@ def test_deterministic_for_a_seed():
     _run_onemax(other, 5)
     assert not np.array_equal(other.population, runs[0])
 
-
-def test_an_adopted_genome_is_the_best_and_the_first_elite_of_the_next_generation():
-    ga = BitGA(45, 6, np.random.default_rng(0), elitism=2)
-    ga.tell(ga.ask().sum(axis=1))
-    chosen = np.zeros(45, np.uint8)
-    ga.adopt(chosen, 1.5)
-    np.testing.assert_array_equal(ga.best_genome, chosen)
-    assert ga.best_fitness == 1.5
-    np.testing.assert_array_equal(ga.ask()[0], chosen)
-    with pytest.raises(RuntimeError, match="between ask"):
-        ga.adopt(chosen, 1.0)
-    ga.tell(np.zeros(6))
-    for genome, fitness in ((np.full(45, 2), 1.0), (chosen[:3], 1.0), (chosen, float("inf")), (chosen, True)):
-        with pytest.raises(ValueError):
-            ga.adopt(genome, fitness)
-
-
 @pytest.mark.parametrize("seed", range(3))
 def test_elitism_best_never_decreases_and_elite_is_first_row(seed):
     ga = BitGA(45, 25, np.random.default_rng(seed))

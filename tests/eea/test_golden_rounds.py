@@ -1,5 +1,5 @@
 """Golden ``rounds.csv`` of tiny runs: every inference strategy with both estimation searches,
-and the ``library`` preset with and without the options tried on top of it.
+the ``library`` preset and the best method, the ``lineages`` preset.
 
 The files in ``tests/eea/test_golden_rounds/`` were recorded on main before the EEA's
 composition was reshaped (issue 12) and must stay identical, byte for byte, except the
@@ -26,20 +26,15 @@ VARIANTS = {
     "none": dict(inference="none"),
     "in_band": dict(inference="in_band"),
     "out_of_band": dict(inference="out_of_band"),
-    "out_of_band_all": dict(inference="out_of_band", oob_experiments="all"),
     "profile": dict(inference="profile"),
 }
 
 #: Not the paper's, CMA-ES only (the global share and the carried covariance are CMA-ES
 #: options): the ``library`` preset (population 10, the smallest its global share of 8
-#: allows), and the same with every option measured on top of it (docs/studies.md, "Beyond the
-#: paper"; the kept global lineage both restarts at random, round 2, and keeps its lineage,
-#: round 3).
+#: allows; docs/studies.md, "Beyond the paper"). The options once measured on top of it were
+#: retired in issue 40 with their golden file (docs/studies/retired_variants.md).
 CMA_VARIANTS = {
     "library": dict(preset_fields("library"), estimation_population=10),
-    "library_options": dict(preset_fields("library"), estimation_population=10, cma_global_keep=3,
-                            profile_select=2, profile_select_refine=2, profile_fine_steps=1,
-                            profile_library_newcomers=2),
 }
 
 
@@ -87,3 +82,13 @@ def test_surface_rounds_csv_matches_the_recorded_run(tmp_path, tiny_config, file
 def test_library_rounds_csv_matches_the_recorded_run(tmp_path, tiny_config, file_regression, variant):
     _check_recorded_run(tmp_path, tiny_config(rounds=3, seed=7, **CMA_VARIANTS[variant]), file_regression,
                         f"{variant}_cma")
+
+
+def test_lineages_rounds_and_lineages_csv_match_the_recorded_run(tmp_path, tiny_config, file_regression):
+    """The best method (the ``lineages`` preset, issue 14): its ``rounds.csv`` and its
+    ``lineages.csv`` (recorded before issue 40 split :mod:`eea` into subpackages)."""
+    config = tiny_config(rounds=3, seed=7, **dict(preset_fields("lineages"), estimation_population=10))
+    _check_recorded_run(tmp_path, config, file_regression, "lineages_cma")
+    lineages = (tmp_path / "lineages.csv").read_text()
+    assert lineages.count("\n") == 1 + 3 * 2                      # header + 3 rounds x 2 lineages
+    file_regression.check(lineages, basename="lineages_cma_lineages", extension=".csv")

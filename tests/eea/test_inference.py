@@ -127,30 +127,6 @@ class PeakPerExperiment:
         d = np.abs((angles - peaks + np.pi) % TWO_PI - np.pi)
         return 1.0 - d.mean(axis=-1)                                         # (P, E)
 
-
-def test_out_of_band_all_refines_every_experiment_at_generation_0_only(make_experiment):
-    peaks = [[1.0, 5.0, 0.2], [3.0, 0.1, -0.3], [6.0, 2.0, 0.0]]
-    s = OutOfBand(period=10, sample=2, population=20, generations=15, bits=8, experiments="all")
-    exact = np.array([4 * TWO_PI / 256, 200 * TWO_PI / 256, -CAUDAL_LIMIT_RAD])  # experiment 0: at a grid peak
-    peaks[0] = exact.tolist()
-    exps = [make_experiment(0, context=Context.exact(exact)),
-            make_experiment(1, context=Context.exact([0.5, 0.5, 0.0])),      # wrong: must move to its peak
-            make_experiment(2, context=s.new_context(np.zeros(3)))]
-    fake = PeakPerExperiment(peaks)
-    models = np.random.default_rng(0).integers(0, 2, (6, 45), dtype=np.uint8)
-    exps = s.before_generation(0, models, exps, fake, np.random.default_rng(1))
-    assert len(fake.calls) == 15 and fake.calls[0].shape == (20 * 2, 3, 3)  # lockstep: one call per inner generation
-    first = fake.calls[0][::2]                                                # (20 candidates, E, 3)
-    assert np.any(np.all(np.abs(first[:, 1] - [0.5, 0.5, 0.0]) < TWO_PI / 256, axis=1))  # older: seeded
-    np.testing.assert_allclose(exps[0].context.estimate(), exact, atol=1e-9)  # elitism keeps an optimum
-    for e, peak in zip(exps[1:], peaks[1:]):
-        assert np.abs((e.context.estimate() - peak + np.pi) % TWO_PI - np.pi).max() < 0.25
-    exps = s.before_generation(10, models, exps, fake, np.random.default_rng(2))   # later inferences: the newest only
-    assert len(fake.calls) == 30 and fake.calls[-1].shape == (40, 1, 3)
-    with pytest.raises(ValueError, match="newest, all"):
-        OutOfBand(experiments="oldest")
-
-
 def test_out_of_band_newest_never_touches_older_experiments(make_experiment):
     s = OutOfBand(period=10, sample=2, population=6, generations=3)
     old = Context.exact([0.5, 0.5, 0.0])

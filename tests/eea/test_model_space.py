@@ -272,7 +272,8 @@ def test_every_inference_strategy_runs_in_the_servo_space(tmp_path, tiny_config,
 
 def test_the_lineages_method_runs_in_the_servo_space(tmp_path, tiny_config):
     from eea.config import preset_fields
-    from eea.lineages import LINEAGES_FILE, lineage_columns, lineage_objective_fitness
+    from eea.analysis.lineage_report import lineage_objective_fitness
+    from eea.lineages import LINEAGES_FILE, lineage_columns
 
     config = tiny_config(**{**preset_fields("lineages"), "estimation_population": 10, "rounds": 1,
                             "model_space": "morphology+servos", "damage": "weak_right_pectoral"})
@@ -308,7 +309,7 @@ def test_the_model_space_flag():
 
 
 def test_diagnosis_of_a_servo_run_scores_the_truth_with_its_gains(tmp_path, tiny_config):
-    from eea.diagnosis import diagnose_run
+    from eea.analysis.diagnosis import diagnose_run
 
     eea.run(tiny_config(model_space="morphology+servos", damage="reversed_left_pectoral", inference="known"),
             tmp_path / "servos", progress=False)

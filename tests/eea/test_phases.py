@@ -188,21 +188,6 @@ def test_angle_robust_exploration_discounts_what_the_angles_explain():
     assert abs(action[0]) <= abs(paper_action[0]) and fit <= action_fitness(expected[0])
     with pytest.raises(ValueError, match="angle_sets"):
         Exploration(angle_sets=1)
-    # a spread weighted by 0: the fitness is the disagreement alone, on the same actions
-    _, unweighted_action, unweighted = Exploration(population=8, generations=6, angle_sets=3, spread_weight=0.0).run(
-        models, AngleSpreadEvaluator(), np.random.default_rng(0))
-    again = np.stack([AngleSpreadEvaluator().summaries(models, None, unweighted_action[None], a)[0] for a in sets[0]])
-    assert unweighted == pytest.approx(robust_action_fitness(again, spread_weight=0.0))
-    assert abs(unweighted_action[0]) >= abs(action[0])          # the left flipper is no longer penalised
-    with pytest.raises(ValueError, match="needs angle_sets >= 2"):
-        Exploration(spread_weight=0.5)
-    with pytest.raises(ValueError, match="spread_weight"):
-        Exploration(angle_sets=3, spread_weight=-1.0)
-    with pytest.raises(ValueError, match="exploration_spread_weight .* needs exploration_angles"):
-        EEAConfig(exploration_spread_weight=0.5)
-    with pytest.raises(ValueError, match="EEAConfig.exploration_spread_weight must be a number >= 0"):
-        EEAConfig(exploration_angles=4, exploration_spread_weight=True)
-    assert Exploration.from_config(EEAConfig(exploration_angles=4, exploration_spread_weight=0.5)).spread_weight == 0.5
 
 
 def test_exploration_without_two_models_simulates_nothing():

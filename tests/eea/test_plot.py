@@ -1,10 +1,10 @@
-"""eea.plot: mean and std objective fitness per (strategy, duration) from run directories."""
+"""eea.analysis.plot: mean and std objective fitness per (strategy, duration) from run directories."""
 
 import numpy as np
 import pytest
 
 from eea.config import EEAConfig
-from eea.plot import final_round_table, find_runs, plot_runs, summarise_runs, welch_p_value
+from eea.analysis.plot import final_round_table, find_runs, plot_runs, summarise_runs, welch_p_value
 from eea.record import ROUND_COLUMNS, load_result, write_config, write_rounds
 
 

@@ -47,26 +47,6 @@ def test_run_writes_config_and_one_row_per_round(tmp_path, tiny_config):
     np.testing.assert_array_equal(loaded.best_morphology.to_array(), [rows[-1][c] for c in MODEL_COLUMNS])
     assert sorted(os.listdir(tmp_path)) == ["config.json", "rounds.csv", "state.pkl"]  # no temp files left
 
-
-def test_model_similarity_squared_scores_the_models_with_it(tmp_path, tiny_config):
-    from aquafish_gym import simulate_batch
-    from eea.behaviour import behaviour_summary, similarity, squared_similarity
-    from eea.checkpoint import load_state
-    from eea.experiment import Experiment
-
-    config = tiny_config(inference="known", rounds=2, model_similarity="squared")
-    row = eea.run(config, tmp_path, progress=False).rounds[-1]
-    experiments = [Experiment.from_state_dict(e) for e in load_state(tmp_path).experiments]
-    model = np.array([row[c] for c in MODEL_COLUMNS])
-    logs = simulate_batch(np.repeat(model[None], 2, axis=0), np.stack([e.action for e in experiments]),
-                          np.stack([e.true_angles for e in experiments]), config.steps,   # known: the true angles
-                          params=config.sim_params)
-    targets = np.stack([e.summary for e in experiments])
-    squared = squared_similarity(behaviour_summary(logs), targets).mean()
-    assert row["model_fitness"] == pytest.approx(squared, abs=1e-12)
-    assert squared != pytest.approx(similarity(behaviour_summary(logs), targets).mean(), abs=1e-6)
-
-
 @pytest.mark.parametrize("inference", ["none", "out_of_band", "in_band"])
 def test_same_seed_same_rounds_other_seed_differs(tmp_path, tiny_config, inference):
     eea.run(tiny_config(inference=inference), tmp_path / "a", progress=False)

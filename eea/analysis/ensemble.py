@@ -22,7 +22,6 @@ about ``225 N E_total`` simulations (``E_total`` the pooled experiments): 8,979 
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import os
 from pathlib import Path
@@ -30,113 +29,15 @@ from typing import Sequence
 
 import numpy as np
 
-from aquafish_gym import MORPHOLOGY_FIELDS
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, MismatchError, check_fingerprint, check_output_file, read_json, run_lock
-from eea.behaviour import SIMILARITIES
-from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
-from eea.experiment import FLIPPERS, Experiment, angle_errors_deg
-from eea.fitness import model_fitness_from_similarities
-from eea.profile import Profile
+from eea.experiment import FLIPPERS, Experiment
 from eea.record import RunResult, read_csv, write_csv
 from eea.replay import replay_run
+from eea.selection import Selection, select_model
 
 __all__ = ["SELECTION_COLUMNS", "Selection", "ensemble_groups", "select_model", "select_runs", "select_study"]
-
-
-@dataclasses.dataclass(frozen=True)
-class Selection:
-    """The outcome of :func:`select_model`.
-
-    Attributes:
-        models: ``(N, 9)`` the candidate models (simulator units, ``MORPHOLOGY_FIELDS``; ``(N, 12)``
-            with the servo gains in the ``morphology+servos`` model space).
-        model_fitness: ``(N,)`` each model's MOD_FIT (eq. 3) on the pooled experiments under
-            its own fitted angles.
-        angles: ``(N, E, 3)`` those angles (rad), per model and experiment.
-        index: the chosen model's row (the highest MOD_FIT; the first of equals).
-    """
-
-    models: np.ndarray
-    model_fitness: np.ndarray
-    angles: np.ndarray
-    index: int
-
-    @property
-    def model(self) -> np.ndarray:
-        """``(9,)`` (or ``(12,)``) the chosen model."""
-        return self.models[self.index]
-
-    def angle_errors_deg(self, experiments: Sequence[Experiment]) -> np.ndarray:
-        """``(N, 3)`` each model's median error of its fitted angles over the experiments.
-
-        Degrees, flippers (left, right pectoral, caudal), as
-        :func:`eea.experiment.angle_errors_deg` (the short way round for the pectorals);
-        the experiments' true angles are an oracle the selection does not use.
-
-        Raises:
-            ValueError: if the experiments are not the E the angles were fitted on.
-        """
-        if len(experiments) != self.angles.shape[1]:
-            raise ValueError(f"the angles were fitted on {self.angles.shape[1]} experiments, got {len(experiments)}")
-        n, e = self.angles.shape[:2]
-        true = np.tile(np.stack([x.true_angles for x in experiments]), (n, 1))
-        return np.median(angle_errors_deg(self.angles.reshape(n * e, 3), true).reshape(n, e, 3), axis=1)
-
-
-def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator, rng: np.random.Generator, *,
-                 generations: int = 30, scan_cycles: int = 2, start=None, model_space=None) -> Selection:
-    """Fit every model's angles equally hard on the experiments; the highest MOD_FIT wins.
-
-    Args:
-        models: ``(N, 9)`` candidate morphologies (simulator units), N >= 1; a model given
-            twice is fitted once and scores the same. In the ``morphology+servos`` model space
-            ``(N, 12)``: the dimensions and the servo gains.
-        experiments: the pooled target experiments, E >= 1, all of one length.
-        evaluator: an :class:`eea.evaluation.Evaluator` of that length (its similarity is
-            the one scored: eq. 2 by default).
-        rng: draws the fit's random starts and perturbations.
-        generations: random-perturbation generations of :meth:`eea.profile.Profile.fit`, >= 1.
-        scan_cycles: cycles of the per-flipper angle scan before the compass polish, >= 0.
-        start: optional ``(N, E, 3)`` angles (rad) per model and experiment, tried beside the
-            fit's random starts (e.g. the angles a run already found for its model; a model
-            given twice starts from its first row's).
-        model_space: the models' :class:`~eea.encoding.ModelSpace` or its name (default: the
-            evaluator's).
-
-    Returns:
-        A :class:`Selection`.
-
-    Raises:
-        ValueError: if ``models`` is not ``(N, 9)`` (``(N, 12)``) with N >= 1, there are no experiments,
-            ``generations < 1``, ``scan_cycles < 0`` or ``start`` is not ``(N, E, 3)``.
-    """
-    space = get_model_space(model_space if model_space is not None else getattr(evaluator, "model_space", "morphology"))
-    models = np.asarray(models, dtype=np.float64)
-    if models.ndim != 2 or models.shape[1] != len(space.fields) or not len(models):
-        raise ValueError(f"models must be (N >= 1, {len(space.fields)}), got shape {models.shape}")
-    if not len(experiments):
-        raise ValueError("select_model needs at least one experiment")
-    if generations < 1:
-        raise ValueError(f"generations must be >= 1, got {generations}")
-    if scan_cycles < 0:
-        raise ValueError(f"scan_cycles must be >= 0, got {scan_cycles}")
-    if start is not None:
-        start = np.asarray(start, dtype=np.float64)
-        if start.shape != (len(models), len(experiments), 3):
-            raise ValueError(f"start must be (N, E, 3) = ({len(models)}, {len(experiments)}, 3), got {start.shape}")
-    genomes, first, inverse = np.unique(space.encode(models), axis=0, return_index=True, return_inverse=True)
-    inverse = inverse.ravel()
-    profile = Profile()
-    angles, _ = profile.fit(genomes, experiments, evaluator, rng, generations,
-                            start=None if start is None else start[first])
-    sims = evaluator.similarities(genomes, experiments, angles)
-    if scan_cycles:
-        profile.scan_angles(genomes, angles, sims, experiments, evaluator, scan_cycles)
-    profile.polish_angles(genomes, angles, sims, experiments, evaluator)
-    fitness = model_fitness_from_similarities(sims)[inverse]
-    return Selection(models, fitness, angles[inverse], int(np.argmax(fitness)))
 
 
 def select_runs(run_dirs: Sequence[str | os.PathLike], *, rounds: int | None = None, seed: int = 0,
@@ -145,11 +46,10 @@ def select_runs(run_dirs: Sequence[str | os.PathLike], *, rounds: int | None = N
     """:func:`select_model` over finished runs' final models and their pooled experiments.
 
     The experiments are rebuilt from each run's ``rounds.csv`` (:mod:`eea.replay`), so
-    ``docs/results`` is enough. The runs' similarity (``model_similarity``) is scored.
+    ``docs/results`` is enough.
 
     Args:
-        run_dirs: two or more run directories on the same damage, experiment length and
-            similarity.
+        run_dirs: two or more run directories on the same damage and experiment length.
         rounds: optional R: each run as it stood after round R (round R's model, the first R
             experiments; :func:`eea.replay.replay_run`). Two runs stopped at round 5 have
             performed as many target experiments as one run at round 10.
@@ -164,20 +64,20 @@ def select_runs(run_dirs: Sequence[str | os.PathLike], *, rounds: int | None = N
     Raises:
         ValueError: if fewer than two runs are given, a directory is not a run with a
             finished round (or fewer than ``rounds``), or the runs differ in damage, steps or
-            similarity.
+            model space.
     """
     if len(run_dirs) < 2:
         raise ValueError(f"an ensemble needs at least two runs, got {len(run_dirs)}")
     replays = [replay_run(d, rounds) for d in run_dirs]
     results = [r for r, _ in replays]
-    for field in ("damage", "steps", "model_similarity", "model_space"):
+    for field in ("damage", "steps", "model_space"):
         values = {getattr(r.config, field) for r in results}
         if len(values) > 1:
             raise ValueError(f"the runs differ in {field}: {sorted(map(str, values))}; an ensemble needs one target")
     experiments = [e for _, exps in replays for e in exps]
     models = np.stack([r.best_model for r in results])
     config = results[0].config
-    with Evaluator(config.steps, workers=workers, similarity_fn=SIMILARITIES[config.model_similarity],
+    with Evaluator(config.steps, workers=workers,
                    params=config.sim_params, model_space=config.model_space) as evaluator:
         selection = select_model(models, experiments, evaluator, np.random.default_rng(seed),
                                  generations=generations, scan_cycles=scan_cycles)
@@ -216,7 +116,7 @@ def select_study(runs: Sequence[RunResult], size: int, out_csv: str | os.PathLik
     """:func:`select_runs` on every ensemble of ``size`` consecutive seeds of one study.
 
     Args:
-        runs: one variant's runs, one per seed (:func:`eea.plot.find_runs`), finished or at
+        runs: one variant's runs, one per seed (:func:`eea.analysis.plot.find_runs`), finished or at
             least ``rounds`` rounds long.
         size: runs per ensemble (>= 2); the last ``len(runs) % size`` seeds are left out.
         out_csv: optional file of :data:`SELECTION_COLUMNS` rows, rewritten atomically after

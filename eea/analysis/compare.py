@@ -1,6 +1,6 @@
 """Compare EEA variants on the same seeds: the table of issue 14's evidence.
 
-:mod:`eea.plot` groups runs by (inference, duration), the paper's figure layout. Comparing
+:mod:`eea.analysis.plot` groups runs by (inference, duration), the paper's figure layout. Comparing
 *variants* (the same inference with another search, refinement or exploration setting)
 needs the runs paired by seed instead, a baseline that means "learned nothing" or "the
 paper's method", and the numbers a reader asks for first: the final OBJ_FIT (eq. 4) per
@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from aquafish_gym.files import save_figure
-from eea.plot import welch_p_value
+from eea.analysis.plot import welch_p_value
 from eea.record import RunResult
 
 __all__ = ["VariantSummary", "compare_variants", "comparison_table", "parse_variant", "plot_variants"]
@@ -112,7 +112,7 @@ def compare_variants(variants: dict[str, list[RunResult]], rounds: int | None = 
     """Summarise every variant's runs at the same round.
 
     Args:
-        variants: ``{label: runs}`` (e.g. :func:`eea.plot.find_runs` of one condition's
+        variants: ``{label: runs}`` (e.g. :func:`eea.analysis.plot.find_runs` of one condition's
             directory), in table order.
         rounds: the round R compared; None: the smallest ``config.rounds`` of all runs (the
             planned length). Runs that have not finished round R are left out and counted.
@@ -144,7 +144,7 @@ def comparison_table(summary: dict[str, VariantSummary], baseline: str | None = 
     """A Markdown table, one row per variant.
 
     Columns: variant; seeds; final OBJ_FIT mean ± std (ddof 0) and per seed; Welch's
-    two-sided p (:func:`eea.plot.welch_p_value`) against ``baseline`` on the seeds both ran
+    two-sided p (:func:`eea.analysis.plot.welch_p_value`) against ``baseline`` on the seeds both ran
     (their number in brackets; "-" for the baseline itself or when undefined); runs that
     reach the level, and their median first round; runs ending >= 0.95 (issue 14's goal);
     median angle error L / R / C (degrees); simulations per round.

@@ -63,7 +63,6 @@ from eea.checkpoint import STATE_FILE, load_state
 from eea.config import RESULT_NEUTRAL_FIELDS
 from eea.encoding import get_model_space
 from eea.fitness import model_fitness_from_similarities, objective_fitness
-from eea.behaviour import SIMILARITIES
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment, angle_errors_deg
 from eea.lineages import chosen_inference_state
@@ -193,7 +192,7 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
     truth = space.encode(true_dims[None])
     seen = _seen(state.evaluator, result.config.steps, true_dims, result.best_model, space)
     with Evaluator(result.config.steps, workers=workers, max_batch_robots=result.config.max_batch_robots,
-                   similarity_fn=SIMILARITIES[result.config.model_similarity], params=result.config.sim_params,
+                   params=result.config.sim_params,
                    model_space=space) as ev:
         def fit(genome, angles):
             return float(model_fitness_from_similarities(ev.similarities(genome, experiments, angles))[0])
