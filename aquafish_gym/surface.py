@@ -44,7 +44,7 @@ import numpy as np
 
 from aquafish_gym.hydrostatics import TINY, _sum0, hydrostatic_wrench, wetted_fraction
 from aquafish_gym.params import SimParams
-from aquafish_gym.robot import body_slices
+from aquafish_gym.robot import BODY_RADIUS, body_slices
 
 
 @dataclasses.dataclass(frozen=True)
@@ -63,6 +63,8 @@ class SurfaceSpec:
         strip_areas: ``(N, 2, 3)`` a strip's face areas normal to x, y, z (units^2).
         pectoral_half: ``(N, 2, 3)`` half of (span, strip length, thickness) (units).
         caudal_half: ``(N, 3)`` half of the caudal fin's size (units).
+        hinge_arm: ``(N, 2, 3)`` each pectoral's hinge from the body's centre of mass, body frame.
+        fin_com: ``(N, 2, 3)`` each pectoral's centre of mass from its hinge, flipper frame.
     """
 
     surface_z: np.ndarray
@@ -75,6 +77,8 @@ class SurfaceSpec:
     strip_areas: np.ndarray
     pectoral_half: np.ndarray
     caudal_half: np.ndarray
+    hinge_arm: np.ndarray
+    fin_com: np.ndarray
 
     @classmethod
     def build(cls, spec, params: SimParams, home_z: np.ndarray) -> "SurfaceSpec":
@@ -97,6 +101,9 @@ class SurfaceSpec:
             strip_areas=np.stack([seg * sz, sx * sz / strips, sx * seg], axis=-1),
             pectoral_half=np.stack([sx / 2, seg / 2, sz / 2], axis=-1),
             caudal_half=sizes[:, 2] / 2,
+            hinge_arm=np.broadcast_to(np.array([[-BODY_RADIUS, 0.0, params.ballast_offset],
+                                                [BODY_RADIUS, 0.0, params.ballast_offset]]), (n, 2, 3)).copy(),
+            fin_com=spec.com_offsets[:, 1:3].copy(),
         )
 
 
@@ -185,7 +192,12 @@ def surface_wrench(surface: SurfaceSpec, spec, params: SimParams, rotation, posi
         r = fins[:, k]
         world = [r[:, i, 0] * fin_force[0][:, k] + r[:, i, 1] * fin_force[1][:, k] + r[:, i, 2] * fin_force[2][:, k]
                  for i in range(3)]
-        arm = position[:, k + 1] - position[:, 0]
+        # the flipper's centre of mass from the body's, from rotations only (not from the
+        # world positions, whose rounding would depend on where the robot sits in the batch)
+        h, c = surface.hinge_arm[:, k], surface.fin_com[:, k]
+        arm = np.stack([(body[:, i, 0] * h[:, 0] + body[:, i, 1] * h[:, 1] + body[:, i, 2] * h[:, 2])
+                        + (r[:, i, 0] * c[:, 0] + r[:, i, 1] * c[:, 1] + r[:, i, 2] * c[:, 2]) for i in range(3)],
+                       axis=-1)
         moment = (arm[:, 1] * world[2] - arm[:, 2] * world[1], arm[:, 2] * world[0] - arm[:, 0] * world[2],
                   arm[:, 0] * world[1] - arm[:, 1] * world[0])
         couple = couple + np.stack([(r[:, i, 0] * tx[:, k] + r[:, i, 2] * tz[:, k]) + moment[i] for i in range(3)],

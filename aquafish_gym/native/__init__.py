@@ -43,7 +43,7 @@ __all__ = ["LIBRARY", "PYBULLET_RANGE", "NativeStep", "NativeUnavailable", "avai
 
 #: The plugin built by :mod:`aquafish_gym.native.build`.
 LIBRARY = Path(__file__).with_name("_aquafish_step.so")
-_VERSION = 3  # af_run's signature; the library must match
+_VERSION = 4  # af_run's signature; the library must match
 _POSTFIX = "_aquafish"
 
 _lib: ctypes.CDLL | None = None
@@ -237,7 +237,8 @@ class NativeStep:
         if world.surface is not None:  # the surface swimmer's constants (aquafish_gym.surface.SurfaceSpec)
             sf = world.surface
             robot = np.column_stack([sf.surface_z, sf.weight, sf.strip_areas.reshape(n, 6),
-                                     sf.pectoral_half.reshape(n, 6), sf.caudal_half])
+                                     sf.pectoral_half.reshape(n, 6), sf.caudal_half, sf.hinge_arm.reshape(n, 6),
+                                     sf.fin_com.reshape(n, 6)])
             self.surface = (np.ascontiguousarray(robot, dtype=np.float64),
                             np.ascontiguousarray(sf.strip_y, dtype=np.float64), sf.strip_y.shape[-1],
                             np.ascontiguousarray(sf.slices, dtype=np.float64), sf.slices.shape[1],

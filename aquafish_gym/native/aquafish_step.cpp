@@ -24,7 +24,7 @@
 
 #include "pybullet_abi.h" /* the project's own declarations of PyBullet's C ABI (no PyBullet headers needed) */
 
-#define AF_VERSION 3 /* bump whenever af_run's signature changes */
+#define AF_VERSION 4 /* bump whenever af_run's signature or its arrays' layout change */
 #define AF_API extern "C" __attribute__((visibility("default")))
 
 /* ---- PyBullet C API, resolved at run time --------------------------------------------- */
@@ -200,14 +200,15 @@ static double drag1(double drag_c, int quadratic, double area, double u)
 
 /* The constants of aquafish_gym.surface.SurfaceSpec, as NativeStep packs them. */
 struct af_surface {
-    const double* robot;   /* (n, AF_SURFACE_ROBOT): surface_z, weight, strip areas L/R (3+3), pectoral half L/R (3+3), caudal half (3) */
+    const double* robot;   /* (n, AF_SURFACE_ROBOT): surface_z, weight, strip areas L/R (3+3), pectoral half L/R (3+3),
+                              caudal half (3), hinge arm L/R (3+3), fin centre of mass L/R (3+3) */
     const double* strip_y; /* (n, 2, n_strips) */
     int n_strips;
     const double* slices;  /* (4, n_slices): y, rho, w, w*y */
     int n_slices;
     double pi_weight, rho_g, ballast;
 };
-#define AF_SURFACE_ROBOT 17
+#define AF_SURFACE_ROBOT 29
 
 /* surface.surface_wrench for robot i: force[4][3] (link frames), torque[3] (body frame). */
 static void surface_wrench(const struct af_surface* sf, int i, double rot[4][3][3], const double* pos,
@@ -286,8 +287,10 @@ static void surface_wrench(const struct af_surface* sf, int i, double rot[4][3][
         }
         double fw[3];
         for (int k = 0; k < 3; ++k) fw[k] = r[k][0] * fx + r[k][1] * fy + r[k][2] * fz;
-        const double* pf = pos + 3 * (f + 1);
-        double arm[3] = {pf[0] - pos[0], pf[1] - pos[1], pf[2] - pos[2]};
+        const double *h = rb + 17 + 3 * f, *c = rb + 23 + 3 * f; /* hinge_arm, fin_com */
+        double arm[3];
+        for (int k = 0; k < 3; ++k)
+            arm[k] = (r0[k][0] * h[0] + r0[k][1] * h[1] + r0[k][2] * h[2]) + (r[k][0] * c[0] + r[k][1] * c[1] + r[k][2] * c[2]);
         double mom[3] = {arm[1] * fw[2] - arm[2] * fw[1], arm[2] * fw[0] - arm[0] * fw[2],
                          arm[0] * fw[1] - arm[1] * fw[0]};
         for (int k = 0; k < 3; ++k) {

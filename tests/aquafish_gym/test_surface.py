@@ -276,3 +276,17 @@ def test_tilted_submerged_volume_and_centre_match_a_fine_slicing():
         v_ref, m_ref, _ = submerged_slices(rot, np.float64(0.0), h, *fine)
         assert v == pytest.approx(v_ref, rel=1.5e-4)
         np.testing.assert_allclose(m / v, m_ref / v_ref, atol=1.5e-4)
+
+
+@pytest.mark.parametrize("native", [False, None])
+def test_a_robots_log_does_not_depend_on_its_place_in_the_batch(native):
+    # bit for bit: nothing of the surface model may read the robots' world positions but their height
+    from aquafish_gym import simulate_batch
+
+    damaged = get_damage("left_pectoral_half").apply().to_array()
+    alone = simulate_batch(damaged, [[-0.5, 0.3, 1.0]], [[1.0, 2.0, 0.2]], 64, native=native)
+    morph = np.tile(HEALTHY, (13, 1))
+    morph[12] = damaged                                           # the 13th robot: another row and column
+    actions, angles = np.tile([0.4, -0.5, 0.5], (13, 1)), np.zeros((13, 3))
+    actions[12], angles[12] = [-0.5, 0.3, 1.0], [1.0, 2.0, 0.2]
+    np.testing.assert_array_equal(simulate_batch(morph, actions, angles, 64, native=native)[12], alone[0])
