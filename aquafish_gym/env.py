@@ -6,6 +6,7 @@ the manner of Gymnasium's MuJoCo ``swimmer_v5``.
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import sys
@@ -21,6 +22,8 @@ from aquafish_gym.damage import DAMAGES, ServoFaults, get_damage
 from aquafish_gym.morphology import Morphology
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.simulator import ACTION_BOUNDS, BatchWorld
+
+logger = logging.getLogger(__name__)
 
 OBS_VELOCITY_LIMIT = 100.0  #: bound of the velocity entries of the observation (rad/s, units/s)
 
@@ -69,6 +72,22 @@ def display_available() -> bool:
     if sys.platform in ("darwin", "win32"):
         return True
     return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+_said_no_display = False
+
+
+def _gui_possible() -> bool:
+    """Whether ``render_mode="human"`` can open PyBullet's GUI; without a display, log (once per
+    process) that the env runs headless instead."""
+    global _said_no_display
+    if display_available():
+        return True
+    if not _said_no_display:
+        _said_no_display = True
+        logger.warning('render_mode="human": no display (DISPLAY and WAYLAND_DISPLAY are unset), so PyBullet\'s GUI '
+                       'is not opened and the env runs headless; use render_mode="rgb_array" for frames')
+    return False
 
 
 def _as_morphology(morphology) -> Morphology:
@@ -139,7 +158,7 @@ class AquaFishEnv(gym.Env):
     | `frame_skip`         | 10                  | 0.01 s physics steps per control step         |
     | `episode_duration_s` | 20.0                | simulated seconds per episode                 |
     | `ctrl_cost_weight`   | 0.0                 | weight of the control cost                    |
-    | `render_mode`        | None                | `"rgb_array"` (headless TinyRenderer) or `"human"` (PyBullet's GUI window; needs a display, else a clear `RuntimeError` at construction) |
+    | `render_mode`        | None                | `"rgb_array"` (headless TinyRenderer) or `"human"` (PyBullet's GUI window where a display exists; headless, with a logged warning, where none does) |
     | `width`, `height`    | 320, 240            | frame size (pixels)                           |
     | `camera`             | `"follow"`          | `render()`'s camera: `"follow"` (behind, above) or `"top"` (from above, heading up) |
     | `camera_distance`    | 4.0                 | camera distance from the robot (units)        |
@@ -149,6 +168,9 @@ class AquaFishEnv(gym.Env):
         ValueError: an unknown keyword, or a value out of range (named in the message).
     """
 
+    #: ``"human"`` opens PyBullet's GUI where a display exists (:func:`display_available`);
+    #: without one the env runs headless and says so once per process (a logged warning, not a
+    #: Python warning, so Gymnasium's strict ``check_env`` passes on headless machines too).
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
 
     def __init__(
@@ -180,11 +202,8 @@ class AquaFishEnv(gym.Env):
         check_int(f"frame_skip (physics steps of {DT_S} s)", frame_skip, 1)
         if not (isinstance(episode_duration_s, (int, float)) and math.isfinite(episode_duration_s) and episode_duration_s > 0):
             raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}")
-        if render_mode == "human" and not display_available():
-            raise RuntimeError('render_mode="human" opens PyBullet\'s GUI window, but there is no display (DISPLAY and '
-                               'WAYLAND_DISPLAY are unset); use render_mode="rgb_array" for frames without one')
+        if render_mode is not None and render_mode not in ("human", "rgb_array"):
+            raise ValueError(f"render_mode must be None, 'human' or 'rgb_array', got {render_mode!r}")
         if camera not in CAMERAS:
             raise ValueError(f"camera must be one of {CAMERAS}, got {camera!r}")
         if not (isinstance(camera_distance, (int, float)) and math.isfinite(camera_distance) and camera_distance > 0):
@@ -305,7 +324,7 @@ class AquaFishEnv(gym.Env):
         self._initial_angles = np.asarray(angles, dtype=np.float64)
         params = self._reset_task(options)
         if self._world is None:
-            client = p.connect(p.GUI) if self.render_mode == "human" else None
+            client = p.connect(p.GUI) if self.render_mode == "human" and _gui_possible() else None
             self._world = BatchWorld(self.morphology.to_array()[None], params, self.faults,
                                      visual=self.render_mode is not None, client=client)
             self._world._owns_client = True
