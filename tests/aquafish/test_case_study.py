@@ -107,3 +107,20 @@ def test_verdict_names_the_rows_that_recover():
     none = verdict(_controllers(healthy=1.0, plain_eea=2.0, self_model=2.5, true_damaged=4.0))
     assert none["recovering"] == [] and none["robust_recovers"] is None and none["robust_share"] is None
     assert none["line"].endswith("the healthy gait): none.") and "damage-robust" not in none["line"]
+
+
+def test_damage_recovery_example_runs_the_case_study_through_the_api(tmp_path, capsys):
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "damage_recovery.py"
+    assert len(path.read_text().splitlines()) < 60
+    spec = importlib.util.spec_from_file_location("damage_recovery", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.main(["--preset", "smoke", "--episode-duration", "1", "--workers", "1", "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert all(f"{key}:" in out for key in ("healthy", "robust", "plain_eea", "self_model", "true_damaged"))
+    assert "Rows that recover" in out or "nothing to recover" in out
+    assert json.loads((tmp_path / "gait_self_model_1s" / "run.json").read_text())["robot"]["faults"]
+    assert any(p.stat().st_size > 1000 for p in tmp_path.glob("recovery.*"))
