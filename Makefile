@@ -17,7 +17,7 @@ $(BIN)/python:
 # Re-run when the C++ changes too: the editable install rebuilds the step in place.
 $(STAMP): $(BIN)/python pyproject.toml $(NATIVE_SOURCES)
 	$(BIN)/python -m pip install --quiet "torch==2.13.0"
-	$(BIN)/python -m pip install --quiet -e ".[test,rl,cluster]"
+	$(BIN)/python -m pip install --quiet -e ".[test,rl,cluster,video]"
 	touch $(STAMP)
 
 install: $(STAMP)

@@ -1,18 +1,27 @@
 """The damage-recovery case study (paper section 5, Figures 11 and 12).
 
 1. The target is the healthy robot with a named damage.
-2. It self-models with the EEA: ``none`` (plain EEA) and the self-model's inference
-   (default ``out_of_band``, the paper's; when another is chosen, ``out_of_band`` runs too
-   and stays a row).
-3. NEAT gaits are evolved for the healthy morphology, every EEA model, and the true
-   damaged robot (the oracle: what recovery could reach at best); with the ``[rl]`` extra,
-   PPO is also trained on the self-model.
+2. It self-models with the EEA: ``none`` (plain EEA, the paper's ``morphology`` model space)
+   and the self-model (``self_model``: inference default ``out_of_band``, model space default
+   ``morphology+servos``, so the model also holds a gain per servo). Unless the self-model is
+   the paper's (``out_of_band`` in ``morphology``), the paper's ``out_of_band`` run in
+   ``morphology`` runs too and stays a row.
+3. NEAT gaits are evolved for the healthy morphology, every EEA model (a
+   ``morphology+servos`` model's gains become its robot's
+   ``ServoFaults(speed_scale=gains)``: the gait is evolved on the model with its servos as
+   modelled), the true damaged robot (the oracle: what recovery could reach at best) and,
+   with the same budget, the healthy robot with a damage preset drawn per episode
+   (``robust``, ``damage="random"``: a damage-robust policy, which needs no self-model); with
+   the ``[rl]`` extra, PPO is also trained on the self-model.
 4. Each controller swims on its native robot and on the damaged target, from the same
-   starts.
-5. ``report.md`` / ``report.json`` and the figures are written to the output directory.
-   The controllers have stable keys (:data:`CONTROLLER_KEYS`), and :func:`verdict` says
-   whether the damage breaks the healthy gait and how much of the oracle the self-model
-   gait recovers.
+   starts, for ``episode_duration_s`` simulated seconds (gait evolution too; 20 s, the
+   paper's, by default; the surface swimmer's veering costs distance over 60 s).
+5. ``report.md`` / ``report.json``, the figures and ``recovery.mp4`` (a video of the damaged
+   robot under the healthy, self-model and oracle gaits from above, trajectories traced;
+   ``recovery.gif`` without imageio's ffmpeg plugin, :mod:`gait.video`) are written to the
+   output directory. The controllers have stable keys (:data:`CONTROLLER_KEYS`), and
+   :func:`verdict` says whether the damage breaks the healthy gait, how much of the oracle
+   the self-model gait recovers, and which rows recover.
 
 Every step writes into its own sub-directory and is skipped when its result exists, so an
 interrupted case study resumes where it stopped.
@@ -30,12 +39,21 @@ import numpy as np
 
 import eea
 import gait
-from aquafish_gym import MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology, get_damage
+from aquafish_gym import MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology, ServoFaults, get_damage
 from aquafish_gym.drawing import plot_morphologies
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import check_output_dir, run_lock
-from eea.config import EEAConfig
+from eea import EEAConfig
+from gait.robots import RANDOM_DAMAGE, Robot
+from gait.video import record_video
+
+#: The paper's model space (the plain-EEA and out-of-band rows) and the self-model's default.
+PAPER_MODEL_SPACE, DEFAULT_MODEL_SPACE = "morphology", "morphology+servos"
+#: The servo gains a ``morphology+servos`` model holds, in order (``ServoFaults.speed_scale``).
+GAIN_NAMES = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")
+#: The gaits shown in the recovery video (on the damaged robot), with their panel titles.
+VIDEO_GAITS = {"healthy": "healthy gait", "self_model": "self-model gait", "true_damaged": "oracle gait"}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -50,6 +68,8 @@ class CaseStudyPreset:
         transfer_episodes: paired starts per transfer score (native and target); the
             report gives mean distances.
         rl_timesteps: PPO training steps (0 disables the RL baseline).
+        episode_duration_s: simulated seconds of every gait-evolution and transfer episode
+            (20 s, the paper's; ``run_case_study(episode_duration_s=...)`` overrides it).
     """
 
     eea: dict
@@ -58,6 +78,7 @@ class CaseStudyPreset:
     rl_timesteps: int
     gait_episodes: int = 1
     transfer_episodes: int = 1
+    episode_duration_s: float = 20.0
 
 
 #: ``report.json`` keys of the controllers: gait evolved on ... (``ppo``: PPO on the self-model).
@@ -67,6 +88,7 @@ CONTROLLER_KEYS: dict[str, str] = {
     "self_model": "the self-model",
     "out_of_band": "the out-of-band model (paper)",
     "true_damaged": "the true damaged robot (oracle)",
+    "robust": "random damages (damage-robust)",
     "ppo": "PPO on the self-model",
 }
 #: Goals of the verdict: the healthy gait keeps at most this share of the oracle on the
@@ -105,7 +127,8 @@ def _rl_available() -> bool:
 
 
 def run_case_study(preset: str, damage: str, seed: int, out_dir, *, inference: str = "out_of_band",
-                   workers: int | None = None, progress: bool = True) -> dict:
+                   model_space: str = DEFAULT_MODEL_SPACE, episode_duration_s: float | None = None,
+                   video: bool = True, workers: int | None = None, progress: bool = True) -> dict:
     """Run the case study and write its report; return the report as a dict.
 
     Args:
@@ -114,64 +137,127 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, inference: s
         seed: seeds every EEA run, gait evolution and RL run.
         out_dir: output directory (created; finished steps found there are reused).
         inference: the self-model's inference strategy (:data:`eea.INFERENCE_NAMES`).
+        model_space: the self-model's model space (``eea.MODEL_SPACES``): ``"morphology+servos"``
+            (default: the nine dimensions and a gain per servo, which reach its gait's robot as
+            ``ServoFaults(speed_scale=gains)``) or ``"morphology"`` (the paper's). The plain-EEA
+            and out-of-band rows always use ``"morphology"``.
+        episode_duration_s: simulated seconds of every gait-evolution, transfer and video
+            episode (default: the preset's, 20 s). Runs of another length go to their own
+            ``gait_<key>_<N>s`` directories, so both lengths can share ``out_dir``.
+        video: write the recovery video (``recovery.mp4``, or ``.gif`` without imageio-ffmpeg).
         workers: processes for evaluation (default: all cores).
         progress: show progress bars.
 
     Raises:
-        ValueError: unknown preset, damage or inference, a bad seed or worker count, or an
-            ``out_dir`` that cannot be written (all checked before anything is created); an
-            ``out_dir`` that another process is writing (:class:`~aquafish_gym.rundir.BusyError`)
-            or whose steps were made with other settings (:class:`~aquafish_gym.rundir.MismatchError`,
-            naming the fields).
+        ValueError: unknown preset, damage, inference or model space, a bad seed, duration or
+            worker count, or an ``out_dir`` that cannot be written (all checked before anything
+            is created); an ``out_dir`` that another process is writing
+            (:class:`~aquafish_gym.rundir.BusyError`) or whose steps were made with other
+            settings (:class:`~aquafish_gym.rundir.MismatchError`, naming the fields).
     """
     if preset not in PRESETS:
         raise ValueError(f"unknown preset {preset!r}; valid: {sorted(PRESETS)}")
     settings = PRESETS[preset]
+    if episode_duration_s is not None:
+        if isinstance(episode_duration_s, bool) or not isinstance(episode_duration_s, (int, float)) \
+                or not (np.isfinite(episode_duration_s) and episode_duration_s > 0):
+            raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
+        settings = dataclasses.replace(settings, episode_duration_s=float(episode_duration_s))
     target = get_damage(damage).apply()
     check_int("seed", seed, 0)
     if workers is not None:
         check_int("workers", workers, 1)
-    runs = {"plain_eea": "none", "self_model": inference}
-    if inference != "out_of_band":
-        runs["out_of_band"] = "out_of_band"
-    configs = {key: EEAConfig(inference=strategy, damage=damage, seed=seed, **settings.eea,
-                              **({"workers": workers} if workers else {})) for key, strategy in runs.items()}
+    runs = {"plain_eea": ("none", PAPER_MODEL_SPACE), "self_model": (inference, model_space)}
+    if (inference, model_space) != ("out_of_band", PAPER_MODEL_SPACE):
+        runs["out_of_band"] = ("out_of_band", PAPER_MODEL_SPACE)
+    configs = {key: EEAConfig(inference=strategy, damage=damage, seed=seed, model_space=space, **settings.eea,
+                              **({"workers": workers} if workers else {})) for key, (strategy, space) in runs.items()}
     out = check_output_dir(out_dir)
     with run_lock(out):
-        return _run_locked(preset, settings, damage, target, seed, out, inference, workers, progress, runs, configs)
+        return _run_locked(preset, settings, damage, target, seed, out, inference, model_space, video, workers,
+                           progress, runs, configs)
+
+
+def _eea_dir(strategy: str, space: str) -> str:
+    """``eea_<inference>`` in the paper's model space, ``eea_<inference>_servos`` in ``morphology+servos``."""
+    return f"eea_{strategy}" if space == PAPER_MODEL_SPACE else f"eea_{strategy}_{space.removeprefix('morphology+')}"
+
+
+def _gait_dir(key: str, duration_s: float) -> str:
+    """``gait_<key>`` for the paper's 20 s episodes, ``gait_<key>_<N>s`` for others."""
+    return f"gait_{key}" if duration_s == 20.0 else f"gait_{key}_{duration_s:g}s"
+
+
+def model_robot(result, label: str) -> Robot:
+    """The robot a self-model describes: its morphology, and in ``morphology+servos`` its servo
+    gains as ``ServoFaults(speed_scale=gains)`` (so a gait evolved on it meets the modelled
+    servos, e.g. a reversed pectoral as gain -1).
+
+    Args:
+        result: an EEA run's :class:`eea.RunResult` (``eea.load_result``).
+        label: the robot's label.
+    """
+    gains = _model_gains(result)
+    faults = None if gains is None else ServoFaults(speed_scale=tuple(gains))
+    return Robot(result.best_morphology, "none", label, faults)
+
+
+def _model_gains(result) -> list[float] | None:
+    """The final best model's servo gains of a ``morphology+servos`` run (None in ``morphology``)."""
+    model = np.asarray(result.best_model, dtype=float)
+    return None if model.size == len(MORPHOLOGY_FIELDS) else model[len(MORPHOLOGY_FIELDS):].tolist()
+
+
+def _true_gains(damage: str) -> list[float]:
+    """The damaged target's servo gains: ``speed_scale``, 0 where a servo is seized."""
+    faults = get_damage(damage).faults
+    return [0.0 if seized else float(g) for seized, g in zip(faults.seized, faults.speed_scale)]
 
 
 def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int, out: Path,
-                inference: str, workers: int | None, progress: bool, runs: dict, configs: dict) -> dict:
+                inference: str, model_space: str, video: bool, workers: int | None, progress: bool, runs: dict,
+                configs: dict) -> dict:
     """The body of :func:`run_case_study`, under the lock of ``out``."""
     t0 = time.perf_counter()
+    duration = settings.episode_duration_s
 
     # 2. self-model
     eea_results = {}
-    for key, strategy in runs.items():
-        run_dir = out / f"eea_{strategy}"
+    for key, (strategy, space) in runs.items():
+        run_dir = out / _eea_dir(strategy, space)
         eea.run(configs[key], run_dir, progress=progress)
         eea_results[key] = eea.load_result(run_dir)
     models = {key: result.best_morphology for key, result in eea_results.items()}
 
-    # 3. gaits: native robots are morphologies, the oracle's is the damaged robot (faults included)
-    natives = {"healthy": Morphology.healthy(), **models, "true_damaged": gait.as_robot(damage)}
+    # 3. gaits: native robots are the models (with their servo gains), the oracle's is the damaged
+    # robot (faults included), the robust gait's the healthy robot with a damage drawn per episode
+    natives = {"healthy": Robot(Morphology.healthy(), "none", "healthy"),
+               **{key: model_robot(result, key) for key, result in eea_results.items()},
+               "true_damaged": gait.as_robot(damage),
+               "robust": Robot(Morphology.healthy(), RANDOM_DAMAGE, "random damage")}
     controllers = {}
     for key, native in natives.items():
         controllers[key] = gait.evolve_or_load_gait(  # a finished gait is reused, an interrupted one resumed
-            native, out / f"gait_{key}", generations=settings.gait_generations,
+            native, out / _gait_dir(key, duration), generations=settings.gait_generations,
             population_size=settings.gait_population, seed=seed, workers=workers,
-            episodes_per_genome=settings.gait_episodes, progress=progress)
+            episodes_per_genome=settings.gait_episodes, episode_duration_s=duration, progress=progress)
     if settings.rl_timesteps and _rl_available():
-        path = gait.train_or_load_rl("ppo", models["self_model"], settings.rl_timesteps, seed, out / "rl_ppo_self_model",
-                                     progress=progress)
+        rl_dir = "rl_ppo_self_model" if duration == 20.0 else f"rl_ppo_self_model_{duration:g}s"
+        path = gait.train_or_load_rl("ppo", natives["self_model"], settings.rl_timesteps, seed, out / rl_dir,
+                                     episode_duration_s=duration, progress=progress)
         controllers["ppo"] = gait.load_controller(path)
-        natives["ppo"] = models["self_model"]
+        natives["ppo"] = natives["self_model"]
 
     # 4. transfer to the damaged target
     target_robot = gait.as_robot(damage)
     transfers = {key: gait.score_transfer(controllers[key], natives[key], target_robot, seed=seed,
-                                          episodes=settings.transfer_episodes) for key in controllers}
+                                          episodes=settings.transfer_episodes, episode_duration_s=duration)
+                 for key in controllers}
+    video_name = None
+    if video:
+        video_name = record_video({title: controllers[key] for key, title in VIDEO_GAITS.items()}, target_robot,
+                                  out / "recovery", seed=seed, episode_duration_s=duration,
+                                  title=f"{damage}: the damaged robot from above, {duration:g} s").name
 
     # 5. report
     panels = [(target, f"(a) target: {damage}")] + [
@@ -189,13 +275,17 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         for key, t in transfers.items()
     }
     report = {
-        "preset": preset, "damage": damage, "seed": seed, "inference": inference,
+        "preset": preset, "damage": damage, "seed": seed, "inference": inference, "model_space": model_space,
+        "episode_duration_s": duration,
         "settings": dataclasses.asdict(settings),
         "target_morphology": _dims(target),
+        "target_servo_gains": dict(zip(GAIN_NAMES, _true_gains(damage))),
         "models": {
             key: {
-                "inference": runs[key],
+                "inference": runs[key][0],
+                "model_space": runs[key][1],
                 "morphology": _dims(models[key]),
+                "servo_gains": None if _model_gains(result) is None else dict(zip(GAIN_NAMES, _model_gains(result))),
                 "objective_fitness": float(result.rounds[-1]["objective_fitness"]),
                 "initial_angle_error_deg": dict(zip(("left", "right", "caudal"),
                                                     result.inference_error_deg[-1].round(2).tolist())),
@@ -206,6 +296,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         "controllers": controllers_report,
         "verdict": verdict(controllers_report),
         "figures": figures,
+        "video": video_name,
         "wall_seconds": time.perf_counter() - t0,
     }
     atomic_write(out / "report.json", json.dumps(report, indent=2).encode())
@@ -214,31 +305,43 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
 
 
 def verdict(controllers: dict) -> dict:
-    """Does the damage break the healthy gait, and how much of it does the self-model gait recover?
+    """Does the damage break the healthy gait, how much of it does the self-model gait recover,
+    and which rows recover?
 
     From the mean distances on the damaged target (``target_distance``) of the
-    ``healthy``, ``plain_eea``, ``self_model`` and ``true_damaged`` (oracle) controllers.
+    ``healthy``, ``plain_eea``, ``self_model`` and ``true_damaged`` (oracle) controllers, and
+    of the other rows present (``out_of_band``, ``robust``, ``ppo``).
 
     Returns:
         ``breaks`` (the oracle swims forward and the healthy gait keeps at most
-        :data:`BREAKS_SHARE` of it), ``self_model_share`` and ``plain_eea_share`` (share
-        of the oracle's distance; None when the oracle does not swim forward),
-        ``recovers`` (share >= :data:`RECOVERS_SHARE` and at least
-        :data:`RECOVERS_OVER_HEALTHY` times the healthy gait), ``plain_eea_below``
-        (the plain-EEA gait does worse than the self-model gait) and ``line``, one
-        sentence for the report.
+        :data:`BREAKS_SHARE` of it), ``self_model_share``, ``plain_eea_share``,
+        ``healthy_share`` and, when present, ``robust_share`` (share of the oracle's
+        distance; None when the oracle does not swim forward), ``recovers`` (the self-model
+        gait: share >= :data:`RECOVERS_SHARE` and at least :data:`RECOVERS_OVER_HEALTHY`
+        times the healthy gait), ``plain_eea_below`` (the plain-EEA gait does worse than the
+        self-model gait), ``robust_recovers`` (the same test for the ``robust`` row; None
+        without it), ``recovering`` (every row but the oracle and the healthy gait that
+        passes the test, in row order) and ``line``, a few sentences for the report.
 
     Raises:
-        KeyError: a controller is missing.
+        KeyError: a required controller is missing.
     """
-    d = {key: float(controllers[key]["target_distance"]) for key in ("healthy", "plain_eea", "self_model", "true_damaged")}
+    d = {key: float(c["target_distance"]) for key, c in controllers.items()}
+    for key in ("healthy", "plain_eea", "self_model", "true_damaged"):
+        d[key]  # noqa: B018  (a missing required row raises KeyError)
     oracle = d["true_damaged"]
     swims = oracle > 0
-    share = {key: d[key] / oracle if swims else None for key in ("healthy", "plain_eea", "self_model")}
+    share = {key: d[key] / oracle if swims else None for key in d if key != "true_damaged"}
+
+    def recovers_(key: str) -> bool:
+        return bool(swims and share[key] >= RECOVERS_SHARE and d[key] >= RECOVERS_OVER_HEALTHY * d["healthy"]
+                    and d[key] > d["healthy"])
+
     breaks = swims and share["healthy"] <= BREAKS_SHARE
-    recovers = swims and share["self_model"] >= RECOVERS_SHARE and d["self_model"] >= RECOVERS_OVER_HEALTHY * d["healthy"] \
-        and d["self_model"] > d["healthy"]
+    recovering = [key for key in d if key not in ("healthy", "true_damaged") and recovers_(key)]
+    recovers = "self_model" in recovering
     plain_below = d["plain_eea"] < d["self_model"]
+    robust = "robust" in d
     if not swims:
         line = (f"The oracle gait does not swim forward on the damaged robot ({oracle:.2f} units): "
                 "there is nothing to recover.")
@@ -249,9 +352,15 @@ def verdict(controllers: dict) -> dict:
                 f"{share['self_model']:.0%} of the oracle, {_times(d['self_model'], d['healthy'])} the healthy gait; "
                 f"the plain-EEA gait reaches {share['plain_eea']:.0%} "
                 f"({'less than' if plain_below else 'at least as much as'} the self-model gait).")
+        if robust:
+            line += (f" The damage-robust gait reaches {share['robust']:.0%} of the oracle, "
+                     f"{_times(d['robust'], d['healthy'])} the healthy gait.")
+        line += (" Rows that recover (at least " f"{RECOVERS_SHARE:.0%} of the oracle and {RECOVERS_OVER_HEALTHY:g}x "
+                 "the healthy gait): " + (", ".join(f"`{k}`" for k in recovering) if recovering else "none") + ".")
     return {"breaks": bool(breaks), "recovers": bool(recovers), "plain_eea_below": bool(plain_below),
             "self_model_share": share["self_model"], "plain_eea_share": share["plain_eea"],
-            "healthy_share": share["healthy"], "line": line}
+            "healthy_share": share["healthy"], "robust_share": share.get("robust"),
+            "robust_recovers": recovers_("robust") if robust else None, "recovering": recovering, "line": line}
 
 
 def _times(a: float, b: float) -> str:
@@ -270,25 +379,43 @@ def render_report(report: dict) -> str:
     m = report["models"]
     keys = list(m)
     lines += ["| dimension | range | target | " + " | ".join(f"{CONTROLLER_KEYS[k].removeprefix('the ')} "
-                                                           f"(inference `{m[k]['inference']}`)" for k in keys) + " |",
+                                                           f"(inference `{m[k]['inference']}`, "
+                                                           f"`{m[k].get('model_space', PAPER_MODEL_SPACE)}`)"
+                                                           for k in keys) + " |",
               "|---|---|---|" + "---|" * len(keys)]
     for name, (lo, hi) in zip(MORPHOLOGY_FIELDS, MORPHOLOGY_BOUNDS):
         lines.append(f"| {name} | [{lo:g}, {hi:g}] | {report['target_morphology'][name]:.3f} | "
                      + " | ".join(f"{m[k]['morphology'][name]:.3f}" for k in keys) + " |")
     lines.append("| **objective fitness** (eq. 4) | | 1.000 | " + " | ".join(f"{m[k]['objective_fitness']:.3f}" for k in keys) + " |")
     lines.append("| target experiments used | | | " + " | ".join(str(m[k]["target_experiments"]) for k in keys) + " |")
+    if any(m[k].get("servo_gains") for k in keys):
+        target_gains = report.get("target_servo_gains") or {}
+        for name in GAIN_NAMES:
+            lines.append(f"| {name.replace('_', ' ')} (servo) | [{0 if name == 'caudal_gain' else -1}, 1] | "
+                         f"{target_gains.get(name, float('nan')):.3f} | " + " | ".join(
+                             f"{m[k]['servo_gains'][name]:.3f}" if m[k].get("servo_gains") else "(not modelled)"
+                             for k in keys) + " |")
     errors = [m[k]["initial_angle_error_deg"] for k in keys]
     if any(errors):
         lines.append("| initial-angle error, last experiment (deg: left, right, caudal) | | | " + " | ".join(
             f"{e['left']:.1f}, {e['right']:.1f}, {e['caudal']:.1f}" if e else "(not inferred)" for e in errors) + " |")
     lines += ["", "## Gait transfer (paper Figure 12)", "", "![trajectories](" + report["figures"]["trajectories"] + ")", ""]
     episodes = report["settings"]["transfer_episodes"]
-    lines += [f"Forward distance in 20 s along the initial heading (units; 1 unit = 8 cm): mean over {episodes} "
+    duration = report.get("episode_duration_s", 20.0)
+    lines += [f"Forward distance in {duration:g} s along the initial heading (units; 1 unit = 8 cm): mean over {episodes} "
               f"starts (initial flipper angles of seeds {report['seed']}..{report['seed'] + episodes - 1}, the same "
               "on both robots), with the range over starts; the figure shows the first start.", ""]
     lines += ["| gait evolved on (`report.json` key) | on its native robot | on the damaged target |", "|---|---|---|"]
     for key, c in report["controllers"].items():
         cells = [f"{np.mean(d):.2f} ({min(d):.2f} to {max(d):.2f})" for d in (c["native_distances"], c["target_distances"])]
         lines.append(f"| {CONTROLLER_KEYS[key]} (`{key}`) | {cells[0]} | {cells[1]} |")
+    if "robust" in report["controllers"]:
+        lines += ["", "The damage-robust gait (`robust`) is a NEAT gait evolved with the same budget as every other "
+                  "gait (population, generations, starts per genome) on the healthy robot with a damage preset drawn "
+                  "per start (`damage=\"random\"`, every preset including `none` and the target's damage); with K "
+                  "starts per genome it meets at most K presets (drawn by the starts' seeds), the same ones for every genome."]
+    if report.get("video"):
+        lines += ["", f"Video: [{report['video']}]({report['video']}), the damaged robot from above under the healthy, "
+                  "self-model and oracle gaits (first start), trajectories traced."]
     lines += ["", f"Wall time: {report['wall_seconds'] / 60:.1f} min.", ""]
     return "\n".join(lines)

@@ -6,10 +6,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from aquafish_gym.argtypes import csv_list, int_at_least
+from aquafish_gym.argtypes import csv_list, int_at_least, positive_float
 from aquafish_gym.rundir import check_output_dir, check_output_file, run_lock
 from eea.cli import add_config_flags, config_fields, config_flag_names
-from eea.config import INFERENCE_NAMES, EEAConfig
+from eea import INFERENCE_NAMES, MODEL_SPACES, EEAConfig
+
 
 #: EEA settings that are no flags of ``aquafish study``: the study sets them per run
 #: (``--conditions``, ``--durations``, ``--replicates``, ``--first-seed`` give inference, duration
@@ -24,9 +25,11 @@ def _case_study(args: argparse.Namespace) -> int:
 
     check_output_dir(args.out)
     report = run_case_study(args.preset, args.damage, args.seed, args.out, inference=args.inference,
-                            workers=args.workers)
+                            model_space=args.model_space, episode_duration_s=args.episode_duration,
+                            video=args.video, workers=args.workers)
     print((Path(args.out) / "report.md").read_text())
-    print(f"wrote {Path(args.out) / 'report.md'} and report.json ({report['wall_seconds'] / 60:.1f} min)")
+    video = f", {report['video']}" if report.get("video") else ""
+    print(f"wrote {Path(args.out) / 'report.md'}, report.json{video} ({report['wall_seconds'] / 60:.1f} min)")
     return 0
 
 
@@ -158,8 +161,19 @@ def add_commands(sub) -> None:
     c.add_argument("--preset", default="quick", choices=["smoke", "quick", "medium", "paper"],
                    help="smoke (a pipeline check), quick (~15 min on 2 cores), medium (~1 h) or the paper's settings")
     c.add_argument("--inference", default="out_of_band", choices=INFERENCE_NAMES,
-                   help="the self-model's inference strategy (default out_of_band, the paper's; "
-                        "another one adds out_of_band as a row)")
+                   help="the self-model's inference strategy (default out_of_band, the paper's); unless the "
+                        "self-model is out_of_band in morphology, the paper's out_of_band run in morphology is a "
+                        "row too")
+    c.add_argument("--model-space", default="morphology+servos", choices=list(MODEL_SPACES),
+                   help="the self-model's model space (default morphology+servos: the nine flipper dimensions and a "
+                        "gain per servo, which the self-model gait's robot gets as servo faults); the plain-EEA and "
+                        "out-of-band rows keep the paper's morphology")
+    c.add_argument("--episode-duration", type=positive_float, default=None, metavar="SECONDS",
+                   help="simulated seconds of every gait-evolution, transfer and video episode (default: the "
+                        "preset's, 20 s as in the paper; over 60 s a veering gait loses distance)")
+    c.add_argument("--video", action=argparse.BooleanOptionalAction, default=True,
+                   help="write recovery.mp4 (recovery.gif without imageio-ffmpeg): the damaged robot from above "
+                        "under the healthy, self-model and oracle gaits (default: on)")
     c.add_argument("--damage", default="left_pectoral_half", help="damage of the target robot")
     c.add_argument("--seed", type=int_at_least(0), default=0, help="seeds every run (default 0)")
     c.add_argument("--out", default="case_study_out", help="output directory (finished steps are reused)")

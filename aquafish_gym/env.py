@@ -6,7 +6,10 @@ the manner of Gymnasium's MuJoCo ``swimmer_v5``.
 
 from __future__ import annotations
 
+import logging
 import math
+import os
+import sys
 from typing import Any
 
 import gymnasium as gym
@@ -19,6 +22,8 @@ from aquafish_gym.damage import DAMAGES, ServoFaults, get_damage
 from aquafish_gym.morphology import Morphology
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.simulator import ACTION_BOUNDS, BatchWorld
+
+logger = logging.getLogger(__name__)
 
 OBS_VELOCITY_LIMIT = 100.0  #: bound of the velocity entries of the observation (rad/s, units/s)
 
@@ -54,6 +59,35 @@ def check_task_value(name: str, value, low: float, high: float) -> tuple[float, 
     if not valid:
         raise ValueError(f"{name} must be a number or a (lo, hi) range within [{low:g}, {high:g}], got {value!r}")
     return lo, hi
+
+
+#: Cameras of ``render()``: ``"follow"`` (behind and above the robot, the default) and
+#: ``"top"`` (straight down on the robot, its heading up the frame).
+CAMERAS = ("follow", "top")
+
+
+def display_available() -> bool:
+    """Whether a window can be opened: on Linux and other X11/Wayland systems, ``DISPLAY`` or
+    ``WAYLAND_DISPLAY`` is set; macOS and Windows always have one."""
+    if sys.platform in ("darwin", "win32"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+_said_no_display = False
+
+
+def _gui_possible() -> bool:
+    """Whether ``render_mode="human"`` can open PyBullet's GUI; without a display, log (once per
+    process) that the env runs headless instead."""
+    global _said_no_display
+    if display_available():
+        return True
+    if not _said_no_display:
+        _said_no_display = True
+        logger.warning('render_mode="human": no display (DISPLAY and WAYLAND_DISPLAY are unset), so PyBullet\'s GUI '
+                       'is not opened and the env runs headless; use render_mode="rgb_array" for frames')
+    return False
 
 
 def _as_morphology(morphology) -> Morphology:
@@ -124,15 +158,20 @@ class AquaFishEnv(gym.Env):
     | `frame_skip`         | 10                  | 0.01 s physics steps per control step         |
     | `episode_duration_s` | 20.0                | simulated seconds per episode                 |
     | `ctrl_cost_weight`   | 0.0                 | weight of the control cost                    |
-    | `render_mode`        | None                | `"rgb_array"` (headless TinyRenderer)         |
+    | `render_mode`        | None                | `"rgb_array"` (headless TinyRenderer) or `"human"` (PyBullet's GUI window where a display exists; headless, with a logged warning, where none does) |
     | `width`, `height`    | 320, 240            | frame size (pixels)                           |
+    | `camera`             | `"follow"`          | `render()`'s camera: `"follow"` (behind, above) or `"top"` (from above, heading up) |
+    | `camera_distance`    | 4.0                 | camera distance from the robot (units)        |
     | every `SimParams` field | see `SimParams`  | fluid, body and servo parameters              |
 
     Raises:
         ValueError: an unknown keyword, or a value out of range (named in the message).
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+    #: ``"human"`` opens PyBullet's GUI where a display exists (:func:`display_available`);
+    #: without one the env runs headless and says so once per process (a logged warning, not a
+    #: Python warning, so Gymnasium's strict ``check_env`` passes on headless machines too).
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
 
     def __init__(
         self,
@@ -146,6 +185,8 @@ class AquaFishEnv(gym.Env):
         render_mode: str | None = None,
         width: int = 320,
         height: int = 240,
+        camera: str = "follow",
+        camera_distance: float = 4.0,
         **sim_params: Any,
     ):
         unknown = set(sim_params) - set(SimParams.field_names())
@@ -161,8 +202,13 @@ class AquaFishEnv(gym.Env):
         check_int(f"frame_skip (physics steps of {DT_S} s)", frame_skip, 1)
         if not (isinstance(episode_duration_s, (int, float)) and math.isfinite(episode_duration_s) and episode_duration_s > 0):
             raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be None or one of {self.metadata['render_modes']}, got {render_mode!r}")
+        if render_mode is not None and render_mode not in ("human", "rgb_array"):
+            raise ValueError(f"render_mode must be None, 'human' or 'rgb_array', got {render_mode!r}")
+        if camera not in CAMERAS:
+            raise ValueError(f"camera must be one of {CAMERAS}, got {camera!r}")
+        if not (isinstance(camera_distance, (int, float)) and math.isfinite(camera_distance) and camera_distance > 0):
+            raise ValueError(f"camera_distance must be a positive number of units, got {camera_distance!r}")
+        self.camera, self.camera_distance = camera, float(camera_distance)
         self.fixed_initial_angles = None if initial_angles is None else self._check_angles(initial_angles)
         self.frame_skip = int(frame_skip)
         self.episode_duration_s = float(episode_duration_s)
@@ -278,7 +324,10 @@ class AquaFishEnv(gym.Env):
         self._initial_angles = np.asarray(angles, dtype=np.float64)
         params = self._reset_task(options)
         if self._world is None:
-            self._world = BatchWorld(self.morphology.to_array()[None], params, self.faults, visual=self.render_mode is not None)
+            client = p.connect(p.GUI) if self.render_mode == "human" and _gui_possible() else None
+            self._world = BatchWorld(self.morphology.to_array()[None], params, self.faults,
+                                     visual=self.render_mode is not None, client=client)
+            self._world._owns_client = True
         else:  # rebuild: a fresh world makes every episode bit-for-bit reproducible
             self._world = BatchWorld(self.morphology.to_array()[None], params, self.faults,
                                      visual=self.render_mode is not None, client=self._world.client)
@@ -307,14 +356,31 @@ class AquaFishEnv(gym.Env):
         info = self._get_info() | reward_info
         return self._get_obs(), reward, False, bool(truncated), info
 
+    def camera_matrices(self) -> tuple[np.ndarray, np.ndarray]:
+        """The ``(4, 4)`` view and projection matrices of the next ``render()`` (OpenGL
+        convention, for column vectors): a world point ``x`` lands at normalised device
+        coordinates ``(proj @ view @ [x, 1])[:3] / w``. Used to draw on a frame (e.g. a
+        trajectory, :func:`aquafish_gym.video.project`)."""
+        c = self.world.client
+        target = self._position()
+        if self.camera == "top":  # straight down, the initial heading (+y) up the frame
+            view = p.computeViewMatrix(target + [0.0, 0.0, self.camera_distance], target, [0.0, 1.0, 0.0],
+                                       physicsClientId=c)
+        else:
+            view = p.computeViewMatrixFromYawPitchRoll(target.tolist(), self.camera_distance, 210.0, -30.0, 0.0, 2,
+                                                       physicsClientId=c)
+        proj = p.computeProjectionMatrixFOV(60.0, self.width / self.height, 0.05, 50.0, physicsClientId=c)
+        return (np.asarray(view, dtype=np.float64).reshape(4, 4).T, np.asarray(proj, dtype=np.float64).reshape(4, 4).T)
+
     def render(self):
+        """``rgb_array``: the camera's ``(height, width, 3)`` uint8 frame (TinyRenderer, no
+        display needed); ``human``: None (the GUI window shows the world as it steps)."""
         if self.render_mode != "rgb_array":
             return None
         c = self.world.client
-        target = self._position()
-        view = p.computeViewMatrixFromYawPitchRoll(target.tolist(), 4.0, 210.0, -30.0, 0.0, 2, physicsClientId=c)
-        proj = p.computeProjectionMatrixFOV(60.0, self.width / self.height, 0.05, 50.0, physicsClientId=c)
-        _, _, rgba, _, _ = p.getCameraImage(self.width, self.height, view, proj, renderer=p.ER_TINY_RENDERER, physicsClientId=c)
+        view, proj = self.camera_matrices()
+        _, _, rgba, _, _ = p.getCameraImage(self.width, self.height, view.T.ravel().tolist(), proj.T.ravel().tolist(),
+                                            renderer=p.ER_TINY_RENDERER, physicsClientId=c)
         return np.asarray(rgba, dtype=np.uint8).reshape(self.height, self.width, 4)[:, :, :3].copy()
 
     def close(self):

@@ -1,9 +1,9 @@
-"""Damage recovery through the Python API (paper section 5): self-model, evolve gaits, transfer.
+"""Damage recovery through the Python API (paper section 5): self-model, evolve gaits, transfer, video.
 
-    python examples/damage_recovery.py [--preset quick|medium|paper|smoke] [--damage caudal_half] [--out DIR]
+    python examples/damage_recovery.py [--preset quick] [--damage NAME] [--episode-duration 60] [--out DIR]
 
-The steps of ``aquafish case-study`` (``aquafish/case_study.py``, which also writes the
-report and figures), with a preset's settings. Finished steps in ``--out`` are reused.
+The steps of ``aquafish case-study`` (which also writes the report and figures) with a preset's budget. The self-model
+holds a gain per servo (``morphology+servos``), its gait's robot has them as ``ServoFaults``; ``robust``: any damage.
 """
 
 import argparse
@@ -12,40 +12,47 @@ from pathlib import Path
 import eea
 import gait
 from aquafish.case_study import PRESETS, verdict
-from aquafish_gym import Morphology
-from eea.config import EEAConfig
+from aquafish_gym import Morphology, ServoFaults
+from gait.video import record_video
 
-def main() -> None:  # a function under the __main__ guard: worker processes are spawned
+
+def main(argv=None) -> None:  # a function under the __main__ guard: worker processes are spawned
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--preset", default="quick", choices=sorted(PRESETS))
-    parser.add_argument("--damage", default="left_pectoral_half")
+    parser.add_argument("--damage", default="reversed_left_pectoral")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--episode-duration", type=float, default=20.0, help="seconds per episode")
     parser.add_argument("--out", type=Path, default=Path("recovery_out"))
-    args = parser.parse_args()
-    settings = PRESETS[args.preset]
+    parser.add_argument("--workers", type=int, default=None)  # processes (default: all cores)
+    args = parser.parse_args(argv)
+    s, seconds, seed, workers = PRESETS[args.preset], args.episode_duration, args.seed, args.workers
 
-    # 1. the damaged robot (the target) self-models with the EEA: plain, and with out-of-band inference
-    models = {}
-    for key, inference in (("plain_eea", "none"), ("self_model", "out_of_band")):
-        config = EEAConfig(inference=inference, damage=args.damage, seed=args.seed, **settings.eea)
-        result = eea.run(config, args.out / f"eea_{inference}")
-        models[key] = result.best_morphology
-        print(f"{key}: objective fitness {result.rounds[-1]['objective_fitness']:.3f} (eq. 4)")
+    # 1. the damaged robot self-models: plain EEA (the paper's 9 dimensions), out-of-band inference with servo gains
+    robots = {"healthy": gait.Robot(Morphology.healthy()), "robust": gait.Robot(Morphology.healthy(), "random")}
+    for key, inference, space in (("plain_eea", "none", "morphology"),
+                                  ("self_model", "out_of_band", "morphology+servos")):
+        eea.run(eea.EEAConfig(inference=inference, model_space=space, damage=args.damage, seed=seed, **s.eea,
+                              **({"workers": workers} if workers else {})), args.out / f"eea_{key}")
+        result = eea.load_result(args.out / f"eea_{key}")
+        gains = tuple(result.best_model[9:])  # the 3 servo gains after the 9 dimensions (none in "morphology")
+        robots[key] = gait.Robot(result.best_morphology, faults=ServoFaults(speed_scale=gains) if gains else None)
+    robots["true_damaged"] = target = gait.as_robot(args.damage)  # the oracle: the damaged robot itself
 
-    # 2. a NEAT gait for every robot: healthy, the two self-models, the true damaged robot (oracle)
-    target = gait.as_robot(args.damage)
-    natives = {"healthy": Morphology.healthy(), **models, "true_damaged": target}
-    distances = {}
-    for key, native in natives.items():
-        controller = gait.evolve_or_load_gait(
-            native, args.out / f"gait_{key}", generations=settings.gait_generations,
-            population_size=settings.gait_population, seed=args.seed, episodes_per_genome=settings.gait_episodes)
-        # 3. each gait swims on its own robot and on the damaged one, from the same starts
-        t = gait.score_transfer(controller, native, target, seed=args.seed, episodes=settings.transfer_episodes)
+    # 2. a NEAT gait per robot, one budget; 3. each swims on its robot and on the damaged one, from the same starts
+    controllers, distances = {}, {}
+    for key, robot in robots.items():
+        controllers[key] = gait.evolve_or_load_gait(
+            robot, args.out / f"gait_{key}_{seconds:g}s", generations=s.gait_generations, workers=workers, seed=seed,
+            population_size=s.gait_population, episodes_per_genome=s.gait_episodes, episode_duration_s=seconds)
+        t = gait.score_transfer(controllers[key], robot, target, seed=seed, episodes=s.transfer_episodes,
+                                episode_duration_s=seconds)
         distances[key] = {"target_distance": t.target_distance}
         print(f"{key:>12}: {t.native_distance:6.2f} units on its robot, {t.target_distance:6.2f} on the damaged robot")
-
     print(verdict(distances)["line"])
+    # 4. the damaged robot from above under three of the gaits (mp4, or a GIF without imageio-ffmpeg)
+    video = record_video({k: controllers[k] for k in ("healthy", "self_model", "true_damaged")}, target,
+                         args.out / "recovery", seed=seed, episode_duration_s=seconds)
+    print(f"wrote {video}")
 
 
 if __name__ == "__main__":

@@ -16,6 +16,11 @@ Public API:
     rollout(controller, robot, *, seed, initial_angles) -> Rollout
     train_rl(algo, morphology, timesteps, seed, out_dir) -> Path      (needs the [rl] extra)
     train_or_load_rl(...) -> Path: train_rl unless out_dir holds a finished run
+    record_video(controllers, robot, path, *, seed, episode_duration_s) -> Path: controllers side
+        by side from above, trajectories traced (mp4, or GIF without imageio-ffmpeg)
+
+A :class:`Robot` may carry ``faults`` (``ServoFaults``, e.g. a self-model's servo gains) and
+``damage="random"`` (:data:`RANDOM_DAMAGE`: a damage preset drawn per episode).
 """
 
 from gait.clock import CLOCK_PERIOD_S, ClockObservation, clock_features, with_clock
@@ -23,15 +28,17 @@ from gait.controller import (ConstantController, Controller, HeadingHoldControll
                              SB3PolicyController, load_controller)
 from gait.neat_evolution import GaitResult, evolve_gait, evolve_or_load_gait, latest_checkpoint, load_neat_config
 from gait.plots import plot_fitness_history, plot_transfer
-from gait.robots import Robot, as_robot, parse_robot
+from gait.robots import RANDOM_DAMAGE, Robot, as_robot, parse_robot
 from gait.rollout import EPISODE_DURATION_S, Rollout, make_env, rollout
 from gait.transfer import TransferResult, save_transfer, score_transfer
 from gait.rl import train_or_load_rl, train_rl  # stable-baselines3 is imported only when training (the [rl] extra)
+from gait.video import record_video  # imageio and matplotlib are imported only when recording
 
 
 __all__ = [
-    "CLOCK_PERIOD_S", "EPISODE_DURATION_S", "ClockObservation", "ConstantController", "Controller", "GaitResult", "HeadingHoldController",
-    "NEATController", "RandomController", "Robot", "Rollout", "SB3PolicyController", "TransferResult", "as_robot", "clock_features",
+    "CLOCK_PERIOD_S", "EPISODE_DURATION_S", "ClockObservation", "ConstantController", "Controller", "GaitResult",
+    "HeadingHoldController", "NEATController", "RANDOM_DAMAGE", "RandomController", "Robot", "Rollout",
+    "SB3PolicyController", "TransferResult", "as_robot", "clock_features",
     "evolve_gait", "evolve_or_load_gait", "latest_checkpoint", "load_controller", "load_neat_config", "make_env", "parse_robot", "plot_fitness_history",
-    "plot_transfer", "rollout", "save_transfer", "score_transfer", "train_or_load_rl", "train_rl", "with_clock",
+    "plot_transfer", "record_video", "rollout", "save_transfer", "score_transfer", "train_or_load_rl", "train_rl", "with_clock",
 ]

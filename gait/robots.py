@@ -1,8 +1,10 @@
-"""Which robot a controller swims in: a morphology plus a damage preset.
+"""Which robot a controller swims in: a morphology plus a damage preset, and servo faults.
 
 A :class:`Robot` is everything AquaFish-v0 needs to build the body: the nine flipper
 dimensions and the name of a damage (which may also carry servo faults, e.g. a seized
-servo). The transfer protocol runs one controller on two robots: its *native* one (the
+servo), or ``"random"`` (a damage preset drawn per episode: damage randomisation), and
+optionally explicit :class:`~aquafish_gym.ServoFaults` (e.g. the servo gains of a
+``morphology+servos`` self-model) that override the damage's. The transfer protocol runs one controller on two robots: its *native* one (the
 morphology it was evolved for) and a *target* (e.g. the damaged robot).
 """
 
@@ -15,42 +17,67 @@ from typing import Any
 
 import numpy as np
 
-from aquafish_gym import DAMAGES, MORPHOLOGY_FIELDS, Morphology, get_damage
+from aquafish_gym import DAMAGES, MORPHOLOGY_FIELDS, Morphology, ServoFaults, get_damage
+
+#: The ``damage`` of a :class:`Robot` that draws a damage preset per episode (AquaFish-v0's
+#: damage randomisation): a robot trained on it is the damage-robust policy's.
+RANDOM_DAMAGE = "random"
 
 
 @dataclasses.dataclass(frozen=True)
 class Robot:
-    """A morphology and a damage preset, as passed to ``gym.make("AquaFish-v0", ...)``.
+    """A morphology, a damage preset and servo faults, as passed to ``gym.make("AquaFish-v0", ...)``.
 
     Attributes:
         morphology: the nine flipper dimensions before the damage (simulator units).
-        damage: a name in ``aquafish_gym.DAMAGES``, applied to ``morphology`` by the env.
+        damage: a name in ``aquafish_gym.DAMAGES``, applied to ``morphology`` by the env, or
+            :data:`RANDOM_DAMAGE` (``"random"``): every episode draws a preset from its
+            ``reset(seed=...)`` generator, so one seed always draws the same damage.
         label: a short name for legends and reports.
+        faults: servo faults overriding the damage's (AquaFish-v0's ``faults``), e.g.
+            ``ServoFaults(speed_scale=gains)`` for a self-model's servo gains; None: the
+            damage's own faults.
 
     Raises:
-        ValueError: an unknown damage name or a morphology that is not a ``Morphology``.
+        ValueError: an unknown damage name, a morphology that is not a ``Morphology``, or
+            faults that are not ``ServoFaults``.
     """
 
     morphology: Morphology
     damage: str = "none"
     label: str = ""
+    faults: ServoFaults | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.morphology, Morphology):
             raise ValueError(f"Robot.morphology must be a Morphology, got {type(self.morphology).__name__}")
-        get_damage(self.damage)
+        if self.damage != RANDOM_DAMAGE:
+            get_damage(self.damage)
+        if self.faults is not None and not isinstance(self.faults, ServoFaults):
+            raise ValueError(f"Robot.faults must be a ServoFaults or None, got {type(self.faults).__name__}")
         if not self.label:
             base = "healthy" if self.morphology == Morphology.healthy() else "custom"
-            object.__setattr__(self, "label", base if self.damage == "none" else f"{base} + {self.damage}")
+            label = base if self.damage == "none" else f"{base} + {self.damage}"
+            if self.faults is not None and not self.faults.healthy:
+                label += " (servo gains " + ", ".join(f"{g:g}" for g in self.faults.speed_scale) + ")"
+            object.__setattr__(self, "label", label)
 
     def env_kwargs(self) -> dict[str, Any]:
         """Keyword arguments for ``gym.make("AquaFish-v0", ...)``."""
-        return {"morphology": self.morphology, "damage": self.damage}
+        kwargs: dict[str, Any] = {"morphology": self.morphology, "damage": self.damage}
+        if self.faults is not None:
+            kwargs["faults"] = self.faults
+        return kwargs
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-ready description: label, damage, and the morphology by field name."""
-        return {"label": self.label, "damage": self.damage,
-                "morphology": dict(zip(MORPHOLOGY_FIELDS, self.morphology.to_array().tolist()))}
+        """JSON-ready description: label, damage, the morphology by field name, and the faults
+        (``seized``, ``speed_scale``) when given (absent otherwise, so the fingerprints of
+        runs on robots without them are unchanged)."""
+        d = {"label": self.label, "damage": self.damage,
+             "morphology": dict(zip(MORPHOLOGY_FIELDS, self.morphology.to_array().tolist()))}
+        if self.faults is not None:
+            d["faults"] = {"seized": list(self.faults.seized), "speed_scale": list(self.faults.speed_scale)}
+        return d
 
 
 def as_robot(value, *, damage: str = "none") -> Robot:
@@ -90,8 +117,8 @@ def parse_robot(spec: str) -> Robot:
           including its servo faults; this is the paper's damaged *target*.
         * 9 comma-separated numbers: a morphology (``MORPHOLOGY_FIELDS`` order, units).
         * a file: JSON (a list of 9 numbers, a mapping of the nine field names, or a mapping
-          with a ``"morphology"`` entry of either form and an optional ``"damage"``), or a
-          text file of 9 numbers separated by commas or whitespace.
+          with a ``"morphology"`` entry of either form, an optional ``"damage"`` and optional
+          ``"faults"``, ``{"seized": [...], "speed_scale": [...]}``), or a text file of 9 numbers separated by commas or whitespace.
 
     Raises:
         ValueError: none of the forms, naming what is allowed.
@@ -131,7 +158,14 @@ def _robot_from_file(path: Path) -> Robot:
         except json.JSONDecodeError as err:
             raise ValueError(f"{path}: not valid JSON ({err})") from None
         if isinstance(data, dict) and "morphology" in data:
-            return Robot(_morphology_from(data["morphology"], str(path)), data.get("damage", "none"), path.stem)
+            faults = data.get("faults")
+            if faults is not None:
+                try:
+                    faults = ServoFaults(**faults)
+                except TypeError as err:
+                    raise ValueError(f"{path}: faults must map 'seized' and/or 'speed_scale' ({err})") from None
+            return Robot(_morphology_from(data["morphology"], str(path)), data.get("damage", "none"), path.stem,
+                         faults)
         return Robot(_morphology_from(data, str(path)), "none", path.stem)
     try:
         numbers = [float(s) for s in text.replace(",", " ").split()]

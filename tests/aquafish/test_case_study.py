@@ -4,6 +4,7 @@ import json
 
 import pytest
 
+from aquafish import case_study
 from aquafish.case_study import CONTROLLER_KEYS, PRESETS, render_report, run_case_study, verdict
 from aquafish.cli import main
 from aquafish_gym import MORPHOLOGY_FIELDS, get_damage
@@ -16,11 +17,13 @@ def test_smoke_case_study_writes_report_and_figures(tmp_path):
     assert saved["controllers"] == report["controllers"]
     target = get_damage("left_pectoral_half").apply().to_array()
     assert [saved["target_morphology"][f] for f in MORPHOLOGY_FIELDS] == pytest.approx(target.tolist())
-    assert {k: m["inference"] for k, m in report["models"].items()} == {"plain_eea": "none", "self_model": "out_of_band"}
+    assert {k: (m["inference"], m["model_space"]) for k, m in report["models"].items()} == {
+        "plain_eea": ("none", "morphology"), "self_model": ("out_of_band", "morphology+servos"),
+        "out_of_band": ("out_of_band", "morphology")}
     for model in report["models"].values():
         assert 0.0 <= model["objective_fitness"] <= 1.0
         assert model["target_experiments"] == PRESETS["smoke"].eea["rounds"]
-    assert {"healthy", "plain_eea", "self_model", "true_damaged"} <= set(report["controllers"]) <= set(CONTROLLER_KEYS)
+    assert {"healthy", "plain_eea", "self_model", "true_damaged", "robust"} <= set(report["controllers"]) <= set(CONTROLLER_KEYS)
     for c in report["controllers"].values():
         assert c["target_distance"] == pytest.approx(sum(c["target_distances"]) / len(c["target_distances"]))
     assert report["verdict"] == verdict(report["controllers"]) and report["verdict"]["line"] in (tmp_path / "report.md").read_text()
@@ -31,6 +34,44 @@ def test_smoke_case_study_writes_report_and_figures(tmp_path):
     # a finished case study is reused, not recomputed
     again = run_case_study("smoke", "left_pectoral_half", 0, tmp_path, workers=1, progress=False)
     assert again["controllers"] == report["controllers"]
+
+
+def test_tiny_case_study_new_rows_servo_gains_and_video(tmp_path, monkeypatch, capsys):
+    """The whole command on the smoke preset with 2 s episodes (seconds, no PPO): the self-model in
+    morphology+servos, its gains on its gait's robot, the robust row, the verdict and the video."""
+    monkeypatch.setattr(case_study, "_rl_available", lambda: False)
+    out = tmp_path / "cs"
+    assert main(["case-study", "--preset", "smoke", "--damage", "reversed_left_pectoral", "--episode-duration", "2",
+                 "--workers", "1", "--out", str(out)]) == 0
+    report = json.loads((out / "report.json").read_text())
+    assert report["episode_duration_s"] == 2.0 and report["model_space"] == "morphology+servos"
+    assert set(report["models"]) == {"plain_eea", "self_model", "out_of_band"}
+    assert report["models"]["plain_eea"]["servo_gains"] is None
+    gains = report["models"]["self_model"]["servo_gains"]
+    assert set(gains) == set(case_study.GAIN_NAMES) and -1 <= gains["left_pectoral_gain"] <= 1
+    assert report["target_servo_gains"] == {"left_pectoral_gain": -1.0, "right_pectoral_gain": 1.0, "caudal_gain": 1.0}
+    # the model's gains reached the robot its gait was evolved on, and the 2 s runs have their own directories
+    robot = json.loads((out / "gait_self_model_2s" / "run.json").read_text())["robot"]
+    assert robot["faults"]["speed_scale"] == pytest.approx([gains[k] for k in case_study.GAIN_NAMES])
+    assert json.loads((out / "gait_robust_2s" / "run.json").read_text())["robot"]["damage"] == "random"
+    assert set(report["controllers"]) == {"healthy", "plain_eea", "self_model", "out_of_band", "true_damaged", "robust"}
+    v = report["verdict"]
+    assert v == verdict(report["controllers"]) and set(v["recovering"]) <= set(report["controllers"]) - {"healthy", "true_damaged"}
+    assert v["robust_share"] == pytest.approx(report["controllers"]["robust"]["target_distance"]
+                                              / report["controllers"]["true_damaged"]["target_distance"])
+    md = (out / "report.md").read_text()
+    assert v["line"] in md and "(`robust`)" in md and "Forward distance in 2 s" in md and "left pectoral gain" in md
+    video = out / report["video"]
+    assert video.suffix in (".mp4", ".gif") and video.stat().st_size > 1000 and report["video"] in md
+    assert "recovery" in capsys.readouterr().out
+
+
+def test_case_study_rejects_bad_duration_and_model_space(tmp_path):
+    with pytest.raises(ValueError, match="episode_duration_s"):
+        run_case_study("smoke", "left_pectoral_half", 0, tmp_path, episode_duration_s=0)
+    with pytest.raises(ValueError, match="model_space"):
+        run_case_study("smoke", "left_pectoral_half", 0, tmp_path, model_space="servos")
+    assert not any(tmp_path.iterdir())
 
 
 def test_unknown_preset_is_a_clear_error(tmp_path, capsys):
@@ -56,3 +97,30 @@ def test_verdict_hand_computed():
     assert not kept["breaks"] and not kept["recovers"] and not kept["plain_eea_below"]
     nothing = verdict(_controllers(healthy=0.1, plain_eea=0.0, self_model=0.0, true_damaged=-0.2))
     assert not nothing["breaks"] and nothing["self_model_share"] is None and "nothing to recover" in nothing["line"]
+
+
+def test_verdict_names_the_rows_that_recover():
+    v = verdict(_controllers(healthy=1.0, plain_eea=2.0, self_model=3.5, true_damaged=4.0, robust=3.3, out_of_band=1.2))
+    assert v["recovering"] == ["self_model", "robust"] and v["robust_recovers"] and v["robust_share"] == pytest.approx(0.825)
+    assert "The damage-robust gait reaches 82% of the oracle, 3.3x the healthy gait." in v["line"]
+    assert "Rows that recover (at least 80% of the oracle and 1.5x the healthy gait): `self_model`, `robust`." in v["line"]
+    none = verdict(_controllers(healthy=1.0, plain_eea=2.0, self_model=2.5, true_damaged=4.0))
+    assert none["recovering"] == [] and none["robust_recovers"] is None and none["robust_share"] is None
+    assert none["line"].endswith("the healthy gait): none.") and "damage-robust" not in none["line"]
+
+
+def test_damage_recovery_example_runs_the_case_study_through_the_api(tmp_path, capsys):
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "damage_recovery.py"
+    assert len(path.read_text().splitlines()) < 60
+    spec = importlib.util.spec_from_file_location("damage_recovery", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    module.main(["--preset", "smoke", "--episode-duration", "1", "--workers", "1", "--out", str(tmp_path)])
+    out = capsys.readouterr().out
+    assert all(f"{key}:" in out for key in ("healthy", "robust", "plain_eea", "self_model", "true_damaged"))
+    assert "Rows that recover" in out or "nothing to recover" in out
+    assert json.loads((tmp_path / "gait_self_model_1s" / "run.json").read_text())["robot"]["faults"]
+    assert any(p.stat().st_size > 1000 for p in tmp_path.glob("recovery.*"))

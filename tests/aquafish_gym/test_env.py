@@ -1,5 +1,6 @@
 """The Gymnasium env AquaFish-v0 (docs/simulator.md)."""
 
+import logging
 import warnings
 
 import gymnasium as gym
@@ -48,6 +49,51 @@ def test_reward_terms_add_up_and_distance_is_their_sum():
     assert steps == 20  # 2 s of 0.1 s control steps
     assert info["distance"] == pytest.approx(total_forward)
     assert info["y_position"] == pytest.approx(info["distance"], abs=1e-9)  # initial heading is +y
+    env.close()
+
+
+def test_render_top_camera_and_its_matrices_project_the_robot_to_the_frame_centre():
+    from gait.video import project
+
+    env = gym.make("AquaFish-v0", render_mode="rgb_array", camera="top", camera_distance=3.0, width=64, height=64)
+    _, info = env.reset(seed=0)
+    frame = env.render()
+    assert frame.shape == (64, 64, 3) and frame.min() < 200
+    view, proj = env.unwrapped.camera_matrices()
+    pos = [info["x_position"], info["y_position"], info["z_position"]]
+    assert project(np.array([pos]), view, proj, 64, 64)[0] == pytest.approx([32, 32], abs=1e-6)
+    # +y (the initial heading) is up the frame, +x to the right
+    ahead, right = project(np.array([[pos[0], pos[1] + 1, pos[2]], [pos[0] + 1, pos[1], pos[2]]]), view, proj, 64, 64)
+    assert ahead[1] < 32 and ahead[0] == pytest.approx(32) and right[0] > 32
+    env.close()
+    with pytest.raises(ValueError, match="camera"):
+        gym.make("AquaFish-v0", camera="side")
+
+
+def test_human_render_mode_without_a_display_runs_headless_and_says_so_once(monkeypatch, caplog):
+    import aquafish_gym.env as env_module
+
+    monkeypatch.setattr(env_module, "display_available", lambda: False)
+    monkeypatch.setattr(env_module, "_said_no_display", False)
+    caplog.set_level(logging.WARNING, logger="aquafish_gym.env")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a logged message, never a Python warning
+        for _ in range(2):
+            env = gym.make("AquaFish-v0", render_mode="human", episode_duration_s=0.2)
+            env.reset(seed=0)
+            env.step(np.zeros(3))
+            assert env.render() is None
+            env.close()
+    said = [r.getMessage() for r in caplog.records if r.name == "aquafish_gym.env"]
+    assert len(said) == 1 and "no display" in said[0] and "rgb_array" in said[0]
+
+
+@pytest.mark.skipif(not __import__("aquafish_gym.env").env.display_available(), reason="no display: PyBullet's GUI cannot open")
+def test_human_render_mode_opens_the_gui():
+    env = gym.make("AquaFish-v0", render_mode="human", episode_duration_s=0.2)
+    env.reset(seed=0)
+    env.step(np.zeros(3))
+    assert env.render() is None
     env.close()
 
 

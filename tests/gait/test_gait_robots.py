@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from aquafish_gym import Morphology
+from aquafish_gym import Morphology, ServoFaults
 from gait import Robot, as_robot, parse_robot
 
 NUMBERS = "0.25,1.0,0.0625,0.25,0.5,0.0625,0.25,0.875,0.375"
@@ -49,3 +49,32 @@ def test_as_robot():
         as_robot(healthy, damage="nope")
     with pytest.raises(ValueError, match="a robot must be"):
         as_robot(3.0)
+
+
+def test_robot_faults_reach_the_env_and_its_fingerprint(tmp_path):
+    faults = ServoFaults(speed_scale=(-1.0, 1.0, 1.0))
+    robot = Robot(Morphology.healthy(), faults=faults)
+    assert robot.env_kwargs()["faults"] == faults and "servo gains -1, 1, 1" in robot.label
+    assert robot.to_dict()["faults"] == {"seized": [False] * 3, "speed_scale": [-1.0, 1.0, 1.0]}
+    assert "faults" not in Robot(Morphology.healthy()).to_dict() and "faults" not in Robot(Morphology.healthy()).env_kwargs()
+    # a healthy body with a reversed left servo swims as the reversed_left_pectoral preset does
+    from gait import ConstantController, rollout
+
+    c = ConstantController([0.5, 0.5, 1.0])
+    assert rollout(c, robot, seed=0, episode_duration_s=1.0).distance == \
+        rollout(c, "reversed_left_pectoral", seed=0, episode_duration_s=1.0).distance
+    f = tmp_path / "model.json"
+    f.write_text(json.dumps(robot.to_dict()))
+    assert parse_robot(str(f)).faults == faults
+    with pytest.raises(ValueError, match="faults"):
+        Robot(Morphology.healthy(), faults=(1, 1, 1))
+
+
+def test_robot_with_random_damage_draws_one_per_seed():
+    robot = Robot(Morphology.healthy(), "random")
+    assert robot.env_kwargs()["damage"] == "random" and robot.label == "healthy + random"
+    from gait import make_env
+
+    with make_env(robot, episode_duration_s=0.1) as env:
+        drawn = {env.reset(seed=s)[1]["damage"] for s in range(20)}
+        assert len(drawn) > 3 and env.reset(seed=3)[1]["damage"] == env.reset(seed=3)[1]["damage"]
