@@ -7,13 +7,13 @@ servo's target exactly), tiny runs with both searches, and the config's field.
 
 import argparse
 import csv
-import io
 import json
 
 import numpy as np
 import pytest
 
 import eea
+from test_golden_rounds import _without_wall_seconds
 from aquafish_gym import DAMAGES, MORPHOLOGY_BOUNDS, Morphology, ServoFaults, SimParams, simulate_batch
 from eea.behaviour import behaviour_summary
 from eea.cli import add_config_flags, config_fields, config_flag_names
@@ -217,18 +217,6 @@ def test_searches_of_the_servo_space_resume_from_their_state(search, tiny_config
 
 
 # -- runs ------------------------------------------------------------------------------------------
-
-def _without_wall_seconds(path) -> str:
-    with open(path, newline="") as f:
-        reader = csv.DictReader(f)
-        columns = [c for c in reader.fieldnames if c != "wall_seconds"]
-        rows = list(reader)
-    out = io.StringIO()
-    writer = csv.DictWriter(out, fieldnames=columns, extrasaction="ignore", lineterminator="\n")
-    writer.writeheader()
-    writer.writerows(rows)
-    return out.getvalue()
-
 
 @pytest.mark.parametrize("search", ["ga", "cma"])
 def test_a_tiny_servo_run_records_gains_and_obj_fit_over_twelve(tmp_path, tiny_config, search):
