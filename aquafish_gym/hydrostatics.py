@@ -74,7 +74,7 @@ def acos_poly(x) -> np.ndarray:
     return np.where(x < 0, math.pi - value, value)
 
 
-def _sum0(terms: np.ndarray) -> np.ndarray:
+def sequential_sum(terms: np.ndarray) -> np.ndarray:
     """Sum over the leading axis, term after term (``np.sum`` may add pairwise, in another order)."""
     return np.cumsum(terms, axis=0)[-1]
 
@@ -134,11 +134,11 @@ def submerged_slices(rotation: np.ndarray, centre_z: np.ndarray, surface_z, y, r
     acos = acos_poly(u)
     area = rhos * rhos * ((math.pi - acos) + u * root)
     lever = (-2.0 / 3.0) * rhos * rhos * rhos * (root * root * root)
-    volume = _sum0(ws * area)
-    along_n = _sum0(ws * lever)
-    moment = np.stack([along_n * (a / norm), _sum0(np.reshape(np.asarray(w) * np.asarray(y), shape) * area),
+    volume = sequential_sum(ws * area)
+    along_n = sequential_sum(ws * lever)
+    moment = np.stack([along_n * (a / norm), sequential_sum(np.reshape(np.asarray(w) * np.asarray(y), shape) * area),
                        along_n * (b / norm)], axis=-1)
-    wetted = _sum0(ws * (math.pi - acos)) / (math.pi * float(np.sum(w)))
+    wetted = sequential_sum(ws * (math.pi - acos)) / (math.pi * float(np.sum(w)))
     return volume, moment, wetted
 
 

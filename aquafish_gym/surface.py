@@ -42,7 +42,7 @@ import dataclasses
 
 import numpy as np
 
-from aquafish_gym.hydrostatics import TINY, _sum0, hydrostatic_wrench, wetted_fraction
+from aquafish_gym.hydrostatics import sequential_sum, hydrostatic_wrench, wetted_fraction
 from aquafish_gym.params import SimParams
 from aquafish_gym.robot import BODY_RADIUS, body_slices
 
@@ -185,8 +185,8 @@ def surface_wrench(surface: SurfaceSpec, spec, params: SimParams, rotation, posi
     fx = _drag(drag_c, quadratic, areas[..., 0] * strip_wet, ux)
     fy = _drag(drag_c, quadratic, areas[..., 1] * strip_wet, uy)
     fz = _drag(drag_c, quadratic, areas[..., 2] * strip_wet, uz)
-    fin_force = (_sum0(fx), _sum0(fy), _sum0(fz))                # (N, 2) each, flipper frame
-    tx, tz = _sum0(ys * fz), _sum0(-(ys * fx))     # (0, y, 0) x F, about the centre of mass
+    fin_force = (sequential_sum(fx), sequential_sum(fy), sequential_sum(fz))                # (N, 2) each, flipper frame
+    tx, tz = sequential_sum(ys * fz), sequential_sum(-(ys * fx))     # (0, y, 0) x F, about the centre of mass
     push = np.zeros((n, 3))                        # world frame: the pectorals' forces, carried by the body
     for k in range(2):
         r = fins[:, k]
@@ -222,9 +222,4 @@ def surface_wrench(surface: SurfaceSpec, spec, params: SimParams, rotation, posi
     return force, torque
 
 
-def surface_height(surface: SurfaceSpec, position: np.ndarray, rotation: np.ndarray) -> np.ndarray:
-    """``(N,)`` height (units) of each robot's body centre above (+) or below the free surface."""
-    return position[:, 0, 2] + rotation[:, 0, 2, 2] * surface.ballast - surface.surface_z
-
-
-__all__ = ["SurfaceSpec", "surface_wrench", "surface_height", "TINY"]
+__all__ = ["SurfaceSpec", "surface_wrench"]
