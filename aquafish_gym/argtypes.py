@@ -45,6 +45,19 @@ def positive_float(text: str) -> float:
     return value
 
 
+def waterline(text: str) -> float | None:
+    """An argparse ``type``: a free-surface height in units, or ``deep`` (None: deep water).
+
+    The range is checked by :class:`~aquafish_gym.SimParams`.
+    """
+    if text.strip().lower() in ("deep", "none"):
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a height in units or 'deep', got {text!r}") from None
+
+
 def csv_list(kind=str):
     """An argparse ``type``: a non-empty comma-separated list of ``kind`` values, as a tuple."""
 

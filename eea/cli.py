@@ -16,6 +16,7 @@ import argparse
 import dataclasses
 from typing import Iterable
 
+from aquafish_gym import argtypes
 from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, MODEL_SPACE_NAMES, PRESETS, EEAConfig, preset_fields
 from eea.inference import INFERENCE_NAMES
 
@@ -26,18 +27,8 @@ _SHORT_FLAGS = {"duration_s": ("--duration",)}
 _CHOICES = {"inference": INFERENCE_NAMES, "estimation_search": ESTIMATION_SEARCHES, "model_space": MODEL_SPACE_NAMES}
 
 
-def _waterline(text: str) -> float | None:
-    """``--waterline``: a height in units, or ``deep`` (None: deep water)."""
-    if text.strip().lower() in ("deep", "none"):
-        return None
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a height in units or 'deep', got {text!r}") from None
-
-
 #: Flag parsers of fields whose value is not their default's type.
-_TYPES = {"waterline": _waterline}
+_TYPES = {"waterline": argtypes.waterline}
 
 
 def config_flag_names(exclude: Iterable[str] = ()) -> tuple[str, ...]:

@@ -18,7 +18,7 @@ import itertools
 
 import numpy as np
 
-from aquafish_gym import DAMAGES, BatchWorld, Morphology, SimParams, get_damage
+from aquafish_gym import DAMAGES, BatchWorld, Morphology, SimParams, argtypes, get_damage
 from aquafish_gym.robot import BODY_LENGTH
 
 GRID_PECTORAL = (-0.5, -0.25, 0.0, 0.25, 0.5)   # rev/s
@@ -133,13 +133,14 @@ def feedback_table(angles) -> None:
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--starts", type=int, default=10, help="random initial flipper angles per command (>= 1)")
-    parser.add_argument("--waterline", default="0.3", help="free surface above the body's centre (units), or 'deep'")
+    parser.add_argument("--waterline", type=argtypes.waterline, default=0.3,
+                        help="free surface above the body's centre (units), or 'deep'")
     parser.add_argument("--draft-sweep", action="store_true", help="only the table of speeds against the draft")
     parser.add_argument("--feedback", action="store_true", help="only the heading-hold controller's table")
     args = parser.parse_args(argv)
     if args.starts < 1:
         parser.error(f"--starts must be >= 1, got {args.starts}")
-    waterline = None if args.waterline == "deep" else float(args.waterline)
+    waterline = args.waterline
     params = SimParams(waterline=waterline)
     angles = starts(args.starts)
     if args.draft_sweep:
