@@ -53,6 +53,8 @@ import math
 
 import numpy as np
 
+from aquafish_gym.fluid import _cross
+
 #: Abramowitz & Stegun 4.4.46: acos(x) = sqrt(1 - x) * sum_k a_k x^k on [0, 1], |error| <= 2e-8.
 _ACOS_COEFFS = (1.5707963050, -0.2145988016, 0.0889789874, -0.0501743046,
                 0.0308918810, -0.0170881256, 0.0066700901, -0.0012624911)
@@ -166,10 +168,7 @@ def hydrostatic_wrench(rotation: np.ndarray, centre_z: np.ndarray, surface_z, co
     safe = np.where(volume > 0, volume, 1.0)
     lever = moment / safe[..., None] - com_offset  # centre of buoyancy relative to the centre of mass
     f_b = buoyancy[..., None] * up
-    torque = np.stack([lever[..., 1] * f_b[..., 2] - lever[..., 2] * f_b[..., 1],
-                       lever[..., 2] * f_b[..., 0] - lever[..., 0] * f_b[..., 2],
-                       lever[..., 0] * f_b[..., 1] - lever[..., 1] * f_b[..., 0]], axis=-1)
-    return force, torque, wetted
+    return force, _cross(lever, f_b), wetted
 
 
 def wetted_fraction(z, half_height, surface_z) -> np.ndarray:

@@ -42,6 +42,7 @@ import dataclasses
 
 import numpy as np
 
+from aquafish_gym.fluid import _cross
 from aquafish_gym.hydrostatics import sequential_sum, hydrostatic_wrench, wetted_fraction
 from aquafish_gym.params import SimParams
 from aquafish_gym.robot import BODY_RADIUS, body_slices
@@ -162,14 +163,10 @@ def surface_wrench(surface: SurfaceSpec, spec, params: SimParams, rotation, posi
                                          y, rho, w)
     offset = spec.box_offsets[:, 0]
     wb = w_local[:, 0]
-    u = v_local[:, 0] + np.stack([wb[:, 1] * offset[:, 2] - wb[:, 2] * offset[:, 1],
-                                  wb[:, 2] * offset[:, 0] - wb[:, 0] * offset[:, 2],
-                                  wb[:, 0] * offset[:, 1] - wb[:, 1] * offset[:, 0]], axis=-1)
+    u = v_local[:, 0] + _cross(wb, offset)
     f_drag = _drag(drag_c, quadratic, spec.axis_areas[:, 0] * wet[:, None], u)
     force[:, 0] = f_hs + f_drag
-    t_drag = np.stack([offset[:, 1] * f_drag[:, 2] - offset[:, 2] * f_drag[:, 1],
-                       offset[:, 2] * f_drag[:, 0] - offset[:, 0] * f_drag[:, 2],
-                       offset[:, 0] * f_drag[:, 1] - offset[:, 1] * f_drag[:, 0]], axis=-1)
+    t_drag = _cross(offset, f_drag)
     couple = np.zeros((n, 3))  # world frame: the fins' couples, carried by the body
 
     # pectorals: wetted blade-element strips
@@ -198,11 +195,11 @@ def surface_wrench(surface: SurfaceSpec, spec, params: SimParams, rotation, posi
         arm = np.stack([(body[:, i, 0] * h[:, 0] + body[:, i, 1] * h[:, 1] + body[:, i, 2] * h[:, 2])
                         + (r[:, i, 0] * c[:, 0] + r[:, i, 1] * c[:, 1] + r[:, i, 2] * c[:, 2]) for i in range(3)],
                        axis=-1)
-        moment = (arm[:, 1] * world[2] - arm[:, 2] * world[1], arm[:, 2] * world[0] - arm[:, 0] * world[2],
-                  arm[:, 0] * world[1] - arm[:, 1] * world[0])
-        couple = couple + np.stack([(r[:, i, 0] * tx[:, k] + r[:, i, 2] * tz[:, k]) + moment[i] for i in range(3)],
+        world = np.stack(world, axis=-1)
+        moment = _cross(arm, world)
+        couple = couple + np.stack([(r[:, i, 0] * tx[:, k] + r[:, i, 2] * tz[:, k]) + moment[:, i] for i in range(3)],
                                    axis=-1)
-        push = push + np.stack(world, axis=-1)
+        push = push + world
     force[:, 0] = force[:, 0] + _local(body, push)
 
     # caudal fin: wetted drag and the reactive force of its wetted height
