@@ -113,13 +113,18 @@ def check_output_dir(path: str | os.PathLike, flag: str = "--out") -> Path:
         if not _writable(path):
             raise ValueError(f"{flag} {path} is not writable by this user; choose another directory")
         return path
+    _check_creatable(path, existing, flag)
+    return path
+
+
+def _check_creatable(path: Path, existing: Path, flag: str) -> None:
+    """``path`` can be created under ``existing``, its nearest existing ancestor (ValueError if not)."""
     if not existing.is_dir():
         raise ValueError(f"{flag} {path} cannot be created: {existing} is a file, not a directory; "
                          "choose another path")
     if not _writable(existing):
         raise ValueError(f"{flag} {path} cannot be created: {existing} is not writable by this user; "
                          "choose another directory")
-    return path
 
 
 def check_output_file(path: str | os.PathLike, flag: str = "--output") -> Path:
@@ -138,12 +143,7 @@ def check_output_file(path: str | os.PathLike, flag: str = "--output") -> Path:
     if path.is_dir():
         raise ValueError(f"{flag} {path} is a directory; give a file path")
     existing = _first_existing(path.parent)
-    if not existing.is_dir():
-        raise ValueError(f"{flag} {path} cannot be created: {existing} is a file, not a directory; "
-                         "choose another path")
-    if not _writable(existing):
-        raise ValueError(f"{flag} {path} cannot be created: {existing} is not writable by this user; "
-                         "choose another directory")
+    _check_creatable(path, existing, flag)
     if path.exists() and not os.access(path, os.W_OK):
         raise ValueError(f"{flag} {path} exists and is not writable by this user; choose another file")
     return path
