@@ -2,10 +2,11 @@
 
 1. The target is the healthy robot with a named damage.
 2. It self-models with the EEA: ``none`` (plain EEA, the paper's ``morphology`` model space)
-   and the self-model (``self_model``: inference default ``out_of_band``, model space default
-   ``morphology+servos``, so the model also holds a gain per servo). Unless the self-model is
-   the paper's (``out_of_band`` in ``morphology``), the paper's ``out_of_band`` run in
-   ``morphology`` runs too and stays a row.
+   and the self-model (``self_model``: method default ``profile_lineages``, the best method
+   (:mod:`eea.methods`), model space default ``morphology+servos``, so the model also holds a
+   gain per servo). Unless the self-model is the paper's (``out_of_band`` in ``morphology``),
+   the paper's ``out_of_band`` run in ``morphology`` runs too and stays a row. Every EEA run
+   uses the preset's budget (:data:`eea.methods.BUDGETS`, the same name).
 3. NEAT gaits are evolved for the healthy morphology, every EEA model (a
    ``morphology+servos`` model's gains become its robot's
    ``ServoFaults(speed_scale=gains)``: the gait is evolved on the model with its servos as
@@ -45,11 +46,14 @@ from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import check_output_dir, run_lock
 from eea import EEAConfig
+from eea.methods import BEST_METHOD
 from gait.robots import RANDOM_DAMAGE, Robot
 from gait.video import record_video
 
 #: The paper's model space (the plain-EEA and out-of-band rows) and the self-model's default.
 PAPER_MODEL_SPACE, DEFAULT_MODEL_SPACE = "morphology", "morphology+servos"
+#: The self-model's default method: the best (docs/self_modeling.md).
+DEFAULT_METHOD = BEST_METHOD
 #: The servo gains a ``morphology+servos`` model holds, in order (``ServoFaults.speed_scale``).
 GAIN_NAMES = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")
 #: The gaits shown in the recovery video (on the damaged robot), with their panel titles.
@@ -61,7 +65,7 @@ class CaseStudyPreset:
     """Settings of one case-study preset.
 
     Attributes:
-        eea: EEA settings shared by both self-modeling runs (inference is set per run).
+        budget: the EEA budget of every self-modeling run (:data:`eea.methods.BUDGETS`).
         gait_population, gait_generations: NEAT settings for every gait.
         gait_episodes: starts (initial flipper angles) per NEAT genome evaluation; the
             fitness is the mean distance. One start overfits the gait to it.
@@ -72,7 +76,7 @@ class CaseStudyPreset:
             (20 s, the paper's; ``run_case_study(episode_duration_s=...)`` overrides it).
     """
 
-    eea: dict
+    budget: str
     gait_population: int
     gait_generations: int
     rl_timesteps: int
@@ -99,25 +103,19 @@ BREAKS_SHARE, RECOVERS_SHARE, RECOVERS_OVER_HEALTHY = 0.5, 0.8, 1.5
 PRESETS: dict[str, CaseStudyPreset] = {
     # about 10-15 minutes on 2 cores
     "quick": CaseStudyPreset(
-        eea=dict(duration_s=1.28, rounds=8, estimation_population=25, estimation_generations=30,
-                 exploration_population=12, exploration_generations=8, exploration_models=8,
-                 oob_period=10, oob_population=8, oob_generations=6),
-        gait_population=30, gait_generations=12, rl_timesteps=20_000, gait_episodes=2, transfer_episodes=5,
+        budget="quick", gait_population=30, gait_generations=12, rl_timesteps=20_000, gait_episodes=2, transfer_episodes=5,
     ),
     # a minutes-long end-to-end check of the whole pipeline (used by the tests)
     "smoke": CaseStudyPreset(
-        eea=dict(duration_s=0.32, rounds=2, estimation_population=6, estimation_generations=3,
-                 exploration_population=4, exploration_generations=2, exploration_models=3,
-                 k_best=2, oob_period=2, oob_sample=2, oob_population=3, oob_generations=2),
-        gait_population=6, gait_generations=2, rl_timesteps=256, gait_episodes=2, transfer_episodes=2,
+        budget="smoke", gait_population=6, gait_generations=2, rl_timesteps=256, gait_episodes=2, transfer_episodes=2,
     ),
     # about an hour on 2 cores: the paper's EEA populations and generations, 10 rounds
     "medium": CaseStudyPreset(
-        eea=dict(duration_s=1.28, rounds=10), gait_population=50, gait_generations=20, rl_timesteps=100_000,
+        budget="medium", gait_population=50, gait_generations=20, rl_timesteps=100_000,
         gait_episodes=3, transfer_episodes=10,
     ),
     # the paper's settings (section 4 and 5): hours per EEA run
-    "paper": CaseStudyPreset(eea=dict(duration_s=1.28, rounds=25), gait_population=150, gait_generations=100,
+    "paper": CaseStudyPreset(budget="paper", gait_population=150, gait_generations=100,
                              rl_timesteps=1_000_000, gait_episodes=3, transfer_episodes=10),
 }
 
@@ -126,7 +124,7 @@ def _rl_available() -> bool:
     return importlib.util.find_spec("stable_baselines3") is not None
 
 
-def run_case_study(preset: str, damage: str, seed: int, out_dir, *, inference: str = "out_of_band",
+def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str = DEFAULT_METHOD,
                    model_space: str = DEFAULT_MODEL_SPACE, episode_duration_s: float | None = None,
                    video: bool = True, workers: int | None = None, progress: bool = True) -> dict:
     """Run the case study and write its report; return the report as a dict.
@@ -136,7 +134,8 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, inference: s
         damage: damage name applied to the healthy robot to make the target.
         seed: seeds every EEA run, gait evolution and RL run.
         out_dir: output directory (created; finished steps found there are reused).
-        inference: the self-model's inference strategy (:data:`eea.INFERENCE_NAMES`).
+        method: the self-model's method (:data:`eea.methods.METHODS`; default the best,
+            ``profile_lineages``).
         model_space: the self-model's model space (``eea.MODEL_SPACES``): ``"morphology+servos"``
             (default: the nine dimensions and a gain per servo, which reach its gait's robot as
             ``ServoFaults(speed_scale=gains)``) or ``"morphology"`` (the paper's). The plain-EEA
@@ -149,7 +148,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, inference: s
         progress: show progress bars.
 
     Raises:
-        ValueError: unknown preset, damage, inference or model space, a bad seed, duration or
+        ValueError: unknown preset, damage, method or model space, a bad seed, duration or
             worker count, or an ``out_dir`` that cannot be written (all checked before anything
             is created); an ``out_dir`` that another process is writing
             (:class:`~aquafish_gym.rundir.BusyError`) or whose steps were made with other
@@ -167,20 +166,21 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, inference: s
     check_int("seed", seed, 0)
     if workers is not None:
         check_int("workers", workers, 1)
-    runs = {"plain_eea": ("none", PAPER_MODEL_SPACE), "self_model": (inference, model_space)}
-    if (inference, model_space) != ("out_of_band", PAPER_MODEL_SPACE):
+    runs = {"plain_eea": ("none", PAPER_MODEL_SPACE), "self_model": (method, model_space)}
+    if (method, model_space) != ("out_of_band", PAPER_MODEL_SPACE):
         runs["out_of_band"] = ("out_of_band", PAPER_MODEL_SPACE)
-    configs = {key: EEAConfig(inference=strategy, damage=damage, seed=seed, model_space=space, **settings.eea,
-                              **({"workers": workers} if workers else {})) for key, (strategy, space) in runs.items()}
+    configs = {key: EEAConfig.from_method(name, settings.budget, damage=damage, seed=seed, model_space=space,
+                                          **({"workers": workers} if workers else {}))
+               for key, (name, space) in runs.items()}
     out = check_output_dir(out_dir)
     with run_lock(out):
-        return _run_locked(preset, settings, damage, target, seed, out, inference, model_space, video, workers,
+        return _run_locked(preset, settings, damage, target, seed, out, method, model_space, video, workers,
                            progress, runs, configs)
 
 
-def _eea_dir(strategy: str, space: str) -> str:
-    """``eea_<inference>`` in the paper's model space, ``eea_<inference>_servos`` in ``morphology+servos``."""
-    return f"eea_{strategy}" if space == PAPER_MODEL_SPACE else f"eea_{strategy}_{space.removeprefix('morphology+')}"
+def _eea_dir(method: str, space: str) -> str:
+    """``eea_<method>`` in the paper's model space, ``eea_<method>_servos`` in ``morphology+servos``."""
+    return f"eea_{method}" if space == PAPER_MODEL_SPACE else f"eea_{method}_{space.removeprefix('morphology+')}"
 
 
 def _gait_dir(key: str, duration_s: float) -> str:
@@ -215,7 +215,7 @@ def _true_gains(damage: str) -> list[float]:
 
 
 def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int, out: Path,
-                inference: str, model_space: str, video: bool, workers: int | None, progress: bool, runs: dict,
+                method: str, model_space: str, video: bool, workers: int | None, progress: bool, runs: dict,
                 configs: dict) -> dict:
     """The body of :func:`run_case_study`, under the lock of ``out``."""
     t0 = time.perf_counter()
@@ -275,14 +275,15 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         for key, t in transfers.items()
     }
     report = {
-        "preset": preset, "damage": damage, "seed": seed, "inference": inference, "model_space": model_space,
+        "preset": preset, "damage": damage, "seed": seed, "method": method, "model_space": model_space,
         "episode_duration_s": duration,
         "settings": dataclasses.asdict(settings),
         "target_morphology": _dims(target),
         "target_servo_gains": dict(zip(GAIN_NAMES, _true_gains(damage))),
         "models": {
             key: {
-                "inference": runs[key][0],
+                "method": runs[key][0],
+                "inference": configs[key].inference,
                 "model_space": runs[key][1],
                 "morphology": _dims(models[key]),
                 "servo_gains": None if _model_gains(result) is None else dict(zip(GAIN_NAMES, _model_gains(result))),
@@ -379,7 +380,7 @@ def render_report(report: dict) -> str:
     m = report["models"]
     keys = list(m)
     lines += ["| dimension | range | target | " + " | ".join(f"{CONTROLLER_KEYS[k].removeprefix('the ')} "
-                                                           f"(inference `{m[k]['inference']}`, "
+                                                           f"(`{m[k].get('method', m[k]['inference'])}`, "
                                                            f"`{m[k].get('model_space', PAPER_MODEL_SPACE)}`)"
                                                            for k in keys) + " |",
               "|---|---|---|" + "---|" * len(keys)]

@@ -10,6 +10,7 @@ from aquafish_gym.argtypes import csv_list, int_at_least, positive_float
 from aquafish_gym.rundir import check_output_dir, check_output_file, run_lock
 from eea.cli import add_config_flags, config_fields, config_flag_names
 from eea import INFERENCE_NAMES, MODEL_SPACES, EEAConfig
+from eea.methods import BEST_METHOD, METHODS
 
 
 #: EEA settings that are no flags of ``aquafish study``: the study sets them per run
@@ -24,7 +25,7 @@ def _case_study(args: argparse.Namespace) -> int:
     from aquafish.case_study import run_case_study
 
     check_output_dir(args.out)
-    report = run_case_study(args.preset, args.damage, args.seed, args.out, inference=args.inference,
+    report = run_case_study(args.preset, args.damage, args.seed, args.out, method=args.method,
                             model_space=args.model_space, episode_duration_s=args.episode_duration,
                             video=args.video, workers=args.workers)
     print((Path(args.out) / "report.md").read_text())
@@ -160,8 +161,8 @@ def add_commands(sub) -> None:
     c = sub.add_parser("case-study", help="damage-recovery case study (paper section 5): self-model, evolve gaits, transfer")
     c.add_argument("--preset", default="quick", choices=["smoke", "quick", "medium", "paper"],
                    help="smoke (a pipeline check), quick (~15 min on 2 cores), medium (~1 h) or the paper's settings")
-    c.add_argument("--inference", default="out_of_band", choices=INFERENCE_NAMES,
-                   help="the self-model's inference strategy (default out_of_band, the paper's); unless the "
+    c.add_argument("--method", default=BEST_METHOD, choices=list(METHODS),
+                   help=f"the self-model's method (default {BEST_METHOD}, the best; eea.methods); unless the "
                         "self-model is out_of_band in morphology, the paper's out_of_band run in morphology is a "
                         "row too")
     c.add_argument("--model-space", default="morphology+servos", choices=list(MODEL_SPACES),

@@ -25,6 +25,7 @@ from aquafish_gym.params import DEFAULT_WATERLINE
 from aquafish_gym.checks import check_int
 from eea.encoding import MODEL_SPACES
 from eea.inference import INFERENCE_NAMES
+from eea.methods import budget_fields, method_fields
 from eea.model_search import SEARCH_NAMES
 
 __all__ = ["ESTIMATION_SEARCHES", "MODEL_SPACE_NAMES", "EEAConfig", "FIELD_HELP", "PRESETS", "RESULT_NEUTRAL_FIELDS",
@@ -341,6 +342,16 @@ class EEAConfig:
                 invalid field as :class:`EEAConfig` raises.
         """
         return cls._from_fields({**preset_fields(*names), **fields})
+
+    @classmethod
+    def from_method(cls, method: str, budget: str = "paper", **fields) -> "EEAConfig":
+        """Settings of the named method at the named budget (:mod:`eea.methods`), then ``fields``.
+
+        Raises:
+            ValueError: an unknown method or budget (the message lists the valid names), or an
+                invalid field as :class:`EEAConfig` raises.
+        """
+        return cls._from_fields({**budget_fields(budget), **method_fields(method), **fields})
 
     def replace(self, **changes) -> "EEAConfig":
         """A validated copy with some fields changed."""

@@ -27,12 +27,12 @@ def main(argv=None) -> None:  # a function under the __main__ guard: worker proc
     args = parser.parse_args(argv)
     s, seconds, seed, workers = PRESETS[args.preset], args.episode_duration, args.seed, args.workers
 
-    # 1. the damaged robot self-models: plain EEA (the paper's 9 dimensions), out-of-band inference with servo gains
+    # 1. the damaged robot self-models: plain EEA (the paper's 9 dimensions), the best method with servo gains
     robots = {"healthy": gait.Robot(Morphology.healthy()), "robust": gait.Robot(Morphology.healthy(), "random")}
-    for key, inference, space in (("plain_eea", "none", "morphology"),
-                                  ("self_model", "out_of_band", "morphology+servos")):
-        eea.run(eea.EEAConfig(inference=inference, model_space=space, damage=args.damage, seed=seed, **s.eea,
-                              **({"workers": workers} if workers else {})), args.out / f"eea_{key}")
+    for key, method, space in (("plain_eea", "none", "morphology"),
+                               ("self_model", "profile_lineages", "morphology+servos")):
+        eea.run(eea.EEAConfig.from_method(method, s.budget, model_space=space, damage=args.damage, seed=seed,
+                                          **({"workers": workers} if workers else {})), args.out / f"eea_{key}")
         result = eea.load_result(args.out / f"eea_{key}")
         gains = tuple(result.best_model[9:])  # the 3 servo gains after the 9 dimensions (none in "morphology")
         robots[key] = gait.Robot(result.best_morphology, faults=ServoFaults(speed_scale=gains) if gains else None)

@@ -8,6 +8,7 @@ from aquafish import case_study
 from aquafish.case_study import CONTROLLER_KEYS, PRESETS, render_report, run_case_study, verdict
 from aquafish.cli import main
 from aquafish_gym import MORPHOLOGY_FIELDS, get_damage
+from eea.methods import BUDGETS
 
 
 @pytest.mark.slow
@@ -17,12 +18,12 @@ def test_smoke_case_study_writes_report_and_figures(tmp_path):
     assert saved["controllers"] == report["controllers"]
     target = get_damage("left_pectoral_half").apply().to_array()
     assert [saved["target_morphology"][f] for f in MORPHOLOGY_FIELDS] == pytest.approx(target.tolist())
-    assert {k: (m["inference"], m["model_space"]) for k, m in report["models"].items()} == {
-        "plain_eea": ("none", "morphology"), "self_model": ("out_of_band", "morphology+servos"),
-        "out_of_band": ("out_of_band", "morphology")}
+    assert {k: (m["method"], m["inference"], m["model_space"]) for k, m in report["models"].items()} == {
+        "plain_eea": ("none", "none", "morphology"), "self_model": ("profile_lineages", "profile", "morphology+servos"),
+        "out_of_band": ("out_of_band", "out_of_band", "morphology")}
     for model in report["models"].values():
         assert 0.0 <= model["objective_fitness"] <= 1.0
-        assert model["target_experiments"] == PRESETS["smoke"].eea["rounds"]
+        assert model["target_experiments"] == BUDGETS["smoke"]["rounds"]
     assert {"healthy", "plain_eea", "self_model", "true_damaged", "robust"} <= set(report["controllers"]) <= set(CONTROLLER_KEYS)
     for c in report["controllers"].values():
         assert c["target_distance"] == pytest.approx(sum(c["target_distances"]) / len(c["target_distances"]))
