@@ -10,11 +10,11 @@ from aquafish_gym.argtypes import csv_list, int_at_least, positive_float
 from aquafish_gym.rundir import check_output_dir, check_output_file, run_lock
 from eea.cli import add_config_flags, config_fields, config_flag_names
 from eea import INFERENCE_NAMES, MODEL_SPACES, EEAConfig
-from eea.methods import BEST_METHOD, METHODS
+from eea.methods import BEST_METHOD, METHODS, PAPER_METHODS
 
 
 #: EEA settings that are no flags of ``aquafish study``: the study sets them per run
-#: (``--conditions``, ``--durations``, ``--replicates``, ``--first-seed`` give inference, duration
+#: (``--methods``, ``--durations``, ``--replicates``, ``--first-seed`` give inference, duration
 #: and seed)
 #: and runs every run serially (``--processes`` runs at once). Every other
 #: :class:`~eea.config.EEAConfig` field is a flag, as in ``aquafish eea``.
@@ -37,8 +37,10 @@ def _case_study(args: argparse.Namespace) -> int:
 def _study(args: argparse.Namespace) -> int:
     from aquafish.study import StudySpec, run_study
 
-    base = EEAConfig(workers=1, **config_fields(args, config_flag_names(STUDY_EXCLUDED)))
-    spec = StudySpec(args.conditions, args.durations, args.replicates, base, first_seed=args.first_seed)
+    names = config_flag_names(STUDY_EXCLUDED)
+    base = EEAConfig(workers=1, **config_fields(args, names))
+    fixed = [n for n in names if getattr(args, n) is not None]  # flags given win over the methods' fields
+    spec = StudySpec(args.conditions, args.durations, args.replicates, base, first_seed=args.first_seed, fixed=fixed)
     dirs = run_study(spec, args.out, backend=args.backend, address=args.address, processes=args.processes)
     print(f"{len(dirs)} runs under {args.out}; plot them with: aquafish plot {args.out}")
     return 0
@@ -182,7 +184,9 @@ def add_commands(sub) -> None:
     c.set_defaults(func=_case_study)
 
     s = sub.add_parser("study", help="many resumable EEA runs: conditions x durations x replicates (Figures 5-10)")
-    s.add_argument("--conditions", type=csv_list(str), default=("known", "none", "in_band", "out_of_band"), help="inference strategies")
+    s.add_argument("--methods", type=csv_list(str, choices=(*METHODS, *INFERENCE_NAMES)), default=PAPER_METHODS,
+                   dest="conditions", help=f"methods, comma-separated (eea.methods; default the paper's four): "
+                   f"{', '.join(METHODS)}; an inference strategy name that is no method (profile) sets only the inference")
     s.add_argument("--durations", type=csv_list(float), default=(1.28, 2.56, 5.12, 10.24), help="experiment durations (s)")
     s.add_argument("--replicates", type=int_at_least(1), default=25,
                    help="seeds S..S+N-1 per (condition, duration), S the --first-seed")

@@ -1,7 +1,7 @@
 """Studies: many independent, resumable EEA runs, and the paper's Figures 5-10.
 
-A study is conditions (inference strategies) x experiment durations x replicate seeds
-(paper section 4; docs/self_modeling.md). Each (condition, duration, replicate) is one
+A study is conditions (named methods, :mod:`eea.methods`) x experiment durations x replicate
+seeds (paper section 4; docs/self_modeling.md). Each (condition, duration, replicate) is one
 :func:`eea.run` in ``OUT/<condition>/<duration>s/seed<k>``; a run whose ``rounds.csv``
 already holds every round is skipped, and an interrupted one resumes from its last
 finished round. Runs execute in a local process pool (one process per core, each run
@@ -23,6 +23,7 @@ from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, check_output_dir, die_with_parent, read_json, run_lock
 from eea.config import EEAConfig
+from eea.methods import METHODS, method_fields
 from eea.record import read_rounds
 
 BACKENDS = ("local", "ray")
@@ -33,13 +34,18 @@ class StudySpec:
     """What to run.
 
     Attributes:
-        conditions: inference strategy names (e.g. ``("known", "none", "in_band", "out_of_band")``).
+        conditions: method names (:data:`eea.methods.METHODS`, e.g. ``("out_of_band",
+            "profile_lineages")``); each run is ``base`` with the method's fields, except those
+            named in ``fixed``. A name that is no method but an inference strategy (``"profile"``, in
+            studies written before methods had names) sets ``inference`` alone.
         durations_s: experiment durations in seconds (paper: 1.28, 2.56, 5.12, 10.24).
         replicates: seeds ``first_seed .. first_seed + replicates - 1`` per (condition,
             duration); paper: 25.
         base: every other EEA setting (population sizes, generations, rounds, damage).
         first_seed: the first seed (default 0): a study's seeds can be run in shards, e.g.
             seeds 0-9 on one machine and ``first_seed=10`` on another, into one directory.
+        fixed: fields ``base`` holds that no method overrides (``aquafish study``: the flags
+            given explicitly, e.g. ``--lineages 1`` beside ``--methods profile_lineages``).
 
     Raises:
         ValueError: empty lists, duplicate entries, ``replicates < 1``, ``first_seed < 0`` or
@@ -51,8 +57,13 @@ class StudySpec:
     replicates: int
     base: EEAConfig = dataclasses.field(default_factory=lambda: EEAConfig(workers=1))
     first_seed: int = 0
+    fixed: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        object.__setattr__(self, "fixed", tuple(sorted(self.fixed)))
+        unknown = sorted(set(self.fixed) - set(self.base.to_dict()))
+        if unknown:
+            raise ValueError(f"fixed names unknown EEAConfig fields {unknown}")
         object.__setattr__(self, "conditions", tuple(self.conditions))
         object.__setattr__(self, "durations_s", tuple(float(d) for d in self.durations_s))
         if not self.conditions or len(set(self.conditions)) != len(self.conditions):
@@ -68,6 +79,13 @@ class StudySpec:
         """The study's seeds: ``first_seed .. first_seed + replicates - 1``."""
         return range(self.first_seed, self.first_seed + self.replicates)
 
+    def _method_fields(self, condition: str) -> dict:
+        """The fields the method ``condition`` sets, except those in ``fixed``; a legacy
+        inference name sets ``inference``."""
+        if condition not in METHODS:
+            return {"inference": condition}
+        return {k: v for k, v in method_fields(condition).items() if k not in self.fixed}
+
     def runs(self, out_dir: Path) -> list[tuple[EEAConfig, Path]]:
         """Every run of the study: ``(config, run directory)``, replicate by replicate.
 
@@ -79,7 +97,7 @@ class StudySpec:
         for seed in self.seeds:
             for condition in self.conditions:
                 for duration in self.durations_s:
-                    config = self.base.replace(inference=condition, duration_s=duration, seed=seed)
+                    config = self.base.replace(**self._method_fields(condition), duration_s=duration, seed=seed)
                     out.append((config, Path(out_dir) / condition / f"{duration:g}s" / f"seed{seed}"))
         return out
 
@@ -179,6 +197,8 @@ def _study_seeds(study: dict) -> list[int]:
 def _write_spec(spec: StudySpec, out_dir: Path) -> None:
     data = {"conditions": list(spec.conditions), "durations_s": list(spec.durations_s),
             "seeds": list(spec.seeds), "base": spec.base.to_dict()}
+    if spec.fixed:  # only when set: a study.json written before still describes its study
+        data["fixed"] = list(spec.fixed)
     data["base"].pop("workers", None)
     path = out_dir / "study.json"
     if path.exists():

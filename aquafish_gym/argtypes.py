@@ -58,8 +58,9 @@ def waterline(text: str) -> float | None:
         raise argparse.ArgumentTypeError(f"expected a height in units or 'deep', got {text!r}") from None
 
 
-def csv_list(kind=str):
-    """An argparse ``type``: a non-empty comma-separated list of ``kind`` values, as a tuple."""
+def csv_list(kind=str, choices=None):
+    """An argparse ``type``: a non-empty comma-separated list of ``kind`` values, as a tuple
+    (each one of ``choices``, when given)."""
 
     def parse(text: str) -> tuple:
         try:
@@ -70,6 +71,9 @@ def csv_list(kind=str):
             raise argparse.ArgumentTypeError(f"expected at least one comma-separated {kind.__name__} value, got {text!r}")
         if kind is float and not all(math.isfinite(v) for v in values):
             raise argparse.ArgumentTypeError(f"expected finite numbers, got {text!r}")
+        unknown = [v for v in values if choices is not None and v not in choices]
+        if unknown:
+            raise argparse.ArgumentTypeError(f"unknown {', '.join(map(repr, unknown))}; valid: {', '.join(choices)}")
         return values
 
     parse.__name__ = f"comma-separated {kind.__name__} list"

@@ -3,9 +3,11 @@
 ``aquafish eea --inference out_of_band --damage left_pectoral_half --duration 1.28
 --rounds 25 --seed 0 --out DIR`` runs (or resumes) one EEA run; every
 :class:`~eea.config.EEAConfig` field is a flag (``--estimation-population 50``) with the
-dataclass default, and ``--preset NAME`` (repeatable) applies a named bundle of settings
-(:data:`eea.config.PRESETS`) that the flags given explicitly override
-(:func:`add_config_flags` and :func:`config_fields`, which ``aquafish study`` uses too).
+dataclass default; ``--budget NAME`` and ``--method NAME`` apply named settings
+(:mod:`eea.methods`) that the flags given explicitly override (:func:`add_config_flags` and
+:func:`config_fields`, which ``aquafish study`` uses too)::
+
+    aquafish eea --method profile_lineages --budget reduced --damage caudal_half --out DIR
 
 ``aquafish plot`` (:func:`eea.analysis.plot.plot_runs`) is added by ``aquafish.studies_cli``.
 """
@@ -17,7 +19,8 @@ import dataclasses
 from typing import Iterable
 
 from aquafish_gym import argtypes
-from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, MODEL_SPACE_NAMES, PRESETS, EEAConfig, preset_fields
+from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, MODEL_SPACE_NAMES, EEAConfig
+from eea.methods import BUDGETS, METHODS, budget_fields, method_fields
 from eea.inference import INFERENCE_NAMES
 
 __all__ = ["add_commands", "add_config_flags", "config_fields", "config_flag_names"]
@@ -54,7 +57,8 @@ def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = (
     also ``--duration``), stored under the field's name, with the field's type and
     :data:`eea.config.FIELD_HELP` as help (which names the dataclass default); named settings
     (``inference``, ``estimation_search``, ``model_space``) list their
-    choices. Also adds ``--preset NAME`` (repeatable, :data:`eea.config.PRESETS`). A flag not
+    choices. Also adds ``--budget NAME`` (:data:`eea.methods.BUDGETS`, default ``paper``) and,
+    when ``inference`` gets a flag, ``--method NAME`` (:data:`eea.methods.METHODS`). A flag not
     given parses as None, so that :func:`config_fields` can tell it from one given.
 
     Args:
@@ -75,20 +79,23 @@ def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = (
         flags = (f"--{name.replace('_', '-')}", *_SHORT_FLAGS.get(name, ()))
         parser.add_argument(*flags, type=_TYPES.get(name, type(default)), default=None, dest=name, choices=_CHOICES.get(name),
                             help=f"{FIELD_HELP[name]} (default: {default})")
-    parser.add_argument("--preset", action="append", default=[], choices=list(PRESETS), dest="preset",
-                        help="a named bundle of settings (eea.config.PRESETS), applied in order; flags given "
-                             "explicitly override it. reduced: the README's reduced setting; library: the best "
-                             "method under unknown initial angles (not the paper's); paper: the defaults")
+    parser.add_argument("--budget", choices=list(BUDGETS), default="paper",
+                        help="how much search each round gets (eea.methods.BUDGETS): smoke, quick, reduced (the "
+                             "studies' setting), medium or paper (the default); flags given explicitly override it")
+    if "inference" in names:
+        parser.add_argument("--method", choices=list(METHODS), default=None,
+                            help="a named method (eea.methods.METHODS): the paper's known, none, in_band, out_of_band, "
+                                 "or profile_lineages (the best); flags given explicitly override its fields")
     return names
 
 
 def config_fields(args: argparse.Namespace, names: Iterable[str]) -> dict:
     """The :class:`~eea.config.EEAConfig` fields a parsed command line sets, among ``names``.
 
-    The presets' values (``--preset``, in order) first, then every flag given explicitly;
-    a field set by neither is left out (the config's default applies). A preset's field
-    that is not in ``names`` (e.g. ``inference`` in a study, whose conditions name it) is
-    left out too.
+    The budget's values first, then the method's (``--method``, if given), then every flag
+    given explicitly; a field set by none of them is left out (the config's default applies).
+    A field that is not in ``names`` (e.g. ``inference`` in a study, whose methods set it)
+    is left out too.
 
     Args:
         args: parsed by a parser that :func:`add_config_flags` set up.
@@ -98,7 +105,8 @@ def config_fields(args: argparse.Namespace, names: Iterable[str]) -> dict:
         ``{field: value}`` to pass to :class:`~eea.config.EEAConfig`.
     """
     names = tuple(names)
-    fields = {k: v for k, v in preset_fields(*args.preset).items() if k in names}
+    method = method_fields(args.method) if getattr(args, "method", None) else {}
+    fields = {k: v for k, v in {**budget_fields(args.budget), **method}.items() if k in names}
     fields.update({n: getattr(args, n) for n in names if getattr(args, n) is not None})
     return fields
 

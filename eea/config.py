@@ -8,10 +8,11 @@ any simulation runs::
     config = EEAConfig(inference="in_band", rounds=10, seed=3)
     config.steps          # 128 (= duration_s / 0.01 s)
 
-Named bundles of settings (:data:`PRESETS`, ``--preset`` on the command line) spell out the
-settings the studies use (docs/studies.md), so a run is one name instead of a dozen flags::
+Named methods and budgets (:mod:`eea.methods`; ``--method`` and ``--budget`` on the command
+line) spell out the settings the studies use (docs/studies.md), so a run is two names instead
+of a dozen flags::
 
-    EEAConfig.from_presets("reduced", "library", damage="caudal_half", seed=3)
+    EEAConfig.from_method("profile_lineages", "reduced", damage="caudal_half", seed=3)
 """
 
 from __future__ import annotations
@@ -28,8 +29,8 @@ from eea.inference import INFERENCE_NAMES
 from eea.methods import budget_fields, method_fields
 from eea.model_search import SEARCH_NAMES
 
-__all__ = ["ESTIMATION_SEARCHES", "MODEL_SPACE_NAMES", "EEAConfig", "FIELD_HELP", "PRESETS", "RESULT_NEUTRAL_FIELDS",
-           "RETIRED_FIELDS", "preset_fields"]
+__all__ = ["ESTIMATION_SEARCHES", "MODEL_SPACE_NAMES", "EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS",
+           "RETIRED_FIELDS"]
 
 #: Names of the estimation searches (:data:`eea.model_search.MODEL_SEARCHES`): the paper's
 #: GA and CMA-ES (:mod:`eea.cma_search`).
@@ -117,42 +118,6 @@ FIELD_HELP: dict[str, str] = {
     "max_batch_robots": "at most this many robots per simulate_batch call (chunking; 32-64 is fastest, "
                         "larger worlds cost more per robot-step); never changes results",
 }
-
-
-#: Named bundles of field values, applied in order by :meth:`EEAConfig.from_presets` and by
-#: ``--preset`` on the command line (fields and flags given explicitly win). The defaults are
-#: the paper's settings, so ``paper`` changes nothing.
-PRESETS: dict[str, dict[str, object]] = {
-    "paper": {},
-    # the reduced setting (docs/studies.md): every issue-14 part-2 table, about a quarter of
-    # the paper's simulations per run
-    "reduced": {"rounds": 10, "estimation_generations": 30, "exploration_generations": 10, "oob_period": 10},
-    # the best single-run method under unknown initial angles (docs/studies.md, "Beyond the paper";
-    # not the paper's): per-model angles, robust and diverse exploration, CMA-ES with a carried
-    # covariance and a global share, contender refinement and an angle library
-    "library": {"inference": "profile", "exploration_angles": 4, "exploration_diversity": 0.05,
-                "estimation_search": "cma", "cma_carry_condition": 100.0, "cma_global_share": 8,
-                "profile_refine": 10, "profile_contenders": 3, "profile_library": 8},
-}
-# the best method under unknown initial angles (issue 14: mean OBJ_FIT 0.958-0.965 at round 10
-# on three damages): "library" and two independent estimation lineages sharing each round's
-# experiment, the round's model chosen by an equal angle fit, each lineage's global CMA-ES kept
-# (eea.lineages; docs/studies.md, "Beyond the paper"; not the paper's)
-PRESETS["lineages"] = {**PRESETS["library"], "cma_global_keep": 3, "lineages": 2}
-
-
-def preset_fields(*names: str) -> dict[str, object]:
-    """The fields the named presets (:data:`PRESETS`) set, applied in order (later ones win).
-
-    Raises:
-        ValueError: on an unknown preset name (the message lists the valid ones).
-    """
-    merged: dict[str, object] = {}
-    for name in names:
-        if name not in PRESETS:
-            raise ValueError(f"unknown preset {name!r}; valid names: {', '.join(PRESETS)}")
-        merged.update(PRESETS[name])
-    return merged
 
 
 def _default_workers() -> int:
@@ -329,19 +294,6 @@ class EEAConfig:
         if unknown:
             raise ValueError(f"unknown EEAConfig keys {unknown}; valid keys: {', '.join(sorted(names))}")
         return cls(**data)
-
-    @classmethod
-    def from_presets(cls, *names: str, **fields) -> "EEAConfig":
-        """Settings from named presets (:data:`PRESETS`), applied in order, then ``fields``.
-
-        Later presets override earlier ones, and ``fields`` override them all; any field
-        neither sets keeps its (the paper's) default.
-
-        Raises:
-            ValueError: on an unknown preset name (the message lists the valid ones), or an
-                invalid field as :class:`EEAConfig` raises.
-        """
-        return cls._from_fields({**preset_fields(*names), **fields})
 
     @classmethod
     def from_method(cls, method: str, budget: str = "paper", **fields) -> "EEAConfig":

@@ -55,7 +55,7 @@ def test_study_command_line_of_the_readme(monkeypatch, tmp_path):
 
     specs = []
     monkeypatch.setattr(aquafish.study, "run_study", lambda spec, out, **kw: specs.append((spec, out, kw)) or [])
-    argv = ["study", "--conditions", "known,none,in_band,out_of_band", "--durations", "1.28", "--replicates", "5",
+    argv = ["study", "--methods", "known,none,in_band,out_of_band", "--durations", "1.28", "--replicates", "5",
             "--rounds", "10", "--estimation-generations", "30", "--exploration-generations", "10", "--oob-period", "10",
             "--estimation-search", "cma", "--cma-sigma", "0.2", "--first-seed", "10", "--out", str(tmp_path)]
     assert main(argv) == 0
@@ -70,7 +70,7 @@ def test_study_command_line_of_the_readme(monkeypatch, tmp_path):
     assert kw == {"backend": "local", "address": None, "processes": None}
 
 
-def test_presets_on_the_command_line_and_flags_over_them(monkeypatch, tmp_path):
+def test_methods_and_budgets_on_the_command_line_and_flags_over_them(monkeypatch, tmp_path):
     import json
 
     import importlib
@@ -80,24 +80,34 @@ def test_presets_on_the_command_line_and_flags_over_them(monkeypatch, tmp_path):
 
     specs = []
     monkeypatch.setattr(aquafish.study, "run_study", lambda spec, out, **kw: specs.append(spec) or [])
-    argv = ["study", "--preset", "reduced", "--preset", "library", "--conditions", "profile", "--damage", "caudal_half",
+    argv = ["study", "--budget", "reduced", "--methods", "out_of_band,profile_lineages", "--durations", "1.28",
+            "--damage", "caudal_half",
             "--profile-library", "4", "--out", str(tmp_path)]
     assert main(argv) == 0
-    # the library studies of docs/studies.md ran with these settings (docs/results keeps their study.json)
-    published = json.loads((Path(__file__).parents[2] / "docs/results/lph_cs8_lib8/study.json").read_text())["base"]
-    published.update(damage="caudal_half", profile_library=4, workers=1)        # the flags given beside the presets
-    # (they ran in deep water, before the surface swimmer became the default)
-    assert specs[0].base == EEAConfig.from_dict(published).replace(inference="out_of_band", seed=0,
-                                                                   waterline=EEAConfig().waterline)
-    # aquafish eea: the preset's inference applies, a flag given wins over a preset
+    # the lineage studies of docs/self_modeling.md ran with the reduced budget and the best method (docs/results
+    # keeps their study.json; they ran in deep water, before the surface swimmer became the default)
+    published = json.loads((Path(__file__).parents[2] / "docs/results/lph_lin2/study.json").read_text())["base"]
+    published.update(damage="caudal_half", profile_library=4, workers=1)        # the flags given beside the names
+    (oob, _), (best, best_dir) = specs[0].runs(tmp_path)[:2]
+    assert best == EEAConfig.from_dict(published).replace(inference="profile", seed=0, waterline=EEAConfig().waterline)
+    assert best_dir == tmp_path / "profile_lineages" / "1.28s" / "seed0"
+    assert (oob.inference, oob.estimation_search, oob.profile_library, oob.rounds) == ("out_of_band", "ga", 4, 10)
+    assert specs[0].fixed == ("damage", "profile_library")
+    main([*argv[:-1], str(tmp_path / "one"), "--lineages", "1"])   # a flag given wins, even at its default value
+    assert specs[1].runs(tmp_path)[1][0] == best.replace(lineages=1)
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["study", "--out", str(tmp_path), "--methods", "out_of_band,profile_lineage"])
+    # aquafish eea: the method's fields apply, a flag given wins over a method or budget
     configs = []
     monkeypatch.setattr(importlib.import_module("eea.run"), "run", lambda config, out, progress: configs.append(config) or
                         type("R", (), {"rounds": [dict(objective_fitness=1, model_fitness=1, simulations=0)]})())
-    assert main(["eea", "--preset", "library", "--preset", "reduced", "--rounds", "3", "--out", str(tmp_path / "r")]) == 0
-    assert configs[0] == EEAConfig.from_presets("library", "reduced", rounds=3)
+    assert main(["eea", "--method", "profile_lineages", "--budget", "reduced", "--rounds", "3", "--out",
+                 str(tmp_path / "r")]) == 0
+    assert configs[0] == EEAConfig.from_method("profile_lineages", "reduced", rounds=3)
     assert (configs[0].inference, configs[0].rounds, configs[0].estimation_generations) == ("profile", 3, 30)
-    with pytest.raises(SystemExit):
-        build_parser().parse_args(["eea", "--out", str(tmp_path), "--preset", "fastest"])
+    for bad in (["--budget", "fastest"], ["--method", "library"]):
+        with pytest.raises(SystemExit):
+            build_parser().parse_args(["eea", "--out", str(tmp_path), *bad])
 
 
 @pytest.mark.parametrize("flag", ["--seed", "--inference", "--workers"])

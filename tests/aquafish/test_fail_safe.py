@@ -45,7 +45,7 @@ TINY_EEA = ["--duration", "0.16", "--rounds", "2", "--exploration-population", "
             "--exploration-models", "3", "--estimation-population", "5", "--estimation-generations", "3",
             "--k-best", "2", "--oob-period", "2", "--oob-sample", "2", "--oob-population", "4",
             "--oob-generations", "2", "--no-progress"]
-TINY_STUDY = ["--conditions", "known", "--durations", "0.16", "--replicates", "1", "--rounds", "1",
+TINY_STUDY = ["--methods", "known", "--durations", "0.16", "--replicates", "1", "--rounds", "1",
               "--exploration-population", "4", "--exploration-generations", "2", "--exploration-models", "3",
               "--estimation-population", "5", "--estimation-generations", "3", "--k-best", "2",
               "--oob-sample", "2", "--processes", "1"]
@@ -487,7 +487,7 @@ def test_bad_settings_are_refused_up_front(argv, names, tmp_path, capsys, monkey
     (["gait", *TINY_GAIT, "--damage", "broken"], ["broken"]),
     (["eea", *TINY_EEA, "--k-best", "50"], ["k_best"]),
     (["eea", *TINY_EEA, "--damage", "broken"], ["broken"]),
-    (["study", *TINY_STUDY, "--conditions", "bogus"], ["bogus"]),
+    (["study", *TINY_STUDY, "--methods", "bogus"], ["bogus"]),
     (["rl", "--hyperparams", "missing.yml"], ["missing.yml"]),
     (["rl", "--env", "Nope"], ["Nope"]),
     (["case-study", "--damage", "broken"], ["broken"]),

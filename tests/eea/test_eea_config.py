@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from eea.config import FIELD_HELP, PRESETS, EEAConfig
+from eea.config import FIELD_HELP, EEAConfig
+from eea.methods import BUDGETS, METHODS, method_of
 
 
 def test_defaults_are_the_papers():
@@ -57,34 +58,36 @@ def test_same_results_ignores_workers_chunking_and_rounds():
     assert not c.same_results_as(c.replace(inference="none"))
 
 
-def test_the_lineages_preset_spells_out_the_published_lineage_runs():
-    # docs/results/lph_lin2 (docs/studies.md) ran with --preset reduced --preset library and two flags
+def test_the_best_method_spells_out_the_published_lineage_runs():
+    # docs/results/lph_lin2 (docs/self_modeling.md) ran the best method at the reduced budget
     published = json.loads((Path(__file__).parents[2] / "docs/results/lph_lin2/study.json").read_text())["base"]
-    ran = EEAConfig.from_dict(published)
+    ran = EEAConfig.from_dict(published).replace(inference="profile")  # its condition, "profile", set inference
     assert ran.waterline is None                                      # written before the surface swimmer: deep water
-    assert ran.same_results_as(EEAConfig.from_presets("reduced", "lineages", inference=ran.inference, seed=ran.seed,
-                                                      waterline=None))
-    assert EEAConfig.from_presets("reduced", "library", cma_global_keep=3, lineages=2) == \
-        EEAConfig.from_presets("reduced", "lineages")
+    assert ran.same_results_as(EEAConfig.from_method("profile_lineages", "reduced", seed=ran.seed, waterline=None))
+    assert method_of(ran) == "profile_lineages"
 
 
-def test_presets_apply_in_order_and_fields_win():
-    assert EEAConfig.from_presets() == EEAConfig.from_presets("paper") == EEAConfig()
-    reduced = EEAConfig.from_presets("reduced")
+def test_budgets_and_methods_are_independent_axes_and_fields_win():
+    assert EEAConfig.from_method("out_of_band") == EEAConfig.from_method("out_of_band", "paper") == EEAConfig()
+    reduced = EEAConfig.from_method("out_of_band", "reduced")
     assert (reduced.rounds, reduced.estimation_generations, reduced.exploration_generations, reduced.oob_period) \
         == (10, 30, 10, 10)
     assert reduced.replace(rounds=25, estimation_generations=100, exploration_generations=25, oob_period=35) \
         == EEAConfig()                                   # nothing else differs from the paper's settings
-    c = EEAConfig.from_presets("reduced", "library", damage="caudal_half", rounds=4)
+    c = EEAConfig.from_method("profile_lineages", "reduced", damage="caudal_half", rounds=4)
     assert (c.inference, c.estimation_search, c.profile_library, c.damage, c.rounds) == ("profile", "cma", 8, "caudal_half", 4)
-    assert EEAConfig.from_presets("library", "reduced") == EEAConfig.from_presets("reduced", "library")  # disjoint
-    for name, values in PRESETS.items():                  # every preset names real fields with valid values
-        assert set(values) <= set(FIELD_HELP)
-        EEAConfig.from_presets(name)
-    with pytest.raises(ValueError, match="unknown preset 'fast'; valid names: paper, reduced, library"):
-        EEAConfig.from_presets("reduced", "fast")
+    for method in METHODS.values():
+        assert not set(method.fields) & set().union(*BUDGETS.values())     # the axes share no field
+        for budget in BUDGETS:                                             # every method runs at every budget
+            assert method_of(EEAConfig.from_method(method.name, budget, seed=3)) == method.name
+    assert method_of(EEAConfig(inference="profile")) == "custom"           # a method's field missing: no name
+    assert method_of(EEAConfig(inference="none", lineages=2)) == "custom"  # another method's field set: no name
+    with pytest.raises(ValueError, match="unknown method 'library'; valid names: known, none, in_band, out_of_band"):
+        EEAConfig.from_method("library")
+    with pytest.raises(ValueError, match="unknown budget 'fast'; valid names: smoke, quick, reduced, medium, paper"):
+        EEAConfig.from_method("none", "fast")
     with pytest.raises(ValueError, match="unknown EEAConfig keys"):
-        EEAConfig.from_presets("reduced", round=3)
+        EEAConfig.from_method("none", "reduced", round=3)
 
 
 def test_a_config_written_before_issue_40_loads_unless_it_used_a_retired_variant():
@@ -96,7 +99,7 @@ def test_a_config_written_before_issue_40_loads_unless_it_used_a_retired_variant
     with pytest.raises(ValueError, match=r"EEAConfig.profile_scan = 1: this run used a variant retired in issue 40"):
         EEAConfig.from_dict({**old, "profile_scan": 1})
     with pytest.raises(ValueError, match="unknown EEAConfig keys"):
-        EEAConfig.from_presets("library", profile_scan=0)               # a new config cannot set one
+        EEAConfig.from_method("profile_lineages", profile_scan=0)               # a new config cannot set one
 
 
 def test_every_published_config_loads_or_names_its_retired_variant():

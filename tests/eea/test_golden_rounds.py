@@ -18,7 +18,7 @@ import io
 import pytest
 
 import eea
-from eea.config import preset_fields
+from eea.methods import method_fields
 
 #: (inference, extra config) of every recorded run; each with the GA and with CMA-ES.
 VARIANTS = {
@@ -30,11 +30,12 @@ VARIANTS = {
 }
 
 #: Not the paper's, CMA-ES only (the global share and the carried covariance are CMA-ES
-#: options): the ``library`` preset (population 10, the smallest its global share of 8
-#: allows; docs/studies.md, "Beyond the paper"). The options once measured on top of it were
+#: options): the best method in one lineage, once the ``library`` preset (population 10, the
+#: smallest its global share of 8 allows; docs/self_modeling.md). The options once measured on top of it were
 #: retired in issue 40 with their golden file (docs/studies/retired_variants.md).
+LIBRARY = {k: v for k, v in method_fields("profile_lineages").items() if k not in ("lineages", "cma_global_keep")}
 CMA_VARIANTS = {
-    "library": dict(preset_fields("library"), estimation_population=10),
+    "library": dict(LIBRARY, estimation_population=10),
 }
 
 
@@ -87,7 +88,7 @@ def test_library_rounds_csv_matches_the_recorded_run(tmp_path, tiny_config, file
 def test_lineages_rounds_and_lineages_csv_match_the_recorded_run(tmp_path, tiny_config, file_regression):
     """The best method (the ``lineages`` preset, issue 14): its ``rounds.csv`` and its
     ``lineages.csv`` (recorded before issue 40 split :mod:`eea` into subpackages)."""
-    config = tiny_config(rounds=3, seed=7, **dict(preset_fields("lineages"), estimation_population=10))
+    config = tiny_config(rounds=3, seed=7, **dict(method_fields("profile_lineages"), estimation_population=10))
     _check_recorded_run(tmp_path, config, file_regression, "lineages_cma")
     lineages = (tmp_path / "lineages.csv").read_text()
     assert lineages.count("\n") == 1 + 3 * 2                      # header + 3 rounds x 2 lineages

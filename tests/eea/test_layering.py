@@ -14,7 +14,7 @@ from pathlib import Path
 ROOT = Path(__file__).parents[2]
 #: The algorithm: the paper's core, the searches, the inference strategies and the lineages.
 ALGORITHM = {"arc", "behaviour", "cma_search", "config", "diversity", "encoding", "estimation", "evaluation",
-             "experiment", "exploration", "fitness", "ga", "inference", "lineages", "model_search", "profile",
+             "experiment", "exploration", "fitness", "ga", "inference", "lineages", "methods", "model_search", "profile",
              "round", "selection", "strategy", "target"}
 #: What an algorithm module may import besides the algorithm (one file: the lineage record).
 ALLOWED_EXTRA = {("lineages", "eea.record")}

@@ -259,11 +259,11 @@ def test_every_inference_strategy_runs_in_the_servo_space(tmp_path, tiny_config,
 
 
 def test_the_lineages_method_runs_in_the_servo_space(tmp_path, tiny_config):
-    from eea.config import preset_fields
+    from eea.methods import method_fields
     from eea.analysis.lineage_report import lineage_objective_fitness
     from eea.lineages import LINEAGES_FILE, lineage_columns
 
-    config = tiny_config(**{**preset_fields("lineages"), "estimation_population": 10, "rounds": 1,
+    config = tiny_config(**{**method_fields("profile_lineages"), "estimation_population": 10, "rounds": 1,
                             "model_space": "morphology+servos", "damage": "weak_right_pectoral"})
     result = eea.run(config, tmp_path, progress=False)
     with open(tmp_path / LINEAGES_FILE, newline="") as f:
