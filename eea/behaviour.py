@@ -13,24 +13,35 @@ to MAX = 100 that sim is about 0.999 for a healthy versus a damaged robot and th
 blind; unnormalised ones keep differences of a few degrees visible (sim 0.87-0.94 in the
 design prototype at 256 steps). The coefficients therefore grow with the number of steps,
 and MAX must be read as "per N samples": compare only summaries of equal length.
+
+**Signed zero-frequency term** (``signed=True``; ``EEAConfig.behaviour_summary =
+"signed_dft"``; not the paper's). A magnitude cannot tell a series from its negation, so a
+robot that rolls and turns left has the same summary as its mirror image that rolls and
+turns right: a reversed left pectoral and a reversed right one explain the same experiments
+(docs/self_modeling.md, "The mirror ambiguity"). The zero-frequency coefficient of an rfft
+is real (the sum of the series); keeping its sign tells left from right at no cost.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CHANNELS", "MAX_COEFFICIENT", "behaviour_summary", "similarity"]
+__all__ = ["CHANNELS", "MAX_COEFFICIENT", "SUMMARIES", "behaviour_summary", "similarity"]
 
 #: Channel order of IMU logs and of behaviour summaries (kept as the simulator logs them).
 CHANNELS: tuple[str, ...] = ("roll", "pitch", "yaw")
 #: MAX of equation 2 (the paper's value).
 MAX_COEFFICIENT: float = 100.0
+#: Names of the behaviour summaries: the paper's DFT magnitudes, or those with the
+#: zero-frequency term signed (``behaviour_summary(..., signed=True)``, not the paper's).
+SUMMARIES: tuple[str, ...] = ("dft", "signed_dft")
 
 
-def behaviour_summary(imu_log) -> np.ndarray:
+def behaviour_summary(imu_log, signed: bool = False) -> np.ndarray:
     """DFT magnitudes of roll, pitch and yaw series: the paper's behaviour summary.
 
-    Every frequency bin is kept, the zero-frequency (sum) term included.
+    Every frequency bin is kept, the zero-frequency (sum) term included; with ``signed`` that
+    term keeps its sign (it is the real sum of the series; not the paper's).
 
     Args:
         imu_log: ``(N, steps, 3)`` or ``(steps, 3)`` orientation in degrees, channels
@@ -58,7 +69,11 @@ def behaviour_summary(imu_log) -> np.ndarray:
         raise ValueError("imu_log contains NaN or infinity")
     # C order: reductions over a summary (eq. 2) then add in the same order whatever the
     # batch it came from, so results are bit-for-bit independent of batching and workers.
-    return np.ascontiguousarray(np.abs(np.fft.rfft(np.swapaxes(log, -1, -2), axis=-1)))
+    spectrum = np.fft.rfft(np.swapaxes(log, -1, -2), axis=-1)
+    summary = np.abs(spectrum)
+    if signed:
+        summary[..., 0] = spectrum[..., 0].real
+    return np.ascontiguousarray(summary)
 
 
 def similarity(a, b, max_coefficient: float = MAX_COEFFICIENT) -> np.ndarray:

@@ -19,6 +19,7 @@ import dataclasses
 from typing import Iterable
 
 from aquafish_gym import argtypes
+from eea.behaviour import SUMMARIES
 from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, MODEL_SPACE_NAMES, EEAConfig
 from eea.methods import BUDGETS, METHODS, budget_fields, method_fields
 from eea.inference import INFERENCE_NAMES
@@ -27,7 +28,8 @@ __all__ = ["add_commands", "add_config_flags", "config_fields", "config_flag_nam
 
 _SHORT_FLAGS = {"duration_s": ("--duration",)}
 #: The allowed values of the fields that take a name.
-_CHOICES = {"inference": INFERENCE_NAMES, "estimation_search": ESTIMATION_SEARCHES, "model_space": MODEL_SPACE_NAMES}
+_CHOICES = {"inference": INFERENCE_NAMES, "estimation_search": ESTIMATION_SEARCHES, "model_space": MODEL_SPACE_NAMES,
+            "behaviour_summary": SUMMARIES}
 
 
 #: Flag parsers of fields whose value is not their default's type.

@@ -24,6 +24,7 @@ import os
 from aquafish_gym import DT_S, SimParams, get_damage
 from aquafish_gym.params import DEFAULT_WATERLINE
 from aquafish_gym.checks import check_int
+from eea.behaviour import SUMMARIES
 from eea.encoding import MODEL_SPACES
 from eea.inference import INFERENCE_NAMES
 from eea.methods import budget_fields, method_fields
@@ -59,6 +60,8 @@ RETIRED_FIELDS: dict[str, object] = {
 FIELD_HELP: dict[str, str] = {
     "inference": f"context inference strategy, one of {', '.join(INFERENCE_NAMES)} (paper 3.3, 3.4, 4)",
     "damage": "named damage of the target robot (aquafish_gym.DAMAGES), paper section 5",
+    "behaviour_summary": "dft (the paper's DFT magnitudes) or signed_dft (the zero-frequency term keeps its sign, "
+                         "so a robot and its mirror image differ; not the paper's)",
     "model_space": "what a self-model holds: morphology (the paper's 9 flipper dimensions, 45-bit genomes) or "
                    "morphology+servos (those and a gain per servo, pectorals in [-1, 1], caudal in [0, 1], 57-bit "
                    "genomes, OBJ_FIT over 12; eea.encoding; not the paper's)",
@@ -140,6 +143,7 @@ class EEAConfig:
     inference: str = "out_of_band"
     damage: str = "left_pectoral_half"
     model_space: str = "morphology"
+    behaviour_summary: str = "dft"
     duration_s: float = 1.28
     rounds: int = 25
     seed: int = 0
@@ -185,6 +189,8 @@ class EEAConfig:
         if self.inference not in INFERENCE_NAMES:
             raise ValueError(f"unknown inference {self.inference!r}; valid names: {', '.join(INFERENCE_NAMES)}")
         get_damage(self.damage)  # raises ValueError listing the valid names
+        if self.behaviour_summary not in SUMMARIES:
+            raise ValueError(f"unknown behaviour_summary {self.behaviour_summary!r}; valid names: {', '.join(SUMMARIES)}")
         if self.model_space not in MODEL_SPACE_NAMES:
             raise ValueError(f"unknown model_space {self.model_space!r}; valid names: {', '.join(MODEL_SPACE_NAMES)}")
         if self.estimation_search not in ESTIMATION_SEARCHES:

@@ -39,19 +39,20 @@ import numpy as np
 from aquafish_gym import SimParams, simulate_batch
 from aquafish_gym.checks import check_int
 from aquafish_gym.rundir import die_with_parent
-from eea.behaviour import behaviour_summary, similarity
+from eea.behaviour import SUMMARIES, behaviour_summary, similarity
 from eea.encoding import ModelSpace, get_model_space
 from eea.experiment import Experiment, check_params, quantise_angles
 
 __all__ = ["Evaluator"]
 
 
-def _simulate_chunk(morphologies, actions, angles, steps, params, faults=None) -> np.ndarray:
+def _simulate_chunk(morphologies, actions, angles, steps, params, signed, faults=None) -> np.ndarray:
     """Worker: behaviour summaries ``(n, 3, F)`` of one contiguous chunk of robots (``faults``:
-    None for healthy servos, or one ServoFaults per robot)."""
+    None for healthy servos, or one ServoFaults per robot; ``signed``: see behaviour_summary)."""
     if faults is None:
-        return behaviour_summary(simulate_batch(morphologies, actions, angles, steps, params=params))
-    return behaviour_summary(simulate_batch(morphologies, actions, angles, steps, faults=faults, params=params))
+        return behaviour_summary(simulate_batch(morphologies, actions, angles, steps, params=params), signed)
+    return behaviour_summary(simulate_batch(morphologies, actions, angles, steps, faults=faults, params=params),
+                             signed)
 
 
 def _genome_keys(genomes: np.ndarray) -> list[bytes]:
@@ -79,23 +80,28 @@ class Evaluator:
         model_space: what a model genome holds, a :class:`eea.encoding.ModelSpace` or its name
             (default ``"morphology"``, the paper's 45-bit genomes; ``"morphology+servos"``: 57
             bits, each model simulated with its own servo gains).
+        summary: the behaviour summary (:data:`eea.behaviour.SUMMARIES`): ``"dft"`` (the
+            paper's) or ``"signed_dft"`` (the zero-frequency term signed).
 
     Attributes:
         simulations: number of robot simulations run so far (cache hits excluded).
 
     Raises:
         ValueError: if ``steps``, ``workers`` or ``max_batch_robots`` is < 1, or on an unknown
-            model space.
+            model space or summary.
     """
 
     def __init__(self, steps: int, *, workers: int = 1, max_batch_robots: int = 2048,
                  params: SimParams | None = None,
-                 model_space: str | ModelSpace = "morphology") -> None:
+                 model_space: str | ModelSpace = "morphology", summary: str = "dft") -> None:
         for name, value in (("steps", steps), ("workers", workers), ("max_batch_robots", max_batch_robots)):
             check_int(name, value, 1)
         self.steps, self.workers, self.max_batch_robots = int(steps), int(workers), int(max_batch_robots)
         self.params = check_params(params)
         self.model_space = get_model_space(model_space)
+        if summary not in SUMMARIES:
+            raise ValueError(f"unknown behaviour summary {summary!r}; valid: {', '.join(SUMMARIES)}")
+        self.summary = summary
         self.simulations = 0
         self._similarity: dict[bytes, float] = {}
         self._summaries: dict[bytes, np.ndarray] = {}
@@ -136,7 +142,7 @@ class Evaluator:
             return np.zeros((0, 3, self.steps // 2 + 1))
         n_chunks = min(n, max(self.workers, -(-n // self.max_batch_robots)))
         bounds = np.linspace(0, n, n_chunks + 1).astype(int)
-        chunks = [(morphologies[a:b], actions[a:b], angles[a:b], self.steps, self.params)
+        chunks = [(morphologies[a:b], actions[a:b], angles[a:b], self.steps, self.params, self.summary == "signed_dft")
                   + (() if faults is None else (list(faults[a:b]),))
                   for a, b in zip(bounds[:-1], bounds[1:])]
         if self.workers == 1:

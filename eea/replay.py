@@ -47,7 +47,8 @@ def rebuild_experiments(result: RunResult) -> list[Experiment]:
     true = np.array([[row[f"true_{f}_rad"] for f in FLIPPERS] for row in result.rounds])
     logs = simulate_batch(np.repeat(truth[None], len(actions), axis=0), actions, true, result.config.steps,
                           faults=preset.faults, params=result.config.sim_params)
-    return [Experiment(i, actions[i], logs[i], behaviour_summary(logs[i]), true[i], Context.exact(np.zeros(3)))
+    signed = result.config.behaviour_summary == "signed_dft"
+    return [Experiment(i, actions[i], logs[i], behaviour_summary(logs[i], signed), true[i], Context.exact(np.zeros(3)))
             for i in range(len(actions))]
 
 

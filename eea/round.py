@@ -73,7 +73,8 @@ class RoundParts:
         """Experiment ``index``: ``action`` ``(3,)`` performed on the target from fresh random
         initial angles, its behaviour summary, and the strategy's context for it."""
         imu_log, true_angles = self.target.perform(action)
-        return Experiment(index, action, imu_log, behaviour_summary(imu_log), true_angles,
+        return Experiment(index, action, imu_log,
+                          behaviour_summary(imu_log, self.config.behaviour_summary == "signed_dft"), true_angles,
                           self.strategy.new_context(true_angles))
 
 

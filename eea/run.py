@@ -137,7 +137,7 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
 
     with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots,
                    params=config.sim_params,
-                   model_space=config.model_space) as evaluator, bar:
+                   model_space=config.model_space, summary=config.behaviour_summary) as evaluator, bar:
         if state.evaluator:
             evaluator.load_state_dict(state.evaluator)
         parts = RoundParts.from_config(config, rng, evaluator, estimation)
