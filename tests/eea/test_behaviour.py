@@ -101,3 +101,18 @@ def test_summary_rejects_nan():
     log[3, 2] = np.nan
     with pytest.raises(ValueError, match="NaN"):
         behaviour_summary(log)
+
+
+def test_signed_summary_keeps_the_sign_of_the_zero_frequency_term_only():
+    """The paper's |DFT| cannot tell a series from its negation (a robot turning left from its
+    mirror image turning right); signed_dft keeps the sum's sign and changes nothing else."""
+    t = np.arange(64) * 0.01
+    log = np.stack([3.0 + np.sin(2 * np.pi * t), 0.5 * np.cos(4 * np.pi * t), 20.0 * t], axis=-1)  # (64, 3), degrees
+    plain, signed = behaviour_summary(log), behaviour_summary(log, signed=True)
+    np.testing.assert_array_equal(signed[:, 1:], plain[:, 1:])
+    np.testing.assert_allclose(signed[:, 0], log.sum(axis=0))            # roll 3*64 + ~0, pitch ~0, yaw 20*sum(t)
+    np.testing.assert_allclose(signed[2, 0], 20.0 * 0.01 * 63 * 64 / 2)
+    mirror = log * np.array([-1.0, 1.0, -1.0])                            # roll and yaw negated
+    np.testing.assert_array_equal(behaviour_summary(mirror), plain)     # the paper's summary: the same
+    assert similarity(behaviour_summary(mirror, signed=True), signed) < similarity(behaviour_summary(mirror), plain) == 1.0
+    np.testing.assert_allclose(behaviour_summary(mirror, signed=True)[[0, 2], 0], -signed[[0, 2], 0])

@@ -118,3 +118,10 @@ def test_every_published_config_loads_or_names_its_retired_variant():
             EEAConfig.from_dict(data)
             loaded += 1
     assert loaded > 100 and refused > 0
+
+
+def test_behaviour_summary_is_named_and_checked():
+    assert EEAConfig().behaviour_summary == "dft"                        # the paper's
+    assert EEAConfig(behaviour_summary="signed_dft").behaviour_summary == "signed_dft"
+    with pytest.raises(ValueError, match="unknown behaviour_summary 'signed'; valid names: dft, signed_dft"):
+        EEAConfig(behaviour_summary="signed")
