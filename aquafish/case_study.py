@@ -54,6 +54,8 @@ from gait.video import record_video
 PAPER_MODEL_SPACE, DEFAULT_MODEL_SPACE = "morphology", "morphology+servos"
 #: The self-model's default method: the best (docs/self_modeling.md).
 DEFAULT_METHOD = BEST_METHOD
+#: The paper's behaviour summary (the plain-EEA and out-of-band rows) and the self-model's default.
+PAPER_SUMMARY, DEFAULT_SUMMARY = "dft", "signed_dft"
 #: The servo gains a ``morphology+servos`` model holds, in order (``ServoFaults.speed_scale``).
 GAIN_NAMES = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")
 #: The gaits shown in the recovery video (on the damaged robot), with their panel titles.
@@ -125,7 +127,8 @@ def _rl_available() -> bool:
 
 
 def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str = DEFAULT_METHOD,
-                   model_space: str = DEFAULT_MODEL_SPACE, episode_duration_s: float | None = None,
+                   model_space: str = DEFAULT_MODEL_SPACE, behaviour_summary: str = DEFAULT_SUMMARY,
+                   episode_duration_s: float | None = None,
                    video: bool = True, workers: int | None = None, progress: bool = True) -> dict:
     """Run the case study and write its report; return the report as a dict.
 
@@ -140,6 +143,10 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             (default: the nine dimensions and a gain per servo, which reach its gait's robot as
             ``ServoFaults(speed_scale=gains)``) or ``"morphology"`` (the paper's). The plain-EEA
             and out-of-band rows always use ``"morphology"``.
+        behaviour_summary: the self-model's behaviour summary (``eea.behaviour.SUMMARIES``):
+            ``"signed_dft"`` (default: the zero-frequency term signed, so the self-model can
+            tell a reversed left servo from a reversed right one) or ``"dft"`` (the paper's,
+            which the plain-EEA and out-of-band rows always use).
         episode_duration_s: simulated seconds of every gait-evolution, transfer and video
             episode (default: the preset's, 20 s). Runs of another length go to their own
             ``gait_<key>_<N>s`` directories, so both lengths can share ``out_dir``.
@@ -166,21 +173,24 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
     check_int("seed", seed, 0)
     if workers is not None:
         check_int("workers", workers, 1)
-    runs = {"plain_eea": ("none", PAPER_MODEL_SPACE), "self_model": (method, model_space)}
-    if (method, model_space) != ("out_of_band", PAPER_MODEL_SPACE):
-        runs["out_of_band"] = ("out_of_band", PAPER_MODEL_SPACE)
+    runs = {"plain_eea": ("none", PAPER_MODEL_SPACE, PAPER_SUMMARY),
+            "self_model": (method, model_space, behaviour_summary)}
+    if (method, model_space, behaviour_summary) != ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY):
+        runs["out_of_band"] = ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY)
     configs = {key: EEAConfig.from_method(name, settings.budget, damage=damage, seed=seed, model_space=space,
-                                          **({"workers": workers} if workers else {}))
-               for key, (name, space) in runs.items()}
+                                          behaviour_summary=summary, **({"workers": workers} if workers else {}))
+               for key, (name, space, summary) in runs.items()}
     out = check_output_dir(out_dir)
     with run_lock(out):
         return _run_locked(preset, settings, damage, target, seed, out, method, model_space, video, workers,
                            progress, runs, configs)
 
 
-def _eea_dir(method: str, space: str) -> str:
-    """``eea_<method>`` in the paper's model space, ``eea_<method>_servos`` in ``morphology+servos``."""
-    return f"eea_{method}" if space == PAPER_MODEL_SPACE else f"eea_{method}_{space.removeprefix('morphology+')}"
+def _eea_dir(method: str, space: str, summary: str) -> str:
+    """``eea_<method>`` in the paper's model space and summary, ``_servos`` added in
+    ``morphology+servos``, ``_signed`` with the signed summary."""
+    return (f"eea_{method}" + ("" if space == PAPER_MODEL_SPACE else f"_{space.removeprefix('morphology+')}")
+            + ("" if summary == PAPER_SUMMARY else "_signed"))
 
 
 def _gait_dir(key: str, duration_s: float) -> str:
@@ -223,8 +233,8 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
 
     # 2. self-model
     eea_results = {}
-    for key, (strategy, space) in runs.items():
-        run_dir = out / _eea_dir(strategy, space)
+    for key, (name, space, summary) in runs.items():
+        run_dir = out / _eea_dir(name, space, summary)
         eea.run(configs[key], run_dir, progress=progress)
         eea_results[key] = eea.load_result(run_dir)
     models = {key: result.best_morphology for key, result in eea_results.items()}
@@ -285,6 +295,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
                 "method": runs[key][0],
                 "inference": configs[key].inference,
                 "model_space": runs[key][1],
+                "behaviour_summary": runs[key][2],
                 "morphology": _dims(models[key]),
                 "servo_gains": None if _model_gains(result) is None else dict(zip(GAIN_NAMES, _model_gains(result))),
                 "objective_fitness": float(result.rounds[-1]["objective_fitness"]),
@@ -381,7 +392,8 @@ def render_report(report: dict) -> str:
     keys = list(m)
     lines += ["| dimension | range | target | " + " | ".join(f"{CONTROLLER_KEYS[k].removeprefix('the ')} "
                                                            f"(`{m[k].get('method', m[k]['inference'])}`, "
-                                                           f"`{m[k].get('model_space', PAPER_MODEL_SPACE)}`)"
+                                                           f"`{m[k].get('model_space', PAPER_MODEL_SPACE)}`"
+                                                           f"{', `signed_dft`' if m[k].get('behaviour_summary') == 'signed_dft' else ''})"
                                                            for k in keys) + " |",
               "|---|---|---|" + "---|" * len(keys)]
     for name, (lo, hi) in zip(MORPHOLOGY_FIELDS, MORPHOLOGY_BOUNDS):

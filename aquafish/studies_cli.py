@@ -26,7 +26,8 @@ def _case_study(args: argparse.Namespace) -> int:
 
     check_output_dir(args.out)
     report = run_case_study(args.preset, args.damage, args.seed, args.out, method=args.method,
-                            model_space=args.model_space, episode_duration_s=args.episode_duration,
+                            model_space=args.model_space, behaviour_summary=args.behaviour_summary,
+                            episode_duration_s=args.episode_duration,
                             video=args.video, workers=args.workers)
     print((Path(args.out) / "report.md").read_text())
     video = f", {report['video']}" if report.get("video") else ""
@@ -171,6 +172,10 @@ def add_commands(sub) -> None:
                    help="the self-model's model space (default morphology+servos: the nine flipper dimensions and a "
                         "gain per servo, which the self-model gait's robot gets as servo faults); the plain-EEA and "
                         "out-of-band rows keep the paper's morphology")
+    c.add_argument("--behaviour-summary", default="signed_dft", choices=["dft", "signed_dft"],
+                   help="the self-model's behaviour summary (default signed_dft: the zero-frequency term keeps its "
+                        "sign, so a reversed left servo and a reversed right one differ); the other rows keep the "
+                        "paper's dft")
     c.add_argument("--episode-duration", type=positive_float, default=None, metavar="SECONDS",
                    help="simulated seconds of every gait-evolution, transfer and video episode (default: the "
                         "preset's, 20 s as in the paper; over 60 s a veering gait loses distance)")
