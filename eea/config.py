@@ -28,7 +28,7 @@ from eea.behaviour import SUMMARIES
 from eea.encoding import MODEL_SPACES
 from eea.inference import INFERENCE_NAMES
 from eea.methods import budget_fields, method_fields
-from eea.model_search import SEARCH_NAMES
+from eea.search import SEARCH_NAMES
 
 __all__ = ["ESTIMATION_SEARCHES", "MODEL_SPACE_NAMES", "EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS",
            "RETIRED_FIELDS"]

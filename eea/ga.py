@@ -49,7 +49,7 @@ class TellRecord:
     """What an ask/tell search reports after ``tell`` (the generation count and the best
     genome), and its one check of ask/tell misuse.
 
-    Shared by :class:`BitGA` and :class:`eea.cma_search.CMAModelSearch`; a subclass sets
+    Shared by :class:`BitGA` and :class:`eea.search.cma.CMAModelSearch`; a subclass sets
     ``_generation``, ``_best_genome`` (None before the first ``tell``), ``_best_fitness`` and
     ``_asked`` (cleared by ``tell``).
     """

@@ -1,28 +1,9 @@
-"""Context inference: which initial flipper angles the models start from (paper 3.3, 3.4, 4).
+"""The paper's context inference strategies (paper 3.3, 3.4, 4).
 
-The target's initial angles are unknown (its servos have no position feedback). A
-strategy decides, for every (model, experiment) simulation of the estimation phase, the
-initial angles, and may refine each experiment's :class:`~eea.experiment.Context`. All
-strategies share one interface, :class:`InferenceStrategy`, and are chosen by name from
-:data:`INFERENCE_STRATEGIES` with :func:`make_inference`:
-
-==============  ======  =============================================================
-name            paper   initial angles of the models
-==============  ======  =============================================================
-``known``       4.1     the target's true angles (an oracle; the ideal baseline)
-``none``        4.2     the zero state: pectorals arms-back (0), caudal 0
-``in_band``     3.3     PERFORM(): with probability = confidence from the stored ranges,
-                        else random; after every estimation generation the angles of
-                        the K best models give the newest experiment's smallest inclusive
-                        arc per flipper; confidence 0.5 during its round, 1.0 after
-``out_of_band`` 3.4     every ``period`` generations (0, 35, 70) an inner GA over the
-                        newest experiment's angles, scored by the mean similarity of a
-                        sample of the best models to the target; confidence 1.0 at once
-``profile``     --      not the paper's: every model keeps its own best angles per
-                        experiment, searched for it each generation (:mod:`eea.profile`)
-==============  ======  =============================================================
-
-The hooks a strategy implements and their order are in :mod:`eea.strategy`.
+:class:`Known` (4.1), :class:`NoInference` (4.2), :class:`InBand` (3.3) and :class:`OutOfBand`
+(3.4), all implementing :class:`~eea.inference.strategy.InferenceStrategy`. They are chosen by
+name from :data:`eea.inference.INFERENCE_STRATEGIES` (:mod:`eea.inference.registry`, where
+the table of all strategies is).
 """
 
 from __future__ import annotations
@@ -35,11 +16,9 @@ from eea.arc import TWO_PI, smallest_inclusive_arc, smallest_inclusive_interval,
 from eea.encoding import decode_fields, encode_fields
 from eea.ga import BitGA
 from eea.experiment import CAUDAL_LIMIT_RAD, PERIODS, Context, Experiment, with_newest_context
-from eea.profile import Profile
-from eea.strategy import InferenceStrategy
+from eea.inference.strategy import InferenceStrategy
 
-__all__ = ["INFERENCE_NAMES", "INFERENCE_STRATEGIES", "InBand", "InferenceStrategy", "Known", "NoInference",
-           "OutOfBand", "make_inference"]
+__all__ = ["InBand", "Known", "NoInference", "OutOfBand"]
 
 
 class Known(InferenceStrategy):
@@ -218,23 +197,3 @@ class OutOfBand(InferenceStrategy):
             for j, ga in enumerate(gas):
                 ga.tell(scores[:, j])
         return np.stack([decode_fields(ga.best_genome, self.field_bits, self.bounds) for ga in gas])
-
-
-#: Registry of strategies by name (``EEAConfig.inference``).
-INFERENCE_STRATEGIES: dict[str, type[InferenceStrategy]] = {
-    cls.name: cls for cls in (Known, NoInference, InBand, OutOfBand, Profile)
-}
-INFERENCE_NAMES: tuple[str, ...] = tuple(INFERENCE_STRATEGIES)
-
-
-def make_inference(name: str, config=None) -> InferenceStrategy:
-    """Build the strategy called ``name``, with its settings from ``config`` (an EEAConfig) if given.
-
-    Raises:
-        ValueError: on an unknown name; the message lists the valid names.
-    """
-    try:
-        cls = INFERENCE_STRATEGIES[name]
-    except (KeyError, TypeError):
-        raise ValueError(f"unknown inference {name!r}; valid names: {', '.join(INFERENCE_NAMES)}") from None
-    return cls.from_config(config) if config is not None else cls()

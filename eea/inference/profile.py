@@ -48,7 +48,7 @@ or 32 sets 0.4 rad apart) and refined for 10 rounds of 2 proposals, it scores 0.
 per generation with new models.
 
 Compass polish and per-flipper scan (:meth:`Profile.polish_angles`, :meth:`Profile.scan_angles`;
-used by the round's equal angle fit of ``--lineages``, :func:`eea.selection.select_model`; not
+used by the round's equal angle fit of ``--lineages``, :func:`eea.inference.selection.select_model`; not
 the paper's): MOD_FIT is
 a narrow cone around the true morphology's true angles. On the 10 experiments of finished
 ``left_pectoral_half`` runs, the truth at its true angles scores exactly 1, and loses about
@@ -100,7 +100,7 @@ from eea.diversity import diverse_indices
 from eea.encoding import genome_keys, genomes_from_keys
 from eea.experiment import CAUDAL_LIMIT_RAD, Context, random_angles
 from eea.fitness import model_fitness_from_similarities
-from eea.strategy import Experiments, InferenceStrategy
+from eea.inference.strategy import Experiments, InferenceStrategy
 
 __all__ = ["LIBRARY_SPACING_RAD", "POLISH_ITERATIONS", "POLISH_STEPS_RAD", "Profile", "SCAN_CAUDAL",
            "SCAN_PECTORAL"]

@@ -69,6 +69,7 @@ from aquafish_gym import MORPHOLOGY_BOUNDS
 from aquafish_gym.checks import check_int
 from eea.encoding import (MODEL_BITS, MODEL_FIELD_BITS, _bits_to_ints, _ints_to_bits, decode_models, encode_models,
                           get_model_space)
+from eea.checkpoint import loads
 from eea.ga import TellRecord
 
 __all__ = ["CMAModelSearch", "carried_shape", "genomes_to_unit", "unit_to_genomes"]
@@ -367,7 +368,7 @@ class CMAModelSearch(TellRecord):
         """
         if state.get("search") != "cma":
             raise ValueError("state is not a CMAModelSearch state_dict")
-        search = pickle.loads(state["pickle"])
+        search = loads(state["pickle"])  # eea.checkpoint's unpickler: older checkpoints name the old module path
         if not isinstance(search, cls):
             raise ValueError("state holds no CMAModelSearch")
         if not hasattr(search, "_asked"):  # checkpoints written before ask/tell misuse was checked
