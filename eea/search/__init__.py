@@ -9,7 +9,8 @@ satisfies :class:`ModelSearch`, made by name from :data:`MODEL_SEARCHES`
   :func:`model_search_from_state`).
 * :mod:`eea.search.model_ga` -- :class:`ModelGA`, the paper's GA (section 4) over model genomes
   (a :class:`eea.ga.BitGA`, which stays in the core: exploration and out-of-band inference use it).
-* :mod:`eea.search.cma` -- :class:`CMAModelSearch`, CMA-ES over the nine dimensions (not the paper's).
+* :mod:`eea.search.cma` -- :class:`CMAModelSearch`, CMA-ES over the nine dimensions (not the paper's),
+  and its settings :class:`CMASettings` (the section ``config.cma`` of :class:`eea.config.EEAConfig`).
 * :mod:`eea.search.lineages` -- several independent estimations sharing each round's experiment,
   one selected per round by an equal angle fit (``lineages`` >= 2; not the paper's). It builds on
   the core's estimation phase and on :mod:`eea.inference` (each lineage has its own strategy;
@@ -21,10 +22,10 @@ This package imports only the core (and :mod:`eea.checkpoint`'s unpickler, for t
 search's nested pickle); the lineages also import :mod:`eea.inference` and :mod:`eea.record`.
 """
 
-from eea.search.cma import CMAModelSearch
+from eea.search.cma import CMAModelSearch, CMASettings
 from eea.search.model_ga import ModelGA
 from eea.search.registry import (MODEL_SEARCHES, SEARCH_NAMES, ModelSearch, check_model_search, make_model_search,
                                  model_search_from_state)
 
-__all__ = ["CMAModelSearch", "MODEL_SEARCHES", "ModelGA", "ModelSearch", "SEARCH_NAMES", "check_model_search",
+__all__ = ["CMAModelSearch", "CMASettings", "MODEL_SEARCHES", "ModelGA", "ModelSearch", "SEARCH_NAMES", "check_model_search",
            "make_model_search", "model_search_from_state"]

@@ -33,12 +33,11 @@ class ModelGA(BitGA):
 
     @classmethod
     def from_config(cls, config, rng: np.random.Generator) -> "ModelGA":
-        """Sized and tuned by an :class:`eea.config.EEAConfig` (model space, population, crossover,
-        mutation ``mutation_bits / n_bits``, i.e. / 45 in the paper's space, tournament, elitism)."""
+        """Sized and tuned by an :class:`eea.config.EEAConfig`: model space, population, and its
+        section ``config.ga`` (:class:`eea.ga.GASettings`: crossover, mutation ``mutation_bits /
+        n_bits``, i.e. / 45 in the paper's space, tournament, elitism)."""
         space = get_model_space(getattr(config, "model_space", "morphology"))
-        return cls(config.estimation_population, rng, model_space=space, crossover_rate=config.crossover_rate,
-                   mutation_rate=config.mutation_bits / space.n_bits, tournament_size=config.tournament_size,
-                   elitism=config.elitism)
+        return cls(config.estimation_population, rng, model_space=space, **config.ga.options(space.n_bits))
 
     def state_dict(self) -> dict:
         """:meth:`BitGA.state_dict` with ``"search": "ga"``."""
