@@ -29,6 +29,9 @@ The rules:
    package's face (which would import it back half-initialised).
 6. No relative imports (rules 1-5 only see absolute ones), and every module is placed in a
    layer, so a new module (or a shim left at an old path) must be placed here first.
+7. A module that defines a section of :class:`eea.config.EEAConfig` (its component's frozen
+   settings, ``eea.config.SECTIONS``) never imports :mod:`eea.config`, directly or through
+   another module: the config imports the sections.
 """
 
 import ast
@@ -179,3 +182,36 @@ def test_the_layer_sets_resolve():
         assert _path(module).exists(), module
     for module, name in ALLOWED_EXTRA | CORE_DEEP_IMPORTS:
         assert module in ALGORITHM and _path(name.split(".", 1)[1]).exists(), (module, name)
+
+
+#: The modules that define a section of :class:`eea.config.EEAConfig` (``eea.config.SECTIONS``):
+#: the config imports them, so they must not import it back.
+SECTION_MODULES = {"ga", "exploration", "search.cma", "inference.paper", "inference.profile"}
+
+
+def _closure(module: str) -> set[str]:
+    """Every algorithm module ``module`` imports, directly or through others (a module inside a
+    subpackage also runs its package's face; ``eea`` itself, which imports everything, is left
+    out: importing any eea module runs it, but it is not a dependency of the module's code)."""
+    seen, todo = set(), [module] + ([module.split(".")[0]] if "." in module else [])
+    while todo:
+        current = todo.pop()
+        for name, _ in _imports(_path(current)):
+            target = _eea_name(name)
+            found = [target] + ([target.split(".")[0]] if "." in target else [])
+            for t in found:
+                if t != "__init__" and t not in seen and (t in ALGORITHM or t in RUN_IO):
+                    seen.add(t)
+                    todo.append(t)
+    return seen
+
+
+def test_the_config_sections_do_not_import_the_config():
+    """Issue 40, item 4: each component's settings section lives next to its code and
+    validates itself; :mod:`eea.config` imports the sections, never the other way round."""
+    from eea.config import SECTIONS
+
+    assert {section.__module__.removeprefix("eea.") for section in SECTIONS.values()} == SECTION_MODULES
+    offenders = {module: sorted(_closure(module) & {"config", "round", "run", "cli", "record"})
+                 for module in sorted(SECTION_MODULES)}
+    assert not any(offenders.values()), offenders
