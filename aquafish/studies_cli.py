@@ -231,7 +231,7 @@ def add_commands(sub) -> None:
     d.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
     d.add_argument("--workers", type=int_at_least(1), default=1, help="simulation processes (default: 1)")
     d.add_argument("--profile-generations", type=int_at_least(1), default=40,
-                   help="generations of the per-model angle fit of both models (eea.profile.Profile.fit; default: 40)")
+                   help="generations of the per-model angle fit of both models (eea.inference.profile.Profile.fit; default: 40)")
     d.add_argument("--refine", type=int_at_least(0), default=0,
                    help="profile runs: also the proposed truth after this many rounds of contender refinement "
                         "(column true@+R; what --profile-refine R would buy; default: 0 = not computed)")
@@ -251,7 +251,7 @@ def add_commands(sub) -> None:
                         "experiments as one at round 10")
     e.add_argument("--seed", type=int_at_least(0), default=0, help="seed of the angle fit (default 0)")
     e.add_argument("--generations", type=int_at_least(1), default=30,
-                   help="random-perturbation generations of the angle fit (eea.profile.Profile.fit; default 30)")
+                   help="random-perturbation generations of the angle fit (eea.inference.profile.Profile.fit; default 30)")
     e.add_argument("--scan-cycles", type=int_at_least(0), default=2,
                    help="per-flipper angle scan cycles before the compass polish (default 2)")
     e.add_argument("--workers", type=int_at_least(1), default=1, help="simulation processes (default 1)")

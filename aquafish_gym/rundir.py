@@ -303,11 +303,13 @@ def read_json(path: str | os.PathLike, kind: type | None = dict) -> Any:
 
 
 def read_pickle(path: str | os.PathLike, *, gzipped: bool = False, what: str = "checkpoint",
-                fix: str | None = None) -> Any:
+                fix: str | None = None, unpickler: type[pickle.Unpickler] = pickle.Unpickler) -> Any:
     """Unpickle ``path`` (gzip-compressed if ``gzipped``), turning a damaged file into :class:`FileError`.
 
     Only for the project's own files: unpickling runs code, so never point it at a file from
-    an untrusted source. ``what`` names the kind of file and ``fix`` the remedy in the message.
+    an untrusted source. ``what`` names the kind of file and ``fix`` the remedy in the message;
+    ``unpickler`` reads it (a subclass may map renamed modules in ``find_class``, as
+    :class:`eea.checkpoint.RenamingUnpickler` does).
 
     Raises:
         FileError: the file is truncated, garbled, or pickles classes that do not exist.
@@ -317,7 +319,7 @@ def read_pickle(path: str | os.PathLike, *, gzipped: bool = False, what: str = "
     opener = gzip.open if gzipped else open
     try:
         with opener(path, "rb") as f:
-            return pickle.load(f)
+            return unpickler(f).load()
     except _PICKLE_ERRORS as err:
         problem = f"is not a readable {what}: truncated or corrupt ({type(err).__name__}: {err})"
         raise (FileError(path, problem) if fix is None else FileError(path, problem, fix)) from None

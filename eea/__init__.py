@@ -1,38 +1,51 @@
 """Estimation-Exploration Algorithm (EEA) for the self-modeling aquatic robot.
 
 Reproduces Rose, Clark, Moore & McKinley, "Just Keep Swimming: Accounting for Uncertainty
-in Self-Modeling Aquatic Robots" (ERLARS 2013), sections 3.2-3.4 and 4. The modules here
-are pure NumPy; they take the robot's constants (morphology fields and bounds, servo
-ranges, the caudal sweep) from ``aquafish_gym`` but never simulate:
+in Self-Modeling Aquatic Robots" (ERLARS 2013), sections 3.2-3.4 and 4. The algorithm is
+pure NumPy; it takes the robot's constants (morphology fields and bounds, servo ranges, the
+caudal sweep) from ``aquafish_gym`` and simulates only through ``aquafish_gym.simulate_batch``.
 
-* ``eea.encoding``  -- 45-bit model and 18-bit action genomes (section 3.2, Figure 4), and
-  the model spaces: the paper's ``morphology`` or ``morphology+servos`` (57 bits: a gain per
-  servo too; ``EEAConfig.model_space``, not the paper's).
-* ``eea.ga``        -- generational bit-string GA with ask/tell (section 4).
-* ``eea.cma_search`` -- CMA-ES over the nine dimensions with the same ask/tell: an
-  optional estimation search (``estimation_search="cma"``), not the paper's.
-* ``eea.model_search`` -- the ``ModelSearch`` protocol and the registry of searches by name.
-* ``eea.behaviour`` -- DFT behaviour summaries and their similarity (equation 2).
-* ``eea.fitness``   -- action, model and objective fitness (equations 1, 3, 4).
-* ``eea.arc``       -- smallest inclusive arcs of initial angles (section 3.3).
+The layout (issue 40; ``tests/eea/test_layering.py`` checks it)::
 
-On top of ``aquafish_gym.simulate_batch``:
+    eea/                     the paper's core, at the top
+      encoding.py              45-bit model and 18-bit action genomes (3.2, Figure 4); the model
+                               spaces: ``morphology`` or ``morphology+servos`` (57 bits, not the paper's)
+      ga.py                    the paper's bit-string GA with ask/tell (section 4): exploration,
+                               the estimation's model GA and out-of-band inference all evolve with it
+      behaviour.py             DFT behaviour summaries and their similarity (eq. 2)
+      fitness.py               action, model and objective fitness (eqs. 1, 3, 4)
+      arc.py                   smallest inclusive arcs of initial angles (3.3)
+      diversity.py             distances between model genomes, diverse selections (not the paper's)
+      experiment.py            experiments on the target and their context (angle ranges)
+      target.py                the simulated damaged robot, random initial angles per experiment
+      evaluation.py            batched, cached, parallel simulation of candidate models
+      exploration.py           the exploration phase (3.2)
+      estimation.py            the estimation phase (3.2), over a model search and a strategy
+      round.py                 ``run_round``: one round as one function, a frozen ``RoundRecord``
+      config.py, methods.py    ``EEAConfig``, the paper's defaults (4); named methods and budgets
+      run.py                   ``run(config, out_dir)``: a resumable run of rounds
+      record.py                rounds.csv / config.json written and read back (``load_result``)
+      checkpoint.py            the run's state.pkl, and the unpickler that maps moved modules
+      replay.py, cli.py        a finished run's experiments rebuilt; the ``aquafish eea`` command
+      search/                  the estimation's model searches
+        registry.py              the ``ModelSearch`` protocol and the searches by name
+        model_ga.py              ``ModelGA``: the paper's GA over model genomes
+        cma.py                   ``CMAModelSearch``: CMA-ES over the dimensions (not the paper's)
+        lineages.py              N estimations sharing each experiment, one selected per round
+                                 (``lineages`` >= 2; not the paper's)
+      inference/               context inference: which initial angles the models start from
+        strategy.py              the ``InferenceStrategy`` interface (hooks, their order)
+        paper.py                 the paper's strategies: known, none, in_band, out_of_band
+        profile.py               ``Profile``: per-model angles and their fit (not the paper's)
+        registry.py              the strategies by name (``make_inference``)
+        selection.py             the equal angle fit that picks one model among candidates
+      analysis/                studies of finished runs: plot, compare, diagnosis, ensemble,
+                               lineage report (nothing but the command lines imports it)
 
-* ``eea.experiment`` -- experiments on the target and their context (angle ranges).
-* ``eea.target``     -- the simulated damaged robot, random initial angles per experiment.
-* ``eea.evaluation`` -- batched, cached, parallel simulation of candidate models.
-* ``eea.strategy``   -- the interface of a context inference strategy (hooks, order).
-* ``eea.inference``  -- the paper's strategies: known, none, in_band, out_of_band, and the
-  registry; ``eea.profile`` -- per-model angles (not the paper's).
-* ``eea.exploration``, ``eea.estimation`` -- the two phases of a round (section 3.2);
-  ``eea.lineages`` -- several independent estimations sharing each round's experiment, one
-  selected per round (``lineages`` >= 2; not the paper's).
-* ``eea.round``      -- ``run_round``: one round as one function, a frozen ``RoundRecord``.
-* ``eea.config``     -- ``EEAConfig``, the paper's defaults (section 4).
-* ``eea.run``        -- ``run(config, out_dir)``: a resumable run of rounds; ``eea.record``
-  writes and reads it back (``round_row``, ``load_result``), ``eea.checkpoint`` saves its
-  state, ``eea.analysis.plot`` draws studies, ``eea.analysis.diagnosis`` tells a search failure from an
-  inference failure.
+The core imports a subpackage only through its face (``eea.search``, ``eea.inference``: the
+registries and the interfaces), and the round (and run) import ``eea.search.lineages``, the
+estimation phase of a lineage run. ``eea.inference`` imports only the core;
+``eea.search`` the core, and its lineages ``eea.inference``.
 """
 
 from eea.arc import in_arc, sample_arc, smallest_inclusive_arc, smallest_inclusive_interval
@@ -44,15 +57,15 @@ from eea.encoding import encode_actions, encode_fields, encode_models
 from eea.encoding import MODEL_SPACES, ModelSpace, get_model_space
 from eea.fitness import action_fitness, model_fitness, objective_fitness
 from eea.ga import BitGA
-from eea.cma_search import CMAModelSearch
+from eea.search.cma import CMAModelSearch
 from eea.config import EEAConfig
 from eea.estimation import Estimation, EstimationResult
 from eea.evaluation import Evaluator
 from eea.experiment import Context, Experiment
 from eea.exploration import Exploration
-from eea.lineages import LineageStrategies, Lineages
+from eea.search.lineages import LineageStrategies, Lineages
 from eea.inference import INFERENCE_NAMES, INFERENCE_STRATEGIES, InferenceStrategy, make_inference
-from eea.model_search import MODEL_SEARCHES, ModelGA, ModelSearch, make_model_search
+from eea.search import MODEL_SEARCHES, ModelGA, ModelSearch, make_model_search
 from eea.record import ROUND_COLUMNS, RunResult, load_result
 from eea.round import RoundParts, RoundRecord, run_round
 from eea.run import run

@@ -7,11 +7,17 @@ new checkpoint, never half of one. A run resumed from it continues exactly as th
 uninterrupted run would: the checkpoint holds the generator's bit-generator state, the
 estimation search, the experiments with their contexts, the estimation cache and the
 counters.
+
+Classes are pickled by module path. Modules that moved keep loading through
+:data:`MODULE_RENAMES`, which :class:`RenamingUnpickler` applies: the CMA-ES search is pickled
+whole inside the checkpoint (:meth:`eea.search.cma.CMAModelSearch.state_dict`), and checkpoints
+written before issue 40 name it ``eea.cma_search.CMAModelSearch``.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import io
 import os
 import pickle
 from pathlib import Path
@@ -19,10 +25,37 @@ from pathlib import Path
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, read_pickle
 
-__all__ = ["STATE_FILE", "RunState", "load_state", "save_state"]
+__all__ = ["MODULE_RENAMES", "STATE_FILE", "RenamingUnpickler", "RunState", "load_state", "loads", "save_state"]
 
 STATE_FILE = "state.pkl"
 _VERSION = 1
+
+#: Old module path -> new, for classes pickled before their module moved (issue 40 made
+#: :mod:`eea.search` and :mod:`eea.inference` packages). Every name a moved module defined is
+#: found in its new module (``eea.search.registry`` re-exports ``ModelGA``). ``eea.inference``
+#: kept its path: it is now a package that re-exports the paper's strategies.
+MODULE_RENAMES: dict[str, str] = {
+    "eea.cma_search": "eea.search.cma",
+    "eea.model_search": "eea.search.registry",
+    "eea.lineages": "eea.search.lineages",
+    "eea.strategy": "eea.inference.strategy",
+    "eea.profile": "eea.inference.profile",
+    "eea.selection": "eea.inference.selection",
+}
+
+
+class RenamingUnpickler(pickle.Unpickler):
+    """A :class:`pickle.Unpickler` that looks classes of moved modules up under their new path
+    (:data:`MODULE_RENAMES`)."""
+
+    def find_class(self, module: str, name: str):
+        return super().find_class(MODULE_RENAMES.get(module, module), name)
+
+
+def loads(data: bytes):
+    """:func:`pickle.loads` through :class:`RenamingUnpickler` (for pickles nested in a
+    checkpoint, such as the CMA search's state)."""
+    return RenamingUnpickler(io.BytesIO(data)).load()
 
 
 @dataclasses.dataclass(frozen=True)
@@ -37,7 +70,7 @@ class RunState:
         estimation: :meth:`eea.estimation.Estimation.state_dict` (empty before the first round).
         experiments: :meth:`eea.experiment.Experiment.state_dict` of every experiment.
         evaluator: :meth:`eea.evaluation.Evaluator.state_dict` (counter and cache).
-        inference: the strategy's :meth:`~eea.strategy.InferenceStrategy.state_dict`
+        inference: the strategy's :meth:`~eea.inference.InferenceStrategy.state_dict`
             (empty for the paper's strategies).
         wall_seconds: wall time of the finished rounds (s), over all sessions.
         rows: the rounds.csv rows so far (one dict per round).
@@ -73,7 +106,7 @@ def load_state(out_dir: str | os.PathLike) -> RunState | None:
     path = Path(out_dir) / STATE_FILE
     if not path.exists():
         return None
-    data = read_pickle(path, what="EEA checkpoint")
+    data = read_pickle(path, what="EEA checkpoint", unpickler=RenamingUnpickler)
     if not isinstance(data, dict) or not {"config", "rows", "experiments"} <= set(data):
         raise FileError(path, "is not an EEA checkpoint (state.pkl)")
     if data.get("version") != _VERSION:

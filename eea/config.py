@@ -25,17 +25,28 @@ from aquafish_gym import DT_S, SimParams, get_damage
 from aquafish_gym.params import DEFAULT_WATERLINE
 from aquafish_gym.checks import check_int
 from eea.behaviour import SUMMARIES
-from eea.encoding import MODEL_SPACES
-from eea.inference import INFERENCE_NAMES
+from eea.encoding import ACTION_BITS, MODEL_SPACES
+from eea.exploration import ExplorationSettings
+from eea.ga import GASettings
+from eea.inference import INFERENCE_NAMES, InBandSettings, OutOfBandSettings, ProfileSettings
 from eea.methods import budget_fields, method_fields
-from eea.model_search import SEARCH_NAMES
+from eea.search import SEARCH_NAMES, CMASettings
 
 __all__ = ["ESTIMATION_SEARCHES", "MODEL_SPACE_NAMES", "EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS",
-           "RETIRED_FIELDS"]
+           "RETIRED_FIELDS", "SECTIONS"]
 
-#: Names of the estimation searches (:data:`eea.model_search.MODEL_SEARCHES`): the paper's
-#: GA and CMA-ES (:mod:`eea.cma_search`).
+#: Names of the estimation searches (:data:`eea.search.MODEL_SEARCHES`): the paper's
+#: GA and CMA-ES (:mod:`eea.search.cma`).
 ESTIMATION_SEARCHES: tuple[str, ...] = SEARCH_NAMES
+
+#: The sections of :class:`EEAConfig`, each a frozen settings class next to its component's
+#: code that validates its own fields (``config.ga`` is ``GASettings.from_config(config)``).
+#: Each class's ``CONFIG_FIELDS`` maps its fields to the config's; the config's other fields
+#: are the run's own (inference, damage, model space, summary, duration, rounds, seed, the
+#: estimation's population, generations and search, lineages, workers, chunking, waterline).
+SECTIONS: dict[str, type] = {"ga": GASettings, "cma": CMASettings, "in_band": InBandSettings,
+                             "out_of_band": OutOfBandSettings, "profile": ProfileSettings,
+                             "exploration": ExplorationSettings}
 
 #: Names of the model spaces (:data:`eea.encoding.MODEL_SPACES`): the paper's flipper
 #: dimensions, or those and one gain per servo (not the paper's).
@@ -81,7 +92,7 @@ FIELD_HELP: dict[str, str] = {
     "estimation_population": "models per estimation GA generation (paper: 25)",
     "estimation_generations": "estimation GA generations per round (paper: 100)",
     "estimation_search": "estimation search: ga (the paper's bit-string GA) or cma (CMA-ES over the nine "
-                         "dimensions, eea.cma_search; not the paper's)",
+                         "dimensions, eea.search.cma; not the paper's)",
     "cma_sigma": "cma: initial step size as a fraction of each dimension's range, in (0, 1]",
     "cma_carry_condition": "cma: 0: every restart at the best model is isotropic; c >= 1: it keeps the shape of "
                            "the covariance the last round learned, condition number capped at c (not the paper's)",
@@ -93,7 +104,7 @@ FIELD_HELP: dict[str, str] = {
     "lineages": "1: one estimation search (the paper's); N >= 2: N independent estimation lineages, each with its "
                 "own search and inference state, share each round's experiment (chosen to split the union of their "
                 "models) and the round's model is the lineage best whose angles, fitted equally hard, score the "
-                "highest MOD_FIT (eea.lineages; 1.6x the simulations with N = 2; not the paper's)",
+                "highest MOD_FIT (eea.search.lineages; 1.6x the simulations with N = 2; not the paper's)",
     "crossover_rate": "probability that a parent pair is recombined (paper: 0.75)",
     "tournament_size": "entrants per tournament (paper: 2)",
     "mutation_bits": "mean number of flipped bits per genome of every GA (paper: 1); at most 18",
@@ -134,10 +145,19 @@ class EEAConfig:
     See :data:`FIELD_HELP` for each field. ``steps`` (derived) is the number of 0.01 s
     simulation steps of every experiment.
 
+    The fields stay flat (``config.json`` and the command-line flags have one entry per
+    field), but each component owns its section (:data:`SECTIONS`): a frozen settings class
+    next to its code that validates its own fields, read as ``config.ga``, ``config.cma``,
+    ``config.in_band``, ``config.out_of_band``, ``config.profile`` and ``config.exploration``
+    (e.g. ``config.cma.sigma`` is ``config.cma_sigma``). The config checks its own fields and
+    the rules that span sections (a count at most a population, the CMA settings only with
+    ``estimation_search="cma"``, the mutation bits at most every GA's genome).
+
     Raises:
         ValueError: on an unknown inference strategy or damage (the message lists the valid
             names), a duration that is not a positive multiple of 0.01 s (at least 2 steps),
-            a non-integer or out-of-range count, or a rate outside [0, 1].
+            a non-integer or out-of-range count, or a rate outside [0, 1]; a message names the
+            field as ``EEAConfig.<field>``.
     """
 
     inference: str = "out_of_band"
@@ -196,35 +216,29 @@ class EEAConfig:
         if self.estimation_search not in ESTIMATION_SEARCHES:
             raise ValueError(f"unknown estimation_search {self.estimation_search!r}; "
                              f"valid names: {', '.join(ESTIMATION_SEARCHES)}")
-        if isinstance(self.cma_sigma, bool) or not isinstance(self.cma_sigma, (int, float)) \
-                or not 0.0 < self.cma_sigma <= 1.0:
-            raise ValueError(f"EEAConfig.cma_sigma must be in (0, 1], got {self.cma_sigma!r}")
-        object.__setattr__(self, "cma_sigma", float(self.cma_sigma))
-        value = self.cma_carry_condition
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (value == 0 or 1 <= value < math.inf):
-            raise ValueError(f"EEAConfig.cma_carry_condition must be 0 (off) or a finite number >= 1, got {value!r}")
-        object.__setattr__(self, "cma_carry_condition", float(value))
-        minimum = {
-            "rounds": 1, "seed": 0, "exploration_population": 1, "exploration_generations": 1,
-            "exploration_models": 2, "estimation_population": 2, "estimation_generations": 1,
-            "tournament_size": 1, "elitism": 0, "k_best": 1, "oob_period": 1, "oob_sample": 1,
-            "oob_population": 1, "oob_generations": 1, "oob_bits": 2, "workers": 1,
-            "profile_proposals": 1, "profile_initial": 1, "profile_refine": 0, "profile_contenders": 1,
-            "profile_library": 0, "max_batch_robots": 1, "cma_global_share": 0, "cma_global_keep": 0, "lineages": 1,
-        }
+        minimum = {"rounds": 1, "seed": 0, "estimation_population": 2, "estimation_generations": 1, "workers": 1,
+                   "max_batch_robots": 1, "lineages": 1}
         for name, low in minimum.items():
-            check_int(f"EEAConfig.{name}", getattr(self, name), low, 30 if name == "oob_bits" else None)
-        check_int("EEAConfig.exploration_angles", self.exploration_angles, 0)
-        if self.exploration_angles == 1:
-            raise ValueError("EEAConfig.exploration_angles must be 0 (the zero state) or >= 2 (a spread needs "
-                             "two angle sets), got 1")
+            check_int(f"EEAConfig.{name}", getattr(self, name), low)
+        sections = [section.from_config(self) for section in SECTIONS.values()]  # each validates its fields
+        self._check_across_sections()
+        for settings in sections:  # keep each section's normalised values (a float field as a float)
+            for name, field in settings.CONFIG_FIELDS.items():
+                object.__setattr__(self, field, getattr(settings, name))
+        duration = self.duration_s
+        steps = round(duration / DT_S) if isinstance(duration, (int, float)) and math.isfinite(duration) else 0
+        if isinstance(duration, bool) or steps < 2 or abs(duration / DT_S - steps) > 1e-6:
+            raise ValueError(f"EEAConfig.duration_s must be a multiple of {DT_S} s of at least 2 steps, got {duration!r}")
+        object.__setattr__(self, "duration_s", float(duration))
+
+    def _check_across_sections(self) -> None:
+        """The checks that span sections (or a section and the run's own fields); each section
+        has checked its own fields."""
         for name, population in (("elitism", "exploration_population"), ("elitism", "estimation_population"),
-                                 ("k_best", "estimation_population"), ("oob_sample", "estimation_population")):
+                                 ("k_best", "estimation_population"), ("oob_sample", "estimation_population"),
+                                 ("elitism", "oob_population")):
             if getattr(self, name) > getattr(self, population):
                 raise ValueError(f"EEAConfig.{name} ({getattr(self, name)}) must be <= {population} ({getattr(self, population)})")
-        if self.cma_global_keep and not self.cma_global_share:
-            raise ValueError(f"EEAConfig.cma_global_keep > 0 needs cma_global_share > 0 (a global share to keep), "
-                             f"got {self.cma_global_keep} and {self.cma_global_share}")
         for name in ("cma_global_share", "cma_carry_condition"):
             if getattr(self, name) and self.estimation_search != "cma":
                 raise ValueError(f"EEAConfig.{name} > 0 needs estimation_search='cma', got {self.estimation_search!r}")
@@ -232,28 +246,39 @@ class EEAConfig:
             raise ValueError(f"EEAConfig.cma_global_share must be 0 or in [2, estimation_population - 2] "
                              f"= [2, {self.estimation_population - 2}] (each CMA-ES needs 2 points), "
                              f"got {self.cma_global_share}")
-        if self.elitism > self.oob_population:
-            raise ValueError(f"EEAConfig.elitism ({self.elitism}) must be <= oob_population ({self.oob_population})")
-        for name in ("crossover_rate", "in_band_confidence"):
-            value = getattr(self, name)
-            if not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:  # NaN fails
-                raise ValueError(f"EEAConfig.{name} must be in [0, 1], got {value!r}")
-            object.__setattr__(self, name, float(value))
-        for name in ("exploration_diversity",):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value < 1.0:
-                raise ValueError(f"EEAConfig.{name} must be in [0, 1), got {value!r}")
-            object.__setattr__(self, name, float(value))
-        for name, high in (("mutation_bits", float(min(18, 3 * self.oob_bits))), ("in_band_widen", math.inf)):
-            value = getattr(self, name)
-            if not isinstance(value, (int, float)) or not 0.0 <= value <= high:
-                raise ValueError(f"EEAConfig.{name} must be in [0, {high}], got {value!r}")
-            object.__setattr__(self, name, float(value))
-        duration = self.duration_s
-        steps = round(duration / DT_S) if isinstance(duration, (int, float)) and math.isfinite(duration) else 0
-        if isinstance(duration, bool) or steps < 2 or abs(duration / DT_S - steps) > 1e-6:
-            raise ValueError(f"EEAConfig.duration_s must be a multiple of {DT_S} s of at least 2 steps, got {duration!r}")
-        object.__setattr__(self, "duration_s", float(duration))
+        high = float(min(ACTION_BITS, 3 * self.oob_bits))  # every GA's genome: actions, out-of-band angles
+        if self.mutation_bits > high:
+            raise ValueError(f"EEAConfig.mutation_bits must be in [0, {high}], got {self.mutation_bits!r}")
+
+    @property
+    def ga(self) -> GASettings:
+        """The settings every GA shares (crossover_rate, tournament_size, mutation_bits, elitism)."""
+        return GASettings.from_config(self)
+
+    @property
+    def cma(self) -> CMASettings:
+        """The CMA-ES search's settings (the ``cma_*`` fields)."""
+        return CMASettings.from_config(self)
+
+    @property
+    def in_band(self) -> InBandSettings:
+        """In-band inference's settings (k_best, in_band_confidence, in_band_widen)."""
+        return InBandSettings.from_config(self)
+
+    @property
+    def out_of_band(self) -> OutOfBandSettings:
+        """Out-of-band inference's settings (the ``oob_*`` fields)."""
+        return OutOfBandSettings.from_config(self)
+
+    @property
+    def profile(self) -> ProfileSettings:
+        """Profile inference's settings (the ``profile_*`` fields)."""
+        return ProfileSettings.from_config(self)
+
+    @property
+    def exploration(self) -> ExplorationSettings:
+        """The exploration phase's settings (the ``exploration_*`` fields)."""
+        return ExplorationSettings.from_config(self)
 
     @property
     def sim_params(self) -> SimParams:

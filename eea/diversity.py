@@ -3,7 +3,7 @@
 Used where a set of models should not be one hypothesis in several near-copies: the
 exploration's candidate models (``EEAConfig.exploration_diversity``,
 :meth:`eea.estimation.Estimation.ranked_models`) and the distinct contenders whose angles
-profile inference refines (:class:`eea.profile.Profile`).
+profile inference refines (:class:`eea.inference.profile.Profile`).
 """
 
 from __future__ import annotations

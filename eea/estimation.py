@@ -1,13 +1,13 @@
 """Estimation phase of the EEA: evolve models that explain the experiments (paper 3.2-3.4).
 
-A model search (:mod:`eea.model_search`; the paper's bit-string GA over 45-bit model
+A model search (:mod:`eea.search`; the paper's bit-string GA over 45-bit model
 genomes, 57-bit with servo gains in the ``morphology+servos`` model space, population 25,
 100 generations per round) whose fitness is MOD_FIT (eq. 3), a
 model's mean similarity (eq. 2) to the target over all recorded experiments, simulated from
 the initial angles the inference strategy chooses for each (model, experiment). One search
 lives for the whole run: each round continues from where the previous round ended (the
 GA's models carry over; CMA-ES restarts its distribution at the best model, since a new
-experiment changes the landscape it had converged on; :mod:`eea.cma_search` describes the
+experiment changes the landscape it had converged on; :mod:`eea.search.cma` describes the
 global share and the carried covariance), and the final hypothesis of a round is the
 fittest model of its last generation.
 
@@ -32,8 +32,8 @@ from eea.diversity import diverse_ranked
 from eea.encoding import genome_keys, genomes_from_keys, model_space_of
 from eea.experiment import Experiment
 from eea.fitness import model_fitness_from_similarities
-from eea.strategy import InferenceStrategy
-from eea.model_search import ModelSearch, check_model_search, make_model_search, model_search_from_state
+from eea.inference import InferenceStrategy
+from eea.search import ModelSearch, check_model_search, make_model_search, model_search_from_state
 
 __all__ = ["Estimation", "EstimationResult", "distinct_ranked"]
 
@@ -75,7 +75,7 @@ class Estimation:
     """The estimation phase: a model search carried over rounds, evaluated through an Evaluator.
 
     Args:
-        search: a :class:`~eea.model_search.ModelSearch` over model genomes of one
+        search: a :class:`~eea.search.ModelSearch` over model genomes of one
             :class:`~eea.encoding.ModelSpace`: ``MODEL_BITS`` = 45 bits (the paper's
             ``morphology``), or 57 (``morphology+servos``).
 

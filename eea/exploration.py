@@ -22,23 +22,73 @@ Choices the paper leaves open, made here:
   :func:`eea.fitness.robust_action_fitness` (the disagreement minus the spread the angles
   cause). It costs K times the simulations of the paper's exploration.
 * A new action GA starts every round (actions do not carry over).
+
+Settings: :class:`ExplorationSettings`, the section ``config.exploration`` of
+:class:`eea.config.EEAConfig` (the ``exploration_*`` fields); the GA's breeding settings are
+the run's shared :class:`eea.ga.GASettings`.
 """
 
 from __future__ import annotations
 
-from typing import Callable
+import dataclasses
+from typing import Callable, ClassVar
 
 import numpy as np
 
+from aquafish_gym.checks import check_int
 from eea.encoding import ACTION_BITS, decode_actions
 from eea.experiment import random_angles
 from eea.fitness import action_fitness, robust_action_fitness
 from eea.ga import BitGA
 
-__all__ = ["EXPLORATION_ANGLES_RAD", "Exploration"]
+__all__ = ["EXPLORATION_ANGLES_RAD", "Exploration", "ExplorationSettings"]
 
 #: Initial angles (rad) of every model simulation during exploration: the zero state.
 EXPLORATION_ANGLES_RAD = np.zeros(3)
+
+
+@dataclasses.dataclass(frozen=True)
+class ExplorationSettings:
+    """The exploration phase's settings (the ``EEAConfig`` section ``config.exploration``,
+    fields ``exploration_*``; module docstring).
+
+    Args:
+        population: actions per GA generation, >= 1 (paper: 25).
+        generations: GA generations per round, >= 1 (paper: 25).
+        models: at most this many distinct candidate models, >= 2 (a disagreement needs two).
+        angles: 0 (the zero state, the paper's) or K >= 2 random angle sets per round.
+        diversity: 0 (the paper's candidates) or d in (0, 1), the candidates' least distance.
+
+    Raises:
+        ValueError: naming the field as ``EEAConfig.exploration_<field>`` if one is out of range.
+    """
+
+    population: int = 25
+    generations: int = 25
+    models: int = 25
+    angles: int = 0
+    diversity: float = 0.0
+
+    #: Each field's name in :class:`eea.config.EEAConfig`.
+    CONFIG_FIELDS: ClassVar[dict[str, str]] = {
+        "population": "exploration_population", "generations": "exploration_generations",
+        "models": "exploration_models", "angles": "exploration_angles", "diversity": "exploration_diversity"}
+
+    def __post_init__(self) -> None:
+        for name, low in (("population", 1), ("generations", 1), ("models", 2), ("angles", 0)):
+            check_int(f"EEAConfig.exploration_{name}", getattr(self, name), low)
+        if self.angles == 1:
+            raise ValueError("EEAConfig.exploration_angles must be 0 (the zero state) or >= 2 (a spread needs "
+                             "two angle sets), got 1")
+        value = self.diversity
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value < 1.0:
+            raise ValueError(f"EEAConfig.exploration_diversity must be in [0, 1), got {value!r}")
+        object.__setattr__(self, "diversity", float(value))
+
+    @classmethod
+    def from_config(cls, config) -> "ExplorationSettings":
+        """The section of an :class:`eea.config.EEAConfig` (validated again)."""
+        return cls(**{name: getattr(config, field) for name, field in cls.CONFIG_FIELDS.items()})
 
 
 class Exploration:
@@ -68,11 +118,12 @@ class Exploration:
 
     @classmethod
     def from_config(cls, config) -> "Exploration":
-        """Sized and tuned by an :class:`eea.config.EEAConfig`."""
-        return cls(config.exploration_population, config.exploration_generations,
-                   {"crossover_rate": config.crossover_rate, "mutation_rate": config.mutation_bits / ACTION_BITS,
-                    "tournament_size": config.tournament_size, "elitism": config.elitism},
-                   config.exploration_angles)
+        """Sized and tuned by an :class:`eea.config.EEAConfig`: its sections ``config.exploration``
+        (:class:`ExplorationSettings`) and ``config.ga`` (:class:`eea.ga.GASettings`, mutation
+        ``mutation_bits / 18``)."""
+        exploration = config.exploration
+        return cls(exploration.population, exploration.generations, config.ga.options(ACTION_BITS),
+                   exploration.angles)
 
     def run(self, models: np.ndarray, evaluator, rng: np.random.Generator,
             on_generation: Callable[[int, float], None] | None = None) -> tuple[np.ndarray, np.ndarray, float]:

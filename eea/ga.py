@@ -19,15 +19,78 @@ elites are carried over unchanged as the first ``elitism`` rows of the next popu
 are evaluated again with it, so noisy fitness or a changed context (e.g. newly inferred
 initial angles) is re-measured every generation; callers that want to save simulations can
 cache results by genome themselves.
+
+:class:`GASettings` is the section of :class:`eea.config.EEAConfig` that every GA of a run
+shares (crossover rate, tournament size, mutation bits, elitism); it validates itself.
 """
 
 from __future__ import annotations
 
+import dataclasses
+from typing import ClassVar
+
 import numpy as np
 
 from aquafish_gym.checks import check_int
+from eea.encoding import ACTION_BITS
 
-__all__ = ["BitGA", "TellRecord"]
+__all__ = ["BitGA", "GASettings", "TellRecord"]
+
+
+@dataclasses.dataclass(frozen=True)
+class GASettings:
+    """The settings every GA of a run shares (the ``EEAConfig`` section ``config.ga``).
+
+    The exploration GA, the estimation's model GA and the out-of-band inference's inner GA
+    (paper section 4) breed with the same crossover rate, tournament size and elitism, and
+    flip ``mutation_bits`` bits of a genome on average (:meth:`options` turns that into each
+    genome's per-bit rate).
+
+    Args:
+        crossover_rate: probability in [0, 1] that a parent pair is recombined (paper: 0.75).
+        tournament_size: entrants per tournament, >= 1 (paper: 2).
+        mutation_bits: mean flipped bits per genome, in [0, 18]: at most the 18 bits of the
+            action genome (``eea.encoding.ACTION_BITS``); ``EEAConfig`` also caps it at the
+            out-of-band genome's ``3 * oob_bits``.
+        elitism: best genomes copied unchanged into the next generation, >= 0
+            (``EEAConfig`` caps it at every population).
+
+    Raises:
+        ValueError: naming the field as ``EEAConfig.<field>`` if one is out of range.
+    """
+
+    crossover_rate: float = 0.75
+    tournament_size: int = 2
+    mutation_bits: float = 1.0
+    elitism: int = 1
+
+    #: Each field's name in :class:`eea.config.EEAConfig`.
+    CONFIG_FIELDS: ClassVar[dict[str, str]] = {"crossover_rate": "crossover_rate", "tournament_size": "tournament_size",
+                                               "mutation_bits": "mutation_bits", "elitism": "elitism"}
+
+    def __post_init__(self) -> None:
+        value = self.crossover_rate
+        if not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:  # NaN fails
+            raise ValueError(f"EEAConfig.crossover_rate must be in [0, 1], got {value!r}")
+        object.__setattr__(self, "crossover_rate", float(value))
+        check_int("EEAConfig.tournament_size", self.tournament_size, 1)
+        check_int("EEAConfig.elitism", self.elitism, 0)
+        value, high = self.mutation_bits, float(ACTION_BITS)
+        if not isinstance(value, (int, float)) or not 0.0 <= value <= high:
+            raise ValueError(f"EEAConfig.mutation_bits must be in [0, {high}], got {value!r}")
+        object.__setattr__(self, "mutation_bits", float(value))
+
+    @classmethod
+    def from_config(cls, config) -> "GASettings":
+        """The section of an :class:`eea.config.EEAConfig` (validated again)."""
+        return cls(**{name: getattr(config, field) for name, field in cls.CONFIG_FIELDS.items()})
+
+    def options(self, n_bits: int) -> dict:
+        """Keyword arguments of :class:`BitGA` for a genome of ``n_bits`` bits: the crossover
+        rate, the per-bit mutation rate ``mutation_bits / n_bits``, the tournament size and
+        the elitism."""
+        return {"crossover_rate": self.crossover_rate, "mutation_rate": self.mutation_bits / n_bits,
+                "tournament_size": self.tournament_size, "elitism": self.elitism}
 
 _CROSSOVERS = ("one_point", "uniform")
 _STATE_KEYS = (
@@ -49,7 +112,7 @@ class TellRecord:
     """What an ask/tell search reports after ``tell`` (the generation count and the best
     genome), and its one check of ask/tell misuse.
 
-    Shared by :class:`BitGA` and :class:`eea.cma_search.CMAModelSearch`; a subclass sets
+    Shared by :class:`BitGA` and :class:`eea.search.cma.CMAModelSearch`; a subclass sets
     ``_generation``, ``_best_genome`` (None before the first ``tell``), ``_best_fitness`` and
     ``_asked`` (cleared by ``tell``).
     """

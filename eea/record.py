@@ -3,7 +3,7 @@
 A run directory holds ``config.json`` (the :class:`~eea.config.EEAConfig`),
 ``rounds.csv`` (one row per round, columns :data:`ROUND_COLUMNS`) and the checkpoint
 ``state.pkl``; a run with ``lineages`` >= 2 also ``lineages.csv``
-(:func:`eea.lineages.write_lineages`). Columns of ``rounds.csv``:
+(:func:`eea.search.lineages.write_lineages`). Columns of ``rounds.csv``:
 
 * ``round`` (1-based), ``objective_fitness`` (eq. 4 of the best model, an oracle),
   ``model_fitness`` (its MOD_FIT, eq. 3), ``action_fitness`` (ACT_FIT, eq. 1, of the

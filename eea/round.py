@@ -26,7 +26,7 @@ from eea.estimation import Estimation
 from eea.experiment import Experiment
 from eea.exploration import Exploration
 from eea.inference import InferenceStrategy
-from eea.lineages import LineageStrategies, Lineages, make_estimation, make_strategy
+from eea.search.lineages import LineageStrategies, Lineages, make_estimation, make_strategy
 from eea.target import Target
 
 __all__ = ["PhaseReporter", "RoundParts", "RoundRecord", "run_round"]
@@ -45,10 +45,10 @@ class RoundParts:
         config: the run's settings.
         target: the damaged robot (draws the true initial angles from the run's generator).
         strategy: the context inference strategy (one per lineage with ``config.lineages``
-            >= 2, :class:`eea.lineages.LineageStrategies`).
+            >= 2, :class:`eea.search.lineages.LineageStrategies`).
         exploration: the exploration phase (a fresh action GA per round).
         estimation: the estimation phase (its model search carries over rounds; N
-            independent ones, :class:`eea.lineages.Lineages`, with ``config.lineages`` N >= 2).
+            independent ones, :class:`eea.search.lineages.Lineages`, with ``config.lineages`` N >= 2).
         evaluator: batched, cached simulation of the models.
     """
 

@@ -8,7 +8,7 @@ this takes the run's experiments and prints
   flipper's angle is moved by 1, 2, 3, 5, 10 and 20 degrees (the caudal fin by a quarter of
   that, its sweep being +-30 degrees);
 * the run's final model (the profile's best), its MOD_FIT (eq. 3) under its remembered
-  angles and after :meth:`eea.profile.Profile.polish_angles`;
+  angles and after :meth:`eea.inference.profile.Profile.polish_angles`;
 * the truth judged under the final model's angles, and after the same polish: whether the
   truth, proposed with the incumbent's angles and polished, beats the incumbent.
 
@@ -31,7 +31,7 @@ from eea.config import EEAConfig
 from eea.evaluation import Evaluator
 from eea.experiment import CAUDAL_LIMIT_RAD, Experiment, angle_errors_deg
 from eea.fitness import objective_fitness
-from eea.profile import Profile
+from eea.inference.profile import Profile
 
 #: Angle offsets of the scan (degrees); the caudal fin's are a quarter of these.
 OFFSETS_DEG = np.array([1.0, 2.0, 3.0, 5.0, 10.0, 20.0])

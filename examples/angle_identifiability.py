@@ -1,7 +1,7 @@
 """How well can free initial angles make a wrong model fit the target? (docs/studies/unknown_angles.md).
 
 Performs 5 (``--experiments``) experiments on the ``left_pectoral_half`` target, then fits every candidate
-model's initial angles for every experiment equally hard (:class:`eea.profile.Profile`,
+model's initial angles for every experiment equally hard (:class:`eea.inference.profile.Profile`,
 4 proposals, 16 random starts, 60 generations) and prints each model's OBJ_FIT (eq. 4) beside
 its profiled MOD_FIT (eq. 3). The candidates are the truth, 4 models 3 bits away from it,
 and 8 random models, the same in every setting (drawn from their own seed). If random
@@ -23,7 +23,7 @@ from eea.encoding import ACTION_BITS, decode_actions, decode_models, encode_mode
 from eea.evaluation import Evaluator
 from eea.experiment import Context, Experiment
 from eea.fitness import model_fitness_from_similarities, objective_fitness
-from eea.profile import Profile
+from eea.inference.profile import Profile
 from eea.target import Target
 
 #: Full-speed pectoral actions (rev/s, rev/s, Hz) of ``--actions fast``.

@@ -8,12 +8,12 @@ This script tells the two apart for finished runs from their ``rounds.csv`` and
 simulates the target again under each round's action and true initial angles (the
 rebuilt experiments reproduce the run's exactly), then fits the angles of the true
 morphology and of the run's final model equally, from scratch
-(:meth:`eea.profile.Profile.fit`), at three budgets:
+(:meth:`eea.inference.profile.Profile.fit`), at three budgets:
 
 * ``fit5`` and ``fit15``: 5 or 15 generations of the profile's random perturbations from
   8 random starts per experiment (a newcomer's fit in a run is of this order),
-* ``hard``: 30 generations, then 2 cycles of :meth:`eea.profile.Profile.scan_angles` and
-  :meth:`eea.profile.Profile.polish_angles`,
+* ``hard``: 30 generations, then 2 cycles of :meth:`eea.inference.profile.Profile.scan_angles` and
+  :meth:`eea.inference.profile.Profile.polish_angles`,
 
 each averaged over ``--fits`` fit seeds. It prints, per budget, the truth's MOD_FIT minus
 the final model's (positive: the truth wins) and the final model's deficit 1 - MOD_FIT,
@@ -36,7 +36,7 @@ import numpy as np
 from eea.encoding import encode_models
 from eea.evaluation import Evaluator
 from eea.experiment import CAUDAL_LIMIT_RAD, Experiment
-from eea.profile import Profile
+from eea.inference.profile import Profile
 from eea.record import read_config
 from eea.replay import replay_run
 

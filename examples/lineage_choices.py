@@ -1,4 +1,4 @@
-"""How the round's selection among estimation lineages did, against an oracle (``--lineages``, eea.lineages).
+"""How the round's selection among estimation lineages did, against an oracle (``--lineages``, eea.search.lineages).
 
 For every finished run with ``lineages`` >= 2 under the given directories this prints each
 lineage's final OBJ_FIT (eq. 4; the truth is an oracle the run never uses), the lineage the

@@ -7,7 +7,7 @@ same experiments separates three failures:
 * ``search``: the true morphology fits the run's experiments better than the final model
   does under the angles the run would give it; the estimation search missed it;
 * ``inference``: under those angles the final model fits better, but with each model's own
-  best angles (fitted equally hard for both, :meth:`eea.profile.Profile.fit`) the truth
+  best angles (fitted equally hard for both, :meth:`eea.inference.profile.Profile.fit`) the truth
   fits better: the inferred angles favour a wrong morphology (a trap), and no search,
   however good, would move to the truth;
 * ``identifiability``: even with its own best angles the truth fits no better than the
@@ -22,7 +22,7 @@ checkpoint; ``aquafish diagnose DIR...`` prints them per run.
 
 For a ``profile`` run a seventh number says why the search misses the truth: the truth
 scored under the angles it would start from if the search proposed it at the end of the
-run (its nearest remembered model's, :meth:`eea.profile.Profile.starting_angles`). Below
+run (its nearest remembered model's, :meth:`eea.inference.profile.Profile.starting_angles`). Below
 the final model's MOD_FIT, the truth would be rejected on sight: the incumbents' angles
 have been refined for many generations, a newcomer's not at all. With ``refine`` R > 0 an
 eighth: the same proposed truth after R rounds of contender refinement (``Profile`` with
@@ -65,8 +65,8 @@ from eea.encoding import get_model_space
 from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment, angle_errors_deg
-from eea.lineages import chosen_inference_state
-from eea.profile import Profile
+from eea.search.lineages import chosen_inference_state
+from eea.inference.profile import Profile
 from eea.record import CONFIG_FILE, load_result
 
 __all__ = ["RunDiagnosis", "diagnose_run", "median_error_deg"]
@@ -88,7 +88,7 @@ class RunDiagnosis:
             damage has servo faults, which models of the paper's ``morphology`` space do not
             simulate; in ``morphology+servos`` the truth includes the faults' gains, 1.0).
         final_profiled: the final model under its own best angles
-            (:meth:`eea.profile.Profile.fit`, started from the inferred angles too).
+            (:meth:`eea.inference.profile.Profile.fit`, started from the inferred angles too).
         true_profiled: the true morphology under its own best angles, fitted as hard.
         per_model: whether the run's strategy gives every model its own angles
             (``profile``); then the truth's angles in the run are its profiled ones.
@@ -148,7 +148,7 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
     """Score the final and the true morphology on a finished (or partial) run's experiments.
 
     Runs ``4 E`` simulations (``5 E`` for a ``profile`` run), plus about ``2 E (17 + 4 G)``
-    to fit both models' own angles (:class:`~eea.profile.Profile` with 4 proposals and 16
+    to fit both models' own angles (:class:`~eea.inference.profile.Profile` with 4 proposals and 16
     random starts, ``G = profile_generations``), ``E`` = the number of experiments in the
     run's checkpoint; ``2 E (proposals + 1) + refine proposals E`` more with ``refine``.
 

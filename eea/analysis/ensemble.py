@@ -9,8 +9,8 @@ needle"): the wrong models are search failures, not what the experiments say.
 
 So N independent runs on the same target, each with its own experiments, can vote: every
 run's final model gets its own initial angles fitted for every experiment of every run,
-equally hard for all (:meth:`eea.profile.Profile.fit` from random starts, then
-:meth:`~eea.profile.Profile.scan_angles` and :meth:`~eea.profile.Profile.polish_angles`),
+equally hard for all (:meth:`eea.inference.profile.Profile.fit` from random starts, then
+:meth:`~eea.inference.profile.Profile.scan_angles` and :meth:`~eea.inference.profile.Profile.polish_angles`),
 and the model with the highest MOD_FIT (eq. 3) over the pooled experiments is the
 ensemble's model. No oracle is used: the selection sees only models and responses.
 
@@ -35,7 +35,7 @@ from eea.evaluation import Evaluator
 from eea.experiment import FLIPPERS, Experiment
 from eea.record import RunResult, read_csv, write_csv
 from eea.replay import replay_run
-from eea.selection import Selection, select_model
+from eea.inference.selection import Selection, select_model
 
 __all__ = ["SELECTION_COLUMNS", "Selection", "ensemble_groups", "select_model", "select_runs", "select_study"]
 

@@ -1,11 +1,11 @@
-"""eea.cma_search: CMA-ES over the nine morphology dimensions with the BitGA ask/tell interface."""
+"""eea.search.cma: CMA-ES over the nine morphology dimensions with the BitGA ask/tell interface."""
 
 import pickle
 
 import numpy as np
 import pytest
 
-from eea.cma_search import CMAModelSearch, carried_shape, genomes_to_unit, unit_to_genomes
+from eea.search.cma import CMAModelSearch, carried_shape, genomes_to_unit, unit_to_genomes
 from eea.config import EEAConfig
 from aquafish_gym import MORPHOLOGY_BOUNDS as MODEL_BOUNDS
 from eea.encoding import decode_models, encode_models

@@ -1,23 +1,61 @@
 """The layering of :mod:`eea` (issue 40), checked by parsing every module's imports with ``ast``.
 
-* Nothing outside :mod:`eea.analysis` imports it, except the command-line front ends
-  (``eea/cli.py``, ``aquafish/studies_cli.py``), and only inside a function (lazily, to run an
-  analysis command).
-* The algorithm's modules import only the algorithm: no analysis, and no run, checkpoint,
-  replay or command-line module (``eea.record`` only for ``lineages.csv``, which
-  :mod:`eea.lineages` writes).
+The layout (the map is in ``eea/__init__.py``)::
+
+    eea/*.py          the paper's core (CORE) and the run and its I/O (RUN_IO)
+    eea/search/       the model searches: protocol and registry, model GA, CMA-ES, lineages
+    eea/inference/    the context inference: interface, the paper's strategies, profile,
+                      registry, the equal angle fit (selection)
+    eea/analysis/     studies of finished runs
+
+The rules:
+
+1. Nothing outside :mod:`eea.analysis` imports it, except the command-line front ends
+   (``eea/cli.py``, ``aquafish/studies_cli.py``), and only inside a function (lazily, to run an
+   analysis command).
+2. The algorithm (the core, :mod:`eea.search`, :mod:`eea.inference`) imports only the
+   algorithm: no analysis, and no run, checkpoint, record, replay or command-line module, with
+   two named exceptions (:data:`ALLOWED_EXTRA`).
+3. The core imports a subpackage only through its face, the package itself (``from eea.search
+   import ...``, ``from eea.inference import ...``: the registries, the interfaces, the
+   classes), never a module inside it, except :data:`CORE_DEEP_IMPORTS` (the round builds its
+   estimation phase from :mod:`eea.search.lineages`, which the face cannot re-export without an
+   import cycle: the lineages build on :mod:`eea.estimation`, which imports the face).
+   Depth: core -> subpackage face -> subpackage module -> core, nothing deeper.
+4. :mod:`eea.inference` imports nothing of :mod:`eea.search`; :mod:`eea.search` imports
+   :mod:`eea.inference` only in :mod:`eea.search.lineages` (each lineage has its own strategy,
+   and the round's selection is :func:`eea.inference.selection.select_model`).
+5. A module inside a subpackage imports its siblings by their module path, never its own
+   package's face (which would import it back half-initialised).
+6. No relative imports (rules 1-5 only see absolute ones), and every module is placed in a
+   layer, so a new module (or a shim left at an old path) must be placed here first.
+7. A module that defines a section of :class:`eea.config.EEAConfig` (its component's frozen
+   settings, ``eea.config.SECTIONS``) never imports :mod:`eea.config`, directly or through
+   another module: the config imports the sections.
 """
 
 import ast
 from pathlib import Path
 
 ROOT = Path(__file__).parents[2]
-#: The algorithm: the paper's core, the searches, the inference strategies and the lineages.
-ALGORITHM = {"arc", "behaviour", "cma_search", "config", "diversity", "encoding", "estimation", "evaluation",
-             "experiment", "exploration", "fitness", "ga", "inference", "lineages", "methods", "model_search", "profile",
-             "round", "selection", "strategy", "target"}
-#: What an algorithm module may import besides the algorithm (one file: the lineage record).
-ALLOWED_EXTRA = {("lineages", "eea.record")}
+EEA = ROOT / "eea"
+#: The paper's core (and its configuration), at the top of eea/.
+CORE = {"arc", "behaviour", "config", "diversity", "encoding", "estimation", "evaluation", "experiment", "exploration",
+        "fitness", "ga", "methods", "round", "target"}
+#: The run and its I/O, at the top of eea/.
+RUN_IO = {"__init__", "checkpoint", "cli", "record", "replay", "run"}
+#: The subpackages of the algorithm and their modules.
+SEARCH = {"search", "search.registry", "search.model_ga", "search.cma", "search.lineages"}
+INFERENCE = {"inference", "inference.strategy", "inference.paper", "inference.profile", "inference.registry",
+             "inference.selection"}
+ALGORITHM = CORE | SEARCH | INFERENCE
+#: What an algorithm module may import besides the algorithm: the lineage record (the lineages
+#: write ``lineages.csv`` with :func:`eea.record.write_csv`) and the checkpoint's unpickler (the
+#: CMA search's state nests a pickle of the search, read back through
+#: :func:`eea.checkpoint.loads` so that checkpoints naming ``eea.cma_search`` still load).
+ALLOWED_EXTRA = {("search.lineages", "eea.record"), ("search.cma", "eea.checkpoint")}
+#: Modules inside a subpackage that a core module may import directly.
+CORE_DEEP_IMPORTS = {("round", "eea.search.lineages")}
 #: Front ends that may import eea.analysis, lazily.
 FRONT_ENDS = {"eea/cli.py", "aquafish/studies_cli.py"}
 
@@ -43,6 +81,23 @@ def _python_files():
         yield from sorted((ROOT / folder).rglob("*.py"))
 
 
+def _path(module: str) -> Path:
+    """The file of an eea module named as in the layer sets (``"search"`` is its ``__init__``)."""
+    parts = module.split(".")
+    if (EEA.joinpath(*parts) / "__init__.py").exists():
+        return EEA.joinpath(*parts) / "__init__.py"
+    return EEA.joinpath(*parts[:-1]) / f"{parts[-1]}.py"
+
+
+def _eea_name(name: str) -> str:
+    """An imported ``eea.x.y`` as a layer-set name: the module (``"search.cma"``), or the package
+    when a name is imported from ``eea`` itself (``eea.EEAConfig`` -> ``"__init__"``)."""
+    parts = name.split(".")[1:]
+    while parts and ".".join(parts) not in ALGORITHM | RUN_IO | {"analysis"} and parts[0] != "analysis":
+        parts = parts[:-1]
+    return ".".join(parts) if parts else "__init__"
+
+
 def test_only_the_analysis_package_and_the_front_ends_import_it():
     offenders = []
     for path in _python_files():
@@ -59,16 +114,104 @@ def test_only_the_analysis_package_and_the_front_ends_import_it():
 def test_the_algorithm_imports_only_the_algorithm():
     offenders = []
     for module in sorted(ALGORITHM):
-        for name, _ in _imports(ROOT / "eea" / f"{module}.py"):
-            parts = name.split(".")
-            if len(parts) < 2 or parts[1] in ALGORITHM or (module, ".".join(parts[:2])) in ALLOWED_EXTRA:
+        for name, _ in _imports(_path(module)):
+            target = _eea_name(name)
+            if target in ALGORITHM or (module, f"eea.{target}") in ALLOWED_EXTRA:
                 continue
-            offenders.append(f"eea/{module}.py imports {name}")
+            offenders.append(f"eea.{module} imports {name}")
+    assert not offenders, offenders
+
+
+def test_the_core_imports_a_subpackage_only_through_its_face():
+    offenders = []
+    for module in sorted(CORE):
+        for name, _ in _imports(_path(module)):
+            target = _eea_name(name)
+            if target in (SEARCH | INFERENCE) - {"search", "inference"} and (module, f"eea.{target}") not in CORE_DEEP_IMPORTS:
+                offenders.append(f"eea.{module} imports {name}, not the face eea.{target.split('.')[0]}")
+    assert not offenders, offenders
+
+
+def test_search_and_inference_import_each_other_only_where_justified():
+    offenders = []
+    for module in sorted(INFERENCE):
+        offenders += [f"eea.{module} imports {name}" for name, _ in _imports(_path(module))
+                      if _eea_name(name).split(".")[0] == "search"]
+    for module in sorted(SEARCH - {"search.lineages"}):
+        offenders += [f"eea.{module} imports {name}" for name, _ in _imports(_path(module))
+                      if _eea_name(name).split(".")[0] == "inference"]
+    assert not offenders, offenders
+
+
+def test_subpackage_modules_import_their_siblings_not_their_face():
+    offenders = []
+    for module in sorted((SEARCH | INFERENCE) - {"search", "inference"}):
+        package = module.split(".")[0]
+        offenders += [f"eea.{module} imports {name}" for name, _ in _imports(_path(module))
+                      if _eea_name(name) == package]
+    assert not offenders, offenders
+
+
+def test_no_relative_imports_in_eea():
+    offenders = []
+    for path in sorted(EEA.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.level:
+                offenders.append(f"{path.relative_to(ROOT)}:{node.lineno}")
     assert not offenders, offenders
 
 
 def test_every_eea_module_is_placed():
-    """A new module must be placed in a layer: the algorithm, the run and its I/O, or analysis."""
-    run_and_io = {"__init__", "checkpoint", "cli", "record", "replay", "run"}
-    top = {p.stem for p in (ROOT / "eea").glob("*.py")}
-    assert top == ALGORITHM | run_and_io, sorted(top ^ (ALGORITHM | run_and_io))
+    """A new module must be placed in a layer: the core, the run and its I/O, a subpackage of
+    the algorithm, or analysis. No module is left at a path it moved from (no shims)."""
+    top = {p.stem for p in EEA.glob("*.py")}
+    assert top == CORE | RUN_IO, sorted(top ^ (CORE | RUN_IO))
+    packages = {p.name for p in EEA.iterdir() if (p / "__init__.py").exists()}
+    assert packages == {"analysis", "inference", "search"}, sorted(packages)
+    for package, modules in (("search", SEARCH), ("inference", INFERENCE)):
+        found = {package if p.stem == "__init__" else f"{package}.{p.stem}" for p in (EEA / package).glob("*.py")}
+        assert found == modules, sorted(found ^ modules)
+    nested = [p for package in ("search", "inference") for p in (EEA / package).iterdir()
+              if p.is_dir() and p.name != "__pycache__"]
+    assert not nested, nested
+
+
+def test_the_layer_sets_resolve():
+    """Every module the rules name exists (a rule about a missing module checks nothing)."""
+    for module in ALGORITHM | RUN_IO:
+        assert _path(module).exists(), module
+    for module, name in ALLOWED_EXTRA | CORE_DEEP_IMPORTS:
+        assert module in ALGORITHM and _path(name.split(".", 1)[1]).exists(), (module, name)
+
+
+#: The modules that define a section of :class:`eea.config.EEAConfig` (``eea.config.SECTIONS``):
+#: the config imports them, so they must not import it back.
+SECTION_MODULES = {"ga", "exploration", "search.cma", "inference.paper", "inference.profile"}
+
+
+def _closure(module: str) -> set[str]:
+    """Every algorithm module ``module`` imports, directly or through others (a module inside a
+    subpackage also runs its package's face; ``eea`` itself, which imports everything, is left
+    out: importing any eea module runs it, but it is not a dependency of the module's code)."""
+    seen, todo = set(), [module] + ([module.split(".")[0]] if "." in module else [])
+    while todo:
+        current = todo.pop()
+        for name, _ in _imports(_path(current)):
+            target = _eea_name(name)
+            found = [target] + ([target.split(".")[0]] if "." in target else [])
+            for t in found:
+                if t != "__init__" and t not in seen and (t in ALGORITHM or t in RUN_IO):
+                    seen.add(t)
+                    todo.append(t)
+    return seen
+
+
+def test_the_config_sections_do_not_import_the_config():
+    """Issue 40, item 4: each component's settings section lives next to its code and
+    validates itself; :mod:`eea.config` imports the sections, never the other way round."""
+    from eea.config import SECTIONS
+
+    assert {section.__module__.removeprefix("eea.") for section in SECTIONS.values()} == SECTION_MODULES
+    offenders = {module: sorted(_closure(module) & {"config", "round", "run", "cli", "record"})
+                 for module in sorted(SECTION_MODULES)}
+    assert not any(offenders.values()), offenders

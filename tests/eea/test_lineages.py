@@ -1,4 +1,4 @@
-"""eea.lineages: independent estimation lineages sharing each round's experiment, one selected per round."""
+"""eea.search.lineages: independent estimation lineages sharing each round's experiment, one selected per round."""
 
 import csv
 
@@ -9,16 +9,16 @@ from aquafish_gym import get_damage
 from eea.checkpoint import load_state
 from eea.analysis.diagnosis import diagnose_run
 from eea.encoding import MODEL_BITS, decode_models, encode_models
-from eea.selection import select_model
+from eea.inference.selection import select_model
 from eea.estimation import Estimation, EstimationResult
 from eea.evaluation import Evaluator
 from eea.experiment import Context
 from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.inference import make_inference
-from eea.lineages import (LINEAGE_COLUMNS, LINEAGES_FILE, LineageStrategies, Lineages, chosen_inference_state,
+from eea.search.lineages import (LINEAGE_COLUMNS, LINEAGES_FILE, LineageStrategies, Lineages, chosen_inference_state,
                           estimation_from_state, make_estimation)
 from eea.analysis.lineage_report import lineage_objective_fitness
-from eea.profile import Profile
+from eea.inference.profile import Profile
 from eea.record import MODEL_COLUMNS
 from eea.run import run
 

@@ -1,4 +1,4 @@
-"""eea.model_search: every registered search honours the same ask/tell contract."""
+"""eea.search: every registered search honours the same ask/tell contract."""
 
 import pickle
 
@@ -8,7 +8,7 @@ import pytest
 from eea.encoding import MODEL_BITS
 from eea.estimation import Estimation
 from eea.ga import BitGA
-from eea.model_search import (MODEL_SEARCHES, SEARCH_NAMES, ModelGA, check_model_search, make_model_search,
+from eea.search import (MODEL_SEARCHES, SEARCH_NAMES, ModelGA, check_model_search, make_model_search,
                               model_search_from_state)
 
 

@@ -17,7 +17,7 @@ from test_golden_rounds import _without_wall_seconds
 from aquafish_gym import DAMAGES, MORPHOLOGY_BOUNDS, Morphology, ServoFaults, SimParams, simulate_batch
 from eea.behaviour import behaviour_summary
 from eea.cli import add_config_flags, config_fields, config_flag_names
-from eea.cma_search import CMAModelSearch, genomes_to_unit, unit_to_genomes
+from eea.search.cma import CMAModelSearch, genomes_to_unit, unit_to_genomes
 from eea.config import EEAConfig
 from eea.diversity import model_distance
 from eea.encoding import (MODEL_BITS, SERVO_GAIN_BOUNDS, decode_gains, decode_models, encode_gains, encode_models,
@@ -25,7 +25,7 @@ from eea.encoding import (MODEL_BITS, SERVO_GAIN_BOUNDS, decode_gains, decode_mo
 from eea.evaluation import Evaluator
 from eea.experiment import Context, Experiment
 from eea.fitness import objective_fitness
-from eea.model_search import ModelGA, model_search_from_state
+from eea.search import ModelGA, model_search_from_state
 from eea.record import (GAIN_COLUMNS, ROUND_COLUMNS, TRUE_GAIN_COLUMNS, check_rounds, load_result, read_rounds,
                         round_columns)
 from eea.target import Target
@@ -204,7 +204,7 @@ def test_cma_cube_maps_gain_coordinates_to_codes():
 @pytest.mark.parametrize("search", ["ga", "cma"])
 def test_searches_of_the_servo_space_resume_from_their_state(search, tiny_config):
     config = tiny_config(model_space="morphology+servos", estimation_search=search)
-    from eea.model_search import make_model_search
+    from eea.search import make_model_search
     s = make_model_search(search, config, np.random.default_rng(4))
     assert s.n_bits == 57
     s.tell(s.ask().sum(axis=1).astype(float))
@@ -261,7 +261,7 @@ def test_every_inference_strategy_runs_in_the_servo_space(tmp_path, tiny_config,
 def test_the_lineages_method_runs_in_the_servo_space(tmp_path, tiny_config):
     from eea.methods import method_fields
     from eea.analysis.lineage_report import lineage_objective_fitness
-    from eea.lineages import LINEAGES_FILE, lineage_columns
+    from eea.search.lineages import LINEAGES_FILE, lineage_columns
 
     config = tiny_config(**{**method_fields("profile_lineages"), "estimation_population": 10, "rounds": 1,
                             "model_space": "morphology+servos", "damage": "weak_right_pectoral"})

@@ -1,10 +1,10 @@
-"""eea.profile: every model finds and keeps its own best initial angles."""
+"""eea.inference.profile: every model finds and keeps its own best initial angles."""
 
 import numpy as np
 import pytest
 
 import eea
-from eea.profile import Profile
+from eea.inference.profile import Profile
 
 TWO_PI = 2 * np.pi
 
@@ -120,7 +120,7 @@ def test_starting_angles_are_own_then_nearest_remembered_then_random():
     assert np.all((got[:, 2, :2] >= 0) & (got[:, 2, :2] < TWO_PI))
 
 def test_the_library_keeps_the_best_sets_at_least_the_spacing_apart():
-    from eea.profile import LIBRARY_SPACING_RAD
+    from eea.inference.profile import LIBRARY_SPACING_RAD
     s = Profile(library=3)
     sets = np.array([[0.0, 0.0, 0.0],          # best
                      [0.3, 0.1, 0.0],          # within 0.5 rad of it: dropped
@@ -225,7 +225,7 @@ class CappedPeaks(PeakPerModel):
         return caps[:, None] * super().similarities(genomes, experiments, angles)
 
 def test_polish_climbs_every_cone_to_within_half_its_finest_step(make_experiment):
-    from eea.profile import POLISH_ITERATIONS, POLISH_STEPS_RAD
+    from eea.inference.profile import POLISH_ITERATIONS, POLISH_STEPS_RAD
 
     np.testing.assert_allclose(POLISH_STEPS_RAD[[0, -1]], [[0.1, 0.02], [0.1 / 32, 0.02 / 32]])
     exps = tuple(make_experiment(i) for i in range(3))
@@ -281,7 +281,7 @@ def test_polish_brings_the_true_morphology_back_to_its_true_angles():
     assert sims.mean() > 0.999
 
 def test_scan_finds_each_flippers_basin_anywhere_and_the_polish_then_its_peak(make_experiment, tiny_config):
-    from eea.profile import POLISH_STEPS_RAD, SCAN_CAUDAL, SCAN_PECTORAL
+    from eea.inference.profile import POLISH_STEPS_RAD, SCAN_CAUDAL, SCAN_PECTORAL
 
     exps = tuple(make_experiment(i) for i in range(2))
     genomes = np.random.default_rng(0).integers(0, 2, (3, 45), dtype=np.uint8)

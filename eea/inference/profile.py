@@ -48,7 +48,7 @@ or 32 sets 0.4 rad apart) and refined for 10 rounds of 2 proposals, it scores 0.
 per generation with new models.
 
 Compass polish and per-flipper scan (:meth:`Profile.polish_angles`, :meth:`Profile.scan_angles`;
-used by the round's equal angle fit of ``--lineages``, :func:`eea.selection.select_model`; not
+used by the round's equal angle fit of ``--lineages``, :func:`eea.inference.selection.select_model`; not
 the paper's): MOD_FIT is
 a narrow cone around the true morphology's true angles. On the 10 experiments of finished
 ``left_pectoral_half`` runs, the truth at its true angles scores exactly 1, and loses about
@@ -88,9 +88,15 @@ contenders (with K = 3, R = 10: about 1.3 times the run's simulations without th
 The memory is the strategy's state (:meth:`Profile.state_dict`); the run checkpoints it.
 The experiments' contexts hold the best model's angles (the ``inferred_*`` columns of
 ``rounds.csv``).
+
+Settings: :class:`ProfileSettings`, the section ``config.profile`` of
+:class:`eea.config.EEAConfig` (the ``profile_*`` fields).
 """
 
 from __future__ import annotations
+
+import dataclasses
+from typing import ClassVar
 
 import numpy as np
 
@@ -100,9 +106,10 @@ from eea.diversity import diverse_indices
 from eea.encoding import genome_keys, genomes_from_keys
 from eea.experiment import CAUDAL_LIMIT_RAD, Context, random_angles
 from eea.fitness import model_fitness_from_similarities
-from eea.strategy import Experiments, InferenceStrategy
+from eea.inference.strategy import Experiments, InferenceStrategy
 
-__all__ = ["LIBRARY_SPACING_RAD", "POLISH_ITERATIONS", "POLISH_STEPS_RAD", "Profile", "SCAN_CAUDAL",
+__all__ = ["LIBRARY_SPACING_RAD", "POLISH_ITERATIONS", "POLISH_STEPS_RAD", "Profile", "ProfileSettings",
+           "SCAN_CAUDAL",
            "SCAN_PECTORAL"]
 
 #: Normal step sizes of a perturbation (rad): pectorals, caudal fin; one pair drawn per candidate.
@@ -119,6 +126,43 @@ POLISH_ITERATIONS = 3
 #: the caudal fin across its sweep (7.5 deg apart).
 SCAN_PECTORAL, SCAN_CAUDAL = 24, 9
 _CAUDAL_WEIGHT = 3.0
+
+
+@dataclasses.dataclass(frozen=True)
+class ProfileSettings:
+    """Profile inference's settings (the ``EEAConfig`` section ``config.profile``, fields
+    ``profile_*``; the arguments of :class:`Profile`).
+
+    Args:
+        proposals: perturbed angle sets per model, experiment and generation, >= 1.
+        initial: random angle sets per model for a new experiment, >= 1.
+        refine: extra perturbation rounds of each contender, >= 0 (0 = off).
+        contenders: new models refined per generation, >= 1.
+        library: angle sets per experiment every contender tries first, >= 0 (0 = off).
+
+    Raises:
+        ValueError: naming the field as ``EEAConfig.profile_<field>`` if one is out of range.
+    """
+
+    proposals: int = 2
+    initial: int = 8
+    refine: int = 0
+    contenders: int = 3
+    library: int = 0
+
+    #: Each field's name in :class:`eea.config.EEAConfig`.
+    CONFIG_FIELDS: ClassVar[dict[str, str]] = {
+        "proposals": "profile_proposals", "initial": "profile_initial", "refine": "profile_refine",
+        "contenders": "profile_contenders", "library": "profile_library"}
+
+    def __post_init__(self) -> None:
+        for name, low in (("proposals", 1), ("initial", 1), ("refine", 0), ("contenders", 1), ("library", 0)):
+            check_int(f"EEAConfig.profile_{name}", getattr(self, name), low)
+
+    @classmethod
+    def from_config(cls, config) -> "ProfileSettings":
+        """The section of an :class:`eea.config.EEAConfig` (validated again)."""
+        return cls(**{name: getattr(config, field) for name, field in cls.CONFIG_FIELDS.items()})
 
 
 class Profile(InferenceStrategy):
@@ -153,8 +197,8 @@ class Profile(InferenceStrategy):
 
     @classmethod
     def from_config(cls, config):
-        return cls(config.profile_proposals, config.profile_initial, config.profile_refine,
-                   config.profile_contenders, config.profile_library)
+        """Built from the section ``config.profile`` (:class:`ProfileSettings`) of an :class:`eea.config.EEAConfig`."""
+        return cls(**dataclasses.asdict(config.profile))
 
     def new_context(self, true_angles):
         return Context.exact(np.zeros(3))  # replaced by the best model's angles after each generation

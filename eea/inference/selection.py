@@ -1,10 +1,10 @@
 """The equal angle fit that picks one model among candidates (not the paper's; issue 14).
 
 Every candidate model gets its own initial angles fitted for every experiment, equally hard
-for all (:meth:`eea.profile.Profile.fit` from random starts, then
-:meth:`~eea.profile.Profile.scan_angles` and :meth:`~eea.profile.Profile.polish_angles`), and
+for all (:meth:`eea.inference.profile.Profile.fit` from random starts, then
+:meth:`~eea.inference.profile.Profile.scan_angles` and :meth:`~eea.inference.profile.Profile.polish_angles`), and
 the one with the highest MOD_FIT (eq. 3) is chosen. No oracle is used. The round's selection
-of ``--lineages`` (:mod:`eea.lineages`) uses it, and so do the ensembles of finished runs
+of ``--lineages`` (:mod:`eea.search.lineages`) uses it, and so do the ensembles of finished runs
 (:mod:`eea.analysis.ensemble`).
 """
 
@@ -19,7 +19,7 @@ from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment, angle_errors_deg
 from eea.fitness import model_fitness_from_similarities
-from eea.profile import Profile
+from eea.inference.profile import Profile
 
 __all__ = ["Selection", "select_model"]
 
@@ -76,7 +76,7 @@ def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator
         evaluator: an :class:`eea.evaluation.Evaluator` of that length (its similarity is
             the one scored: eq. 2 by default).
         rng: draws the fit's random starts and perturbations.
-        generations: random-perturbation generations of :meth:`eea.profile.Profile.fit`, >= 1.
+        generations: random-perturbation generations of :meth:`eea.inference.profile.Profile.fit`, >= 1.
         scan_cycles: cycles of the per-flipper angle scan before the compass polish, >= 0.
         start: optional ``(N, E, 3)`` angles (rad) per model and experiment, tried beside the
             fit's random starts (e.g. the angles a run already found for its model; a model

@@ -56,10 +56,15 @@ distribution still samples across the ridge, which a new experiment may have mov
 Randomness: CMA-ES draws its normal samples from a child ``numpy.random.Generator``
 spawned from the run's generator at construction and saved with the search state, so a run
 is reproducible and resumes bit-for-bit.
+
+Settings: :class:`CMASettings`, the section ``config.cma`` of :class:`eea.config.EEAConfig`
+(``cma_sigma``, ``cma_global_share``, ``cma_carry_condition``, ``cma_global_keep``).
 """
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import pickle
 from typing import ClassVar
 
@@ -69,9 +74,10 @@ from aquafish_gym import MORPHOLOGY_BOUNDS
 from aquafish_gym.checks import check_int
 from eea.encoding import (MODEL_BITS, MODEL_FIELD_BITS, _bits_to_ints, _ints_to_bits, decode_models, encode_models,
                           get_model_space)
+from eea.checkpoint import loads
 from eea.ga import TellRecord
 
-__all__ = ["CMAModelSearch", "carried_shape", "genomes_to_unit", "unit_to_genomes"]
+__all__ = ["CMAModelSearch", "CMASettings", "carried_shape", "genomes_to_unit", "unit_to_genomes"]
 
 _LEVELS = 2 ** np.asarray(MODEL_FIELD_BITS)
 
@@ -152,6 +158,52 @@ def carried_shape(covariance, condition: float) -> np.ndarray:
         raise ValueError("covariance has no positive eigenvalue")
     values = np.maximum(values / values[-1], 1.0 / condition)
     return (vectors * values) @ vectors.T
+
+
+@dataclasses.dataclass(frozen=True)
+class CMASettings:
+    """The CMA-ES search's settings (the ``EEAConfig`` section ``config.cma``, fields ``cma_*``).
+
+    Args:
+        sigma: initial step size as a fraction of every dimension's range, in (0, 1].
+        global_share: G >= 0 points per generation of the global distribution (0 = off;
+            ``EEAConfig`` checks 2 <= G <= estimation_population - 2).
+        carry_condition: 0 (off) or a finite c >= 1 (module docstring).
+        global_keep: k >= 0, needs ``global_share`` > 0 (module docstring).
+
+    Raises:
+        ValueError: naming the field as ``EEAConfig.cma_<field>`` if one is out of range, or
+            ``global_keep`` > 0 without a ``global_share``.
+    """
+
+    sigma: float = 0.3
+    global_share: int = 0
+    carry_condition: float = 0.0
+    global_keep: int = 0
+
+    #: Each field's name in :class:`eea.config.EEAConfig`.
+    CONFIG_FIELDS: ClassVar[dict[str, str]] = {"sigma": "cma_sigma", "global_share": "cma_global_share",
+                                               "carry_condition": "cma_carry_condition",
+                                               "global_keep": "cma_global_keep"}
+
+    def __post_init__(self) -> None:
+        if isinstance(self.sigma, bool) or not isinstance(self.sigma, (int, float)) or not 0.0 < self.sigma <= 1.0:
+            raise ValueError(f"EEAConfig.cma_sigma must be in (0, 1], got {self.sigma!r}")
+        object.__setattr__(self, "sigma", float(self.sigma))
+        value = self.carry_condition
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not (value == 0 or 1 <= value < math.inf):
+            raise ValueError(f"EEAConfig.cma_carry_condition must be 0 (off) or a finite number >= 1, got {value!r}")
+        object.__setattr__(self, "carry_condition", float(value))
+        check_int("EEAConfig.cma_global_share", self.global_share, 0)
+        check_int("EEAConfig.cma_global_keep", self.global_keep, 0)
+        if self.global_keep and not self.global_share:
+            raise ValueError(f"EEAConfig.cma_global_keep > 0 needs cma_global_share > 0 (a global share to keep), "
+                             f"got {self.global_keep} and {self.global_share}")
+
+    @classmethod
+    def from_config(cls, config) -> "CMASettings":
+        """The section of an :class:`eea.config.EEAConfig` (validated again)."""
+        return cls(**{name: getattr(config, field) for name, field in cls.CONFIG_FIELDS.items()})
 
 
 class _StandardNormal:
@@ -248,12 +300,12 @@ class CMAModelSearch(TellRecord):
 
     @classmethod
     def from_config(cls, config, rng: np.random.Generator) -> "CMAModelSearch":
-        """Sized and tuned by an :class:`eea.config.EEAConfig` (``estimation_population``,
-        ``cma_sigma``, ``cma_global_share``, ``cma_carry_condition``,
-        ``model_space``; any ``elitism`` >= 1 carries the one best point)."""
-        return cls(config.estimation_population, rng, sigma0=config.cma_sigma, elitism=1 if config.elitism else 0,
-                   global_share=config.cma_global_share, carry_condition=config.cma_carry_condition,
-                   global_keep=config.cma_global_keep,
+        """Sized and tuned by an :class:`eea.config.EEAConfig` (``estimation_population``, its
+        section ``config.cma`` (:class:`CMASettings`), ``model_space``; any ``elitism`` >= 1
+        carries the one best point)."""
+        cma = config.cma
+        return cls(config.estimation_population, rng, sigma0=cma.sigma, elitism=1 if config.elitism else 0,
+                   global_share=cma.global_share, carry_condition=cma.carry_condition, global_keep=cma.global_keep,
                    model_space=getattr(config, "model_space", "morphology"))
 
     def _new_strategy(self, mean: np.ndarray, popsize: int):
@@ -367,7 +419,7 @@ class CMAModelSearch(TellRecord):
         """
         if state.get("search") != "cma":
             raise ValueError("state is not a CMAModelSearch state_dict")
-        search = pickle.loads(state["pickle"])
+        search = loads(state["pickle"])  # eea.checkpoint's unpickler: older checkpoints name the old module path
         if not isinstance(search, cls):
             raise ValueError("state holds no CMAModelSearch")
         if not hasattr(search, "_asked"):  # checkpoints written before ask/tell misuse was checked

@@ -8,8 +8,8 @@ names ``EEAConfig.estimation_search`` accepts to the classes:
 =======  ==========================================  =======================================
 name     class                                       search
 =======  ==========================================  =======================================
-``ga``   :class:`ModelGA`                            the paper's bit-string GA (section 4)
-``cma``  :class:`~eea.cma_search.CMAModelSearch`     CMA-ES over the nine dimensions (and
+``ga``   :class:`~eea.search.model_ga.ModelGA`       the paper's bit-string GA (section 4)
+``cma``  :class:`~eea.search.cma.CMAModelSearch`     CMA-ES over the nine dimensions (and
                                                      the three gains; not the paper's)
 =======  ==========================================  =======================================
 
@@ -23,9 +23,8 @@ from typing import ClassVar, Protocol
 
 import numpy as np
 
-from eea.cma_search import CMAModelSearch
-from eea.encoding import MODEL_BITS, get_model_space, model_space_of
-from eea.ga import BitGA
+from eea.search.cma import CMAModelSearch
+from eea.search.model_ga import ModelGA
 
 __all__ = ["MODEL_SEARCHES", "SEARCH_NAMES", "ModelGA", "ModelSearch", "check_model_search", "make_model_search",
            "model_search_from_state"]
@@ -67,51 +66,6 @@ class ModelSearch(Protocol):
 
     def state_dict(self) -> dict:
         """Everything needed to resume, with ``"search": name``."""
-
-
-class ModelGA(BitGA):
-    """The paper's estimation GA: a :class:`~eea.ga.BitGA` over 45-bit model genomes (57-bit
-    with ``model_space="morphology+servos"``, not the paper's).
-
-    Its population carries over between rounds (``restart`` is a no-op).
-    """
-
-    name: ClassVar[str] = "ga"
-
-    def __init__(self, population_size: int, rng: np.random.Generator, *, model_space="morphology",
-                 **options) -> None:
-        super().__init__(get_model_space(model_space).n_bits, population_size, rng, **options)
-
-    @classmethod
-    def from_config(cls, config, rng: np.random.Generator) -> "ModelGA":
-        """Sized and tuned by an :class:`eea.config.EEAConfig` (model space, population, crossover,
-        mutation ``mutation_bits / n_bits``, i.e. / 45 in the paper's space, tournament, elitism)."""
-        space = get_model_space(getattr(config, "model_space", "morphology"))
-        return cls(config.estimation_population, rng, model_space=space, crossover_rate=config.crossover_rate,
-                   mutation_rate=config.mutation_bits / space.n_bits, tournament_size=config.tournament_size,
-                   elitism=config.elitism)
-
-    def state_dict(self) -> dict:
-        """:meth:`BitGA.state_dict` with ``"search": "ga"``."""
-        return {"search": self.name, **super().state_dict()}
-
-    @classmethod
-    def _build(cls, n_bits: int, population_size: int, rng: np.random.Generator, **options) -> "ModelGA":
-        try:
-            space = model_space_of(n_bits)
-        except ValueError:
-            raise ValueError(f"a model GA evolves {MODEL_BITS}-bit genomes (57 with servo gains), "
-                             f"the state has {n_bits} bits") from None
-        return cls(population_size, rng, model_space=space, **options)
-
-    @classmethod
-    def from_state_dict(cls, state: dict, rng: np.random.Generator) -> "ModelGA":
-        """Rebuild from :meth:`state_dict` (or a plain :meth:`BitGA.state_dict` of 45- or 57-bit genomes).
-
-        Raises:
-            ValueError: if the state is not a model GA's, or as :meth:`BitGA.from_state_dict`.
-        """
-        return super().from_state_dict({k: v for k, v in state.items() if k != "search"}, rng)
 
 
 #: What :func:`check_model_search` looks for on a search's class.

@@ -1,45 +1,110 @@
-"""Context inference: which initial flipper angles the models start from (paper 3.3, 3.4, 4).
+"""The paper's context inference strategies (paper 3.3, 3.4, 4).
 
-The target's initial angles are unknown (its servos have no position feedback). A
-strategy decides, for every (model, experiment) simulation of the estimation phase, the
-initial angles, and may refine each experiment's :class:`~eea.experiment.Context`. All
-strategies share one interface, :class:`InferenceStrategy`, and are chosen by name from
-:data:`INFERENCE_STRATEGIES` with :func:`make_inference`:
+:class:`Known` (4.1), :class:`NoInference` (4.2), :class:`InBand` (3.3) and :class:`OutOfBand`
+(3.4), all implementing :class:`~eea.inference.strategy.InferenceStrategy`. They are chosen by
+name from :data:`eea.inference.INFERENCE_STRATEGIES` (:mod:`eea.inference.registry`, where
+the table of all strategies is).
 
-==============  ======  =============================================================
-name            paper   initial angles of the models
-==============  ======  =============================================================
-``known``       4.1     the target's true angles (an oracle; the ideal baseline)
-``none``        4.2     the zero state: pectorals arms-back (0), caudal 0
-``in_band``     3.3     PERFORM(): with probability = confidence from the stored ranges,
-                        else random; after every estimation generation the angles of
-                        the K best models give the newest experiment's smallest inclusive
-                        arc per flipper; confidence 0.5 during its round, 1.0 after
-``out_of_band`` 3.4     every ``period`` generations (0, 35, 70) an inner GA over the
-                        newest experiment's angles, scored by the mean similarity of a
-                        sample of the best models to the target; confidence 1.0 at once
-``profile``     --      not the paper's: every model keeps its own best angles per
-                        experiment, searched for it each generation (:mod:`eea.profile`)
-==============  ======  =============================================================
-
-The hooks a strategy implements and their order are in :mod:`eea.strategy`.
+Settings: :class:`InBandSettings` and :class:`OutOfBandSettings`, the sections
+``config.in_band`` and ``config.out_of_band`` of :class:`eea.config.EEAConfig`; the inner GA
+of out-of-band breeds with the run's shared :class:`eea.ga.GASettings`.
 """
 
 from __future__ import annotations
 
-from typing import Sequence
+import dataclasses
+import math
+from typing import ClassVar, Sequence
 
 import numpy as np
+
+from aquafish_gym.checks import check_int
 
 from eea.arc import TWO_PI, smallest_inclusive_arc, smallest_inclusive_interval, widen_arc
 from eea.encoding import decode_fields, encode_fields
 from eea.ga import BitGA
 from eea.experiment import CAUDAL_LIMIT_RAD, PERIODS, Context, Experiment, with_newest_context
-from eea.profile import Profile
-from eea.strategy import InferenceStrategy
+from eea.inference.strategy import InferenceStrategy
 
-__all__ = ["INFERENCE_NAMES", "INFERENCE_STRATEGIES", "InBand", "InferenceStrategy", "Known", "NoInference",
-           "OutOfBand", "make_inference"]
+__all__ = ["InBand", "InBandSettings", "Known", "NoInference", "OutOfBand", "OutOfBandSettings"]
+
+
+@dataclasses.dataclass(frozen=True)
+class InBandSettings:
+    """In-band inference's settings (the ``EEAConfig`` section ``config.in_band``; :class:`InBand`).
+
+    Args:
+        k_best: models whose angles define the inferred arc, >= 1 (paper: K = 3;
+            ``EEAConfig`` caps it at ``estimation_population``).
+        confidence: confidence of the newest experiment during its round, in [0, 1] (paper: 0.5).
+        widen: widen the arc by this fraction of its width on each side, >= 0 (0 = off).
+
+    Raises:
+        ValueError: naming the field as ``EEAConfig.<field>`` (``k_best``, ``in_band_confidence``,
+            ``in_band_widen``) if one is out of range.
+    """
+
+    k_best: int = 3
+    confidence: float = 0.5
+    widen: float = 0.0
+
+    #: Each field's name in :class:`eea.config.EEAConfig`.
+    CONFIG_FIELDS: ClassVar[dict[str, str]] = {"k_best": "k_best", "confidence": "in_band_confidence",
+                                               "widen": "in_band_widen"}
+
+    def __post_init__(self) -> None:
+        check_int("EEAConfig.k_best", self.k_best, 1)
+        value = self.confidence
+        if not isinstance(value, (int, float)) or not 0.0 <= value <= 1.0:  # NaN fails
+            raise ValueError(f"EEAConfig.in_band_confidence must be in [0, 1], got {value!r}")
+        object.__setattr__(self, "confidence", float(value))
+        value = self.widen
+        if not isinstance(value, (int, float)) or not 0.0 <= value <= math.inf:
+            raise ValueError(f"EEAConfig.in_band_widen must be in [0, {math.inf}], got {value!r}")
+        object.__setattr__(self, "widen", float(value))
+
+    @classmethod
+    def from_config(cls, config) -> "InBandSettings":
+        """The section of an :class:`eea.config.EEAConfig` (validated again)."""
+        return cls(**{name: getattr(config, field) for name, field in cls.CONFIG_FIELDS.items()})
+
+
+@dataclasses.dataclass(frozen=True)
+class OutOfBandSettings:
+    """Out-of-band inference's settings (the ``EEAConfig`` section ``config.out_of_band``,
+    fields ``oob_*``; :class:`OutOfBand`).
+
+    Args:
+        period: infer angles every this many estimation generations, >= 1 (paper: 35).
+        sample: best distinct models that score candidate angles, >= 1 (paper: 5;
+            ``EEAConfig`` caps it at ``estimation_population``).
+        population: candidate angle sets per inner GA generation, >= 1.
+        generations: inner GA generations per inference, >= 1.
+        bits: bits per angle of the inner GA's genome, in [2, 30].
+
+    Raises:
+        ValueError: naming the field as ``EEAConfig.oob_<field>`` if one is out of range.
+    """
+
+    period: int = 35
+    sample: int = 5
+    population: int = 10
+    generations: int = 10
+    bits: int = 8
+
+    #: Each field's name in :class:`eea.config.EEAConfig`.
+    CONFIG_FIELDS: ClassVar[dict[str, str]] = {"period": "oob_period", "sample": "oob_sample",
+                                               "population": "oob_population", "generations": "oob_generations",
+                                               "bits": "oob_bits"}
+
+    def __post_init__(self) -> None:
+        for name, low in (("period", 1), ("sample", 1), ("population", 1), ("generations", 1), ("bits", 2)):
+            check_int(f"EEAConfig.oob_{name}", getattr(self, name), low, 30 if name == "bits" else None)
+
+    @classmethod
+    def from_config(cls, config) -> "OutOfBandSettings":
+        """The section of an :class:`eea.config.EEAConfig` (validated again)."""
+        return cls(**{name: getattr(config, field) for name, field in cls.CONFIG_FIELDS.items()})
 
 
 class Known(InferenceStrategy):
@@ -84,7 +149,9 @@ class InBand(InferenceStrategy):
 
     @classmethod
     def from_config(cls, config):
-        return cls(config.k_best, config.in_band_confidence, config.in_band_widen)
+        """Built from the section ``config.in_band`` (:class:`InBandSettings`) of an :class:`eea.config.EEAConfig`."""
+        settings = config.in_band
+        return cls(settings.k_best, settings.confidence, settings.widen)
 
     def new_context(self, true_angles):
         return Context.unknown(self.confidence)
@@ -152,10 +219,12 @@ class OutOfBand(InferenceStrategy):
 
     @classmethod
     def from_config(cls, config):
-        options = {"crossover_rate": config.crossover_rate, "tournament_size": config.tournament_size,
-                   "mutation_rate": config.mutation_bits / (3 * config.oob_bits), "elitism": config.elitism}
-        return cls(config.oob_period, config.oob_sample, config.oob_population, config.oob_generations,
-                   config.oob_bits, options)
+        """Built from the sections ``config.out_of_band`` (:class:`OutOfBandSettings`) and
+        ``config.ga`` (:class:`eea.ga.GASettings`, mutation ``mutation_bits / (3 * bits)``) of an
+        :class:`eea.config.EEAConfig`."""
+        settings = config.out_of_band
+        return cls(settings.period, settings.sample, settings.population, settings.generations, settings.bits,
+                   config.ga.options(3 * settings.bits))
 
     def new_context(self, true_angles):
         return Context.exact(np.zeros(3))  # replaced by the first inference (generation 0)
@@ -218,23 +287,3 @@ class OutOfBand(InferenceStrategy):
             for j, ga in enumerate(gas):
                 ga.tell(scores[:, j])
         return np.stack([decode_fields(ga.best_genome, self.field_bits, self.bounds) for ga in gas])
-
-
-#: Registry of strategies by name (``EEAConfig.inference``).
-INFERENCE_STRATEGIES: dict[str, type[InferenceStrategy]] = {
-    cls.name: cls for cls in (Known, NoInference, InBand, OutOfBand, Profile)
-}
-INFERENCE_NAMES: tuple[str, ...] = tuple(INFERENCE_STRATEGIES)
-
-
-def make_inference(name: str, config=None) -> InferenceStrategy:
-    """Build the strategy called ``name``, with its settings from ``config`` (an EEAConfig) if given.
-
-    Raises:
-        ValueError: on an unknown name; the message lists the valid names.
-    """
-    try:
-        cls = INFERENCE_STRATEGIES[name]
-    except (KeyError, TypeError):
-        raise ValueError(f"unknown inference {name!r}; valid names: {', '.join(INFERENCE_NAMES)}") from None
-    return cls.from_config(config) if config is not None else cls()

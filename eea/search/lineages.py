@@ -18,7 +18,7 @@ from its own random population. Every round:
 * **estimation**: every lineage runs its estimation phase on all experiments
   (:meth:`eea.estimation.Estimation.run`), independently of the others;
 * **selection**: the lineages' best models get their own initial angles fitted equally hard
-  on all experiments (:func:`eea.selection.select_model`: :meth:`eea.profile.Profile.fit`
+  on all experiments (:func:`eea.inference.selection.select_model`: :meth:`eea.inference.profile.Profile.fit`
   from random starts and each lineage's own angles, then a per-flipper scan and a compass
   polish), and the highest MOD_FIT (eq. 3) is the round's self-model. No oracle is used.
   The lineages do not adopt it: each keeps its own search, so a lineage in a wrong basin
@@ -49,17 +49,16 @@ from aquafish_gym import MORPHOLOGY_FIELDS
 from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, model_space_of
 from eea.estimation import Estimation, EstimationResult, distinct_ranked
 from eea.experiment import Context, Experiment
-from eea.inference import make_inference
+from eea.inference import InferenceStrategy, make_inference
+from eea.inference.selection import select_model
 from eea.record import write_csv
-from eea.selection import select_model
-from eea.strategy import InferenceStrategy
 
 __all__ = ["LINEAGES_FILE", "LINEAGE_COLUMNS", "LineageStrategies", "Lineages", "SELECT_GENERATIONS",
            "SELECT_SCAN_CYCLES", "chosen_inference_state", "estimation_from_state", "lineage_columns",
            "make_estimation", "make_strategy", "write_lineages"]
 
 #: The round's selection: generations of the equal angle fit and cycles of the per-flipper
-#: scan before the polish (the settings of ``aquafish select``, :func:`eea.selection.select_model`).
+#: scan before the polish (the settings of ``aquafish select``, :func:`eea.inference.selection.select_model`).
 SELECT_GENERATIONS, SELECT_SCAN_CYCLES = 30, 2
 
 #: A lineage run's per-round record of every lineage (:func:`write_lineages`): ``round``
@@ -84,7 +83,7 @@ def lineage_columns(model_space="morphology") -> tuple[str, ...]:
 class LineageStrategies:
     """One inference strategy per lineage, checkpointed together.
 
-    Only the run-level part of :class:`~eea.strategy.InferenceStrategy` is implemented:
+    Only the run-level part of :class:`~eea.inference.InferenceStrategy` is implemented:
     :meth:`new_context` (the same for every lineage's strategy of one name),
     :meth:`state_dict` and :meth:`load_state_dict`; the estimation hooks are each
     lineage's own (:meth:`Lineages.run` hands lineage i ``members[i]``).

@@ -1,0 +1,62 @@
+"""The paper's estimation GA (section 4) as a model search: :class:`ModelGA`.
+
+A :class:`eea.ga.BitGA` over model genomes (45 bits in the paper's ``morphology`` model space,
+57 in ``morphology+servos``: :class:`eea.encoding.ModelSpace`), registered as ``ga`` in
+:data:`eea.search.MODEL_SEARCHES`. The bit-string GA itself stays in the core
+(:mod:`eea.ga`): the exploration phase and the out-of-band inference evolve with it too.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+from eea.encoding import MODEL_BITS, get_model_space, model_space_of
+from eea.ga import BitGA
+
+__all__ = ["ModelGA"]
+
+
+class ModelGA(BitGA):
+    """The paper's estimation GA: a :class:`~eea.ga.BitGA` over 45-bit model genomes (57-bit
+    with ``model_space="morphology+servos"``, not the paper's).
+
+    Its population carries over between rounds (``restart`` is a no-op).
+    """
+
+    name: ClassVar[str] = "ga"
+
+    def __init__(self, population_size: int, rng: np.random.Generator, *, model_space="morphology",
+                 **options) -> None:
+        super().__init__(get_model_space(model_space).n_bits, population_size, rng, **options)
+
+    @classmethod
+    def from_config(cls, config, rng: np.random.Generator) -> "ModelGA":
+        """Sized and tuned by an :class:`eea.config.EEAConfig`: model space, population, and its
+        section ``config.ga`` (:class:`eea.ga.GASettings`: crossover, mutation ``mutation_bits /
+        n_bits``, i.e. / 45 in the paper's space, tournament, elitism)."""
+        space = get_model_space(getattr(config, "model_space", "morphology"))
+        return cls(config.estimation_population, rng, model_space=space, **config.ga.options(space.n_bits))
+
+    def state_dict(self) -> dict:
+        """:meth:`BitGA.state_dict` with ``"search": "ga"``."""
+        return {"search": self.name, **super().state_dict()}
+
+    @classmethod
+    def _build(cls, n_bits: int, population_size: int, rng: np.random.Generator, **options) -> "ModelGA":
+        try:
+            space = model_space_of(n_bits)
+        except ValueError:
+            raise ValueError(f"a model GA evolves {MODEL_BITS}-bit genomes (57 with servo gains), "
+                             f"the state has {n_bits} bits") from None
+        return cls(population_size, rng, model_space=space, **options)
+
+    @classmethod
+    def from_state_dict(cls, state: dict, rng: np.random.Generator) -> "ModelGA":
+        """Rebuild from :meth:`state_dict` (or a plain :meth:`BitGA.state_dict` of 45- or 57-bit genomes).
+
+        Raises:
+            ValueError: if the state is not a model GA's, or as :meth:`BitGA.from_state_dict`.
+        """
+        return super().from_state_dict({k: v for k, v in state.items() if k != "search"}, rng)
