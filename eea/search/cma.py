@@ -170,6 +170,8 @@ class CMASettings:
             ``EEAConfig`` checks 2 <= G <= estimation_population - 2).
         carry_condition: 0 (off) or a finite c >= 1 (module docstring).
         global_keep: k >= 0, needs ``global_share`` > 0 (module docstring).
+        flip_gains: 0 (off) or 1: every restart also injects the best point with each pectoral
+            gain's sign flipped (left, right, both; ``morphology+servos`` only; not the paper's).
 
     Raises:
         ValueError: naming the field as ``EEAConfig.cma_<field>`` if one is out of range, or
@@ -180,11 +182,12 @@ class CMASettings:
     global_share: int = 0
     carry_condition: float = 0.0
     global_keep: int = 0
+    flip_gains: int = 0
 
     #: Each field's name in :class:`eea.config.EEAConfig`.
     CONFIG_FIELDS: ClassVar[dict[str, str]] = {"sigma": "cma_sigma", "global_share": "cma_global_share",
                                                "carry_condition": "cma_carry_condition",
-                                               "global_keep": "cma_global_keep"}
+                                               "global_keep": "cma_global_keep", "flip_gains": "cma_flip_gains"}
 
     def __post_init__(self) -> None:
         if isinstance(self.sigma, bool) or not isinstance(self.sigma, (int, float)) or not 0.0 < self.sigma <= 1.0:
@@ -196,6 +199,8 @@ class CMASettings:
         object.__setattr__(self, "carry_condition", float(value))
         check_int("EEAConfig.cma_global_share", self.global_share, 0)
         check_int("EEAConfig.cma_global_keep", self.global_keep, 0)
+        if self.flip_gains not in (0, 1) or isinstance(self.flip_gains, bool):
+            raise ValueError(f"EEAConfig.cma_flip_gains must be 0 (off) or 1, got {self.flip_gains!r}")
         if self.global_keep and not self.global_share:
             raise ValueError(f"EEAConfig.cma_global_keep > 0 needs cma_global_share > 0 (a global share to keep), "
                              f"got {self.global_keep} and {self.global_share}")
@@ -240,6 +245,10 @@ class CMAModelSearch(TellRecord):
             docstring); 0 = at a random point every round.
         model_space: ``"morphology"`` (the default, 9 coordinates, 45-bit genomes) or
             ``"morphology+servos"`` (12, 57-bit; module docstring).
+        flip_gains: 0 or 1 (``morphology+servos`` only): every :meth:`restart` also injects the
+            best point with the left, the right and both pectoral gains' signs flipped, so a
+            lineage caught in a wrong-sign basin (e.g. a healthy servo modelled as reversed) sees
+            the other side every round (not the paper's).
 
     Raises:
         ValueError: if an argument is outside the ranges above, or ``global_keep`` > 0 without
@@ -251,7 +260,7 @@ class CMAModelSearch(TellRecord):
 
     def __init__(self, population_size: int, rng: np.random.Generator, *, sigma0: float = 0.3,
                  elitism: int = 1, global_share: int = 0, carry_condition: float = 0.0, global_keep: int = 0,
-                 model_space="morphology") -> None:
+                 model_space="morphology", flip_gains: int = 0) -> None:
         space = get_model_space(model_space)
         check_int("population_size", population_size, 2)
         check_int("global_keep", global_keep, 0)
@@ -271,6 +280,12 @@ class CMAModelSearch(TellRecord):
         self.carry_condition = float(carry_condition)
         if space.servos:  # the paper's space keeps the class attributes (and its checkpoints their layout)
             self.model_space, self.n_bits = space.name, space.n_bits
+        if flip_gains not in (0, 1) or isinstance(flip_gains, bool):
+            raise ValueError(f"flip_gains must be 0 or 1, got {flip_gains!r}")
+        if flip_gains and not space.servos:
+            raise ValueError("flip_gains needs the morphology+servos model space (gains to flip)")
+        if flip_gains:  # only when on: a search without it pickles as before
+            self.flip_gains = 1
         n_dims = self._n_dims
         self.population_size, self.sigma0, self.elitism = population_size, float(sigma0), int(elitism)
         self.global_share, self.global_keep = int(global_share), int(global_keep)
@@ -289,6 +304,8 @@ class CMAModelSearch(TellRecord):
     #: The model space's name; the class value is the paper's (and that of checkpoints written
     #: before model spaces), an instance of ``morphology+servos`` sets its own.
     model_space: ClassVar[str] = "morphology"
+    #: 0: no gain flips at a restart (the class value, and that of checkpoints written before).
+    flip_gains: ClassVar[int] = 0
 
     @property
     def _n_dims(self) -> int:
@@ -306,7 +323,7 @@ class CMAModelSearch(TellRecord):
         cma = config.cma
         return cls(config.estimation_population, rng, sigma0=cma.sigma, elitism=1 if config.elitism else 0,
                    global_share=cma.global_share, carry_condition=cma.carry_condition, global_keep=cma.global_keep,
-                   model_space=getattr(config, "model_space", "morphology"))
+                   model_space=getattr(config, "model_space", "morphology"), flip_gains=cma.flip_gains)
 
     def _new_strategy(self, mean: np.ndarray, popsize: int):
         import cma  # here, not at module level: importing cma takes ~1.5 s, and only cma runs need it
@@ -329,6 +346,11 @@ class CMAModelSearch(TellRecord):
         if self._best_x is None:
             return
         self._es = self._restarted(self._es, self._best_x, self.population_size - self.global_share)
+        if self.flip_gains:  # the pectoral gains (coordinates 9, 10 on [-1, 1]) mirrored about 0
+            flips = [self._best_x.copy() for _ in range(3)]
+            for x, dims in zip(flips, ([9], [10], [9, 10])):
+                x[dims] = 1.0 - x[dims]
+            self._es.inject(flips, force=True)
         if self.global_share:
             keep = self.global_keep and self._global_es is not None and self._global_restarts % self.global_keep
             self._global_es = self._restarted(self._global_es, self._global_best_x, self.global_share) if keep \

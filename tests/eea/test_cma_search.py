@@ -257,3 +257,27 @@ def test_a_restart_with_carry_condition_samples_along_the_learned_ridge():
         EEAConfig(cma_carry_condition=float("nan"), estimation_search="cma")
     with pytest.raises(ValueError, match="needs estimation_search='cma'"):
         EEAConfig(cma_carry_condition=100)
+
+
+def test_flip_gains_injects_the_best_model_with_each_pectoral_gain_mirrored_at_a_restart():
+    from eea.encoding import get_model_space
+
+    space = get_model_space("morphology+servos")
+    search = CMAModelSearch(10, np.random.default_rng(3), model_space=space.name, flip_gains=1)
+    genomes = search.ask()
+    fitness = np.arange(10, dtype=float)
+    search.tell(fitness)
+    best = space.decode(genomes[9:10])[0]                       # 12 values: 9 dimensions, 3 gains
+    search.restart()
+    after = space.decode(search.ask())
+    for flipped in ([9], [10], [9, 10]):                         # left, right, both pectoral gains negated
+        want = best.copy()
+        want[flipped] = -best[flipped]
+        assert any(np.allclose(row, want, atol=0.13) for row in after), flipped   # one 4-bit level (0.125)
+    plain = CMAModelSearch(10, np.random.default_rng(3), model_space=space.name)
+    plain.ask(), plain.tell(fitness), plain.restart()
+    assert "flip_gains" not in vars(plain)                       # off: pickles as before
+    with pytest.raises(ValueError, match="flip_gains needs the morphology\\+servos model space"):
+        CMAModelSearch(10, np.random.default_rng(3), flip_gains=1)
+    with pytest.raises(ValueError, match="cma_flip_gains = 1 needs model_space='morphology\\+servos'"):
+        EEAConfig(estimation_search="cma", cma_flip_gains=1)
