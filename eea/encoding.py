@@ -17,10 +17,7 @@ The two genomes use them as follows:
   (section 3.1, Figure 4). The decoded order and ranges are the simulator's own,
   ``aquafish_gym.MORPHOLOGY_FIELDS`` and ``MORPHOLOGY_BOUNDS``. Half-open because the robot's own dimensions are
   dyadic fractions of these ranges: the healthy robot and every damage preset are exact
-  model genomes, so the true morphology reproduces the target (sim = 1, eq. 2) and the
-  ideal baseline can reach OBJ_FIT = 1 (paper Figure 5). On a closed grid none of the
-  healthy dimensions is a level: the nearest grid robot reached only sim ~ 0.994 and
-  models far from the truth fitted the target better than it did.
+  model genomes (OBJ_FIT = 1 reachable; docs/self_modeling.md, "Model grid").
 * Action genome, 18 bits, closed: 6 per servo; left pectoral speed in [-0.5, 0.5] rev/s,
   right pectoral speed in [-0.5, 0.5] rev/s, caudal frequency in [0, 1] Hz (section 3.2;
   the ranges are ``aquafish_gym.ACTION_BOUNDS``), so full speed either way and 1 Hz are
@@ -42,18 +39,10 @@ Model spaces (``EEAConfig.model_space``, :data:`MODEL_SPACES`): what a model gen
   k in {0, 2, 3, ..., 16}, the 16 values of a 4-bit field (code c is k = c for c = 0 and
   k = c + 1 otherwise). Pectorals: -1, -0.75, -0.625, ..., -0.125, 0, 0.125, ..., 0.875,
   1 (steps of 0.125; -0.875 left out); caudal: 0, 0.125, 0.1875, ..., 0.9375, 1 (steps of
-  0.0625; 0.0625 left out). Why this grid, as for the half-open morphology grid: the
-  gains of every damage preset (1 healthy, 0.5 weak, 0 seized or dead, -1 reversed) and
-  both ends of each range must be exact levels, so that the truth is a model genome and
-  reproduces the target bit for bit (MOD_FIT = 1, OBJ_FIT = 1). A 4-bit field has 16
-  levels, an even number, and a uniform grid of an even number of levels that contains
-  both ends of a range does not contain its middle (a closed field: 0 is no level of
-  [-1, 1]), while one that contains the middle misses an end (a half-open field: +1 is
-  no level of [-1, 1)). So one level of the 17-point grid is left out, the one next to the
-  lower end: a reversed-and-slightly-weak pectoral (-0.875) and an almost dead tail (0.0625),
-  the least likely faults. Resolution: 1/16 of each range (0.125 of a pectoral gain, 0.0625
-  of the caudal's), twice that between the two lowest levels. Encoding a value rounds it
-  to the nearest level (half-way between the two lowest: to the upper one).
+  0.0625; 0.0625 left out), so every damage preset's gains (1, 0.5, 0, -1) and both ends of
+  each range are exact levels (why this grid: docs/self_modeling.md, "Model space").
+  Resolution: 1/16 of each range, twice that between the two lowest levels. Encoding a value
+  rounds it to the nearest level (half-way between the two lowest: to the upper one).
 
 Genomes may be given as bool, integer or float arrays whose entries are exactly 0 or 1;
 encoders return ``uint8``.
