@@ -159,6 +159,22 @@ def decode_fields(genomes, field_bits, bounds, *, half_open: bool = False) -> np
     return values[0] if single else values
 
 
+def _fractions(values, bounds: np.ndarray, name: str, what: str) -> tuple[np.ndarray, bool]:
+    """``(P, n)`` the finite ``values``' fractions of their ``(n, 2)`` ranges, and whether one row
+    was given; raises ValueError (naming ``name``) for a wrong width, NaN, infinity or a value
+    outside its range by more than ``_RANGE_TOLERANCE`` of it."""
+    v2, single = _as_2d(np.asarray(values, dtype=np.float64), len(bounds), name, what)
+    if not np.all(np.isfinite(v2)):
+        raise ValueError(f"{name} must be finite (found NaN or infinity)")
+    lo, hi = bounds[:, 0], bounds[:, 1]
+    frac = (v2 - lo) / (hi - lo)
+    outside = (frac < -_RANGE_TOLERANCE) | (frac > 1 + _RANGE_TOLERANCE)
+    if np.any(outside):
+        row, col = np.argwhere(outside)[0]
+        raise ValueError(f"{name}[{row}, {col}] = {v2[row, col]!r} is outside its range [{lo[col]}, {hi[col]}]")
+    return frac, single
+
+
 def encode_fields(values, field_bits, bounds, *, half_open: bool = False) -> np.ndarray:
     """Encode real values onto the nearest grid point of each field (inverse of decode).
 
@@ -179,19 +195,7 @@ def encode_fields(values, field_bits, bounds, *, half_open: bool = False) -> np.
             range, which absorbs floating-point round-off).
     """
     widths, bounds = _check_layout(field_bits, bounds)
-    v = np.asarray(values, dtype=np.float64)
-    v2, single = _as_2d(v, widths.size, "values", "one value per field")
-    if not np.all(np.isfinite(v2)):
-        raise ValueError("values must be finite (found NaN or infinity)")
-    lo, hi = bounds[:, 0], bounds[:, 1]
-    frac = (v2 - lo) / (hi - lo)
-    outside = (frac < -_RANGE_TOLERANCE) | (frac > 1 + _RANGE_TOLERANCE)
-    if np.any(outside):
-        row, col = np.argwhere(outside)[0]
-        raise ValueError(
-            f"values[{row}, {col}] = {v2[row, col]!r} is outside its range "
-            f"[{lo[col]}, {hi[col]}]"
-        )
+    frac, single = _fractions(values, bounds, "values", "one value per field")
     levels = np.left_shift(1, widths) - 1
     divisor = levels + 1 if half_open else levels
     ints = np.clip(np.rint(frac * divisor), 0, levels).astype(np.int64)
@@ -361,16 +365,7 @@ def encode_gains(gains) -> np.ndarray:
     Raises:
         ValueError: if the width is not 3, or a value is NaN, infinite or outside its range.
     """
-    v = np.asarray(gains, dtype=np.float64)
-    v2, single = _as_2d(v, 3, "gains", "left pectoral, right pectoral, caudal")
-    if not np.all(np.isfinite(v2)):
-        raise ValueError("gains must be finite (found NaN or infinity)")
-    lo, hi = SERVO_GAIN_BOUNDS[:, 0], SERVO_GAIN_BOUNDS[:, 1]
-    frac = (v2 - lo) / (hi - lo)
-    outside = (frac < -_RANGE_TOLERANCE) | (frac > 1 + _RANGE_TOLERANCE)
-    if np.any(outside):
-        row, col = np.argwhere(outside)[0]
-        raise ValueError(f"gains[{row}, {col}] = {v2[row, col]!r} is outside its range [{lo[col]}, {hi[col]}]")
+    frac, single = _fractions(gains, SERVO_GAIN_BOUNDS, "gains", "left pectoral, right pectoral, caudal")
     scaled = frac * _GAIN_STEPS
     k = np.clip(np.rint(scaled), 0, _GAIN_STEPS).astype(np.int64)
     k = np.where(k == 1, np.where(scaled < 1.0, 0, 2), k)  # level 1 is left out: the nearer of 0 and 2
