@@ -17,10 +17,7 @@ The two genomes use them as follows:
   (section 3.1, Figure 4). The decoded order and ranges are the simulator's own,
   ``aquafish_gym.MORPHOLOGY_FIELDS`` and ``MORPHOLOGY_BOUNDS``. Half-open because the robot's own dimensions are
   dyadic fractions of these ranges: the healthy robot and every damage preset are exact
-  model genomes, so the true morphology reproduces the target (sim = 1, eq. 2) and the
-  ideal baseline can reach OBJ_FIT = 1 (paper Figure 5). On a closed grid none of the
-  healthy dimensions is a level: the nearest grid robot reached only sim ~ 0.994 and
-  models far from the truth fitted the target better than it did.
+  model genomes (OBJ_FIT = 1 reachable; docs/self_modeling.md, "Model grid").
 * Action genome, 18 bits, closed: 6 per servo; left pectoral speed in [-0.5, 0.5] rev/s,
   right pectoral speed in [-0.5, 0.5] rev/s, caudal frequency in [0, 1] Hz (section 3.2;
   the ranges are ``aquafish_gym.ACTION_BOUNDS``), so full speed either way and 1 Hz are
@@ -42,18 +39,10 @@ Model spaces (``EEAConfig.model_space``, :data:`MODEL_SPACES`): what a model gen
   k in {0, 2, 3, ..., 16}, the 16 values of a 4-bit field (code c is k = c for c = 0 and
   k = c + 1 otherwise). Pectorals: -1, -0.75, -0.625, ..., -0.125, 0, 0.125, ..., 0.875,
   1 (steps of 0.125; -0.875 left out); caudal: 0, 0.125, 0.1875, ..., 0.9375, 1 (steps of
-  0.0625; 0.0625 left out). Why this grid, as for the half-open morphology grid: the
-  gains of every damage preset (1 healthy, 0.5 weak, 0 seized or dead, -1 reversed) and
-  both ends of each range must be exact levels, so that the truth is a model genome and
-  reproduces the target bit for bit (MOD_FIT = 1, OBJ_FIT = 1). A 4-bit field has 16
-  levels, an even number, and a uniform grid of an even number of levels that contains
-  both ends of a range does not contain its middle (a closed field: 0 is no level of
-  [-1, 1]), while one that contains the middle misses an end (a half-open field: +1 is
-  no level of [-1, 1)). So one level of the 17-point grid is left out, the one next to the
-  lower end: a reversed-and-slightly-weak pectoral (-0.875) and an almost dead tail (0.0625),
-  the least likely faults. Resolution: 1/16 of each range (0.125 of a pectoral gain, 0.0625
-  of the caudal's), twice that between the two lowest levels. Encoding a value rounds it
-  to the nearest level (half-way between the two lowest: to the upper one).
+  0.0625; 0.0625 left out), so every damage preset's gains (1, 0.5, 0, -1) and both ends of
+  each range are exact levels (why this grid: docs/self_modeling.md, "Model space").
+  Resolution: 1/16 of each range, twice that between the two lowest levels. Encoding a value
+  rounds it to the nearest level (half-way between the two lowest: to the upper one).
 
 Genomes may be given as bool, integer or float arrays whose entries are exactly 0 or 1;
 encoders return ``uint8``.
@@ -170,6 +159,22 @@ def decode_fields(genomes, field_bits, bounds, *, half_open: bool = False) -> np
     return values[0] if single else values
 
 
+def _fractions(values, bounds: np.ndarray, name: str, what: str) -> tuple[np.ndarray, bool]:
+    """``(P, n)`` the finite ``values``' fractions of their ``(n, 2)`` ranges, and whether one row
+    was given; raises ValueError (naming ``name``) for a wrong width, NaN, infinity or a value
+    outside its range by more than ``_RANGE_TOLERANCE`` of it."""
+    v2, single = _as_2d(np.asarray(values, dtype=np.float64), len(bounds), name, what)
+    if not np.all(np.isfinite(v2)):
+        raise ValueError(f"{name} must be finite (found NaN or infinity)")
+    lo, hi = bounds[:, 0], bounds[:, 1]
+    frac = (v2 - lo) / (hi - lo)
+    outside = (frac < -_RANGE_TOLERANCE) | (frac > 1 + _RANGE_TOLERANCE)
+    if np.any(outside):
+        row, col = np.argwhere(outside)[0]
+        raise ValueError(f"{name}[{row}, {col}] = {v2[row, col]!r} is outside its range [{lo[col]}, {hi[col]}]")
+    return frac, single
+
+
 def encode_fields(values, field_bits, bounds, *, half_open: bool = False) -> np.ndarray:
     """Encode real values onto the nearest grid point of each field (inverse of decode).
 
@@ -190,19 +195,7 @@ def encode_fields(values, field_bits, bounds, *, half_open: bool = False) -> np.
             range, which absorbs floating-point round-off).
     """
     widths, bounds = _check_layout(field_bits, bounds)
-    v = np.asarray(values, dtype=np.float64)
-    v2, single = _as_2d(v, widths.size, "values", "one value per field")
-    if not np.all(np.isfinite(v2)):
-        raise ValueError("values must be finite (found NaN or infinity)")
-    lo, hi = bounds[:, 0], bounds[:, 1]
-    frac = (v2 - lo) / (hi - lo)
-    outside = (frac < -_RANGE_TOLERANCE) | (frac > 1 + _RANGE_TOLERANCE)
-    if np.any(outside):
-        row, col = np.argwhere(outside)[0]
-        raise ValueError(
-            f"values[{row}, {col}] = {v2[row, col]!r} is outside its range "
-            f"[{lo[col]}, {hi[col]}]"
-        )
+    frac, single = _fractions(values, bounds, "values", "one value per field")
     levels = np.left_shift(1, widths) - 1
     divisor = levels + 1 if half_open else levels
     ints = np.clip(np.rint(frac * divisor), 0, levels).astype(np.int64)
@@ -372,16 +365,7 @@ def encode_gains(gains) -> np.ndarray:
     Raises:
         ValueError: if the width is not 3, or a value is NaN, infinite or outside its range.
     """
-    v = np.asarray(gains, dtype=np.float64)
-    v2, single = _as_2d(v, 3, "gains", "left pectoral, right pectoral, caudal")
-    if not np.all(np.isfinite(v2)):
-        raise ValueError("gains must be finite (found NaN or infinity)")
-    lo, hi = SERVO_GAIN_BOUNDS[:, 0], SERVO_GAIN_BOUNDS[:, 1]
-    frac = (v2 - lo) / (hi - lo)
-    outside = (frac < -_RANGE_TOLERANCE) | (frac > 1 + _RANGE_TOLERANCE)
-    if np.any(outside):
-        row, col = np.argwhere(outside)[0]
-        raise ValueError(f"gains[{row}, {col}] = {v2[row, col]!r} is outside its range [{lo[col]}, {hi[col]}]")
+    frac, single = _fractions(gains, SERVO_GAIN_BOUNDS, "gains", "left pectoral, right pectoral, caudal")
     scaled = frac * _GAIN_STEPS
     k = np.clip(np.rint(scaled), 0, _GAIN_STEPS).astype(np.int64)
     k = np.where(k == 1, np.where(scaled < 1.0, 0, 2), k)  # level 1 is left out: the nearer of 0 and 2

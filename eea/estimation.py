@@ -15,10 +15,8 @@ The phase also hands the exploration its candidate models (:meth:`Estimation.ran
 the paper's are the distinct models of the last generation, best first. With a minimum
 distance (``EEAConfig.exploration_diversity``, not the paper's) they are picked instead from
 every model the round evaluated, best first, skipping any closer than that to one already
-picked (:func:`eea.diversity.diverse_ranked`). Why: a converged CMA-ES population is one
-hypothesis in 25 near-copies; its models disagree less under any action than each disagrees with itself
-across initial angles, so the angle-robust exploration (eq. 1 with an angle term) scores
-every action below zero and picks actions in which hardly anything moves.
+picked (:func:`eea.diversity.diverse_ranked`; why: docs/self_modeling.md, "Exploration's
+candidate models").
 """
 
 from __future__ import annotations

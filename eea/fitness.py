@@ -16,7 +16,6 @@ from __future__ import annotations
 import numpy as np
 
 from aquafish_gym import MORPHOLOGY_BOUNDS
-from aquafish_gym.checks import check_weight
 from eea.behaviour import MAX_COEFFICIENT, similarity
 
 __all__ = ["action_fitness", "model_fitness", "model_fitness_from_similarities", "objective_fitness",
@@ -55,7 +54,7 @@ def action_fitness(summaries, max_coefficient: float = MAX_COEFFICIENT):
     return float(result) if result.ndim == 0 else result
 
 
-def robust_action_fitness(summaries, max_coefficient: float = MAX_COEFFICIENT, spread_weight: float = 1.0):
+def robust_action_fitness(summaries, max_coefficient: float = MAX_COEFFICIENT):
     """Disagreement among models that the unknown initial angles do not explain (not the paper's).
 
     Equation 1 scores an action by how much the candidate models disagree from one fixed
@@ -63,35 +62,32 @@ def robust_action_fitness(summaries, max_coefficient: float = MAX_COEFFICIENT, s
     as much with the angles as with the morphology tells the models apart only in
     appearance. With the models simulated from K angle sets::
 
-        ACT_FIT_robust(a) = 1/K sum_k ACT_FIT_k(a) - w/M sum_i SPREAD_i(a)
+        ACT_FIT_robust(a) = 1/K sum_k ACT_FIT_k(a) - 1/M sum_i SPREAD_i(a)
 
     where ``ACT_FIT_k`` is equation 1 over the M models from angle set k (between-model
     disagreement), ``SPREAD_i`` is equation 1 over model i's K responses (the
-    disagreement of a model with itself caused by the angles alone) and w the
-    ``spread_weight`` (1 by default). The spread is the candidate models' own: when they all
-    share a wrong, large flipper, moving it is penalised although it would expose the error
-    (study record, "Two lineages from round 1"); w < 1 penalises less.
+    disagreement of a model with itself caused by the angles alone). The spread is the
+    candidate models' own: when they all share a wrong, large flipper, moving it is penalised
+    although it would expose the error (study record, "Two lineages from round 1"; a weight
+    on the spread was retired in issue 40, docs/studies/retired_variants.md).
 
     Args:
         summaries: ``(K, M, 3, F)`` summaries of M models from K angle sets under one
             action, or ``(A, K, M, 3, F)`` (any leading dimensions) for A actions; K, M >= 2.
         max_coefficient: MAX of equation 2.
-        spread_weight: w >= 0, the weight of the angle spread (0: only the disagreement).
 
     Returns:
-        A float in [-w, 1] for one action; ``(A,)`` float64 for several.
+        A float in [-1, 1] for one action; ``(A,)`` float64 for several.
 
     Raises:
-        ValueError: if ``summaries`` is not ``(..., K, M, 3, F)`` with K, M >= 2, or
-            ``spread_weight`` is negative or not finite.
+        ValueError: if ``summaries`` is not ``(..., K, M, 3, F)`` with K, M >= 2.
     """
     s = np.asarray(summaries, dtype=np.float64)
     if s.ndim < 4 or s.shape[-4] < 2:
         raise ValueError(f"summaries must have shape (..., K, M, 3, F) with K >= 2 angle sets, got {s.shape}")
-    spread_weight = check_weight("spread_weight", spread_weight)
     between = np.mean(action_fitness(s, max_coefficient), axis=-1)                        # over K
     spread = np.mean(action_fitness(np.swapaxes(s, -4, -3), max_coefficient), axis=-1)    # over M
-    result = between - spread_weight * spread
+    result = between - spread
     return float(result) if np.ndim(result) == 0 else result
 
 

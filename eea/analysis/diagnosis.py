@@ -8,46 +8,30 @@ same experiments separates three failures:
   does under the angles the run would give it; the estimation search missed it;
 * ``inference``: under those angles the final model fits better, but with each model's own
   best angles (fitted equally hard for both, :meth:`eea.inference.profile.Profile.fit`) the truth
-  fits better: the inferred angles favour a wrong morphology (a trap), and no search,
-  however good, would move to the truth;
+  fits better: the inferred angles favour a wrong morphology (a trap);
 * ``identifiability``: even with its own best angles the truth fits no better than the
   final model: once the angles are free, these experiments cannot tell the two apart.
 
-"The angles the run would give" the truth are the inferred ones (the middle of each
-experiment's context) for the paper's strategies, which give every model the same angles,
-and the truth's own fitted angles for ``profile``, which gives every model its own. Scoring
-both models under the *true* angles as well shows what exact inference would have given.
-:func:`diagnose_run` computes the six numbers (MOD_FIT, paper eq. 3) from a run's
-checkpoint; ``aquafish diagnose DIR...`` prints them per run.
+"The angles the run would give" the truth are the inferred ones for the paper's strategies
+and the truth's own fitted angles for ``profile``. :func:`diagnose_run` computes these
+MOD_FIT numbers (eq. 3) from a run's checkpoint, under the true angles too; for ``profile``
+also the truth under the angles it would start from if proposed now
+(:meth:`eea.inference.profile.Profile.starting_angles`) and, with ``refine`` R > 0, after R
+rounds of contender refinement. A search failure is split without a simulation from the
+models the run scored (:meth:`eea.evaluation.Evaluator.scored_models`): never near the truth,
+or ``better_seen`` > 0 scored models with a higher OBJ_FIT (eq. 4) than the final one. A run
+whose final model is the truth gets the verdict ``found``. ``aquafish diagnose DIR...`` prints
+them per run; docs/studies.md, "Tools for studies", explains the columns.
 
-For a ``profile`` run a seventh number says why the search misses the truth: the truth
-scored under the angles it would start from if the search proposed it at the end of the
-run (its nearest remembered model's, :meth:`eea.inference.profile.Profile.starting_angles`). Below
-the final model's MOD_FIT, the truth would be rejected on sight: the incumbents' angles
-have been refined for many generations, a newcomer's not at all. With ``refine`` R > 0 an
-eighth: the same proposed truth after R rounds of contender refinement (``Profile`` with
-``refine=R``, the run's proposals), which tells what ``--profile-refine R`` would buy.
+In the ``morphology+servos`` model space (not the paper's) "the truth" is the damaged
+morphology *and* its servo faults' gains (:meth:`eea.encoding.ModelSpace.truth`), and OBJ_FIT
+is over the 12 values.
 
-A search failure has two kinds, told apart without a simulation from the models the run
-scored (its estimation cache, :meth:`eea.evaluation.Evaluator.scored_models`): the run
-never proposed a model near the truth (the closest model it scored is far from it), or it
-proposed better models than the one it ended with and rejected them (``better_seen`` > 0:
-that many scored models have a higher OBJ_FIT, eq. 4, than the final one). A run whose final
-model is the truth gets the verdict ``found``.
-
-In the ``morphology+servos`` model space (``EEAConfig.model_space``, not the paper's) "the
-truth" is the damaged morphology *and* its servo faults' gains (:meth:`eea.encoding.ModelSpace.truth`),
-and OBJ_FIT is over the 12 values.
-
-The angles get the same comparison (issue 14: "initial-angle errors close to what the true
-morphology itself allows"). ``run_error_deg`` is how far the run's final inferred angles are
-from the true ones, median over its experiments; ``floor_error_deg`` is how far the truth's
-own fitted angles are (the fit above, which knows the morphology but not the angles): the
-error that even the true morphology is left with when its angles are fitted to these
-responses. Both are per flipper, in degrees, measured as ``rounds.csv``'s inference error
-(:attr:`eea.record.RunResult.inference_error_deg`). The fit is a local search from random
-starts (and from the inferred angles), so the floor is what this fit attains, not the
-least error any fit could.
+Angles: ``run_error_deg`` is the median error of the run's final inferred angles over its
+experiments, ``floor_error_deg`` that of the truth's own fitted angles (the fit above: it
+knows the morphology, not the angles), per flipper in degrees as ``rounds.csv``'s inference
+error (:attr:`eea.record.RunResult.inference_error_deg`). The fit is a local search from
+random starts, so the floor is what this fit attains, not the least error any fit could.
 """
 
 from __future__ import annotations

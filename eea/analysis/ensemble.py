@@ -1,13 +1,6 @@
 """One self-model from several independent runs on the same target (not the paper's; issue 14).
 
-Under unknown initial angles a run of the EEA settles early (mostly in round 1) in one
-basin of MOD_FIT, and the basin decides where it ends: the same variant on the same
-damage ends at the truth on one seed and on a wrong model (a massless flipper, a mimic) on
-the next (docs/studies/unknown_angles.md). Under an equal, hard fit of their angles the
-truth beats every wrong final model on its run's experiments ("Equal fits and the
-needle"): the wrong models are search failures, not what the experiments say.
-
-So N independent runs on the same target, each with its own experiments, can vote: every
+N independent runs on the same target, each with its own experiments, vote: every
 run's final model gets its own initial angles fitted for every experiment of every run,
 equally hard for all (:meth:`eea.inference.profile.Profile.fit` from random starts, then
 :meth:`~eea.inference.profile.Profile.scan_angles` and :meth:`~eea.inference.profile.Profile.polish_angles`),
@@ -16,8 +9,8 @@ ensemble's model. No oracle is used: the selection sees only models and response
 
 Cost: N runs (N times one run's simulations and N times its target experiments: with N
 runs side by side, each round performs N experiments on the target), plus the selection,
-about ``225 N E_total`` simulations (``E_total`` the pooled experiments): 8,979 for two
-10-round runs at 1.28 s (measured), 1% of the two runs' 909,000.
+about ``225 N E_total`` simulations (``E_total`` the pooled experiments), some 1% of two
+10-round runs. Why and what it measured: docs/studies.md, "Ensembles of two runs".
 """
 
 from __future__ import annotations

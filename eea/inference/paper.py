@@ -236,11 +236,9 @@ class OutOfBand(InferenceStrategy):
         if generation % self.period:
             return experiments
         experiments = tuple(experiments)
-        first = len(experiments) - 1
-        targets = experiments[first:]
-        seeded = [generation > 0 or i < len(targets) - 1 for i in range(len(targets))]  # the newest: fresh at 0
-        best = self.infer_angles(ranked_genomes[: self.sample], targets, evaluator, rng, seed_current=seeded)
-        return experiments[:first] + tuple(e.with_context(Context.exact(a)) for e, a in zip(targets, best))
+        best = self.infer_angles(ranked_genomes[: self.sample], experiments[-1:], evaluator, rng,
+                                 seed_current=generation > 0)  # the newest experiment: fresh at generation 0
+        return experiments[:-1] + (experiments[-1].with_context(Context.exact(best[0])),)
 
     def _current_genome(self, experiment: Experiment) -> np.ndarray:
         """``(1, 3 * bits)`` genome of the experiment's current angles (nearest levels)."""
@@ -251,7 +249,7 @@ class OutOfBand(InferenceStrategy):
         return encode_fields(current, self.field_bits, self.bounds)[None]
 
     def infer_angles(self, models: np.ndarray, experiments: Sequence[Experiment], evaluator,
-                     rng: np.random.Generator, seed_current: bool | Sequence[bool] = False) -> np.ndarray:
+                     rng: np.random.Generator, seed_current: bool = False) -> np.ndarray:
         """The paper's optAng(): the best initial angles of each experiment for the models.
 
         One inner GA per experiment, run in lockstep: inner generation g evaluates every
@@ -264,20 +262,14 @@ class OutOfBand(InferenceStrategy):
             experiments: the E experiments whose angles are inferred.
             evaluator: an :class:`eea.evaluation.Evaluator`.
             rng: draws every inner GA's randomness.
-            seed_current: per experiment (or one for all), whether its current angles join
-                the inner GA's first population.
+            seed_current: whether the experiments' current angles join the inner GAs' first
+                populations.
 
         Returns:
             ``(E, 3)`` radians (pectorals in [0, 2 pi), caudal in the sweep).
-
-        Raises:
-            ValueError: if ``seed_current`` is a sequence without one flag per experiment.
         """
-        seeds = [seed_current] * len(experiments) if isinstance(seed_current, bool) else list(seed_current)
-        if len(seeds) != len(experiments):
-            raise ValueError(f"seed_current needs one flag per experiment ({len(experiments)}), got {len(seeds)}")
-        gas = [BitGA(3 * self.bits, self.population, rng, initial=self._current_genome(e) if seeded else None,
-                     **self.ga_options) for e, seeded in zip(experiments, seeds)]
+        gas = [BitGA(3 * self.bits, self.population, rng, initial=self._current_genome(e) if seed_current else None,
+                     **self.ga_options) for e in experiments]
         s, e = len(models), len(experiments)
         for _ in range(self.generations):
             candidates = np.stack([decode_fields(ga.ask(), self.field_bits, self.bounds) for ga in gas], axis=1)

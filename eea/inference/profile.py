@@ -1,93 +1,60 @@
 """Profile inference: every model keeps its own best initial angles (not the paper's).
 
-The paper's strategies give all models of a generation the same context per experiment;
-out-of-band fits that one set of angles to the current best models, the models then fit
-those angles, and the pair locks in (docs/studies.md, "Why out-of-band inference helps so little").
-Here the initial angles are nuisance parameters profiled out per model: a model is scored
-by MOD_FIT (eq. 3) under the best angles found *for it*, so the true morphology, given its
-true angles, scores 1 whatever the other models believe.
+The paper's strategies give all models of a generation the same context per experiment, and
+out-of-band's angles and models lock in (docs/studies.md, "Why out-of-band inference helps so
+little"). Here the initial angles are nuisance parameters profiled out per model: a model is
+scored by MOD_FIT (eq. 3) under the best angles found *for it*, so the true morphology, given
+its true angles, scores 1 whatever the other models believe.
 
 Per estimation generation, for every distinct model about to be evaluated and every
 experiment, :class:`Profile` tries
 
 * its remembered best angles (free: the evaluator has them cached),
-* the angles of the best model so far (shared knowledge: a good model's angles are a good
-  guess for its neighbours),
+* the angles of the best model so far,
 * ``proposals`` perturbations of its own best (each flipper moved with probability 1/2,
   at least one: pectorals by a normal step of 0.1, 0.4 or 1.2 rad, the caudal fin by 0.02,
   0.08 or 0.2 rad, one scale drawn per candidate; one in four a uniform random draw),
 
-in one batched :meth:`Evaluator.similarities` call (every candidate row carries one
-candidate for every experiment: an experiment's similarity depends only on its own
-angles), and keeps the best per experiment. A model never seen before inherits the memory
-of the nearest model of the previous generation in Hamming distance between genomes, i.e.
-of its parent (a GA child's; a CMA-ES sample's nearest point). A new
-experiment is first tried from ``initial`` random angle sets per model. The estimation
-generation itself then simulates nothing new: its angles are the remembered ones.
+in one batched :meth:`Evaluator.similarities` call (an experiment's similarity depends only
+on its own angles), and keeps the best per experiment. A model never seen before inherits the
+memory of the nearest model of the previous generation in Hamming distance between genomes
+(its parent). A new experiment is first tried from ``initial`` random angle sets per model.
+The estimation generation itself then simulates nothing new: its angles are the remembered ones.
 
-Contender refinement (``refine`` > 0, off by default): a model's angles improve with every
-generation it survives, so an incumbent's have had many steps and a newly proposed model's
-one; the truth, proposed late, loses to a wrong incumbent although it wins when both are
-fitted as hard (study record, "Where the best variant stops"). With ``refine`` R, the
-``contenders`` K fittest models that are new this generation get R more rounds of
-``proposals`` perturbations each before the generation is scored.
+Contender refinement (``refine`` R > 0, off by default): the ``contenders`` K fittest models
+that are new this generation get R more rounds of ``proposals`` perturbations each before the
+generation is scored, so a newly proposed model is not judged under angles refined once
+against an incumbent's refined for many generations.
 
-Angle library (``library`` L > 0, off by default, with ``refine`` > 0): a contender's
-inherited angles sit in its parent's basin of each experiment's angle landscape, which has
-many local maxima (study record, "Where the best variant stops"); a few perturbation rounds
-rarely leave it, and a model far from the incumbent, the truth included, stays judged in
-the wrong basin. Every angle set the strategy scores feeds, per experiment, a library of
-the L best-scoring sets at least ``LIBRARY_SPACING_RAD`` apart (any model's scores; largest
-flipper difference, pectorals on the circle, the caudal difference counted 3 times), and
-every contender first tries all L sets of every experiment, then refines from the best. On
-the 10 experiments of a finished run (study record, "An angle library"), the truth proposed
-with inherited angles scores MOD_FIT 0.9976 against the final model's 0.9991. Started from the
-best of a library built the same way from every set the run scored (8 sets 0.7 rad apart,
-or 32 sets 0.4 rad apart) and refined for 10 rounds of 2 proposals, it scores 0.9992
-(0.9994), where the final model gets 0.9991 the same way. Cost: ``K L E`` more simulations
-per generation with new models.
+Angle library (``library`` L > 0, off by default, with ``refine`` > 0): every angle set the
+strategy scores feeds, per experiment, a library of the L best-scoring sets at least
+``LIBRARY_SPACING_RAD`` apart (any model's scores; largest flipper difference, pectorals on
+the circle, the caudal difference counted 3 times), and every contender first tries all L
+sets of every experiment, then refines from the best. Cost: ``K L E`` more simulations per
+generation with new models.
 
 Compass polish and per-flipper scan (:meth:`Profile.polish_angles`, :meth:`Profile.scan_angles`;
-used by the round's equal angle fit of ``--lineages``, :func:`eea.inference.selection.select_model`; not
-the paper's): MOD_FIT is
-a narrow cone around the true morphology's true angles. On the 10 experiments of finished
-``left_pectoral_half`` runs, the truth at its true angles scores exactly 1, and loses about
-0.00015-0.0005 per experiment for every degree a pectoral angle is off (0.001 per degree of
-the caudal fin), so the truth fitted to within the finest random step (0.1 rad, 5.7 deg)
-scores no better than the wrong models the runs end with (0.9987-0.9990): the random
-perturbations leave the last 0.001 on the table, and that is the margin a wrong model wins
-by (study record, "The angle cone"). The polish is a compass search, one experiment at a time (they are independent given the
-model): from the finest random step (0.1 rad pectorals, 0.02 rad caudal), each of the 3
-angles is moved by +-step, the best of the 6 moves is kept if it scores higher, up to
-``POLISH_ITERATIONS`` times, and the step is halved ``len(POLISH_STEPS_RAD) - 1`` times
-(finest 0.0031 rad, 0.18 deg). A local search: where the landscape is rugged at the degree
-scale it stops at a nearby maximum (the truth 5 deg off in a 1.28 s experiment: 0.9973 to
-0.9985, where the true angles score 1; in the other experiment of that test it climbs back to
-them). Cost: at most ``6 P E`` simulations per iteration, about
-60-90 per experiment and contender in practice (cached moves are free).
-
-The scan before the polish: the polish is local, and a wrong incumbent's angles for the flipper it gets wrong are often in
-another basin of the truth's angle landscape (36-68 deg away in the massless-flipper runs).
-A cycle of the per-flipper scan: for each flipper
-in turn, its angle in every experiment is set to each of :data:`SCAN_PECTORAL` values round
-the circle (:data:`SCAN_CAUDAL` across the caudal sweep) with the other two kept, and the
-best is kept per experiment. On 11 finished runs the truth started from the final model's
-angles and scanned (1 or 2 cycles) and polished beats the final model fitted the same way in 9
-(polish alone: 5). Cost: ``2 SCAN_PECTORAL + SCAN_CAUDAL`` simulations per cycle, model and experiment.
-The options that ran them inside every generation (``profile_polish``, ``profile_scan``), the
-round-end selection, finer steps, the newcomers' library trial, contender distance and
-inheritance by morphology were retired in issue 40 (docs/studies/retired_variants.md).
-
-"Study record" is ``docs/studies/unknown_angles.md``, where each option was measured.
+used by the round's equal angle fit of ``--lineages``, :func:`eea.inference.selection.select_model`).
+The polish is a compass search, one experiment at a time: from the finest random step (0.1 rad
+pectorals, 0.02 rad caudal), each of the 3 angles is moved by +-step, the best of the 6 moves is
+kept if it scores higher, up to ``POLISH_ITERATIONS`` times, and the step is halved
+``len(POLISH_STEPS_RAD) - 1`` times (finest 0.0031 rad). A local search: it stops at a nearby
+maximum. Cost: at most ``6 E`` simulations per model and iteration, about 60-90 per experiment
+and model in practice. A cycle of the scan: for each flipper in turn, its angle in every
+experiment is set to each of :data:`SCAN_PECTORAL` values round the circle
+(:data:`SCAN_CAUDAL` across the caudal sweep) with the other two kept, and the best is kept
+per experiment. Cost: ``2 SCAN_PECTORAL + SCAN_CAUDAL`` simulations per cycle, model and
+experiment. Why both (MOD_FIT is a narrow cone round the truth's true angles):
+docs/studies/unknown_angles.md, "The angle cone".
 
 Cost: about ``U (proposals + 1) E`` simulations per generation for U distinct models and E
-experiments, plus ``U initial`` at the first generation of a round (3-4 times the
-estimation cost of ``known`` with the defaults), plus ``K R proposals E`` for the
-contenders (with K = 3, R = 10: about 1.3 times the run's simulations without them).
+experiments, plus ``U initial`` at the first generation of a round (3-4 times ``known``'s
+estimation), plus ``K R proposals E`` for the contenders (K = 3, R = 10: about 1.3 times).
 
 The memory is the strategy's state (:meth:`Profile.state_dict`); the run checkpoints it.
 The experiments' contexts hold the best model's angles (the ``inferred_*`` columns of
-``rounds.csv``).
+``rounds.csv``). What each option measured: docs/studies/unknown_angles.md; the retired ones:
+docs/studies/retired_variants.md.
 
 Settings: :class:`ProfileSettings`, the section ``config.profile`` of
 :class:`eea.config.EEAConfig` (the ``profile_*`` fields).

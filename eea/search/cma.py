@@ -2,12 +2,9 @@
 
 An alternative search for the estimation phase (``EEAConfig.estimation_search = "cma"``),
 not the paper's: the paper evolves models with the bit-string GA of section 4, which stays
-the default. Why offer it: MOD_FIT (eq. 3) of this robot has narrow diagonal ridges. On a
-trapped ``known`` run, moving all nine dimensions together from the trapped model to the
-truth raises MOD_FIT almost monotonically (0.988 -> 1.0), while setting any *one*
-dimension to its true value lowers it; single-field bit-flip mutation cannot follow such a
-ridge, and a converged population gives crossover nothing to mix. CMA-ES (the ``cma``
-package) adapts a full covariance and so walks along correlated directions.
+the default. MOD_FIT (eq. 3) of this robot has narrow diagonal ridges that single-field
+bit-flip mutation cannot follow; CMA-ES (the ``cma`` package) adapts a full covariance and
+so walks along correlated directions (docs/self_modeling.md, "Estimation search").
 
 Search space: the unit cube ``[0, 1]^9``, one coordinate per morphology dimension (order
 ``aquafish_gym.MORPHOLOGY_FIELDS``). A point ``x`` is the model genome whose field ``d`` holds
@@ -22,36 +19,28 @@ one coordinate per servo gain, whose 4-bit field holds code ``floor(x_d * 16)`` 
 is gain level ``k = c + (c > 0)`` of :func:`eea.encoding.decode_gains` (so the lowest code's
 cell covers twice the gain step: one gain level is left out of the grid).
 
-Local and global search in the same round (``global_share`` G > 0, off by default): every round two distributions share the P points of a generation.
-The local one restarts at the best point with P - G samples, as without; the global one
-restarts at a uniformly random point with G samples. Each is told its own points. The
-generation's best point, from either, is injected into the local one (elitism), and the
-global one's own best into the global one, so a better basin found globally pulls the local
-search there within the round, while runs that are climbing keep most of their local search
-every round (study record, "Global restarts": global rounds alone cost seeds that were
-climbing a round of local search each time). The global share joins in round 2: round 1
-samples all P points from the local distribution.
+Local and global search in the same round (``global_share`` G > 0, off by default): every
+round two distributions share the P points of a generation. The local one restarts at the
+best point with P - G samples, as without; the global one restarts at a uniformly random
+point with G samples. Each is told its own points. The generation's best point, from either,
+is injected into the local one (elitism), and the global one's own best into the global one,
+so a better basin found globally pulls the local search there within the round. The global
+share joins in round 2: round 1 samples all P points from the local distribution.
 
 A global share that keeps its lineage (``global_keep`` k > 0, off by default; needs
-``global_share``): restarted at a random point every round, the global distribution has 30
-generations of G samples to find a basin, and its samples are judged under angles inherited
-from whatever remembered model is nearest, so it rarely beats the incumbent. With k, it
-restarts at a random point only every k-th round (round 2, then k + 2, ...) and otherwise
-at its own best point of the last round, with its own carried covariance (``carry_condition``)
-like the local one: a second, independent lineage whose models inherit angles from their
-own parents. Runs that stay in a wrong basin from round 1 (e.g. a flipper of zero
-thickness and nearly twice the length, study record) need such a lineage to get out.
+``global_share``): the global distribution restarts at a random point only every k-th round
+(round 2, then k + 2, ...) and otherwise at its own best point of the last round, with its own
+carried covariance (``carry_condition``) like the local one: a second, independent lineage
+whose models inherit angles from their own parents.
 
 Carried covariance (``carry_condition`` c >= 1, off by default): a restart at the best point
 keeps the shape of the covariance the previous round's distribution learned, not only its
-best point. MOD_FIT's ridges are long and narrow (a trapped ``known`` run's model sits
-0.003 below the truth on a ridge whose ends differ by up to 0.4 of a pectoral dimension's
-range), and an isotropic restart throws away the directions the last round found. The
-carried matrix is scaled so that its longest axis has the initial step size, and its
-eigenvalues are floored at 1/c of the largest (axes at least 1/sqrt(c) as long), so the new
-distribution still samples across the ridge, which a new experiment may have moved.
+best point, since MOD_FIT's ridges are long and narrow. The carried matrix is scaled so that
+its longest axis has the initial step size, and its eigenvalues are floored at 1/c of the
+largest (axes at least 1/sqrt(c) as long), so the new distribution still samples across the
+ridge, which a new experiment may have moved.
 
-"Study record" is ``docs/studies/unknown_angles.md``, where every variant was measured.
+What each option measured: docs/studies/unknown_angles.md ("Global restarts" and after).
 
 Randomness: CMA-ES draws its normal samples from a child ``numpy.random.Generator``
 spawned from the run's generator at construction and saved with the search state, so a run

@@ -1,12 +1,7 @@
 """Independent estimation lineages that share each round's experiment (not the paper's; issue 14).
 
 Under unknown initial angles a run of the EEA settles early in one basin of MOD_FIT and the
-basin decides where it ends: the same variant ends at the truth on one seed and on a wrong
-model (a massless flipper, a mimic) on the next (docs/studies/unknown_angles.md). Two
-independent runs, their final models' angles fitted equally hard on both runs' experiments
-and the higher MOD_FIT kept (:mod:`eea.analysis.ensemble`), pick the better run in 9 of 10 pairs,
-but they perform two target experiments per round.
-
+basin decides where it ends (docs/studies.md, "Two estimation lineages: where it stands").
 Here one run keeps N independent estimations ("lineages"), each with its own model search
 and its own inference strategy (its own remembered angles, library and contexts), started
 from its own random population. Every round:
@@ -25,16 +20,12 @@ from its own random population. Every round:
   cannot drag the others into it.
 
 Cost per round: N times the estimation's simulations; the exploration's as before (its
-candidate models are capped by ``exploration_models`` whatever N is); plus the selection's,
-about ``250 N E`` simulations for E experiments (per model and experiment: the fit's 8
-random starts, its start and 30 generations of 2 proposals, 69; two scan cycles of 24 + 24 +
-9 angles, 114; the compass polish, 60-90), some 3% of a 10-round run with N = 2; and one
-target experiment, as in the paper.
+candidate models are capped by ``exploration_models``); plus the selection's, about
+``250 N E`` simulations for E experiments (some 3% of a 10-round run with N = 2).
 
 A run with lineages also writes ``lineages.csv`` beside ``rounds.csv`` (:func:`write_lineages`,
 columns :data:`LINEAGE_COLUMNS`): every lineage's best model of every round, its own MOD_FIT,
-its MOD_FIT under the round's equal fit and whether it was chosen, so a published run tells
-how the selection did without its checkpoint.
+its MOD_FIT under the round's equal fit and whether it was chosen.
 """
 
 from __future__ import annotations
