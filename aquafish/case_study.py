@@ -142,7 +142,9 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
         model_space: the self-model's model space (``eea.MODEL_SPACES``): ``"morphology+servos"``
             (default: the nine dimensions and a gain per servo, which reach its gait's robot as
             ``ServoFaults(speed_scale=gains)``) or ``"morphology"`` (the paper's). The plain-EEA
-            and out-of-band rows always use ``"morphology"``.
+            and out-of-band rows always use ``"morphology"``. In ``morphology+servos`` a CMA-ES
+            self-model (the best method's search) also tries the best model with its pectoral
+            gains' signs flipped at every restart (``cma_flip_gains``).
         behaviour_summary: the self-model's behaviour summary (``eea.behaviour.SUMMARIES``):
             ``"signed_dft"`` (default: the zero-frequency term signed, so the self-model can
             tell a reversed left servo from a reversed right one) or ``"dft"`` (the paper's,
@@ -178,12 +180,20 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
     if (method, model_space, behaviour_summary) != ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY):
         runs["out_of_band"] = ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY)
     configs = {key: EEAConfig.from_method(name, settings.budget, damage=damage, seed=seed, model_space=space,
-                                          behaviour_summary=summary, **({"workers": workers} if workers else {}))
+                                          behaviour_summary=summary, **_gain_flips(name, space),
+                                          **({"workers": workers} if workers else {}))
                for key, (name, space, summary) in runs.items()}
     out = check_output_dir(out_dir)
     with run_lock(out):
         return _run_locked(preset, settings, damage, target, seed, out, method, model_space, video, workers,
                            progress, runs, configs)
+
+
+def _gain_flips(method: str, space: str) -> dict:
+    """``cma_flip_gains=1`` for a CMA-ES method in ``morphology+servos`` (every restart also tries
+    the best model with its pectoral gains' signs flipped; docs/self_modeling.md), else nothing."""
+    cma = EEAConfig.from_method(method).estimation_search == "cma"
+    return {"cma_flip_gains": 1} if cma and space != PAPER_MODEL_SPACE else {}
 
 
 def _eea_dir(method: str, space: str, summary: str) -> str:

@@ -49,6 +49,7 @@ def test_tiny_case_study_new_rows_servo_gains_and_video(tmp_path, monkeypatch, c
     assert {k: m["behaviour_summary"] for k, m in report["models"].items()} == {
         "plain_eea": "dft", "self_model": "signed_dft", "out_of_band": "dft"}
     assert (out / "eea_profile_lineages_servos_signed" / "rounds.csv").exists()
+    assert json.loads((out / "eea_profile_lineages_servos_signed" / "config.json").read_text())["cma_flip_gains"] == 1
     assert set(report["models"]) == {"plain_eea", "self_model", "out_of_band"}
     assert report["models"]["plain_eea"]["servo_gains"] is None
     gains = report["models"]["self_model"]["servo_gains"]
