@@ -9,9 +9,11 @@ are independent: any method runs at any budget::
     method_of(config)      # "profile_lineages"
 
 ``aquafish eea --method M --budget B``, ``aquafish study --methods M1,M2 --budget B`` and
-``aquafish case-study --method M`` take the same names. The cost column is measured: the
-mean simulations per round of 10 rounds at the reduced budget on ``left_pectoral_half``
-(rounds.csv ``simulations``; docs/self_modeling.md).
+``aquafish case-study --method M`` take the same names. :attr:`Method.simulations_per_round`
+is measured (rounds.csv ``simulations`` after 10 rounds / 10, reduced budget,
+``left_pectoral_half``): the paper's four on the surface swimmer, seeds 0-4
+(docs/results/surface_paper4_lph); ``profile_lineages`` in deep water, seeds 0-9
+(docs/results/lph_lin2).
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ class Method:
         summary: one line: what it does, and where it comes from.
         fields: the :class:`~eea.config.EEAConfig` fields it sets (the rest keep their defaults).
         simulations_per_round: measured mean robot simulations per round at the ``reduced``
-            budget (10 rounds, ``left_pectoral_half``, seeds 0-9).
+            budget (10 rounds, ``left_pectoral_half``; module docstring).
         paper: whether the paper defines it.
     """
 
@@ -44,13 +46,13 @@ class Method:
 #: The methods by name: the paper's four strategies, then the best method beyond the paper.
 METHODS: dict[str, Method] = {m.name: m for m in (
     Method("known", "the target's initial angles are given to every model simulation (paper 3.3; a bound, "
-           "not a method a robot can use)", {"inference": "known"}, 8_300, True),
+           "not a method a robot can use)", {"inference": "known"}, 7_500, True),
     Method("none", "every experiment is assumed to start from zero angles (paper 3.3)",
-           {"inference": "none"}, 8_300, True),
+           {"inference": "none"}, 7_600, True),
     Method("in_band", "models are scored over a sampled arc of angles inferred from the best K models "
-           "(paper 3.4, In-Band)", {"inference": "in_band"}, 8_300, True),
+           "(paper 3.4, In-Band)", {"inference": "in_band"}, 8_900, True),
     Method("out_of_band", "an inner GA fits one angle set per experiment to the best models every few "
-           "generations (paper 3.4, Out-of-Band)", {"inference": "out_of_band"}, 8_400, True),
+           "generations (paper 3.4, Out-of-Band)", {"inference": "out_of_band"}, 8_500, True),
     Method("profile_lineages", "per-model angles fitted to every experiment (angle profile), robust and "
            "diverse exploration, CMA-ES with a carried covariance and a kept global share, contender "
            "refinement and an angle library, in two estimation lineages (not the paper's)",
