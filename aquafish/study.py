@@ -60,10 +60,13 @@ class StudySpec:
     fixed: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "fixed", tuple(sorted(self.fixed)))
         unknown = sorted(set(self.fixed) - set(self.base.to_dict()))
         if unknown:
             raise ValueError(f"fixed names unknown EEAConfig fields {unknown}")
+        # only a field some method sets can be overridden: the rest is dropped, so a study
+        # started before methods had names (no "fixed" in its study.json) resumes with --damage D
+        method_keys = {k for m in METHODS.values() for k in m.fields}
+        object.__setattr__(self, "fixed", tuple(sorted(set(self.fixed) & method_keys)))
         object.__setattr__(self, "conditions", tuple(self.conditions))
         object.__setattr__(self, "durations_s", tuple(float(d) for d in self.durations_s))
         if not self.conditions or len(set(self.conditions)) != len(self.conditions):

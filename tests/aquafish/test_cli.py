@@ -92,7 +92,7 @@ def test_methods_and_budgets_on_the_command_line_and_flags_over_them(monkeypatch
     assert best == EEAConfig.from_dict(published).replace(inference="profile", seed=0, waterline=EEAConfig().waterline)
     assert best_dir == tmp_path / "profile_lineages" / "1.28s" / "seed0"
     assert (oob.inference, oob.estimation_search, oob.profile_library, oob.rounds) == ("out_of_band", "ga", 4, 10)
-    assert specs[0].fixed == ("damage", "profile_library")
+    assert specs[0].fixed == ("profile_library",)           # only a method's field can be overridden
     main([*argv[:-1], str(tmp_path / "one"), "--lineages", "1"])   # a flag given wins, even at its default value
     assert specs[1].runs(tmp_path)[1][0] == best.replace(lineages=1)
     with pytest.raises(SystemExit):
