@@ -40,6 +40,7 @@ from eea.encoding import ACTION_BITS, decode_actions
 from eea.experiment import random_angles
 from eea.fitness import action_fitness, robust_action_fitness
 from eea.ga import BitGA
+from eea.settings import ConfigSection
 
 __all__ = ["EXPLORATION_ANGLES_RAD", "Exploration", "ExplorationSettings"]
 
@@ -48,7 +49,7 @@ EXPLORATION_ANGLES_RAD = np.zeros(3)
 
 
 @dataclasses.dataclass(frozen=True)
-class ExplorationSettings:
+class ExplorationSettings(ConfigSection):
     """The exploration phase's settings (the ``EEAConfig`` section ``config.exploration``,
     fields ``exploration_*``; module docstring).
 
@@ -84,11 +85,6 @@ class ExplorationSettings:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value < 1.0:
             raise ValueError(f"EEAConfig.exploration_diversity must be in [0, 1), got {value!r}")
         object.__setattr__(self, "diversity", float(value))
-
-    @classmethod
-    def from_config(cls, config) -> "ExplorationSettings":
-        """The section of an :class:`eea.config.EEAConfig` (validated again)."""
-        return cls(**{name: getattr(config, field) for name, field in cls.CONFIG_FIELDS.items()})
 
 
 class Exploration:

@@ -33,12 +33,13 @@ import numpy as np
 
 from aquafish_gym.checks import check_int
 from eea.encoding import ACTION_BITS
+from eea.settings import ConfigSection
 
 __all__ = ["BitGA", "GASettings", "TellRecord"]
 
 
 @dataclasses.dataclass(frozen=True)
-class GASettings:
+class GASettings(ConfigSection):
     """The settings every GA of a run shares (the ``EEAConfig`` section ``config.ga``).
 
     The exploration GA, the estimation's model GA and the out-of-band inference's inner GA
@@ -80,10 +81,6 @@ class GASettings:
             raise ValueError(f"EEAConfig.mutation_bits must be in [0, {high}], got {value!r}")
         object.__setattr__(self, "mutation_bits", float(value))
 
-    @classmethod
-    def from_config(cls, config) -> "GASettings":
-        """The section of an :class:`eea.config.EEAConfig` (validated again)."""
-        return cls(**{name: getattr(config, field) for name, field in cls.CONFIG_FIELDS.items()})
 
     def options(self, n_bits: int) -> dict:
         """Keyword arguments of :class:`BitGA` for a genome of ``n_bits`` bits: the crossover

@@ -25,12 +25,13 @@ from eea.encoding import decode_fields, encode_fields
 from eea.ga import BitGA
 from eea.experiment import CAUDAL_LIMIT_RAD, PERIODS, Context, Experiment, with_newest_context
 from eea.inference.strategy import InferenceStrategy
+from eea.settings import ConfigSection
 
 __all__ = ["InBand", "InBandSettings", "Known", "NoInference", "OutOfBand", "OutOfBandSettings"]
 
 
 @dataclasses.dataclass(frozen=True)
-class InBandSettings:
+class InBandSettings(ConfigSection):
     """In-band inference's settings (the ``EEAConfig`` section ``config.in_band``; :class:`InBand`).
 
     Args:
@@ -63,14 +64,9 @@ class InBandSettings:
             raise ValueError(f"EEAConfig.in_band_widen must be in [0, {math.inf}], got {value!r}")
         object.__setattr__(self, "widen", float(value))
 
-    @classmethod
-    def from_config(cls, config) -> "InBandSettings":
-        """The section of an :class:`eea.config.EEAConfig` (validated again)."""
-        return cls(**{name: getattr(config, field) for name, field in cls.CONFIG_FIELDS.items()})
-
 
 @dataclasses.dataclass(frozen=True)
-class OutOfBandSettings:
+class OutOfBandSettings(ConfigSection):
     """Out-of-band inference's settings (the ``EEAConfig`` section ``config.out_of_band``,
     fields ``oob_*``; :class:`OutOfBand`).
 
@@ -100,11 +96,6 @@ class OutOfBandSettings:
     def __post_init__(self) -> None:
         for name, low in (("period", 1), ("sample", 1), ("population", 1), ("generations", 1), ("bits", 2)):
             check_int(f"EEAConfig.oob_{name}", getattr(self, name), low, 30 if name == "bits" else None)
-
-    @classmethod
-    def from_config(cls, config) -> "OutOfBandSettings":
-        """The section of an :class:`eea.config.EEAConfig` (validated again)."""
-        return cls(**{name: getattr(config, field) for name, field in cls.CONFIG_FIELDS.items()})
 
 
 class Known(InferenceStrategy):

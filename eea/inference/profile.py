@@ -74,6 +74,7 @@ from eea.encoding import genome_keys, genomes_from_keys
 from eea.experiment import CAUDAL_LIMIT_RAD, Context, random_angles
 from eea.fitness import model_fitness_from_similarities
 from eea.inference.strategy import Experiments, InferenceStrategy
+from eea.settings import ConfigSection
 
 __all__ = ["LIBRARY_SPACING_RAD", "POLISH_ITERATIONS", "POLISH_STEPS_RAD", "Profile", "ProfileSettings",
            "SCAN_CAUDAL",
@@ -96,7 +97,7 @@ _CAUDAL_WEIGHT = 3.0
 
 
 @dataclasses.dataclass(frozen=True)
-class ProfileSettings:
+class ProfileSettings(ConfigSection):
     """Profile inference's settings (the ``EEAConfig`` section ``config.profile``, fields
     ``profile_*``; the arguments of :class:`Profile`).
 
@@ -125,11 +126,6 @@ class ProfileSettings:
     def __post_init__(self) -> None:
         for name, low in (("proposals", 1), ("initial", 1), ("refine", 0), ("contenders", 1), ("library", 0)):
             check_int(f"EEAConfig.profile_{name}", getattr(self, name), low)
-
-    @classmethod
-    def from_config(cls, config) -> "ProfileSettings":
-        """The section of an :class:`eea.config.EEAConfig` (validated again)."""
-        return cls(**{name: getattr(config, field) for name, field in cls.CONFIG_FIELDS.items()})
 
 
 class Profile(InferenceStrategy):

@@ -65,6 +65,7 @@ from eea.encoding import (MODEL_BITS, MODEL_FIELD_BITS, _bits_to_ints, _ints_to_
                           get_model_space)
 from eea.checkpoint import loads
 from eea.ga import TellRecord
+from eea.settings import ConfigSection
 
 __all__ = ["CMAModelSearch", "CMASettings", "carried_shape", "genomes_to_unit", "unit_to_genomes"]
 
@@ -150,7 +151,7 @@ def carried_shape(covariance, condition: float) -> np.ndarray:
 
 
 @dataclasses.dataclass(frozen=True)
-class CMASettings:
+class CMASettings(ConfigSection):
     """The CMA-ES search's settings (the ``EEAConfig`` section ``config.cma``, fields ``cma_*``).
 
     Args:
@@ -193,11 +194,6 @@ class CMASettings:
         if self.global_keep and not self.global_share:
             raise ValueError(f"EEAConfig.cma_global_keep > 0 needs cma_global_share > 0 (a global share to keep), "
                              f"got {self.global_keep} and {self.global_share}")
-
-    @classmethod
-    def from_config(cls, config) -> "CMASettings":
-        """The section of an :class:`eea.config.EEAConfig` (validated again)."""
-        return cls(**{name: getattr(config, field) for name, field in cls.CONFIG_FIELDS.items()})
 
 
 class _StandardNormal:

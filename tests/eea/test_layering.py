@@ -40,7 +40,7 @@ from pathlib import Path
 ROOT = Path(__file__).parents[2]
 EEA = ROOT / "eea"
 #: The paper's core (and its configuration), at the top of eea/.
-CORE = {"arc", "behaviour", "config", "diversity", "encoding", "estimation", "evaluation", "experiment", "exploration",
+CORE = {"arc", "behaviour", "config", "diversity", "settings", "encoding", "estimation", "evaluation", "experiment", "exploration",
         "fitness", "ga", "methods", "round", "target"}
 #: The run and its I/O, at the top of eea/.
 RUN_IO = {"__init__", "checkpoint", "cli", "record", "replay", "run"}
