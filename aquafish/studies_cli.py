@@ -1,4 +1,4 @@
-"""``aquafish case-study``, ``study``, ``plot``, ``compare``, ``diagnose``, ``select``, ``damages`` and
+"""``aquafish case-study``, ``study``, ``plot``, ``compare``, ``diagnose``, ``damages`` and
 ``baselines``."""
 
 from __future__ import annotations
@@ -95,42 +95,6 @@ def _diagnose(args: argparse.Namespace) -> int:
               f"{d.true_inferred:>9.4f} {d.final_true_angles:>10.4f} {d.true_true_angles:>9.4f} "
               f"{d.final_profiled:>9.4f} {d.true_profiled:>9.4f} {new:>9} {refined:>9} "
               f"{seen:>6} {closest:>8} {better:>6} {err_run:>13} {err_floor:>11}  {d.verdict}")
-    return 0
-
-
-def _select(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from eea.analysis.ensemble import select_study
-    from eea.analysis.plot import find_runs
-
-    if args.out is not None:
-        check_output_file(args.out, "--out")
-    runs = find_runs(args.dirs)
-    finished = [r for r in runs if (len(r.rounds) >= args.rounds if args.rounds else r.finished)]
-    if len(finished) < len(runs):
-        print(f"left out (round not reached): {', '.join(str(r.out_dir) for r in runs if r not in finished)}")
-
-    def show(rows: list) -> None:
-        members = " ".join(f"{r['seed']}:{r['objective_fitness']:.3f}/{r['model_fitness']:.5f}"
-                           + ("*" if r["chosen"] else "") for r in rows)
-        print(f"ensemble {rows[0]['ensemble']}: {members}", flush=True)
-
-    print("seed:OBJ_FIT/MOD_FIT on the pooled experiments per run, * the chosen model")
-    rows = select_study(finished, args.size, args.out, rounds=args.rounds, seed=args.seed,
-                        generations=args.generations, scan_cycles=args.scan_cycles, workers=args.workers,
-                        progress=show)
-    groups: dict[int, list] = {}
-    for row in rows:
-        groups.setdefault(row["ensemble"], []).append(row)
-    chosen = np.array([next(r["objective_fitness"] for r in g if r["chosen"]) for g in groups.values()])
-    best = np.array([max(r["objective_fitness"] for r in g) for g in groups.values()])
-    member = np.array([r["objective_fitness"] for r in rows])
-    print(f"{len(groups)} ensembles of {args.size}: chosen OBJ_FIT {chosen.mean():.3f} ± {chosen.std():.3f}; "
-          f"single runs {member.mean():.3f} ± {member.std():.3f}; best member (an oracle) {best.mean():.3f}; "
-          f"the best member chosen in {int((chosen == best).sum())}/{len(groups)}")
-    if args.out:
-        print(f"wrote {args.out}")
     return 0
 
 
@@ -237,25 +201,6 @@ def add_commands(sub) -> None:
                         "(column true@+R; what --profile-refine R would buy; default: 0 = not computed)")
     d.set_defaults(func=_diagnose)
 
-    e = sub.add_parser("select", help="ensembles of independent runs: each ensemble's final models fitted equally "
-                                      "hard on all its runs' experiments, the highest MOD_FIT chosen (eea.analysis.ensemble; "
-                                      "not the paper's)")
-    e.add_argument("dirs", nargs="+",
-                   help="one variant's runs, one per seed (searched recursively; finished runs only)")
-    e.add_argument("--size", type=int_at_least(2), default=2, help="runs per ensemble, consecutive seeds (default 2)")
-    e.add_argument("--out", default=None, help="CSV of the selections, rewritten after each ensemble; "
-                                               "ensembles already in it are kept (resumable)")
-    e.add_argument("--rounds", type=int_at_least(1), default=None,
-                   help="each run as it stood after this round (its model then, its first R experiments; "
-                        "default: the final round); two runs at round 5 have performed as many target "
-                        "experiments as one at round 10")
-    e.add_argument("--seed", type=int_at_least(0), default=0, help="seed of the angle fit (default 0)")
-    e.add_argument("--generations", type=int_at_least(1), default=30,
-                   help="random-perturbation generations of the angle fit (eea.inference.profile.Profile.fit; default 30)")
-    e.add_argument("--scan-cycles", type=int_at_least(0), default=2,
-                   help="per-flipper angle scan cycles before the compass polish (default 2)")
-    e.add_argument("--workers", type=int_at_least(1), default=1, help="simulation processes (default 1)")
-    e.set_defaults(func=_select)
 
     t = sub.add_parser("damages", help="which damages a gait must adapt to: healthy gait vs a gait evolved on the "
                                        "damaged robot, per damage preset (aquafish.damage_table)")

@@ -39,7 +39,7 @@ The layout (issue 40; ``tests/eea/test_layering.py`` checks it)::
         profile.py               ``Profile``: per-model angles and their fit (not the paper's)
         registry.py              the strategies by name (``make_inference``)
         selection.py             the equal angle fit that picks one model among candidates
-      analysis/                studies of finished runs: plot, compare, diagnosis, ensemble,
+      analysis/                studies of finished runs: plot, compare, diagnosis,
                                lineage report (nothing but the command lines imports it)
 
 The core imports a subpackage only through its face (``eea.search``, ``eea.inference``: the

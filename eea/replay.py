@@ -4,8 +4,8 @@
 (:mod:`eea.record`), and the target is the simulator itself under the run's damage, so
 simulating it again gives the run's experiments bit for bit
 (``tests/eea/test_replay.py`` checks them against a checkpoint). The published runs in
-``docs/results`` keep no checkpoint; this is how :mod:`eea.analysis.ensemble` gets their
-experiments back. On a physical robot the recorded
+``docs/results`` keep no checkpoint; this is how to get their experiments back (to fit a
+model to them, or to score another). On a physical robot the recorded
 logs would take the place of the replay.
 """
 

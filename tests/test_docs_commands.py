@@ -17,6 +17,8 @@ ROOT = Path(__file__).parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 #: Records of retired variants name commands that ran at an older commit (they say which).
 HISTORICAL = {ROOT / "docs/studies/retired_variants.md"}
+#: Retired sub-commands, by the commit they last ran at: a page that shows one must name it.
+RETIRED_COMMANDS = {"select": "aa88ba2"}
 
 
 def _commands():
@@ -29,6 +31,9 @@ def _commands():
                 retired = [f for f in RETIRED_FIELDS if f"--{f.replace('_', '-')} " in line + " "]
                 if retired:  # a retired variant's command: the page must name the commit it last ran at
                     assert "82b7524" in path.read_text(), f"{path}: {line} uses retired {retired}"
+                elif line.split()[1:2] and line.split()[1] in RETIRED_COMMANDS and line.startswith("aquafish "):
+                    commit = RETIRED_COMMANDS[line.split()[1]]
+                    assert commit in path.read_text(), f"{path}: {line} is retired; name commit {commit}"
                 elif line.startswith("aquafish ") and "..." not in line:  # "..." abbreviates a command above
                     yield pytest.param(line, id=f"{path.relative_to(ROOT)}: {line[:60]}")
 

@@ -18,7 +18,7 @@ and may refine each experiment's :class:`~eea.experiment.Context` (paper 3.3, 3.
   strategies is there).
 * :mod:`eea.inference.selection` -- :func:`~eea.inference.selection.select_model`, the equal
   angle fit that picks one model among candidates (the round's selection of
-  :mod:`eea.search.lineages`, and :mod:`eea.analysis.ensemble`); not imported here.
+  :mod:`eea.search.lineages`); not imported here.
 
 This package imports only the core (never :mod:`eea.search`).
 """

@@ -4,8 +4,7 @@ Every candidate model gets its own initial angles fitted for every experiment, e
 for all (:meth:`eea.inference.profile.Profile.fit` from random starts, then
 :meth:`~eea.inference.profile.Profile.scan_angles` and :meth:`~eea.inference.profile.Profile.polish_angles`), and
 the one with the highest MOD_FIT (eq. 3) is chosen. No oracle is used. The round's selection
-of ``--lineages`` (:mod:`eea.search.lineages`) uses it, and so do the ensembles of finished runs
-(:mod:`eea.analysis.ensemble`).
+of ``--lineages`` (:mod:`eea.search.lineages`) uses it.
 """
 
 from __future__ import annotations

@@ -49,7 +49,7 @@ __all__ = ["LINEAGES_FILE", "LINEAGE_COLUMNS", "LineageStrategies", "Lineages", 
            "make_estimation", "make_strategy", "write_lineages"]
 
 #: The round's selection: generations of the equal angle fit and cycles of the per-flipper
-#: scan before the polish (the settings of ``aquafish select``, :func:`eea.inference.selection.select_model`).
+#: scan before the polish (:func:`eea.inference.selection.select_model`).
 SELECT_GENERATIONS, SELECT_SCAN_CYCLES = 30, 2
 
 #: A lineage run's per-round record of every lineage (:func:`write_lineages`): ``round``

@@ -6,7 +6,7 @@ One regression test (or parametrised family) per root cause of the issue:
 1. filesystem errors (a file as ``--out``, ``--out`` under a file, a read-only ``--out``);
 2. corrupt or unreadable files (truncated checkpoints, garbled JSON, truncated ``rounds.csv``);
 3. a checkpoint checked against its config (edited, copied-in, deleted ``config.json``);
-4. re-used output checked against the settings (gait, damages/baselines gaits, PPO, select, rl);
+4. re-used output checked against the settings (gait, damages/baselines gaits, PPO, rl);
 5. a lock on every run directory (a concurrent writer fails at once);
 6. pool workers die with their parent (``kill -9`` of a study);
 7. atomic NEAT checkpoints;
@@ -113,14 +113,12 @@ def _commands(made: Path, out: Path) -> dict[str, list]:
                     "--starts", "1", "--out", out],
         "baselines": ["baselines", "--envs", "AquaFish-v0", "--neat-generations", "1", "--neat-population", "2",
                       "--ppo-timesteps", "0", "--starts", "1", "--out", out],
-        "select": ["select", made / "runs", "--generations", "1", "--scan-cycles", "0", "--out", out / "sel.csv"],
         "plot": ["plot", made / "runs", "--output", out / "fig.png"],
         "compare": ["compare", f"a={made / 'runs'}", "--output", out / "fig.png"],
     }
 
 
-COMMANDS = ["swim", "eea", "study", "gait", "transfer", "rl", "case-study", "damages", "baselines", "select", "plot",
-            "compare"]
+COMMANDS = ["swim", "eea", "study", "gait", "transfer", "rl", "case-study", "damages", "baselines", "plot", "compare"]
 
 
 @pytest.mark.parametrize("command", COMMANDS)
@@ -133,7 +131,7 @@ def test_unwritable_output_is_one_line_before_any_work(command, kind, made, tmp_
     blocker.write_text("a file\n")
     if kind == "file as --out":
         argv = _commands(made, blocker)[command]
-        if command in ("select", "plot", "compare"):  # their output is a file: a directory in its place
+        if command in ("plot", "compare"):  # their output is a file: a directory in its place
             blocker.unlink()
             blocker.mkdir()
             argv = [blocker if isinstance(a, Path) and a.parent == blocker else a for a in argv]
@@ -301,21 +299,6 @@ def test_rl_does_not_overwrite_a_trained_model(tmp_path, capsys):
     fails_safe(argv, capsys, "already holds this trained model")
     fails_safe([*argv, "--seed", "2"], capsys, "seed: 0 -> 2")
     assert (tmp_path / "rl" / "model.zip").read_bytes() == model
-
-
-def test_select_refuses_a_csv_of_another_variant(made, tmp_path, capsys):
-    out = tmp_path / "sel.csv"
-    argv = ["select", made / "runs", "--generations", "1", "--scan-cycles", "0", "--out", out]
-    assert main([str(a) for a in argv]) == 0
-    rows = out.read_text()
-    other = tmp_path / "other"
-    for seed in (0, 1):
-        assert main([str(a) for a in ["eea", *TINY_EEA, "--inference", "none", "--workers", "1", "--seed", seed,
-                                      "--out", other / f"seed{seed}"]]) == 0
-    fails_safe(["select", other, "--generations", "1", "--scan-cycles", "0", "--out", out], capsys, out,
-               "inference")
-    fails_safe([*argv[:-2], "--generations", "2", "--out", out], capsys, "generations: 1 -> 2")
-    assert out.read_text() == rows
 
 
 # -- 5. a lock on every run directory -----------------------------------------------------------------------
