@@ -12,8 +12,10 @@
    ``ServoFaults(speed_scale=gains)``: the gait is evolved on the model with its servos as
    modelled), the true damaged robot (the oracle: what recovery could reach at best) and,
    with the same budget, the healthy robot with a damage preset drawn per episode
-   (``robust``, ``damage="random"``: a damage-robust policy, which needs no self-model); with
-   the ``[rl]`` extra, PPO is also trained on the self-model.
+   (``robust``, ``damage="random"``: a damage-robust gait, which needs no self-model). With
+   the ``[rl]`` extra, PPO policies are trained on the self-model (``ppo``) and on the healthy
+   robot with random damages (``robust_ppo``), each for as many env steps as one NEAT gait
+   simulates (:attr:`CaseStudyPreset.rl_timesteps`).
 4. Each controller swims on its native robot and on the damaged target, from the same
    starts, for ``episode_duration_s`` simulated seconds (gait evolution too; 20 s, the
    paper's, by default; the surface swimmer's veering costs distance over 60 s).
@@ -40,8 +42,9 @@ import numpy as np
 
 import eea
 import gait
-from aquafish_gym import MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology, ServoFaults, get_damage
+from aquafish_gym import DT_S, MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology, ServoFaults, get_damage
 from aquafish_gym.drawing import plot_morphologies
+from aquafish_gym.env import FRAME_SKIP
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import check_output_dir, run_lock
@@ -73,7 +76,8 @@ class CaseStudyPreset:
             fitness is the mean distance. One start overfits the gait to it.
         transfer_episodes: paired starts per transfer score (native and target); the
             report gives mean distances.
-        rl_timesteps: PPO training steps (0 disables the RL baseline).
+        rl: train the two PPO rows (``ppo`` on the self-model, ``robust_ppo`` with random
+            damages), each for :attr:`rl_timesteps`, when stable-baselines3 is installed.
         episode_duration_s: simulated seconds of every gait-evolution and transfer episode
             (20 s, the paper's; ``run_case_study(episode_duration_s=...)`` overrides it).
     """
@@ -81,10 +85,18 @@ class CaseStudyPreset:
     budget: str
     gait_population: int
     gait_generations: int
-    rl_timesteps: int
     gait_episodes: int = 1
     transfer_episodes: int = 1
     episode_duration_s: float = 20.0
+    rl: bool = True
+
+    @property
+    def rl_timesteps(self) -> int:
+        """PPO training env steps: as many as one NEAT gait simulates (population x
+        generations x starts per genome x control steps per episode, 0.1 s each), so a policy
+        and a gait get the same training budget."""
+        steps = int(round(self.episode_duration_s / (DT_S * FRAME_SKIP)))
+        return self.gait_population * self.gait_generations * self.gait_episodes * steps
 
 
 #: ``report.json`` keys of the controllers: gait evolved on ... (``ppo``: PPO on the self-model).
@@ -96,7 +108,10 @@ CONTROLLER_KEYS: dict[str, str] = {
     "true_damaged": "the true damaged robot (oracle)",
     "robust": "random damages (damage-robust)",
     "ppo": "PPO on the self-model",
+    "robust_ppo": "PPO on random damages (damage-robust)",
 }
+#: The damage-robust rows: trained on the healthy robot with a damage preset drawn per episode.
+ROBUST_KEYS = ("robust", "robust_ppo")
 #: Goals of the verdict: the healthy gait keeps at most this share of the oracle on the
 #: target (the damage breaks it), and the self-model gait reaches at least this share of
 #: the oracle and this multiple of the healthy gait (it recovers).
@@ -105,20 +120,19 @@ BREAKS_SHARE, RECOVERS_SHARE, RECOVERS_OVER_HEALTHY = 0.5, 0.8, 1.5
 PRESETS: dict[str, CaseStudyPreset] = {
     # about 10-15 minutes on 2 cores
     "quick": CaseStudyPreset(
-        budget="quick", gait_population=30, gait_generations=12, rl_timesteps=20_000, gait_episodes=2, transfer_episodes=5,
+        budget="quick", gait_population=30, gait_generations=12, gait_episodes=2, transfer_episodes=5,
     ),
     # a minutes-long end-to-end check of the whole pipeline (used by the tests)
     "smoke": CaseStudyPreset(
-        budget="smoke", gait_population=6, gait_generations=2, rl_timesteps=256, gait_episodes=2, transfer_episodes=2,
+        budget="smoke", gait_population=6, gait_generations=2, gait_episodes=2, transfer_episodes=2,
     ),
     # about an hour on 2 cores: the paper's EEA populations and generations, 10 rounds
     "medium": CaseStudyPreset(
-        budget="medium", gait_population=50, gait_generations=20, rl_timesteps=100_000,
-        gait_episodes=3, transfer_episodes=10,
+        budget="medium", gait_population=50, gait_generations=20, gait_episodes=3, transfer_episodes=10,
     ),
     # the paper's settings (section 4 and 5): hours per EEA run
-    "paper": CaseStudyPreset(budget="paper", gait_population=150, gait_generations=100,
-                             rl_timesteps=1_000_000, gait_episodes=3, transfer_episodes=10),
+    "paper": CaseStudyPreset(budget="paper", gait_population=150, gait_generations=100, gait_episodes=3,
+                             transfer_episodes=10),
 }
 
 
@@ -261,12 +275,13 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
             native, out / _gait_dir(key, duration), generations=settings.gait_generations,
             population_size=settings.gait_population, seed=seed, workers=workers,
             episodes_per_genome=settings.gait_episodes, episode_duration_s=duration, progress=progress)
-    if settings.rl_timesteps and _rl_available():
-        rl_dir = "rl_ppo_self_model" if duration == 20.0 else f"rl_ppo_self_model_{duration:g}s"
-        path = gait.train_or_load_rl("ppo", natives["self_model"], settings.rl_timesteps, seed, out / rl_dir,
-                                     episode_duration_s=duration, progress=progress)
-        controllers["ppo"] = gait.load_controller(path)
-        natives["ppo"] = natives["self_model"]
+    if settings.rl and _rl_available():
+        for key, native, name in (("ppo", "self_model", "self_model"), ("robust_ppo", "robust", "random_damage")):
+            rl_dir = f"rl_ppo_{name}" if duration == 20.0 else f"rl_ppo_{name}_{duration:g}s"
+            path = gait.train_or_load_rl("ppo", natives[native], settings.rl_timesteps, seed, out / rl_dir,
+                                         episode_duration_s=duration, progress=progress)
+            controllers[key] = gait.load_controller(path)
+            natives[key] = natives[native]
 
     # 4. transfer to the damaged target
     target_robot = gait.as_robot(damage)
@@ -297,7 +312,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
     report = {
         "preset": preset, "damage": damage, "seed": seed, "method": method, "model_space": model_space,
         "episode_duration_s": duration,
-        "settings": dataclasses.asdict(settings),
+        "settings": {**dataclasses.asdict(settings), "rl_timesteps": settings.rl_timesteps},
         "target_morphology": _dims(target),
         "target_servo_gains": dict(zip(GAIN_NAMES, _true_gains(damage))),
         "models": {
@@ -332,17 +347,18 @@ def verdict(controllers: dict) -> dict:
 
     From the mean distances on the damaged target (``target_distance``) of the
     ``healthy``, ``plain_eea``, ``self_model`` and ``true_damaged`` (oracle) controllers, and
-    of the other rows present (``out_of_band``, ``robust``, ``ppo``).
+    of the other rows present (``out_of_band``, ``robust``, ``ppo``, ``robust_ppo``).
 
     Returns:
         ``breaks`` (the oracle swims forward and the healthy gait keeps at most
         :data:`BREAKS_SHARE` of it), ``self_model_share``, ``plain_eea_share``,
-        ``healthy_share`` and, when present, ``robust_share`` (share of the oracle's
-        distance; None when the oracle does not swim forward), ``recovers`` (the self-model
-        gait: share >= :data:`RECOVERS_SHARE` and at least :data:`RECOVERS_OVER_HEALTHY`
-        times the healthy gait), ``plain_eea_below`` (the plain-EEA gait does worse than the
-        self-model gait), ``robust_recovers`` (the same test for the ``robust`` row; None
-        without it), ``recovering`` (every row but the oracle and the healthy gait that
+        ``healthy_share`` and, when present, ``robust_share`` and ``robust_ppo_share`` (share
+        of the oracle's distance; None when the oracle does not swim forward), ``recovers``
+        (the self-model gait: share >= :data:`RECOVERS_SHARE` and at least
+        :data:`RECOVERS_OVER_HEALTHY` times the healthy gait), ``plain_eea_below`` (the
+        plain-EEA gait does worse than the self-model gait), ``robust_recovers`` and
+        ``robust_ppo_recovers`` (the same test for the damage-robust rows; None without
+        them), ``recovering`` (every row but the oracle and the healthy gait that
         passes the test, in row order) and ``line``, a few sentences for the report.
 
     Raises:
@@ -363,7 +379,7 @@ def verdict(controllers: dict) -> dict:
     recovering = [key for key in d if key not in ("healthy", "true_damaged") and recovers_(key)]
     recovers = "self_model" in recovering
     plain_below = d["plain_eea"] < d["self_model"]
-    robust = "robust" in d
+    robust = [key for key in ROBUST_KEYS if key in d]
     if not swims:
         line = (f"The oracle gait does not swim forward on the damaged robot ({oracle:.2f} units): "
                 "there is nothing to recover.")
@@ -374,15 +390,17 @@ def verdict(controllers: dict) -> dict:
                 f"{share['self_model']:.0%} of the oracle, {_times(d['self_model'], d['healthy'])} the healthy gait; "
                 f"the plain-EEA gait reaches {share['plain_eea']:.0%} "
                 f"({'less than' if plain_below else 'at least as much as'} the self-model gait).")
-        if robust:
-            line += (f" The damage-robust gait reaches {share['robust']:.0%} of the oracle, "
-                     f"{_times(d['robust'], d['healthy'])} the healthy gait.")
+        for key in robust:
+            line += (f" The damage-robust {'gait' if key == 'robust' else 'PPO policy'} reaches "
+                     f"{share[key]:.0%} of the oracle, {_times(d[key], d['healthy'])} the healthy gait.")
         line += (" Rows that recover (at least " f"{RECOVERS_SHARE:.0%} of the oracle and {RECOVERS_OVER_HEALTHY:g}x "
                  "the healthy gait): " + (", ".join(f"`{k}`" for k in recovering) if recovering else "none") + ".")
     return {"breaks": bool(breaks), "recovers": bool(recovers), "plain_eea_below": bool(plain_below),
             "self_model_share": share["self_model"], "plain_eea_share": share["plain_eea"],
-            "healthy_share": share["healthy"], "robust_share": share.get("robust"),
-            "robust_recovers": recovers_("robust") if robust else None, "recovering": recovering, "line": line}
+            "healthy_share": share["healthy"],
+            **{f"{key}_share": share.get(key) for key in ROBUST_KEYS},
+            **{f"{key}_recovers": recovers_(key) if key in robust else None for key in ROBUST_KEYS},
+            "recovering": recovering, "line": line}
 
 
 def _times(a: float, b: float) -> str:
@@ -437,6 +455,11 @@ def render_report(report: dict) -> str:
                   "gait (population, generations, starts per genome) on the healthy robot with a damage preset drawn "
                   "per start (`damage=\"random\"`, every preset including `none` and the target's damage); with K "
                   "starts per genome it meets at most K presets (drawn by the starts' seeds), the same ones for every genome."]
+    if "robust_ppo" in report["controllers"]:
+        lines += ["", "The damage-robust PPO policy (`robust_ppo`) is trained on the same robot with a new damage "
+                  f"preset every episode, for {report['settings'].get('rl_timesteps', 0):,} env steps, as many as one "
+                  "NEAT gait simulates (so is `ppo`, on the self-model). It observes the robot's state, so it can "
+                  "react to a damage within an episode; a NEAT gait's network can too."]
     if report.get("video"):
         lines += ["", f"Video: [{report['video']}]({report['video']}), the damaged robot from above under the healthy, "
                   "self-model and oracle gaits (first start), trajectories traced."]

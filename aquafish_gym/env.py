@@ -25,6 +25,7 @@ from aquafish_gym.simulator import ACTION_BOUNDS, BatchWorld
 
 logger = logging.getLogger(__name__)
 
+FRAME_SKIP = 10  #: default physics steps per control step (0.1 s of control period)
 OBS_VELOCITY_LIMIT = 100.0  #: bound of the velocity entries of the observation (rad/s, units/s)
 
 
@@ -179,7 +180,7 @@ class AquaFishEnv(gym.Env):
         damage: str = "none",
         faults: ServoFaults | None = None,
         initial_angles=None,
-        frame_skip: int = 10,
+        frame_skip: int = FRAME_SKIP,
         episode_duration_s: float = 20.0,
         ctrl_cost_weight: float = 0.0,
         render_mode: str | None = None,

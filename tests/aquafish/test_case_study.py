@@ -37,10 +37,10 @@ def test_smoke_case_study_writes_report_and_figures(tmp_path):
     assert again["controllers"] == report["controllers"]
 
 
-def test_tiny_case_study_new_rows_servo_gains_and_video(tmp_path, monkeypatch, capsys):
-    """The whole command on the smoke preset with 2 s episodes (seconds, no PPO): the self-model in
-    morphology+servos, its gains on its gait's robot, the robust row, the verdict and the video."""
-    monkeypatch.setattr(case_study, "_rl_available", lambda: False)
+def test_tiny_case_study_new_rows_servo_gains_and_video(tmp_path, capsys):
+    """The whole command on the smoke preset with 2 s episodes: the self-model in morphology+servos,
+    its gains on its gait's robot, the damage-robust rows (NEAT, and PPO with the ``[rl]`` extra),
+    the verdict and the video."""
     out = tmp_path / "cs"
     assert main(["case-study", "--preset", "smoke", "--damage", "reversed_left_pectoral", "--episode-duration", "2",
                  "--workers", "1", "--out", str(out)]) == 0
@@ -59,7 +59,16 @@ def test_tiny_case_study_new_rows_servo_gains_and_video(tmp_path, monkeypatch, c
     robot = json.loads((out / "gait_self_model_2s" / "run.json").read_text())["robot"]
     assert robot["faults"]["speed_scale"] == pytest.approx([gains[k] for k in case_study.GAIN_NAMES])
     assert json.loads((out / "gait_robust_2s" / "run.json").read_text())["robot"]["damage"] == "random"
-    assert set(report["controllers"]) == {"healthy", "plain_eea", "self_model", "out_of_band", "true_damaged", "robust"}
+    rows = {"healthy", "plain_eea", "self_model", "out_of_band", "true_damaged", "robust"}
+    if case_study._rl_available():  # both PPO rows, for one gait's env steps (6 x 2 x 2 x 20)
+        rows |= {"ppo", "robust_ppo"}
+        assert report["settings"]["rl_timesteps"] == 480
+        meta = {key: json.loads((out / f"rl_ppo_{key}_2s" / "model.json").read_text())
+                for key in ("self_model", "random_damage")}
+        assert meta["random_damage"]["robot"]["damage"] == "random" and meta["self_model"]["robot"]["damage"] == "none"
+        assert {m["timesteps_requested"] for m in meta.values()} == {480}
+        assert "(`robust_ppo`)" in (out / "report.md").read_text()
+    assert set(report["controllers"]) == rows
     v = report["verdict"]
     assert v == verdict(report["controllers"]) and set(v["recovering"]) <= set(report["controllers"]) - {"healthy", "true_damaged"}
     assert v["robust_share"] == pytest.approx(report["controllers"]["robust"]["target_distance"]
@@ -112,6 +121,21 @@ def test_verdict_names_the_rows_that_recover():
     none = verdict(_controllers(healthy=1.0, plain_eea=2.0, self_model=2.5, true_damaged=4.0))
     assert none["recovering"] == [] and none["robust_recovers"] is None and none["robust_share"] is None
     assert none["line"].endswith("the healthy gait): none.") and "damage-robust" not in none["line"]
+
+
+def test_verdict_reports_the_robust_ppo_row():
+    v = verdict(_controllers(healthy=-1.0, plain_eea=2.0, self_model=3.5, true_damaged=4.0, robust=-0.5, robust_ppo=1.0))
+    assert v["robust_ppo_share"] == pytest.approx(0.25) and v["robust_ppo_recovers"] is False
+    assert v["robust_share"] == pytest.approx(-0.125) and v["robust_recovers"] is False
+    assert "The damage-robust PPO policy reaches 25% of the oracle" in v["line"] and v["recovering"] == ["self_model"]
+
+
+def test_rl_budget_is_one_gaits_env_steps():
+    """quick: 30 genomes x 12 generations x 2 starts x 200 control steps (20 s at 0.1 s) = 144,000."""
+    assert PRESETS["quick"].rl_timesteps == 144_000
+    assert PRESETS["medium"].rl_timesteps == 50 * 20 * 3 * 200
+    import dataclasses
+    assert dataclasses.replace(PRESETS["quick"], episode_duration_s=2.0).rl_timesteps == 30 * 12 * 2 * 20
 
 
 def test_damage_recovery_example_runs_the_case_study_through_the_api(tmp_path, capsys):
