@@ -57,8 +57,13 @@ def plot_fitness_history(history: Sequence[dict], path, title: str | None = None
     return save_figure(fig, path, dpi=120)
 
 
+#: Panels per row of :func:`plot_transfer` (more results wrap to further rows).
+MAX_PANELS_PER_ROW = 4
+
+
 def plot_transfer(results: Sequence[TransferResult], path, titles: Sequence[str] | None = None) -> Path:
-    """Plot native and target trajectories of each transfer, one axes per result (Figure 12).
+    """Plot native and target trajectories of each transfer, one axes per result (Figure 12),
+    :data:`MAX_PANELS_PER_ROW` to a row.
 
     Each axes shows the controller on its native morphology (solid) and on the target
     (dashed), x and y in units (1 unit = 8 cm; heading +y at the start), the common start
@@ -81,8 +86,12 @@ def plot_transfer(results: Sequence[TransferResult], path, titles: Sequence[str]
         raise ValueError("no transfer results to plot")
     if titles is not None and len(titles) != len(results):
         raise ValueError(f"titles must have one entry per result ({len(results)}), got {len(titles)}")
-    fig = Figure(figsize=(4.2 * len(results), 4.4))
-    axes = fig.subplots(1, len(results), squeeze=False)[0]
+    ncols = min(len(results), MAX_PANELS_PER_ROW)
+    nrows = -(-len(results) // ncols)
+    fig = Figure(figsize=(4.2 * ncols, 4.4 * nrows))
+    axes = fig.subplots(nrows, ncols, squeeze=False).ravel()
+    for ax in axes[len(results):]:
+        ax.set_visible(False)
     for i, (ax, r) in enumerate(zip(axes, results)):
         runs = ((r.native_trajectory, r.native_distances, f"native ({r.native.label})", "tab:blue", "-"),
                 (r.target_trajectory, r.target_distances, f"target ({r.target.label})", "tab:red", "--"))

@@ -28,6 +28,10 @@ def test_transfer_to_damaged_target(controller, tmp_path):
 
     png = plot_transfer([t, t], tmp_path / "fig12.png", titles=["(a)", "(b)"])
     assert png.stat().st_size > 1000
+    # 4.2 x 4.4 inches per panel at 120 dpi; six panels wrap to two rows of four
+    import matplotlib.image
+    assert matplotlib.image.imread(png).shape[:2] == (528, 1008)
+    assert matplotlib.image.imread(plot_transfer([t] * 6, tmp_path / "six.png")).shape[:2] == (1056, 2016)
     data = json.loads(save_transfer([t], tmp_path / "t.json").read_text())
     assert data[0]["target_distance"] == t.target_distance
     assert len(data[0]["target_trajectory"]) == 21
