@@ -2,8 +2,8 @@
 
     python examples/damage_recovery.py [--preset quick] [--damage NAME] [--episode-duration 60] [--out DIR]
 
-The steps of ``aquafish case-study`` (which also writes the report and figures) with a preset's budget. The self-model
-holds a gain per servo (``morphology+servos``), its gait's robot has them as ``ServoFaults``; ``robust``: any damage.
+The steps of ``aquafish case-study`` (which also writes the report, figures and PPO rows) with a preset's budget. The
+self-model holds a gain per servo (its gait's robot has them as ``ServoFaults``); ``robust``: random damages.
 """
 
 import argparse
@@ -27,11 +27,11 @@ def main(argv=None) -> None:  # a function under the __main__ guard: worker proc
     args = parser.parse_args(argv)
     s, seconds, seed, workers = PRESETS[args.preset], args.episode_duration, args.seed, args.workers
 
-    # 1. the damaged robot self-models: plain EEA (the paper's 9 dimensions), the best method with servo gains
+    # 1. the damaged robot self-models: plain EEA (the paper's 9 dimensions) and the case study's self-model
     robots = {"healthy": gait.Robot(Morphology.healthy()), "robust": gait.Robot(Morphology.healthy(), "random")}
-    for key, method, space in (("plain_eea", "none", "morphology"),
-                               ("self_model", "profile_lineages", "morphology+servos")):
-        eea.run(eea.EEAConfig.from_method(method, s.budget, model_space=space, damage=args.damage, seed=seed,
+    servos = dict(model_space="morphology+servos", behaviour_summary="signed_dft", cma_flip_gains=1)
+    for key, method, fields in (("plain_eea", "none", {}), ("self_model", "profile_lineages", servos)):
+        eea.run(eea.EEAConfig.from_method(method, s.budget, damage=args.damage, seed=seed, **fields,
                                           **({"workers": workers} if workers else {})), args.out / f"eea_{key}")
         result = eea.load_result(args.out / f"eea_{key}")
         gains = tuple(result.best_model[9:])  # the 3 servo gains after the 9 dimensions (none in "morphology")
