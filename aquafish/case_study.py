@@ -118,7 +118,7 @@ ROBUST_KEYS = ("robust", "robust_ppo")
 BREAKS_SHARE, RECOVERS_SHARE, RECOVERS_OVER_HEALTHY = 0.5, 0.8, 1.5
 
 PRESETS: dict[str, CaseStudyPreset] = {
-    # about 10-15 minutes on 2 cores
+    # about 14 minutes on 2 cores
     "quick": CaseStudyPreset(
         budget="quick", gait_population=30, gait_generations=12, gait_episodes=2, transfer_episodes=5,
     ),
@@ -126,7 +126,7 @@ PRESETS: dict[str, CaseStudyPreset] = {
     "smoke": CaseStudyPreset(
         budget="smoke", gait_population=6, gait_generations=2, gait_episodes=2, transfer_episodes=2,
     ),
-    # about an hour on 2 cores: the paper's EEA populations and generations, 10 rounds
+    # 45 minutes on 2 cores (measured): the paper's EEA populations and generations, 10 rounds
     "medium": CaseStudyPreset(
         budget="medium", gait_population=50, gait_generations=20, gait_episodes=3, transfer_episodes=10,
     ),
