@@ -193,8 +193,8 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             "self_model": (method, model_space, behaviour_summary)}
     if (method, model_space, behaviour_summary) != ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY):
         runs["out_of_band"] = ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY)
-    configs = {key: EEAConfig.from_method(name, settings.budget, damage=damage, seed=seed, model_space=space,
-                                          behaviour_summary=summary, **_gain_flips(name, space),
+    configs = {key: EEAConfig.from_method(name, settings.budget, damage=damage, seed=seed,
+                                          **model_fields(name, space, summary),
                                           **({"workers": workers} if workers else {}))
                for key, (name, space, summary) in runs.items()}
     out = check_output_dir(out_dir)
@@ -203,11 +203,16 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
                            progress, runs, configs)
 
 
-def _gain_flips(method: str, space: str) -> dict:
-    """``cma_flip_gains=1`` for a CMA-ES method in ``morphology+servos`` (every restart also tries
-    the best model with its pectoral gains' signs flipped; docs/self_modeling.md), else nothing."""
+def model_fields(method: str = DEFAULT_METHOD, model_space: str = DEFAULT_MODEL_SPACE,
+                 behaviour_summary: str = DEFAULT_SUMMARY) -> dict:
+    """The :class:`~eea.config.EEAConfig` fields of a case-study model run beside its method
+    and budget: the model space, the behaviour summary and, for a CMA-ES method in
+    ``morphology+servos``, ``cma_flip_gains=1`` (every restart also tries the best model with
+    its pectoral gains' signs flipped; docs/self_modeling.md). The defaults give the
+    self-model's: ``EEAConfig.from_method(DEFAULT_METHOD, budget, **model_fields())``."""
     cma = EEAConfig.from_method(method).estimation_search == "cma"
-    return {"cma_flip_gains": 1} if cma and space != PAPER_MODEL_SPACE else {}
+    flips = {"cma_flip_gains": 1} if cma and model_space != PAPER_MODEL_SPACE else {}
+    return {"model_space": model_space, "behaviour_summary": behaviour_summary, **flips}
 
 
 def _eea_dir(method: str, space: str, summary: str) -> str:

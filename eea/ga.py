@@ -81,7 +81,6 @@ class GASettings(ConfigSection):
             raise ValueError(f"EEAConfig.mutation_bits must be in [0, {high}], got {value!r}")
         object.__setattr__(self, "mutation_bits", float(value))
 
-
     def options(self, n_bits: int) -> dict:
         """Keyword arguments of :class:`BitGA` for a genome of ``n_bits`` bits: the crossover
         rate, the per-bit mutation rate ``mutation_bits / n_bits``, the tournament size and
