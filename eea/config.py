@@ -100,8 +100,7 @@ FIELD_HELP: dict[str, str] = {
                         "CMA-ES that starts every round at a uniformly random point (0 = off; not the paper's)",
     "cma_flip_gains": "cma, morphology+servos: 1: every round's restart also tries the best model with each pectoral "
                       "gain's sign flipped (left, right, both), so a wrong-sign basin is left when the other side fits "
-                      "better; 2: with its pectoral gains set to every pair of fault classes -1, 0, +1; 0: off (not "
-                      "the paper's)",
+                      "better; 0: off (not the paper's)",
     "cma_global_keep": "cma: 0: the global share restarts at a random point every round; k > 0: only every k-th "
                        "round, otherwise at its own best point with its own covariance, a second lineage (needs "
                        "cma_global_share; not the paper's)",
@@ -248,7 +247,7 @@ class EEAConfig:
             if getattr(self, name) and self.estimation_search != "cma":
                 raise ValueError(f"EEAConfig.{name} > 0 needs estimation_search='cma', got {self.estimation_search!r}")
         if self.cma_flip_gains and self.model_space != "morphology+servos":
-            raise ValueError(f"EEAConfig.cma_flip_gains > 0 needs model_space='morphology+servos' (gains to flip), "
+            raise ValueError(f"EEAConfig.cma_flip_gains = 1 needs model_space='morphology+servos' (gains to flip), "
                              f"got {self.model_space!r}")
         if self.cma_global_share and not 2 <= self.cma_global_share <= self.estimation_population - 2:
             raise ValueError(f"EEAConfig.cma_global_share must be 0 or in [2, estimation_population - 2] "

@@ -61,25 +61,15 @@ import numpy as np
 
 from aquafish_gym import MORPHOLOGY_BOUNDS
 from aquafish_gym.checks import check_int
-from eea.encoding import (MODEL_BITS, MODEL_FIELD_BITS, SERVO_GAIN_BITS, _bits_to_ints, _ints_to_bits, decode_models,
-                          encode_gains, encode_models, get_model_space)
+from eea.encoding import (MODEL_BITS, MODEL_FIELD_BITS, _bits_to_ints, _ints_to_bits, decode_models, encode_models,
+                          get_model_space)
 from eea.checkpoint import loads
 from eea.ga import TellRecord
 from eea.settings import ConfigSection
 
-__all__ = ["CMAModelSearch", "CMASettings", "GAIN_CLASSES", "carried_shape", "genomes_to_unit", "unit_to_genomes"]
+__all__ = ["CMAModelSearch", "CMASettings", "carried_shape", "genomes_to_unit", "unit_to_genomes"]
 
 _LEVELS = 2 ** np.asarray(MODEL_FIELD_BITS)
-
-#: The pectoral gains' fault classes that ``flip_gains = 2`` injects: reversed, seized (or
-#: dead), healthy (the gains of the damage presets' servo faults, bar the fractional "weak").
-GAIN_CLASSES: tuple[float, ...] = (-1.0, 0.0, 1.0)
-
-
-def _gain_class_coordinates() -> np.ndarray:
-    """``(3,)`` the cube coordinates (cell centres) of the pectoral gains :data:`GAIN_CLASSES`."""
-    codes, _ = _bits_to_ints(encode_gains(np.array([[g, g, 1.0] for g in GAIN_CLASSES])), SERVO_GAIN_BITS)
-    return (codes[:, 0] + 0.5) / 2 ** SERVO_GAIN_BITS[0]
 
 
 def unit_to_genomes(x, model_space="morphology") -> np.ndarray:
@@ -170,10 +160,8 @@ class CMASettings(ConfigSection):
             ``EEAConfig`` checks 2 <= G <= estimation_population - 2).
         carry_condition: 0 (off) or a finite c >= 1 (module docstring).
         global_keep: k >= 0, needs ``global_share`` > 0 (module docstring).
-        flip_gains: 0 (off), 1 or 2 (``morphology+servos`` only; not the paper's): every restart
-            also injects the best point with its pectoral gains changed: 1, each gain's sign
-            flipped (left, right, both); 2, the gains set to each of the fault classes
-            -1 (reversed), 0 (seized) and +1 (healthy), left x right (:data:`GAIN_CLASSES`).
+        flip_gains: 0 (off) or 1: every restart also injects the best point with each pectoral
+            gain's sign flipped (left, right, both; ``morphology+servos`` only; not the paper's).
 
     Raises:
         ValueError: naming the field as ``EEAConfig.cma_<field>`` if one is out of range, or
@@ -201,9 +189,8 @@ class CMASettings(ConfigSection):
         object.__setattr__(self, "carry_condition", float(value))
         check_int("EEAConfig.cma_global_share", self.global_share, 0)
         check_int("EEAConfig.cma_global_keep", self.global_keep, 0)
-        if self.flip_gains not in (0, 1, 2) or isinstance(self.flip_gains, bool):
-            raise ValueError(f"EEAConfig.cma_flip_gains must be 0 (off), 1 (sign flips) or 2 (fault classes), "
-                             f"got {self.flip_gains!r}")
+        if self.flip_gains not in (0, 1) or isinstance(self.flip_gains, bool):
+            raise ValueError(f"EEAConfig.cma_flip_gains must be 0 (off) or 1, got {self.flip_gains!r}")
         if self.global_keep and not self.global_share:
             raise ValueError(f"EEAConfig.cma_global_keep > 0 needs cma_global_share > 0 (a global share to keep), "
                              f"got {self.global_keep} and {self.global_share}")
@@ -243,13 +230,10 @@ class CMAModelSearch(TellRecord):
             docstring); 0 = at a random point every round.
         model_space: ``"morphology"`` (the default, 9 coordinates, 45-bit genomes) or
             ``"morphology+servos"`` (12, 57-bit; module docstring).
-        flip_gains: 0, 1 or 2 (``morphology+servos`` only): every :meth:`restart` also injects
-            the best point with its pectoral gains changed, so a lineage caught in a wrong-sign
-            basin (e.g. a healthy servo modelled as reversed) sees the other side every round
-            (not the paper's). 1: the left, the right and both gains' signs flipped (3 points);
-            2: the left and right gains set to every pair of fault classes -1, 0, +1
-            (:data:`GAIN_CLASSES`) other than the best point's own (8 or 9 points, so the
-            population must hold at least 10).
+        flip_gains: 0 or 1 (``morphology+servos`` only): every :meth:`restart` also injects the
+            best point with the left, the right and both pectoral gains' signs flipped, so a
+            lineage caught in a wrong-sign basin (e.g. a healthy servo modelled as reversed) sees
+            the other side every round (not the paper's).
 
     Raises:
         ValueError: if an argument is outside the ranges above, or ``global_keep`` > 0 without
@@ -281,16 +265,12 @@ class CMAModelSearch(TellRecord):
         self.carry_condition = float(carry_condition)
         if space.servos:  # the paper's space keeps the class attributes (and its checkpoints their layout)
             self.model_space, self.n_bits = space.name, space.n_bits
-        if flip_gains not in (0, 1, 2) or isinstance(flip_gains, bool):
-            raise ValueError(f"flip_gains must be 0 (off), 1 (sign flips) or 2 (fault classes), got {flip_gains!r}")
+        if flip_gains not in (0, 1) or isinstance(flip_gains, bool):
+            raise ValueError(f"flip_gains must be 0 or 1, got {flip_gains!r}")
         if flip_gains and not space.servos:
             raise ValueError("flip_gains needs the morphology+servos model space (gains to flip)")
-        if flip_gains == 2 and population_size - global_share < len(GAIN_CLASSES) ** 2 + 1:
-            raise ValueError(f"flip_gains = 2 injects up to {len(GAIN_CLASSES) ** 2} points beside the best one: "
-                             f"the local population (population_size - global_share) must be >= "
-                             f"{len(GAIN_CLASSES) ** 2 + 1}, got {population_size - global_share}")
         if flip_gains:  # only when on: a search without it pickles as before
-            self.flip_gains = int(flip_gains)
+            self.flip_gains = 1
         n_dims = self._n_dims
         self.population_size, self.sigma0, self.elitism = population_size, float(sigma0), int(elitism)
         self.global_share, self.global_keep = int(global_share), int(global_keep)
@@ -351,32 +331,17 @@ class CMAModelSearch(TellRecord):
         if self._best_x is None:
             return
         self._es = self._restarted(self._es, self._best_x, self.population_size - self.global_share)
-        if self.flip_gains:
-            self._es.inject(self._gain_variants(self._best_x), force=True)
+        if self.flip_gains:  # the pectoral gains (coordinates 9, 10 on [-1, 1]) mirrored about 0
+            flips = [self._best_x.copy() for _ in range(3)]
+            for x, dims in zip(flips, ([9], [10], [9, 10])):
+                x[dims] = 1.0 - x[dims]
+            self._es.inject(flips, force=True)
         if self.global_share:
             keep = self.global_keep and self._global_es is not None and self._global_restarts % self.global_keep
             self._global_es = self._restarted(self._global_es, self._global_best_x, self.global_share) if keep \
                 else self._new_strategy(self._stream.random(self._n_dims), self.global_share)
             self._global_restarts += 1
         self._x, self._asked = None, False
-
-    def _gain_variants(self, best_x: np.ndarray) -> list[np.ndarray]:
-        """The points :meth:`restart` injects beside ``best_x`` (``flip_gains``; constructor)."""
-        if self.flip_gains == 1:  # the pectoral gains (coordinates 9, 10 on [-1, 1]) mirrored about 0
-            flips = [best_x.copy() for _ in range(3)]
-            for x, dims in zip(flips, ([9], [10], [9, 10])):
-                x[dims] = 1.0 - x[dims]
-            return flips
-        classes = _gain_class_coordinates()
-        own = np.floor(best_x[9:11] * 2 ** SERVO_GAIN_BITS[0])  # the best point's gain codes
-        variants = []
-        for left in classes:
-            for right in classes:
-                x = best_x.copy()
-                x[9:11] = left, right
-                if not np.array_equal(np.floor(x[9:11] * 2 ** SERVO_GAIN_BITS[0]), own):
-                    variants.append(x)
-        return variants
 
     def _restarted(self, es, best_x: np.ndarray, popsize: int):
         """A new distribution of ``popsize`` at ``best_x`` with ``es``'s carried covariance shape
