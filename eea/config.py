@@ -33,7 +33,7 @@ from eea.methods import budget_fields, method_fields
 from eea.search import SEARCH_NAMES, CMASettings
 
 __all__ = ["ESTIMATION_SEARCHES", "MODEL_SPACE_NAMES", "EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS",
-           "RETIRED_FIELDS", "SECTIONS"]
+           "RETIRED_FIELDS", "RETIRED_VALUES", "SECTIONS"]
 
 #: Names of the estimation searches (:data:`eea.search.MODEL_SEARCHES`): the paper's
 #: GA and CMA-ES (:mod:`eea.search.cma`).
@@ -65,6 +65,12 @@ RETIRED_FIELDS: dict[str, object] = {
     "profile_inherit": "hamming", "profile_library_newcomers": 0, "profile_select": 0, "profile_select_refine": 30,
     "profile_fine_steps": 0, "profile_polish": 0, "profile_scan": 0, "exploration_spread_weight": 1.0,
     "model_similarity": "paper", "oob_experiments": "newest",
+}
+
+#: Retired values of fields that stay, by field: a ``config.json`` holding one was written by
+#: a run of a retired variant (docs/studies/retired_variants.md) and does not load.
+RETIRED_VALUES: dict[str, tuple] = {
+    "cma_flip_gains": (2,),  # the pectoral gains injected at their fault classes (last ran at eed7c8d)
 }
 
 #: One help line per field (command-line ``--help`` and documentation).
@@ -312,17 +318,22 @@ class EEAConfig:
         dropped (the run did not use the retired variant).
 
         Raises:
-            ValueError: on an unknown key (typos fail fast), an invalid value, or a retired
-                field with another value than its default (the run used a retired variant;
-                rerun it at the commit docs/studies/retired_variants.md names).
+            ValueError: on an unknown key (typos fail fast), an invalid value, a retired
+                field with another value than its default, or a value of
+                :data:`RETIRED_VALUES` (the run used a retired variant; rerun it at the commit
+                docs/studies/retired_variants.md names).
         """
         if "waterline" not in data:  # written before the surface swimmer: a deep-water run
             data = {**data, "waterline": None}
         for name in set(data) & set(RETIRED_FIELDS):
             if data[name] != RETIRED_FIELDS[name]:
-                raise ValueError(f"EEAConfig.{name} = {data[name]!r}: this run used a variant retired in issue 40 "
+                raise ValueError(f"EEAConfig.{name} = {data[name]!r}: this run used a retired variant "
                                  f"(docs/studies/retired_variants.md names the commit that runs it); only its "
                                  f"default {RETIRED_FIELDS[name]!r} loads")
+        for name in set(data) & set(RETIRED_VALUES):
+            if data[name] in RETIRED_VALUES[name]:
+                raise ValueError(f"EEAConfig.{name} = {data[name]!r}: this run used a retired variant "
+                                 f"(docs/studies/retired_variants.md names the commit that runs it)")
         return cls._from_fields({k: v for k, v in data.items() if k not in RETIRED_FIELDS})
 
     @classmethod

@@ -96,22 +96,27 @@ def test_a_config_written_before_issue_40_loads_unless_it_used_a_retired_variant
     old = {**EEAConfig(workers=1).to_dict(), **RETIRED_FIELDS}          # config.json of a run before issue 40
     assert EEAConfig.from_dict(old) == EEAConfig(workers=1)
     assert not set(RETIRED_FIELDS) & set(EEAConfig().to_dict())
-    with pytest.raises(ValueError, match=r"EEAConfig.profile_scan = 1: this run used a variant retired in issue 40"):
+    with pytest.raises(ValueError, match=r"EEAConfig.profile_scan = 1: this run used a retired variant"):
         EEAConfig.from_dict({**old, "profile_scan": 1})
     with pytest.raises(ValueError, match="unknown EEAConfig keys"):
         EEAConfig.from_method("profile_lineages", profile_scan=0)               # a new config cannot set one
+    servos = {**EEAConfig(estimation_search="cma", model_space="morphology+servos").to_dict(), "cma_flip_gains": 2}
+    with pytest.raises(ValueError, match=r"EEAConfig.cma_flip_gains = 2: this run used a retired variant"):
+        EEAConfig.from_dict(servos)                                            # the fault classes (eed7c8d)
+    assert EEAConfig.from_dict({**servos, "cma_flip_gains": 1}).cma_flip_gains == 1
 
 
 def test_every_published_config_loads_or_names_its_retired_variant():
-    from eea.config import RETIRED_FIELDS
+    from eea.config import RETIRED_FIELDS, RETIRED_VALUES
 
     results = Path(__file__).parents[2] / "docs/results"
     loaded = refused = 0
     for path in sorted(results.glob("**/config.json")):
         data = json.loads(path.read_text())
         retired = [k for k in RETIRED_FIELDS if k in data and data[k] != RETIRED_FIELDS[k]]
+        retired += [k for k in RETIRED_VALUES if data.get(k) in RETIRED_VALUES[k]]
         if retired:
-            with pytest.raises(ValueError, match="used a variant retired in issue 40"):
+            with pytest.raises(ValueError, match="used a retired variant"):
                 EEAConfig.from_dict(data)
             refused += 1
         else:
