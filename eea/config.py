@@ -107,10 +107,6 @@ FIELD_HELP: dict[str, str] = {
     "cma_flip_gains": "cma, morphology+servos: 1: every round's restart also tries the best model with each pectoral "
                       "gain's sign flipped (left, right, both), so a wrong-sign basin is left when the other side fits "
                       "better; 0: off (not the paper's)",
-    "cma_global_flip": "cma, morphology+servos, needs cma_global_share: 1: each fresh start of the global share is at "
-                       "the local best with its pectoral gains' signs flipped (left, right, both in turn) instead of "
-                       "a random point, so a lineage of its own fits dimensions to the other sign; 0: off (not the "
-                       "paper's)",
     "cma_global_keep": "cma: 0: the global share restarts at a random point every round; k > 0: only every k-th "
                        "round, otherwise at its own best point with its own covariance, a second lineage (needs "
                        "cma_global_share; not the paper's)",
@@ -192,7 +188,6 @@ class EEAConfig:
     cma_global_share: int = 0
     cma_carry_condition: float = 0.0
     cma_global_keep: int = 0
-    cma_global_flip: int = 0
     cma_flip_gains: int = 0
     lineages: int = 1
     crossover_rate: float = 0.75
@@ -254,12 +249,9 @@ class EEAConfig:
                                  ("elitism", "oob_population")):
             if getattr(self, name) > getattr(self, population):
                 raise ValueError(f"EEAConfig.{name} ({getattr(self, name)}) must be <= {population} ({getattr(self, population)})")
-        for name in ("cma_global_share", "cma_carry_condition", "cma_flip_gains", "cma_global_flip"):
+        for name in ("cma_global_share", "cma_carry_condition", "cma_flip_gains"):
             if getattr(self, name) and self.estimation_search != "cma":
                 raise ValueError(f"EEAConfig.{name} > 0 needs estimation_search='cma', got {self.estimation_search!r}")
-        if self.cma_global_flip and self.model_space != "morphology+servos":
-            raise ValueError(f"EEAConfig.cma_global_flip = 1 needs model_space='morphology+servos' (gains to flip), "
-                             f"got {self.model_space!r}")
         if self.cma_flip_gains and self.model_space != "morphology+servos":
             raise ValueError(f"EEAConfig.cma_flip_gains = 1 needs model_space='morphology+servos' (gains to flip), "
                              f"got {self.model_space!r}")

@@ -162,9 +162,6 @@ class CMASettings(ConfigSection):
         global_keep: k >= 0, needs ``global_share`` > 0 (module docstring).
         flip_gains: 0 (off) or 1: every restart also injects the best point with each pectoral
             gain's sign flipped (left, right, both; ``morphology+servos`` only; not the paper's).
-        global_flip: 0 (off) or 1: each fresh start of the global share is at the local best
-            with its pectoral gains' signs flipped, instead of a random point (needs
-            ``global_share``; ``morphology+servos`` only; not the paper's).
 
     Raises:
         ValueError: naming the field as ``EEAConfig.cma_<field>`` if one is out of range, or
@@ -176,13 +173,11 @@ class CMASettings(ConfigSection):
     carry_condition: float = 0.0
     global_keep: int = 0
     flip_gains: int = 0
-    global_flip: int = 0
 
     #: Each field's name in :class:`eea.config.EEAConfig`.
     CONFIG_FIELDS: ClassVar[dict[str, str]] = {"sigma": "cma_sigma", "global_share": "cma_global_share",
                                                "carry_condition": "cma_carry_condition",
-                                               "global_keep": "cma_global_keep", "flip_gains": "cma_flip_gains",
-                                               "global_flip": "cma_global_flip"}
+                                               "global_keep": "cma_global_keep", "flip_gains": "cma_flip_gains"}
 
     def __post_init__(self) -> None:
         if isinstance(self.sigma, bool) or not isinstance(self.sigma, (int, float)) or not 0.0 < self.sigma <= 1.0:
@@ -196,10 +191,6 @@ class CMASettings(ConfigSection):
         check_int("EEAConfig.cma_global_keep", self.global_keep, 0)
         if self.flip_gains not in (0, 1) or isinstance(self.flip_gains, bool):
             raise ValueError(f"EEAConfig.cma_flip_gains must be 0 (off) or 1, got {self.flip_gains!r}")
-        if self.global_flip not in (0, 1) or isinstance(self.global_flip, bool):
-            raise ValueError(f"EEAConfig.cma_global_flip must be 0 (off) or 1, got {self.global_flip!r}")
-        if self.global_flip and not self.global_share:
-            raise ValueError("EEAConfig.cma_global_flip = 1 needs cma_global_share > 0 (a global share to start)")
         if self.global_keep and not self.global_share:
             raise ValueError(f"EEAConfig.cma_global_keep > 0 needs cma_global_share > 0 (a global share to keep), "
                              f"got {self.global_keep} and {self.global_share}")
@@ -243,11 +234,6 @@ class CMAModelSearch(TellRecord):
             best point with the left, the right and both pectoral gains' signs flipped, so a
             lineage caught in a wrong-sign basin (e.g. a healthy servo modelled as reversed) sees
             the other side every round (not the paper's).
-        global_flip: 0 or 1 (``morphology+servos``, needs ``global_share``): each fresh start
-            of the global distribution (every ``global_keep``-th restart) is at the local best
-            point with its pectoral gains' signs flipped, the left, the right and both in turn,
-            instead of a uniformly random point, so a second lineage fits the dimensions to the
-            other sign for up to ``global_keep`` rounds (not the paper's).
 
     Raises:
         ValueError: if an argument is outside the ranges above, or ``global_keep`` > 0 without
@@ -259,7 +245,7 @@ class CMAModelSearch(TellRecord):
 
     def __init__(self, population_size: int, rng: np.random.Generator, *, sigma0: float = 0.3,
                  elitism: int = 1, global_share: int = 0, carry_condition: float = 0.0, global_keep: int = 0,
-                 model_space="morphology", flip_gains: int = 0, global_flip: int = 0) -> None:
+                 model_space="morphology", flip_gains: int = 0) -> None:
         space = get_model_space(model_space)
         check_int("population_size", population_size, 2)
         check_int("global_keep", global_keep, 0)
@@ -285,12 +271,6 @@ class CMAModelSearch(TellRecord):
             raise ValueError("flip_gains needs the morphology+servos model space (gains to flip)")
         if flip_gains:  # only when on: a search without it pickles as before
             self.flip_gains = 1
-        if global_flip not in (0, 1) or isinstance(global_flip, bool):
-            raise ValueError(f"global_flip must be 0 or 1, got {global_flip!r}")
-        if global_flip and not (space.servos and global_share):
-            raise ValueError("global_flip needs the morphology+servos model space (gains to flip) and a global_share")
-        if global_flip:  # only when on, as flip_gains
-            self.global_flip = 1
         n_dims = self._n_dims
         self.population_size, self.sigma0, self.elitism = population_size, float(sigma0), int(elitism)
         self.global_share, self.global_keep = int(global_share), int(global_keep)
@@ -311,8 +291,6 @@ class CMAModelSearch(TellRecord):
     model_space: ClassVar[str] = "morphology"
     #: 0: no gain flips at a restart (the class value, and that of checkpoints written before).
     flip_gains: ClassVar[int] = 0
-    #: 0: the global share starts afresh at a random point (the class value, as ``flip_gains``).
-    global_flip: ClassVar[int] = 0
 
     @property
     def _n_dims(self) -> int:
@@ -330,8 +308,7 @@ class CMAModelSearch(TellRecord):
         cma = config.cma
         return cls(config.estimation_population, rng, sigma0=cma.sigma, elitism=1 if config.elitism else 0,
                    global_share=cma.global_share, carry_condition=cma.carry_condition, global_keep=cma.global_keep,
-                   model_space=getattr(config, "model_space", "morphology"), flip_gains=cma.flip_gains,
-                   global_flip=cma.global_flip)
+                   model_space=getattr(config, "model_space", "morphology"), flip_gains=cma.flip_gains)
 
     def _new_strategy(self, mean: np.ndarray, popsize: int):
         import cma  # here, not at module level: importing cma takes ~1.5 s, and only cma runs need it
@@ -361,16 +338,8 @@ class CMAModelSearch(TellRecord):
             self._es.inject(flips, force=True)
         if self.global_share:
             keep = self.global_keep and self._global_es is not None and self._global_restarts % self.global_keep
-            if keep:
-                self._global_es = self._restarted(self._global_es, self._global_best_x, self.global_share)
-            elif self.global_flip:  # at the local best, the left, right, both pectoral gains flipped in turn
-                start = self._best_x.copy()
-                dims = ([9], [10], [9, 10])[(self._global_restarts // max(self.global_keep, 1)) % 3]
-                start[dims] = 1.0 - start[dims]
-                self._global_es = self._new_strategy(start, self.global_share)
-                self._global_es.inject([start], force=True)
-            else:
-                self._global_es = self._new_strategy(self._stream.random(self._n_dims), self.global_share)
+            self._global_es = self._restarted(self._global_es, self._global_best_x, self.global_share) if keep \
+                else self._new_strategy(self._stream.random(self._n_dims), self.global_share)
             self._global_restarts += 1
         self._x, self._asked = None, False
 

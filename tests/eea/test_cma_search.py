@@ -281,27 +281,3 @@ def test_flip_gains_injects_the_best_model_with_each_pectoral_gain_mirrored_at_a
         CMAModelSearch(10, np.random.default_rng(3), flip_gains=1)
     with pytest.raises(ValueError, match="cma_flip_gains = 1 needs model_space='morphology\\+servos'"):
         EEAConfig(estimation_search="cma", cma_flip_gains=1)
-
-
-def test_global_flip_starts_the_global_share_at_the_local_best_with_a_pectoral_gain_flipped_in_turn():
-    from eea.encoding import get_model_space
-
-    space = get_model_space("morphology+servos")
-    search = CMAModelSearch(12, np.random.default_rng(4), model_space=space.name, global_share=4, global_keep=1,
-                            global_flip=1)
-    for flipped in ([9], [10], [9, 10]):                         # fresh starts: left, right, both in turn
-        search.ask()
-        search.tell(np.arange(12, dtype=float)[::-1])            # row 0 the best (a local row)
-        start = search._best_x.copy()
-        start[flipped] = 1.0 - start[flipped]                    # gains mirrored about 0 (coordinate 0.5)
-        search.restart()
-        search.ask()
-        # the global share's 4 rows (last) hold the start, injected (pycma's bound handling moves a
-        # coordinate within 0.05 of a bound by up to 0.0125)
-        assert np.min(np.max(np.abs(search._x[-4:] - start), axis=1)) < 0.013, flipped
-        assert np.min(np.max(np.abs(search._x[:-4] - start), axis=1)) > 0.013   # not the local rows
-        search.tell(np.zeros(12))
-    with pytest.raises(ValueError, match="global_flip needs the morphology\\+servos model space"):
-        CMAModelSearch(12, np.random.default_rng(4), model_space=space.name, global_flip=1)
-    with pytest.raises(ValueError, match="cma_global_flip = 1 needs cma_global_share > 0"):
-        EEAConfig(estimation_search="cma", model_space=space.name, cma_global_flip=1)
