@@ -14,6 +14,10 @@ import numpy as np
 from aquafish_gym.argtypes import int_at_least, path, positive_float
 from aquafish_gym.rundir import check_output_dir
 
+#: gait.controller.SB3_ALGOS, spelled out: importing gait here would cost every command 0.6 s
+#: (tests/gait/test_gait_rl.py checks the two agree).
+RL_ALGOS = ("ppo", "sac", "recurrent_ppo")
+
 ROBOT_HELP = "'healthy', a damage name (the healthy robot with that damage), 9 comma-separated numbers, or a JSON/text file"
 
 
@@ -55,9 +59,10 @@ def add_commands(subparsers) -> None:
     p.add_argument("--out", type=path, default=Path("runs/transfer"), help="writes transfer.json and transfer.png (default runs/transfer)")
     p.set_defaults(func=run_transfer)
 
-    p = subparsers.add_parser("rl", help="train a stable-baselines3 PPO/SAC baseline (needs the [rl] extra)",
-                              description="Train PPO or SAC on AquaFish-v0 (clock appended to the observation).")
-    p.add_argument("--algo", choices=("ppo", "sac"), default="ppo", help="algorithm (default ppo)")
+    p = subparsers.add_parser("rl", help="train a stable-baselines3 PPO/SAC/RecurrentPPO baseline (needs the [rl] extra)",
+                              description="Train PPO, SAC or sb3-contrib's RecurrentPPO (an LSTM policy) on AquaFish-v0 "
+                                          "(clock appended to the observation).")
+    p.add_argument("--algo", choices=RL_ALGOS, default="ppo", help="algorithm (default ppo)")
     p.add_argument("--env", default="AquaFish-v0", help="task (`aquafish envs` lists them; default AquaFish-v0)")
     p.add_argument("--morphology", default="healthy", help=f"robot: {ROBOT_HELP} (default healthy)")
     p.add_argument("--damage", default="none", help="damage applied to --morphology (default none)")

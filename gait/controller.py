@@ -32,8 +32,10 @@ from gait.clock import CLOCK_DIM, CLOCK_PERIOD_S, OBS_DIM, check_clock_period, w
 #: File names inside a run directory that :func:`load_controller` looks for.
 NEAT_CONTROLLER_FILE = "best_controller.pkl"
 SB3_MODEL_FILE = "model.zip"
-#: SB3 algorithms that :func:`load_controller` and :mod:`gait.rl` know.
-SB3_ALGOS = ("ppo", "sac")
+#: SB3 algorithms that :func:`load_controller` and :mod:`gait.rl` know: stable-baselines3's PPO
+#: and SAC, and sb3-contrib's ``RecurrentPPO`` (an LSTM policy, which can tell a damage from
+#: the robot's response within an episode).
+SB3_ALGOS = ("ppo", "sac", "recurrent_ppo")
 
 
 @runtime_checkable
@@ -236,17 +238,23 @@ class SB3PolicyController:
         self.clock_period_s = check_clock_period(clock_period_s)
         self.deterministic = bool(deterministic)
 
+        self.reset()
+
     def reset(self) -> None:
-        """Stateless (MLP policies): nothing to clear."""
+        """Start an episode: clear a recurrent policy's memory (an MLP policy has none)."""
+        self._state, self._episode_start = None, np.ones(1, dtype=bool)
 
     def act(self, obs, time_s: float) -> np.ndarray:
-        """Return the policy's action ``(3,)`` float64, clipped to [-1, 1]."""
-        action, _ = self.model.predict(with_clock(obs, time_s, self.clock_period_s), deterministic=self.deterministic)
+        """Return the policy's action ``(3,)`` float64, clipped to [-1, 1]; a recurrent policy
+        carries its hidden state to the next call of the episode."""
+        action, self._state = self.model.predict(with_clock(obs, time_s, self.clock_period_s), state=self._state,
+                                                 episode_start=self._episode_start, deterministic=self.deterministic)
+        self._episode_start = np.zeros(1, dtype=bool)
         return np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
 
     @classmethod
     def load(cls, path, algo: str, clock_period_s: float = CLOCK_PERIOD_S, deterministic: bool = True) -> "SB3PolicyController":
-        """Load a saved SB3 model (``.zip``) of algorithm ``algo`` ("ppo" or "sac").
+        """Load a saved SB3 model (``.zip``) of algorithm ``algo`` (:data:`SB3_ALGOS`).
 
         Raises:
             ValueError: an unknown algorithm.
@@ -260,18 +268,24 @@ class SB3PolicyController:
 
 
 def sb3_algorithm(algo: str):
-    """Return the stable-baselines3 class for ``algo`` ("ppo" or "sac"), imported lazily.
+    """Return the class for ``algo`` (:data:`SB3_ALGOS`), imported lazily.
 
     Raises:
         ValueError: an unknown algorithm name.
-        ImportError: stable-baselines3 is missing (install the ``[rl]`` extra).
+        ImportError: stable-baselines3 (or sb3-contrib, for ``recurrent_ppo``) is missing
+            (install the ``[rl]`` extra).
     """
     if algo not in SB3_ALGOS:
         raise ValueError(f"unknown RL algorithm {algo!r}; allowed: {', '.join(SB3_ALGOS)}")
     try:
         import stable_baselines3
+        if algo == "recurrent_ppo":
+            import sb3_contrib
     except ImportError as err:
-        raise ImportError("RL controllers need stable-baselines3 and torch: pip install 'aquafish[rl]'") from err
+        raise ImportError("RL controllers need stable-baselines3, sb3-contrib and torch: pip install 'aquafish[rl]'") \
+            from err
+    if algo == "recurrent_ppo":
+        return sb3_contrib.RecurrentPPO
     return {"ppo": stable_baselines3.PPO, "sac": stable_baselines3.SAC}[algo]
 
 

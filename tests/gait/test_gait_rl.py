@@ -28,11 +28,40 @@ def test_sb3_check_env_passes_with_warnings_as_errors(env_id):
         check_env(ClockObservation(gym.make(env_id, episode_duration_s=1.0)), warn=True)
 
 
-@pytest.mark.parametrize("algo", ["ppo", "sac"])
+@pytest.mark.parametrize("algo", ["ppo", "sac", "recurrent_ppo"])
 def test_shipped_hyperparams(algo):
     hp = load_hyperparams(algo)
-    assert hp["policy"] == "MlpPolicy" and hp["n_timesteps"] == 100_000
+    assert hp["policy"] == ("MlpLstmPolicy" if algo == "recurrent_ppo" else "MlpPolicy")
+    assert hp["n_timesteps"] == 100_000
     assert isinstance(hp["policy_kwargs"], dict)
+
+
+def test_cli_offers_every_rl_algorithm():
+    from gait.cli import RL_ALGOS
+    from gait.controller import SB3_ALGOS
+
+    assert RL_ALGOS == SB3_ALGOS
+
+
+def test_recurrent_policy_keeps_its_memory_within_an_episode_and_clears_it_at_reset(tmp_path):
+    pytest.importorskip("sb3_contrib")
+    hp = tmp_path / "hp.yml"
+    hp.write_text(yaml.safe_dump({"recurrent_ppo": {"AquaFish-v0": {
+        "n_timesteps": 64, "policy": "MlpLstmPolicy", "n_envs": 1, "n_steps": 32, "batch_size": 32, "n_epochs": 1,
+        "policy_kwargs": {"net_arch": [8], "lstm_hidden_size": 8}}}}))
+    path = train_rl("recurrent_ppo", "healthy", 64, 0, tmp_path / "lstm", hyperparams_path=hp, episode_duration_s=1.0,
+                    num_threads=1)
+    meta = json.loads(path.with_suffix(".json").read_text())
+    controller = load_controller(path)
+    assert type(controller.model).__name__ == "RecurrentPPO"
+    obs = np.zeros(12)
+    first = controller.act(obs, 0.0)
+    second = controller.act(obs, 0.0)  # the same input, but the LSTM has seen one step
+    assert not np.array_equal(first, second)
+    controller.reset()
+    np.testing.assert_array_equal(controller.act(obs, 0.0), first)
+    # the saved score is reproduced by the loaded policy, its memory carried through the episode
+    assert rollout(controller, seed=meta["eval_seed"]).distance == pytest.approx(meta["eval_distance"], abs=1e-9)
 
 
 def test_hyperparams_errors(tmp_path):
@@ -91,6 +120,6 @@ def test_ppo_on_another_task_uses_its_section_and_reports_its_return(tmp_path):
     assert train_or_load_rl("ppo", "healthy", 128, 0, tmp_path / "sk", hyperparams_path=hp, episode_duration_s=1.0,
                             env_id="AquaFishStationKeeping-v0") == path
     assert path.with_suffix(".json").stat().st_mtime_ns == written
-    for algo in ("ppo", "sac"):  # the shipped file has a section for every task
+    for algo in ("ppo", "sac", "recurrent_ppo"):  # the shipped file has a section for every task
         for env_id in aquafish_gym.ENV_IDS:
-            assert load_hyperparams(algo, env_id=env_id)["policy"] == "MlpPolicy"
+            assert load_hyperparams(algo, env_id=env_id)["policy"].startswith("Mlp")
