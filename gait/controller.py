@@ -8,7 +8,7 @@ longer). :class:`RandomController` is the random-policy baseline and
 * :class:`NEATController`: a neat-python genome decoded to ``neat.nn.FeedForwardNetwork``
   (or ``neat.nn.RecurrentNetwork`` when the config has ``feed_forward = False``; the CTRNN
   is not used, its ``advance()`` has a double-buffer bug in neat-python 2.0.0).
-* :class:`SB3PolicyController`: a stable-baselines3 model (PPO, SAC) trained on
+* :class:`SB3PolicyController`: a stable-baselines3 model (PPO, SAC, or sb3-contrib's RecurrentPPO) trained on
   AquaFish-v0 wrapped in :class:`~gait.clock.ClockObservation`.
 
 Both see the same 14 inputs (:func:`gait.clock.with_clock`). :func:`load_controller`
@@ -237,7 +237,6 @@ class SB3PolicyController:
         self.model = model
         self.clock_period_s = check_clock_period(clock_period_s)
         self.deterministic = bool(deterministic)
-
         self.reset()
 
     def reset(self) -> None:
