@@ -37,9 +37,9 @@ class _StubModel:
         self.action = np.asarray(action, dtype=np.float32)
         self.seen = []
 
-    def predict(self, obs, deterministic=False):
-        self.seen.append((np.array(obs), deterministic))
-        return self.action, None
+    def predict(self, obs, state=None, episode_start=None, deterministic=False):  # SB3's signature
+        self.seen.append((np.array(obs), deterministic, state, np.array(episode_start)))
+        return self.action, len(self.seen)  # a recurrent model returns its next hidden state
 
 
 def test_sb3_controller_clips_the_policy_action_and_feeds_the_clock():
@@ -49,9 +49,22 @@ def test_sb3_controller_clips_the_policy_action_and_feeds_the_clock():
     action = c.act(obs, 0.5)
     assert action.dtype == np.float64
     np.testing.assert_array_equal(action, [1.0, -1.0, 0.5])
-    (seen, deterministic), = model.seen
+    (seen, deterministic, _, _), = model.seen
     np.testing.assert_array_equal(seen, with_clock(obs, 0.5, 2.0))
     assert deterministic is True
+
+
+def test_sb3_controller_carries_the_policy_state_through_an_episode_and_clears_it_at_reset():
+    model = _StubModel([0.0, 0.0, 0.0])
+    c = SB3PolicyController(model)
+    for _ in range(3):
+        c.act(np.zeros(12), 0.0)
+    c.reset()
+    c.act(np.zeros(12), 0.0)
+    states = [state for _, _, state, _ in model.seen]
+    starts = [start.tolist() for _, _, _, start in model.seen]
+    assert states == [None, 1, 2, None]  # each call gets the state the last one returned
+    assert starts == [[True], [False], [False], [True]]
 
 
 def test_heading_hold_eases_the_paddle_on_the_side_it_must_turn_to():
