@@ -76,8 +76,6 @@ class CaseStudyPreset:
             fitness is the mean distance. One start overfits the gait to it.
         transfer_episodes: paired starts per transfer score (native and target); the
             report gives mean distances.
-        rl: train the two PPO rows (``ppo`` on the self-model, ``robust_ppo`` with random
-            damages), each for :attr:`rl_timesteps`, when stable-baselines3 is installed.
         episode_duration_s: simulated seconds of every gait-evolution and transfer episode
             (20 s, the paper's; ``run_case_study(episode_duration_s=...)`` overrides it).
     """
@@ -88,13 +86,13 @@ class CaseStudyPreset:
     gait_episodes: int = 1
     transfer_episodes: int = 1
     episode_duration_s: float = 20.0
-    rl: bool = True
 
     @property
     def rl_timesteps(self) -> int:
-        """PPO training env steps: as many as one NEAT gait simulates (population x
-        generations x starts per genome x control steps per episode, 0.1 s each), so a policy
-        and a gait get the same training budget."""
+        """Training env steps of each PPO row (``ppo`` on the self-model, ``robust_ppo`` with
+        random damages; trained when stable-baselines3 is installed): as many as one NEAT gait
+        simulates (population x generations x starts per genome x control steps per episode,
+        0.1 s each), so a policy and a gait get the same training budget."""
         steps = int(round(self.episode_duration_s / (DT_S * FRAME_SKIP)))
         return self.gait_population * self.gait_generations * self.gait_episodes * steps
 
@@ -280,7 +278,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
             native, out / _gait_dir(key, duration), generations=settings.gait_generations,
             population_size=settings.gait_population, seed=seed, workers=workers,
             episodes_per_genome=settings.gait_episodes, episode_duration_s=duration, progress=progress)
-    if settings.rl and _rl_available():
+    if _rl_available():  # the two PPO rows, each for rl_timesteps
         for key, native, name in (("ppo", "self_model", "self_model"), ("robust_ppo", "robust", "random_damage")):
             rl_dir = f"rl_ppo_{name}" if duration == 20.0 else f"rl_ppo_{name}_{duration:g}s"
             # one torch thread: the small MLP trains fastest so (1,070 steps/s against 205 with
