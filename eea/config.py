@@ -57,7 +57,7 @@ MODEL_SPACE_NAMES: tuple[str, ...] = tuple(MODEL_SPACES)
 #: the stopping criterion (a finished run can be extended to more rounds).
 RESULT_NEUTRAL_FIELDS: tuple[str, ...] = ("workers", "max_batch_robots", "rounds")
 
-#: Fields of variants retired in issue 40 (docs/studies/retired_variants.md) and the default
+#: Fields of retired variants (issue 40 and later; docs/studies/retired_variants.md) and the default
 #: each had: a ``config.json`` written before holds them, and loads (:meth:`EEAConfig.from_dict`)
 #: if each has its default, i.e. the run did not use the retired variant.
 RETIRED_FIELDS: dict[str, object] = {
@@ -65,6 +65,7 @@ RETIRED_FIELDS: dict[str, object] = {
     "profile_inherit": "hamming", "profile_library_newcomers": 0, "profile_select": 0, "profile_select_refine": 30,
     "profile_fine_steps": 0, "profile_polish": 0, "profile_scan": 0, "exploration_spread_weight": 1.0,
     "model_similarity": "paper", "oob_experiments": "newest",
+    "cma_global_flip": 0,  # the global share started at the gain-flipped local best (measured at eac968c)
 }
 
 #: Retired values of fields that stay, by field: a ``config.json`` holding one was written by

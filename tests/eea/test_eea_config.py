@@ -104,6 +104,8 @@ def test_a_config_written_before_issue_40_loads_unless_it_used_a_retired_variant
     with pytest.raises(ValueError, match=r"EEAConfig.cma_flip_gains = 2: this run used a retired variant"):
         EEAConfig.from_dict(servos)                                            # the fault classes (eed7c8d)
     assert EEAConfig.from_dict({**servos, "cma_flip_gains": 1}).cma_flip_gains == 1
+    with pytest.raises(ValueError, match=r"EEAConfig.cma_global_flip = 1: this run used a retired variant"):
+        EEAConfig.from_dict({**servos, "cma_flip_gains": 1, "cma_global_flip": 1})  # the global flip (eac968c)
 
 
 def test_every_published_config_loads_or_names_its_retired_variant():
