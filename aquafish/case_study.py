@@ -196,7 +196,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
                                           **({"workers": workers} if workers else {}))
                for key, (name, space, summary) in runs.items()}
     out = check_output_dir(out_dir)
-    with run_lock(out):
+    with run_lock(out, command="case-study"):
         return _run_locked(preset, settings, damage, target, seed, out, method, model_space, video, workers,
                            progress, runs, configs)
 

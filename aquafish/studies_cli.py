@@ -8,7 +8,7 @@ from pathlib import Path
 
 from aquafish_gym.argtypes import csv_list, int_at_least, positive_float
 from aquafish_gym.rundir import check_output_dir, check_output_file, run_lock
-from eea.cli import add_config_flags, config_fields, config_flag_names
+from eea.cli import add_config_flags, config_fields, config_flag_names, given_flags
 from eea import INFERENCE_NAMES, MODEL_SPACES, EEAConfig
 from eea.methods import BEST_METHOD, METHODS, PAPER_METHODS
 
@@ -40,7 +40,7 @@ def _study(args: argparse.Namespace) -> int:
 
     names = config_flag_names(STUDY_EXCLUDED)
     base = EEAConfig(workers=1, **config_fields(args, names))
-    fixed = [n for n in names if getattr(args, n) is not None]  # flags given win over the methods' fields
+    fixed = list(given_flags(args, names))  # flags given win over the methods' fields
     spec = StudySpec(args.conditions, args.durations, args.replicates, base, first_seed=args.first_seed, fixed=fixed)
     dirs = run_study(spec, args.out, backend=args.backend, address=args.address, processes=args.processes)
     print(f"{len(dirs)} runs under {args.out}; plot them with: aquafish plot {args.out}")
@@ -104,7 +104,7 @@ def _baselines(args: argparse.Namespace) -> int:
     check_output_dir(args.out)
     budget = BaselineBudget(args.neat_generations, args.neat_population, args.neat_episodes, args.ppo_timesteps,
                             args.seed, args.workers)
-    with run_lock(args.out):  # a second writer fails at once; each learner's directory is locked too
+    with run_lock(args.out, command="baselines"):  # a second writer fails at once; each learner's directory is locked too
         rows = task_table(args.out, env_ids=args.envs, budget=budget, starts=args.starts, eval_seed=args.eval_seed)
     print(format_table(rows, args.starts))
     print(f"wrote {args.out}/task_table.md and task_table.json")
@@ -116,7 +116,7 @@ def _damages(args: argparse.Namespace) -> int:
 
     check_output_dir(args.out)
     budget = GaitBudget(args.generations, args.population_size, args.episodes_per_genome, args.seed, args.workers)
-    with run_lock(args.out):  # a second writer fails at once; each gait's directory is locked too
+    with run_lock(args.out, command="damages"):  # a second writer fails at once; each gait's directory is locked too
         rows = damage_table(args.out, damages=args.damages, budget=budget, starts=args.starts,
                             eval_seed=args.eval_seed, verbose=args.verbose)
     print(format_table(rows, args.starts))

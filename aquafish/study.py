@@ -149,7 +149,7 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
 
     for config, _ in spec.runs(out_dir):
         check_run_memory(config)
-    with run_lock(out_dir):
+    with run_lock(out_dir, command="study"):
         return _run_study_locked(spec, out_dir, backend, address, processes, progress)
 
 

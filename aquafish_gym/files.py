@@ -26,9 +26,11 @@ __all__ = ["atomic_write", "save_figure"]
 def atomic_write(path: str | os.PathLike, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically (temporary file, flush, fsync, ``os.replace``).
 
-    The temporary file ``.NAME.*.tmp`` lives in the same directory as ``path`` (a rename
+    The temporary file ``.NAME.PID.*.tmp`` lives in the same directory as ``path`` (a rename
     is atomic only within one file system) and is removed if anything fails, including a
-    ``KeyboardInterrupt``; ``path`` is then left as it was. The parent directory must exist.
+    ``KeyboardInterrupt``; ``path`` is then left as it was. A process killed mid-write leaves
+    it behind: its pid tells :func:`aquafish_gym.rundir.run_lock` that nobody is writing it
+    any more, and the next lock of the directory removes it. The parent directory must exist.
     The new file gets the permissions a plain ``open(path, "w")`` would give it
     (``0o666`` less the process umask), not ``mkstemp``'s private ``0o600``.
 
@@ -39,10 +41,20 @@ def atomic_write(path: str | os.PathLike, data: bytes) -> None:
     Raises:
         FileNotFoundError: the parent directory does not exist.
         TypeError: ``data`` is not bytes-like.
-        OSError: the file cannot be written or renamed (permissions, disk full, ...).
+        OSError: the file cannot be written or renamed (permissions, disk full, ...); its
+            ``filename`` is ``path``.
     """
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        _write_replace(path, data)
+    except OSError as err:
+        if err.filename is None:  # a failed write() or fsync() names no file: name the one being written
+            raise OSError(err.errno, err.strerror or str(err), os.fspath(path)) from err
+        raise
+
+
+def _write_replace(path: Path, data: bytes) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as f:
             if hasattr(os, "fchmod"):  # POSIX

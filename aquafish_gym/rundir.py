@@ -7,7 +7,10 @@ Every command of the project that writes results goes through these helpers, so 
   created (:func:`check_output_dir`, :func:`check_output_file`);
 * holds an advisory lock on its run directory while it writes (:func:`run_lock`, POSIX
   ``fcntl.flock``: the kernel releases it when the process dies, even by ``kill -9``), so a
-  second writer fails at once with :class:`BusyError`;
+  second writer fails at once with :class:`BusyError`; the lock also records which command
+  made the directory (:data:`COMMAND_FILE`), so another command refuses it by name, removes
+  the temporary files that killed writers left, and removes a directory it created if the
+  command is refused before writing anything;
 * refuses to resume, extend or reuse output made with other settings
   (:func:`check_fingerprint` raises :class:`MismatchError` naming the fields that differ);
 * reads its own files back through :func:`read_json` and :func:`read_pickle`, which turn a
@@ -25,11 +28,13 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import errno
 import gzip
 import json
 import math
 import os
 import pickle
+import re
 import signal
 import sys
 import threading
@@ -43,12 +48,20 @@ try:
 except ImportError:  # not POSIX: no lock (the project's machines are Linux)
     fcntl = None  # type: ignore[assignment]
 
-__all__ = ["BusyError", "FileError", "LOCK_FILE", "MismatchError", "available_memory", "check_fingerprint",
+__all__ = ["BusyError", "COMMAND_FILE", "FileError", "LOCK_FILE", "MismatchError", "available_memory", "check_fingerprint",
+           "command_of",
            "check_memory", "check_output_dir", "check_output_file", "die_with_parent", "differences",
            "format_bytes", "read_json", "read_pickle", "run_lock"]
 
 #: The lock file :func:`run_lock` keeps in a run directory (it holds the writer's pid).
 LOCK_FILE = ".aquafish.lock"
+#: The file in which :func:`run_lock` records the command that made a run directory (``eea``).
+COMMAND_FILE = ".aquafish-command"
+#: How a directory written before :data:`COMMAND_FILE` existed tells the command that made it:
+#: a manifest that only that command writes.
+LEGACY_MANIFESTS = {"config.json": "eea", "state.pkl": "eea", "study.json": "study",
+                    "fitness_settings.json": "gait", "run.json": "gait", "model.json": "rl",
+                    "report.json": "case-study", "damage_table.json": "damages", "task_table.json": "baselines"}
 
 
 class FileError(ValueError):
@@ -61,8 +74,12 @@ class FileError(ValueError):
 
     def __init__(self, path: str | os.PathLike, problem: str,
                  fix: str = "delete it (or the run directory) and run again, or restore it from a copy"):
-        self.path, self.problem = Path(path), problem
+        self.path, self.problem, self.fix = Path(path), problem, fix
         super().__init__(f"{self.path}: {problem}; {fix}")
+
+    def __reduce__(self):
+        # pickled with its three arguments, so that it crosses a process pool or Ray unchanged
+        return type(self), (self.path, self.problem, self.fix)
 
 
 class BusyError(ValueError):
@@ -88,6 +105,31 @@ def _writable(directory: Path) -> bool:
     return os.access(directory, os.W_OK | os.X_OK)
 
 
+def _not_a_directory(path: Path) -> str:
+    """Why the existing (or dangling) ``path`` is no directory: a file, a dangling symbolic link or a loop."""
+    if os.path.islink(path):
+        try:
+            os.stat(path)
+        except OSError as err:
+            if err.errno == errno.ELOOP:
+                return f"is a symbolic link that loops ({path} -> {os.readlink(path)})"
+            return f"is a symbolic link to {os.readlink(path)}, which does not exist"
+    return "is a file, not a directory"
+
+
+def _check_names(path: Path, existing: Path, flag: str) -> None:
+    """Each component of ``path`` below ``existing`` is a name the file system takes (ValueError if not)."""
+    try:
+        limit = os.pathconf(existing, "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):
+        limit = 255
+    for part in Path(os.path.abspath(path)).relative_to(existing).parts:
+        if len(os.fsencode(part)) > limit:
+            raise ValueError(f"{flag} {path} cannot be created: its component {part[:40]}... is "
+                             f"{len(os.fsencode(part))} bytes long, more than the {limit} the file system allows; "
+                             "choose a shorter name")
+
+
 def check_output_dir(path: str | os.PathLike, flag: str = "--out") -> Path:
     """Check, without creating anything, that ``path`` is or can become a writable directory.
 
@@ -99,7 +141,8 @@ def check_output_dir(path: str | os.PathLike, flag: str = "--out") -> Path:
         ``path`` as a ``Path``.
 
     Raises:
-        ValueError: ``path`` is empty, is a file, lies under a file, or is (or would be
+        ValueError: ``path`` is empty, is a file or a dangling or looping symbolic link, lies
+            under one, has a component longer than the file system allows, or is (or would be
             created in) a directory this process may not write.
     """
     text = os.fspath(path) if path is not None else ""
@@ -109,7 +152,7 @@ def check_output_dir(path: str | os.PathLike, flag: str = "--out") -> Path:
     existing = _first_existing(path)
     if existing == Path(os.path.abspath(path)):
         if not path.is_dir():
-            raise ValueError(f"{flag} {path} is a file, not a directory; give a directory path")
+            raise ValueError(f"{flag} {path} {_not_a_directory(path)}; give a directory path")
         if not _writable(path):
             raise ValueError(f"{flag} {path} is not writable by this user; choose another directory")
         return path
@@ -120,11 +163,12 @@ def check_output_dir(path: str | os.PathLike, flag: str = "--out") -> Path:
 def _check_creatable(path: Path, existing: Path, flag: str) -> None:
     """``path`` can be created under ``existing``, its nearest existing ancestor (ValueError if not)."""
     if not existing.is_dir():
-        raise ValueError(f"{flag} {path} cannot be created: {existing} is a file, not a directory; "
+        raise ValueError(f"{flag} {path} cannot be created: {existing} {_not_a_directory(existing)}; "
                          "choose another path")
     if not _writable(existing):
         raise ValueError(f"{flag} {path} cannot be created: {existing} is not writable by this user; "
                          "choose another directory")
+    _check_names(path, existing, flag)
 
 
 def check_output_file(path: str | os.PathLike, flag: str = "--output") -> Path:
@@ -156,32 +200,92 @@ _HELD_GUARD = threading.Lock()
 
 
 @contextlib.contextmanager
-def run_lock(directory: str | os.PathLike, flag: str = "--out", *, name: str = LOCK_FILE) -> Iterator[Path]:
+def run_lock(directory: str | os.PathLike, flag: str = "--out", *, name: str = LOCK_FILE,
+             command: str | None = None) -> Iterator[Path]:
     """Hold the advisory lock of ``directory`` (created if missing) while the block runs.
 
     The lock is ``fcntl.flock`` on ``directory/.aquafish.lock``, a file that holds the
-    writer's pid and is removed when the block ends. The kernel drops the lock when its
-    holder exits or is killed, so a crash never leaves a stale lock (a file left by a killed
-    writer is simply locked anew). It is re-entrant within one process (a command that locks
-    its output and then calls a library function that locks the same directory), never
+    writer's pid and is removed when the block ends. It is opened with ``O_NOFOLLOW``: a
+    symbolic link planted in its place is refused, never followed. The kernel drops the lock
+    when its holder exits or is killed, so a crash never leaves a stale lock (a file left by a
+    killed writer is simply locked anew). It is re-entrant within one process (a command that
+    locks its output and then calls a library function that locks the same directory), never
     across processes.
+
+    Once locked, the directory is claimed for ``command`` and cleaned:
+
+    * a directory made by another command (:data:`COMMAND_FILE`, or for a directory written
+      before that file existed, one of :data:`LEGACY_MANIFESTS`) is refused by name; one
+      without a command is claimed for ``command``;
+    * the temporary files of :func:`aquafish_gym.files.atomic_write` that a killed writer left
+      in it or below it are removed (those of a process still running are kept).
+
+    If the block raises and the directory was created here and holds nothing but the lock's
+    own files, it is removed again, with the parents created for it: a command refused
+    before it wrote anything leaves nothing behind.
 
     Args:
         directory: the run directory.
         flag: names the setting in the message.
         name: the lock file's name (another name locks one output file of a shared directory).
+        command: the ``aquafish`` command that writes the directory (``"eea"``, ``"gait"``,
+            ...), or None to claim nothing.
 
     Yields:
         ``directory`` as a ``Path``.
 
     Raises:
         BusyError: another process holds the lock (the message names its pid).
+        MismatchError: the directory was made by another command than ``command``.
+        FileError: the lock file is a symbolic link.
         OSError: the directory or the lock file cannot be created.
     """
     directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
+    created = _make_dirs(directory)
+    try:
+        with _locked(directory, flag, name):
+            if command is not None:
+                _claim(directory, command, flag)
+            yield directory
+    except BaseException:
+        _remove_if_unused(created)
+        raise
+
+
+def _make_dirs(directory: Path) -> list[Path]:
+    """Create ``directory`` and its missing parents; return those created, deepest first."""
+    missing = []
+    path = Path(os.path.abspath(directory))
+    while not os.path.lexists(path) and path.parent != path:
+        missing.append(path)
+        path = path.parent
+    for path in reversed(missing):
+        try:
+            path.mkdir()
+        except BaseException:
+            _remove_if_unused([p for p in missing if p.exists()])
+            raise
+    return missing
+
+
+def _remove_if_unused(created: list[Path]) -> None:
+    """Remove the directories of ``created`` (deepest first) that hold nothing but the lock's files;
+    stop at the first that holds anything else."""
+    for path in created:
+        try:
+            if not set(os.listdir(path)) <= {COMMAND_FILE, LOCK_FILE}:
+                return
+            for leftover in os.listdir(path):
+                os.unlink(path / leftover)
+            path.rmdir()
+        except OSError:
+            return
+
+
+@contextlib.contextmanager
+def _locked(directory: Path, flag: str, name: str) -> Iterator[None]:
     if fcntl is None:
-        yield directory
+        yield
         return
     key = os.path.join(os.path.realpath(directory), name)
     with _HELD_GUARD:
@@ -190,8 +294,9 @@ def run_lock(directory: str | os.PathLike, flag: str = "--out", *, name: str = L
             held[1] += 1
         else:
             _HELD[key] = [_acquire(key, directory, flag), 1, os.getpid()]
+            _remove_stale_temporaries(directory)
     try:
-        yield directory
+        yield
     finally:
         with _HELD_GUARD:
             held = _HELD[key]
@@ -206,7 +311,13 @@ def run_lock(directory: str | os.PathLike, flag: str = "--out", *, name: str = L
 def _acquire(key: str, directory: Path, flag: str) -> int:
     """Open and ``flock`` the lock file ``key``; the locked inode must still be the file at ``key``."""
     while True:
-        fd = os.open(key, os.O_RDWR | os.O_CREAT, 0o666)
+        try:
+            fd = os.open(key, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o666)
+        except OSError as err:
+            if err.errno == errno.ELOOP or os.path.islink(key):
+                raise FileError(key, "is a symbolic link, not a lock file (a lock is never written through a link)",
+                                "remove the link, or use another " + flag) from None
+            raise
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -216,7 +327,7 @@ def _acquire(key: str, directory: Path, flag: str) -> int:
             raise BusyError(f"{flag} {directory} is in use by another aquafish process{who}; wait for it to "
                             f"finish or use another {flag}") from None
         try:
-            same = os.stat(key).st_ino == os.fstat(fd).st_ino
+            same = os.lstat(key).st_ino == os.fstat(fd).st_ino
         except FileNotFoundError:
             same = False
         if same:
@@ -224,6 +335,69 @@ def _acquire(key: str, directory: Path, flag: str) -> int:
             os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
             return fd
         os.close(fd)  # the holder removed it as we opened it: lock the new file
+
+
+def command_of(directory: str | os.PathLike) -> str | None:
+    """The ``aquafish`` command that made ``directory``: its :data:`COMMAND_FILE`, else the command
+    of the first :data:`LEGACY_MANIFESTS` file in it, else None (a new or foreign directory)."""
+    directory = Path(directory)
+    marker = directory / COMMAND_FILE
+    if marker.is_file() and not marker.is_symlink():
+        return marker.read_text(errors="replace").strip() or None
+    for manifest, command in LEGACY_MANIFESTS.items():
+        if (directory / manifest).is_file():
+            return command
+    return None
+
+
+def _claim(directory: Path, command: str, flag: str) -> None:
+    """Record ``command`` as the maker of ``directory`` (MismatchError if another command made it)."""
+    made_by = command_of(directory)
+    if made_by is not None and made_by != command:
+        raise MismatchError(f"{flag} {directory} holds the output of `aquafish {made_by}`, not of `aquafish {command}`; "
+                            f"use another {flag} (a command never writes into another command's directory)")
+    if made_by is None or not (directory / COMMAND_FILE).is_file():
+        from aquafish_gym.files import atomic_write
+
+        atomic_write(directory / COMMAND_FILE, f"{command}\n".encode())
+
+
+#: A temporary file of :func:`aquafish_gym.files.atomic_write`: ``.NAME.PID.XXXXXXXX.tmp``
+#: (``PID`` its writer's; files of versions that did not record it lack it).
+_TEMPORARY = re.compile(r"^\..+?(?:\.(?P<pid>\d+))?\.[a-z0-9_]{8}\.tmp$")
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process
+        return True
+    return True
+
+
+def _remove_stale_temporaries(directory: Path) -> None:
+    """Remove the temporary files that writers which are no longer running left in ``directory``
+    or its subdirectories (``checkpoints/``; a run in a subdirectory cleans its own when it is
+    locked); a temporary without a pid (written by an older version) only directly in it."""
+    try:
+        subdirs = [e.path for e in os.scandir(directory) if e.is_dir(follow_symlinks=False)]
+    except OSError:
+        return
+    for where in (os.fspath(directory), *subdirs):
+        with contextlib.suppress(OSError):
+            for entry in os.scandir(where):
+                match = _TEMPORARY.match(entry.name)
+                if match is None or not entry.is_file(follow_symlinks=False):
+                    continue
+                pid = match.group("pid")
+                if (pid is None and where != os.fspath(directory)) or (pid is not None and _alive(int(pid))):
+                    continue
+                with contextlib.suppress(OSError):
+                    os.unlink(entry.path)
 
 
 # -- fingerprints -----------------------------------------------------------------------------------
@@ -335,11 +509,14 @@ def die_with_parent(parent_pid: int) -> None:
 
     On Linux the kernel sends the worker ``SIGKILL`` when its parent dies
     (``prctl(PR_SET_PDEATHSIG)``); elsewhere a daemon thread polls the parent's pid every
-    second. A parent that died before this ran is caught too. Pass ``os.getpid()`` of the
-    process that creates the pool::
+    second. A parent that died before this ran is caught too. Ctrl-C (``SIGINT``, which the
+    terminal sends to the parent and its workers alike) ends the worker at once and quietly:
+    the parent reports the interrupt, in one line. Pass ``os.getpid()`` of the process that
+    creates the pool::
 
         ProcessPoolExecutor(n, initializer=die_with_parent, initargs=(os.getpid(),))
     """
+    signal.signal(signal.SIGINT, _exit_quietly)
     if sys.platform.startswith("linux"):
         try:
             libc = ctypes.CDLL(None, use_errno=True)
@@ -350,6 +527,10 @@ def die_with_parent(parent_pid: int) -> None:
         _watch_parent(parent_pid)
     if os.getppid() != parent_pid:
         os._exit(1)
+
+
+def _exit_quietly(signum, frame) -> None:
+    os._exit(128 + signum)
 
 
 def _watch_parent(parent_pid: int) -> None:
@@ -405,4 +586,5 @@ def check_memory(what: str, estimate_bytes: float, fix: str, *, share: float = 0
     available = available_memory()
     if not estimate_bytes <= share * available:
         raise ValueError(f"{what} needs about {format_bytes(estimate_bytes)} of memory, more than the "
-                         f"{format_bytes(available)} available; {fix}")
+                         f"{format_bytes(share * available)} a run may use ({share:.0%} of the "
+                         f"{format_bytes(available)} available); {fix}")

@@ -8,6 +8,12 @@ uninterrupted run would: the checkpoint holds the generator's bit-generator stat
 estimation search, the experiments with their contexts, the estimation cache and the
 counters.
 
+A checkpoint is a pickle, and unpickling runs code: a run directory is trusted like code.
+:func:`load_state` unpickles ``state.pkl`` only beside the run's manifest ``config.json``, and
+:func:`eea.run` compares that manifest with the settings asked for before it loads the
+checkpoint, so a ``state.pkl`` planted alone, or in a directory of another run, is refused
+unread.
+
 Classes are pickled by module path. Modules that moved keep loading through
 :data:`MODULE_RENAMES`, which :class:`RenamingUnpickler` applies: the CMA-ES search is pickled
 whole inside the checkpoint (:meth:`eea.search.cma.CMAModelSearch.state_dict`), and checkpoints
@@ -25,9 +31,11 @@ from pathlib import Path
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, read_pickle
 
-__all__ = ["MODULE_RENAMES", "STATE_FILE", "RenamingUnpickler", "RunState", "load_state", "loads", "save_state"]
+__all__ = ["CONFIG_FILE", "MODULE_RENAMES", "STATE_FILE", "RenamingUnpickler", "RunState", "load_state", "loads", "save_state"]
 
 STATE_FILE = "state.pkl"
+#: The run's manifest (its :class:`~eea.config.EEAConfig`), beside which alone a checkpoint is read.
+CONFIG_FILE = "config.json"
 _VERSION = 1
 
 #: Old module path -> new, for classes pickled before their module moved (issue 40 made
@@ -98,14 +106,23 @@ def save_state(out_dir: str | os.PathLike, state: RunState) -> None:
 def load_state(out_dir: str | os.PathLike) -> RunState | None:
     """The checkpoint in ``out_dir``, or None if there is none yet.
 
+    The checkpoint is a pickle: it is read only beside its run's manifest (``config.json``),
+    in a directory the caller has checked (see the module docstring); the run directory is
+    trusted like code.
+
     Raises:
-        FileError: (a ``ValueError``) the file is truncated or garbled, is not an EEA
-            checkpoint, or was written by another checkpoint version; the message names it.
+        FileError: (a ``ValueError``) the file has no ``config.json`` beside it (it is not
+            read), is truncated or garbled, is not an EEA checkpoint, or was written by
+            another checkpoint version; the message names it.
         OSError: the file cannot be read.
     """
     path = Path(out_dir) / STATE_FILE
     if not path.exists():
         return None
+    if not (Path(out_dir) / CONFIG_FILE).is_file():
+        raise FileError(path, f"has no {CONFIG_FILE} beside it: a checkpoint is loaded only in the run directory "
+                              "that wrote it (unpickling runs code)",
+                        f"restore {CONFIG_FILE} from a copy of the run, or delete {STATE_FILE} to start over")
     data = read_pickle(path, what="EEA checkpoint", unpickler=RenamingUnpickler)
     if not isinstance(data, dict) or not {"config", "rows", "experiments"} <= set(data):
         raise FileError(path, "is not an EEA checkpoint (state.pkl)")

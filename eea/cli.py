@@ -24,7 +24,7 @@ from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, MODEL_SPACE_NAMES, EEACo
 from eea.methods import BUDGETS, METHODS, budget_fields, method_fields
 from eea.inference import INFERENCE_NAMES
 
-__all__ = ["add_commands", "add_config_flags", "config_fields", "config_flag_names"]
+__all__ = ["add_commands", "add_config_flags", "config_fields", "config_flag_names", "given_flags"]
 
 _SHORT_FLAGS = {"duration_s": ("--duration",)}
 #: The allowed values of the fields that take a name.
@@ -61,7 +61,9 @@ def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = (
     (``inference``, ``estimation_search``, ``model_space``) list their
     choices. Also adds ``--budget NAME`` (:data:`eea.methods.BUDGETS`, default ``paper``) and,
     when ``inference`` gets a flag, ``--method NAME`` (:data:`eea.methods.METHODS`). A flag not
-    given parses as None, so that :func:`config_fields` can tell it from one given.
+    given leaves no attribute on the parsed namespace (``argparse.SUPPRESS``), so that
+    :func:`config_fields` tells it from one given, even one whose value is None
+    (``--waterline deep``).
 
     Args:
         parser: the (sub-)command's parser.
@@ -79,7 +81,8 @@ def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = (
     for name in names:
         default = getattr(defaults, name)
         flags = (f"--{name.replace('_', '-')}", *_SHORT_FLAGS.get(name, ()))
-        parser.add_argument(*flags, type=_TYPES.get(name, type(default)), default=None, dest=name, choices=_CHOICES.get(name),
+        parser.add_argument(*flags, type=_TYPES.get(name, type(default)), default=argparse.SUPPRESS, dest=name,
+                            choices=_CHOICES.get(name),
                             help=f"{FIELD_HELP[name]} (default: {default})")
     parser.add_argument("--budget", choices=list(BUDGETS), default="paper",
                         help="how much search each round gets (eea.methods.BUDGETS): smoke, quick, reduced (the "
@@ -109,8 +112,21 @@ def config_fields(args: argparse.Namespace, names: Iterable[str]) -> dict:
     names = tuple(names)
     method = method_fields(args.method) if getattr(args, "method", None) else {}
     fields = {k: v for k, v in {**budget_fields(args.budget), **method}.items() if k in names}
-    fields.update({n: getattr(args, n) for n in names if getattr(args, n) is not None})
+    fields.update(given_flags(args, names))
     return fields
+
+
+def given_flags(args: argparse.Namespace, names: Iterable[str]) -> dict:
+    """The :class:`~eea.config.EEAConfig` fields among ``names`` whose flag the command line gave.
+
+    A value of None is a value given (``--waterline deep`` is deep water, ``None``); a flag not
+    given has no attribute on ``args`` (:func:`add_config_flags`).
+
+    Returns:
+        ``{field: value}`` in ``names`` order.
+    """
+    given = vars(args)
+    return {n: given[n] for n in names if n in given}
 
 
 def _run_eea(args: argparse.Namespace) -> int:
@@ -128,7 +144,8 @@ def add_commands(subparsers) -> None:
     eea = subparsers.add_parser("eea", help="run (or resume) the self-modeling EEA",
                                 description="Run the Estimation-Exploration Algorithm on the simulated damaged "
                                             "robot (paper sections 3.2-3.4, 4); resumes DIR if it holds the same run.")
-    eea.add_argument("--out", required=True, metavar="DIR", help="run directory (config.json, rounds.csv, state.pkl)")
+    eea.add_argument("--out", required=True, metavar="DIR", help="run directory (config.json, rounds.csv, state.pkl); its checkpoint state.pkl is a pickle, "
+                          "so a run directory is trusted like code: resume only your own or trusted ones")
     eea.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     add_config_flags(eea)
     eea.set_defaults(func=_run_eea)

@@ -45,6 +45,7 @@ import numpy as np
 from aquafish_gym import ACTION_FIELDS, MORPHOLOGY_FIELDS, Morphology, ServoFaults, get_damage
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, read_json
+from eea.checkpoint import CONFIG_FILE
 from eea.config import EEAConfig
 from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, servo_gains
 from eea.experiment import FLIPPERS, angle_errors_deg
@@ -54,7 +55,6 @@ __all__ = ["CONFIG_FILE", "GAIN_COLUMNS", "ROUNDS_FILE", "ROUND_COLUMNS", "RunRe
            "check_rounds", "load_result", "read_rounds", "read_config", "read_csv", "round_columns", "round_row",
            "write_config", "write_csv", "write_rounds"]
 
-CONFIG_FILE = "config.json"
 ROUNDS_FILE = "rounds.csv"
 MODEL_COLUMNS = tuple(f"model_{name}" for name in MORPHOLOGY_FIELDS)
 ACTION_COLUMNS = tuple(f"action_{name}" for name in ACTION_FIELDS)

@@ -44,22 +44,30 @@ def _fingerprint(config: dict) -> dict:
     return {k: v for k, v in config.items() if k not in RESULT_NEUTRAL_FIELDS}
 
 
-def _check_config(out_dir: Path, config: EEAConfig, existing: EEAConfig | None, state: RunState | None) -> None:
-    """Refuse a directory whose ``config.json`` or checkpoint holds another run (naming the fields)."""
-    fix = "use another --out, or the same settings to resume it"
+def _check_manifest(out_dir: Path, config: EEAConfig, existing: EEAConfig | None) -> None:
+    """Refuse a directory whose ``config.json`` holds another run (naming the fields)."""
     if existing is not None and not config.same_results_as(existing):
         mine, theirs = config.to_dict(), existing.to_dict()
         diff = [f"{k}: {theirs[k]!r} -> {mine[k]!r}" for k in mine
                 if k not in RESULT_NEUTRAL_FIELDS and mine[k] != theirs[k]]
-        raise MismatchError(f"{out_dir} holds a run with a different config ({'; '.join(diff)}); {fix}")
-    if state is not None:  # the checkpoint carries its run's config: a copied-in or edited run is refused
-        # through from_dict: a checkpoint written before issue 40 holds the retired fields at their defaults
-        check_fingerprint(out_dir / STATE_FILE, _fingerprint(EEAConfig.from_dict(state.config).to_dict()),
-                          _fingerprint(config.to_dict()),
-                          f"the checkpoint belongs to another run: {fix} (or delete {STATE_FILE} and "
-                          f"{ROUNDS_FILE} to start this one over)")
-        if len(state.rows) != state.rounds_done:
-            raise FileError(out_dir / STATE_FILE, f"holds {len(state.rows)} rows for {state.rounds_done} rounds")
+        raise MismatchError(f"{out_dir} holds a run with a different config ({'; '.join(diff)}); {_FIX}")
+
+
+def _check_checkpoint(out_dir: Path, config: EEAConfig, state: RunState | None) -> None:
+    """Refuse a checkpoint that belongs to another run: it carries its run's config, so a
+    copied-in or edited run is refused (naming the fields)."""
+    if state is None:
+        return
+    # through from_dict: a checkpoint written before issue 40 holds the retired fields at their defaults
+    check_fingerprint(out_dir / STATE_FILE, _fingerprint(EEAConfig.from_dict(state.config).to_dict()),
+                      _fingerprint(config.to_dict()),
+                      f"the checkpoint belongs to another run: {_FIX} (or delete {STATE_FILE} and "
+                      f"{ROUNDS_FILE} to start this one over)")
+    if len(state.rows) != state.rounds_done:
+        raise FileError(out_dir / STATE_FILE, f"holds {len(state.rows)} rows for {state.rounds_done} rounds")
+
+
+_FIX = "use another --out, or the same settings to resume it"
 
 
 def check_run_memory(config: EEAConfig) -> None:
@@ -103,14 +111,15 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
     """
     out = check_output_dir(out_dir)
     check_run_memory(config)
-    with run_lock(out):
+    with run_lock(out, command="eea"):
         return _run_locked(config, out, progress)
 
 
 def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
     existing = read_config(out)
+    _check_manifest(out, config, existing)  # before the checkpoint is unpickled
     state = load_state(out)
-    _check_config(out, config, existing, state)
+    _check_checkpoint(out, config, state)
     if existing is None or config.rounds >= existing.rounds:
         write_config(out, config)
     else:  # fewer rounds asked than planned: the run's record keeps its plan

@@ -424,7 +424,7 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
     if out_dir is None:
         return _evolve(population, task, None, resume is not None, verbose, checkpoint_every, generations, workers,
                        progress)
-    with run_lock(out_dir):
+    with run_lock(out_dir, command="gait"):
         _check_run_dir(out_dir, getattr(population.config, FINGERPRINT_ATTR), resume is not None)
         if config_text is not None:
             atomic_write(out_dir / "neat_config.ini", config_text.encode())
@@ -527,7 +527,7 @@ def evolve_or_load_gait(morphology, out_dir, **kwargs) -> NEATController:
             ``population_size``), naming the fields.
     """
     out_dir = check_output_dir(out_dir)
-    with run_lock(out_dir):
+    with run_lock(out_dir, command="gait"):
         if (out_dir / RUN_FILE).is_file():
             _check_finished(out_dir, morphology, kwargs)
             return load_controller(out_dir / NEAT_CONTROLLER_FILE)

@@ -190,7 +190,7 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
                                  clock_period_s, env_id)
     out_dir = check_output_dir(out_dir)
     make_rl_env(robot, episode_duration_s=episode_duration_s, clock_period_s=clock_period_s, env_id=env_id).close()
-    with run_lock(out_dir):
+    with run_lock(out_dir, command="rl"):
         model_path = out_dir / SB3_MODEL_FILE
         if sb3_sidecar(model_path).is_file():
             recorded = _recorded_fingerprint(sb3_sidecar(model_path))

@@ -246,11 +246,13 @@ def test_a_state_pkl_copied_from_another_run_is_refused(made, copy, capsys):
     fails_safe(_eea(run, "--rounds", "3"), capsys, "state.pkl", "seed: 1 -> 0")
 
 
-def test_a_resume_without_config_json_under_other_flags_is_refused(copy, capsys):
+def test_a_resume_without_config_json_is_refused_unread(copy, capsys):
+    # a checkpoint is a pickle: it is read only beside its manifest, whatever the flags
     run = copy("runs/seed0")
     (run / "config.json").unlink()
     rows = (run / "rounds.csv").read_text()
-    fails_safe(_eea(run, "--seed", "5"), capsys, "state.pkl", "seed: 0 -> 5")
+    for flags in (("--seed", "5"), ("--seed", "0")):
+        fails_safe(_eea(run, *flags), capsys, "state.pkl", "config.json")
     assert (run / "rounds.csv").read_text() == rows and not (run / "config.json").exists()
 
 

@@ -11,6 +11,8 @@ import time
 import numpy as np
 import pytest
 
+from aquafish_gym.rundir import COMMAND_FILE
+
 import eea
 import eea.estimation
 from eea.fitness import objective_fitness
@@ -45,7 +47,9 @@ def test_run_writes_config_and_one_row_per_round(tmp_path, tiny_config):
     loaded = load_result(tmp_path)
     assert loaded.rounds == rows and loaded.config == config and loaded.finished
     np.testing.assert_array_equal(loaded.best_morphology.to_array(), [rows[-1][c] for c in MODEL_COLUMNS])
-    assert sorted(os.listdir(tmp_path)) == ["config.json", "rounds.csv", "state.pkl"]  # no temp files left
+    # no temp files left; the run directory records the command that made it
+    assert sorted(os.listdir(tmp_path)) == [COMMAND_FILE, "config.json", "rounds.csv", "state.pkl"]
+    assert (tmp_path / COMMAND_FILE).read_text() == "eea\n"
 
 @pytest.mark.parametrize("inference", ["none", "out_of_band", "in_band"])
 def test_same_seed_same_rounds_other_seed_differs(tmp_path, tiny_config, inference):
