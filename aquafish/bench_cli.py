@@ -1,7 +1,10 @@
 """``aquafish bench``: run one of the benchmark scripts in :mod:`benchmarks`.
 
 ``aquafish bench sim`` runs :mod:`benchmarks.sim_throughput`; ``aquafish bench NAME ARGS``
-runs ``benchmarks.NAME.main(ARGS)`` (e.g. ``aquafish bench eea_round --workers 1,2``).
+runs ``benchmarks.NAME.main(ARGS)`` (e.g. ``aquafish bench eea_round --workers 1,2``). The
+benchmark parses ``ARGS`` with :class:`aquafish.cli.OneLineParser` as ``aquafish bench NAME``,
+so a bad flag is one line, ``aquafish bench NAME: error: ... (see 'aquafish bench NAME --help')``,
+like every other usage error of the command line.
 It lives here, in the top-level CLI package, so that the simulator package
 :mod:`aquafish_gym` imports nothing from :mod:`benchmarks`.
 """
@@ -27,11 +30,13 @@ def benchmark_names() -> list[str]:
 
 
 def _bench(args: argparse.Namespace) -> int:
+    from aquafish.cli import OneLineParser  # not at module level: aquafish.cli imports this module
+
     names = benchmark_names()
     if args.what not in names:
         raise ValueError(f"unknown benchmark {args.what!r}; known: {', '.join(names)}")
     bench_main = importlib.import_module(f"benchmarks.{ALIASES.get(args.what, args.what)}").main
-    bench_main(args.rest)
+    bench_main(args.rest, prog=f"aquafish bench {args.what}", parser_class=OneLineParser)
     return 0
 
 

@@ -6,6 +6,7 @@ the manner of Gymnasium's MuJoCo ``swimmer_v5``.
 
 from __future__ import annotations
 
+import inspect
 import logging
 import math
 import os
@@ -15,6 +16,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.utils import EzPickle
 
 from aquafish_gym.checks import check_int, check_weight
 from aquafish_gym.bullet import p
@@ -99,7 +101,7 @@ def _as_morphology(morphology) -> Morphology:
     return Morphology.from_array(morphology)
 
 
-class AquaFishEnv(gym.Env):
+class AquaFishEnv(gym.Env, EzPickle):
     """Swim forward with a capsule robot, two pectoral flippers and a caudal fin.
 
     ## Description
@@ -144,7 +146,11 @@ class AquaFishEnv(gym.Env):
     The body at the origin, level, heading +y, at rest. Initial flipper angles: uniform
     on [0, 2 pi) (pectorals) and [-30, 30] degrees (caudal) from ``reset(seed=...)``'s
     generator, unless given by ``initial_angles`` or ``options={"initial_angles": ...}``.
-    ``options={"damage": name}`` sets the episode's damage preset.
+    ``options={"damage": name}`` sets the episode's damage preset (``"random"`` or a list
+    draws one from ``reset``'s generator); without it the episode takes the constructor's
+    ``damage``. ``reset``'s ``options`` is None or a dict with keys from
+    :attr:`reset_options` (``"damage"`` and ``"initial_angles"`` here; each task adds its
+    own); any other ``options`` is refused with a ``ValueError``.
 
     ## Episode End
     Never terminated; truncated after ``episode_duration_s`` of simulated time.
@@ -165,6 +171,14 @@ class AquaFishEnv(gym.Env):
     | `camera_distance`    | 4.0                 | camera distance from the robot (units)        |
     | every `SimParams` field | see `SimParams`  | fluid, body and servo parameters              |
 
+    ## Copying and pickling
+    ``copy.deepcopy(env)`` and ``pickle`` work at any time, as for Gymnasium's MuJoCo envs
+    (:class:`gymnasium.utils.EzPickle`): what is recorded is the constructor's arguments,
+    and the copy is a fresh env built from them, not a snapshot of the episode. It holds no
+    PyBullet world and no random generator yet: like any new env it must be ``reset``
+    before ``step`` (``step`` raises ``RuntimeError`` otherwise), and its
+    ``reset(seed=s)`` gives what the original's ``reset(seed=s)`` gives.
+
     Raises:
         ValueError: an unknown keyword, or a value out of range (named in the message).
     """
@@ -173,6 +187,13 @@ class AquaFishEnv(gym.Env):
     #: without one the env runs headless and says so once per process (a logged warning, not a
     #: Python warning, so Gymnasium's strict ``check_env`` passes on headless machines too).
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+
+    #: The id this class is registered under (:data:`aquafish_gym.ENV_IDS`), named in its errors.
+    env_id = "AquaFish-v0"
+    #: The keys ``reset``'s ``options`` accepts (each task adds its own).
+    reset_options: tuple[str, ...] = ("damage", "initial_angles")
+    #: ``SimParams`` fields the task sets itself, so not arguments of its constructor.
+    _task_sim_params: tuple[str, ...] = ()
 
     def __init__(
         self,
@@ -192,7 +213,9 @@ class AquaFishEnv(gym.Env):
     ):
         unknown = set(sim_params) - set(SimParams.field_names())
         if unknown:
-            raise ValueError(f"unknown AquaFish-v0 argument(s) {sorted(unknown)}; simulator parameters are {list(SimParams.field_names())}")
+            sim_names = [n for n in SimParams.field_names() if n not in self._task_sim_params]
+            raise ValueError(f"unknown {self.env_id} argument(s) {sorted(unknown)}; its arguments are "
+                             f"{self.argument_names()} and the simulator parameters {sim_names}")
         self.params = SimParams(**sim_params)
         self.damage_names = _damage_names(damage)
         self.base_morphology = _as_morphology(morphology)
@@ -226,6 +249,22 @@ class AquaFishEnv(gym.Env):
         self._steps = 0
         self._distance = 0.0
         self._heading = np.array([0.0, 1.0, 0.0])
+        # copy and pickle by the constructor's arguments (a task records its own after this)
+        EzPickle.__init__(self, morphology=morphology, damage=damage, faults=faults, initial_angles=initial_angles,
+                          frame_skip=frame_skip, episode_duration_s=episode_duration_s,
+                          ctrl_cost_weight=ctrl_cost_weight, render_mode=render_mode, width=width, height=height,
+                          camera=camera, camera_distance=camera_distance, **sim_params)
+
+    @classmethod
+    def argument_names(cls) -> list[str]:
+        """The named constructor arguments of this task (its own first, then ``AquaFish-v0``'s);
+        every ``SimParams`` field is an argument too."""
+        names: list[str] = []
+        for klass in cls.__mro__:
+            if issubclass(klass, AquaFishEnv) and "__init__" in vars(klass):
+                names += [name for name, param in inspect.signature(klass.__init__).parameters.items()
+                          if name != "self" and param.kind in (param.POSITIONAL_OR_KEYWORD, param.KEYWORD_ONLY)]
+        return names
 
     # -- task hooks (overridden by the other tasks of the family) ---------------------
     def _task_observation_high(self) -> np.ndarray:
@@ -309,13 +348,32 @@ class AquaFishEnv(gym.Env):
         return forward - ctrl, {"reward_forward": forward, "reward_ctrl": -ctrl}
 
     # -- gymnasium API ---------------------------------------------------------------
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
+    def _check_options(self, options) -> dict[str, Any]:
+        """``reset``'s ``options`` as a dict (``{}`` for None), refusing anything else."""
+        allowed = list(self.reset_options)
+        if options is None:
+            return {}
+        if not isinstance(options, dict):
+            raise ValueError(f"options of {self.env_id}'s reset must be None or a dict with keys from {allowed}, "
+                             f"got {options!r}")
+        unknown = sorted((key for key in options if key not in allowed), key=str)
+        if unknown:
+            raise ValueError(f"unknown key(s) {unknown} in the options of {self.env_id}'s reset; "
+                             f"allowed keys are {allowed}")
+        return options
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        """Start an episode (see the class docstring's Starting State).
+
+        Raises:
+            ValueError: ``options`` is not None or a dict, has a key not in
+                :attr:`reset_options`, or a value out of range (named in the message).
+        """
+        options = self._check_options(options)
         super().reset(seed=seed)
-        if options and "damage" in options:
-            self._set_damage(_damage_names(options["damage"])[0])
-        elif len(self.damage_names) > 1:
-            self._set_damage(self.damage_names[int(self.np_random.integers(len(self.damage_names)))])
-        if options and "initial_angles" in options:
+        names = _damage_names(options["damage"]) if "damage" in options else self.damage_names
+        self._set_damage(names[int(self.np_random.integers(len(names)))] if len(names) > 1 else names[0])
+        if "initial_angles" in options:
             angles = self._check_angles(options["initial_angles"])
         elif self.fixed_initial_angles is not None:
             angles = self.fixed_initial_angles

@@ -11,6 +11,7 @@ import math
 from typing import Any
 
 import numpy as np
+from gymnasium.utils import EzPickle
 
 from aquafish_gym.checks import check_weight
 from aquafish_gym.env import AquaFishEnv, check_task_value
@@ -70,9 +71,19 @@ class HeadingEnv(AquaFishEnv):
     ``info`` adds ``target_heading_rad`` and ``heading_error_rad`` (target minus yaw,
     wrapped to (-pi, pi]).
 
+    ``reset``'s ``options`` takes ``AquaFish-v0``'s keys (``"damage"``, ``"initial_angles"``)
+    and ``"target_heading_deg"``; any other is refused.
+
+    ## Copying and pickling
+    As ``AquaFish-v0``: ``copy.deepcopy`` and ``pickle`` give a fresh env with the same
+    constructor arguments, which must be ``reset`` before ``step``.
+
     Raises:
         ValueError: an unknown keyword or a value out of range (named in the message).
     """
+
+    env_id = "AquaFishHeading-v0"
+    reset_options = AquaFishEnv.reset_options + ("target_heading_deg",)
 
     def __init__(self, target_heading_deg=(-180.0, 180.0), heading_reward_weight: float = 1.0,
                  forward_reward_weight: float = 0.0, **kwargs: Any):
@@ -81,6 +92,8 @@ class HeadingEnv(AquaFishEnv):
         self.forward_reward_weight = check_weight("forward_reward_weight", forward_reward_weight)
         self._target = 0.0
         super().__init__(**kwargs)
+        EzPickle.__init__(self, target_heading_deg=target_heading_deg, heading_reward_weight=heading_reward_weight,
+                          forward_reward_weight=forward_reward_weight, **kwargs)
 
     def _task_observation_high(self) -> np.ndarray:
         return np.ones(2)

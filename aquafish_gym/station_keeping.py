@@ -12,6 +12,7 @@ import math
 from typing import Any
 
 import numpy as np
+from gymnasium.utils import EzPickle
 
 from aquafish_gym.checks import check_weight
 from aquafish_gym.env import AquaFishEnv, check_task_value
@@ -77,10 +78,21 @@ class StationKeepingEnv(AquaFishEnv):
     for analysis, not for the controller), ``distance_from_start`` (units) and
     ``heading_error_rad``.
 
+    ``reset``'s ``options`` takes ``AquaFish-v0``'s keys (``"damage"``, ``"initial_angles"``)
+    and ``"current_speed"`` and ``"current_direction_deg"``; any other is refused.
+
+    ## Copying and pickling
+    As ``AquaFish-v0``: ``copy.deepcopy`` and ``pickle`` give a fresh env with the same
+    constructor arguments, which must be ``reset`` before ``step``.
+
     Raises:
         ValueError: an unknown keyword, ``water_current`` (set the current with the
             arguments above), or a value out of range (named in the message).
     """
+
+    env_id = "AquaFishStationKeeping-v0"
+    reset_options = AquaFishEnv.reset_options + ("current_speed", "current_direction_deg")
+    _task_sim_params = ("water_current",)
 
     def __init__(self, current_speed=0.2, current_direction_deg=180.0, position_cost_weight: float = 1.0,
                  heading_cost_weight: float = 1.0, **kwargs: Any):
@@ -95,6 +107,8 @@ class StationKeepingEnv(AquaFishEnv):
         self._current = np.zeros(3)
         self._start = np.zeros(3)
         super().__init__(**kwargs)
+        EzPickle.__init__(self, current_speed=current_speed, current_direction_deg=current_direction_deg,
+                          position_cost_weight=position_cost_weight, heading_cost_weight=heading_cost_weight, **kwargs)
 
     def _reset_task(self, options: dict | None) -> SimParams:
         speed = self._draw_task_value(options, "current_speed", self.current_speed_range, _SPEED_BOUNDS, _SPEED_NAME)
@@ -103,7 +117,13 @@ class StationKeepingEnv(AquaFishEnv):
         self._current = np.array([-math.sin(direction), math.cos(direction), 0.0]) * speed
         return dataclasses.replace(self.params, water_current=tuple(self._current.tolist()))
 
-    def reset(self, *, seed: int | None = None, options: dict | None = None):
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        """Start an episode in the current drawn (or fixed by ``options``) for it.
+
+        Raises:
+            ValueError: ``options`` is not None or a dict, has a key not in
+                :attr:`reset_options`, or a value out of range (named in the message).
+        """
         obs, info = super().reset(seed=seed, options=options)
         self._start = self._position()
         return obs, info | self._task_info()

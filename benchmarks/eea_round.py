@@ -50,8 +50,14 @@ def time_round(config: EEAConfig, n_experiments: int, seed: int = 0) -> dict:
             "simulations": record.simulations}
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None, prog: str | None = None,
+         parser_class: type[argparse.ArgumentParser] = argparse.ArgumentParser) -> None:
+    """Run the benchmark with the command-line arguments ``argv`` (default: ``sys.argv[1:]``).
+
+    ``prog`` and ``parser_class`` are the name and the parser class of its usage messages:
+    ``aquafish bench`` passes its own (one-line usage errors, see :mod:`aquafish.bench_cli`).
+    """
+    parser = parser_class(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--workers", default="1,2", help="comma-separated worker counts")
     parser.add_argument("--inference", default="out_of_band")
     parser.add_argument("--experiments", type=int, default=10, help="experiments recorded before the round")

@@ -65,8 +65,14 @@ def time_raw_pybullet(n: int, steps: int, rng) -> float:
         p.disconnect(client)
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def main(argv: list[str] | None = None, prog: str | None = None,
+         parser_class: type[argparse.ArgumentParser] = argparse.ArgumentParser) -> None:
+    """Run the benchmark with the command-line arguments ``argv`` (default: ``sys.argv[1:]``).
+
+    ``prog`` and ``parser_class`` are the name and the parser class of its usage messages:
+    ``aquafish bench`` passes its own (one-line usage errors, see :mod:`aquafish.bench_cli`).
+    """
+    parser = parser_class(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=128)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--sizes", default="1,25,100")

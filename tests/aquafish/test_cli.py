@@ -32,6 +32,31 @@ def test_bench_passes_the_rest_to_the_benchmark(capsys):
     assert table[1].split()[:2] == ["robots", "steps"] and table[2].split()[:2] == ["1", "2"]
 
 
+
+@pytest.mark.parametrize("argv, message", [
+    (["bench", "sim", "--bogus-flag"], "unrecognized arguments: --bogus-flag"),
+    (["bench", "sim", "--steps", "many"], "argument --steps: invalid int value: 'many'"),
+    (["bench", "eea_round", "--bogus-flag"], "unrecognized arguments: --bogus-flag"),
+    (["bench", "gait_rollout", "--repeats"], "argument --repeats: expected one argument"),
+])
+def test_a_bad_benchmark_flag_is_one_usage_line(argv, message, capsys):
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    out, err = capsys.readouterr()
+    prog = f"aquafish bench {argv[1]}"
+    assert err.splitlines() == [f"{prog}: error: {message} (see '{prog} --help')"] and out == ""
+
+
+def test_a_benchmark_help_names_its_aquafish_command(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["bench", "sim", "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: aquafish bench sim [-h]") and "--steps" in out
+
+
 def _flags(parser, command):
     sub = next(a for a in parser._actions if a.dest == "command").choices[command]
     return {a.dest: a for a in sub._actions if a.option_strings}

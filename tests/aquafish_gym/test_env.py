@@ -1,6 +1,8 @@
 """The Gymnasium env AquaFish-v0 (docs/simulator.md)."""
 
+import copy
 import logging
+import pickle
 import warnings
 
 import gymnasium as gym
@@ -9,7 +11,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import aquafish_gym  # noqa: F401  (registers AquaFish-v0)
-from aquafish_gym import DAMAGES, Morphology
+from aquafish_gym import DAMAGES, ENV_IDS, Morphology
 
 
 def test_check_env_passes_with_warnings_as_errors():
@@ -156,3 +158,101 @@ def test_action_maps_to_servo_ranges():
     env = gym.make("AquaFish-v0").unwrapped
     np.testing.assert_allclose(env.servo_command([-1, 1, -1]), [-0.5, 0.5, 0.0])
     np.testing.assert_allclose(env.servo_command([0, 0, 1]), [0.0, 0.0, 1.0])
+
+
+#: The ``reset`` options each task accepts.
+RESET_OPTIONS = {
+    "AquaFish-v0": ["damage", "initial_angles"],
+    "AquaFishStationKeeping-v0": ["current_direction_deg", "current_speed", "damage", "initial_angles"],
+    "AquaFishHeading-v0": ["damage", "initial_angles", "target_heading_deg"],
+}
+
+
+def test_reset_options_are_listed_for_every_task():
+    assert sorted(RESET_OPTIONS) == sorted(ENV_IDS)
+    for env_id, keys in RESET_OPTIONS.items():
+        assert sorted(gym.make(env_id).unwrapped.reset_options) == keys
+
+
+@pytest.mark.parametrize("env_id", sorted(ENV_IDS))
+@pytest.mark.parametrize("options", ["x", "damage", ["damage"], 3, ("damage", "none")])
+def test_reset_options_that_are_not_a_dict_raise_value_error(env_id, options):
+    env = gym.make(env_id, episode_duration_s=0.2).unwrapped
+    with pytest.raises(ValueError) as err:
+        env.reset(seed=0, options=options)
+    message = str(err.value)
+    assert "options" in message and repr(options) in message and "dict" in message, message
+    for key in RESET_OPTIONS[env_id]:
+        assert key in message, (key, message)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", sorted(ENV_IDS))
+def test_unknown_reset_options_raise_value_error_naming_the_allowed_keys(env_id):
+    env = gym.make(env_id, episode_duration_s=0.2).unwrapped
+    others = sorted({k for keys in RESET_OPTIONS.values() for k in keys} - set(RESET_OPTIONS[env_id]))
+    for key in ["bogus", *others]:  # another task's option is unknown here too
+        with pytest.raises(ValueError) as err:
+            env.reset(seed=0, options={key: 1, "damage": "none"})
+        message = str(err.value)
+        assert "options" in message and repr([key]) in message and env_id in message, message  # only it blamed
+        for allowed in RESET_OPTIONS[env_id]:
+            assert allowed in message, (allowed, message)
+    # None and {} are no options; a known key still works after the refusals
+    reference, _ = env.reset(seed=3)
+    np.testing.assert_array_equal(env.reset(seed=3, options=None)[0], reference)
+    np.testing.assert_array_equal(env.reset(seed=3, options={})[0], reference)
+    assert env.reset(seed=3, options={"damage": "left_pectoral_half"})[1]["damage"] == "left_pectoral_half"
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", sorted(ENV_IDS))
+@pytest.mark.parametrize("how", ["deepcopy", "pickle"])
+def test_a_reset_env_copies_and_pickles_as_a_fresh_env_with_the_same_arguments(env_id, how):
+    env = gym.make(env_id, damage="left_pectoral_half", episode_duration_s=0.5).unwrapped
+    env.reset(seed=1)
+    env.step(np.array([1.0, -1.0, 1.0], dtype=np.float32))
+    twin = copy.deepcopy(env) if how == "deepcopy" else pickle.loads(pickle.dumps(env))
+    assert type(twin) is type(env) and twin is not env
+    assert (twin.damage_name, twin.morphology, twin.faults) == (env.damage_name, env.morphology, env.faults)
+    assert twin.morphology != Morphology.healthy()
+    assert twin.max_control_steps == env.max_control_steps == 5
+    with pytest.raises(RuntimeError, match="reset"):  # a copy is a new env: reset before step
+        twin.step(np.zeros(3, dtype=np.float32))
+    obs_twin, info_twin = twin.reset(seed=0)
+    obs_env, info_env = env.reset(seed=0)
+    np.testing.assert_array_equal(obs_twin, obs_env)
+    np.testing.assert_array_equal(info_twin["initial_angles"], info_env["initial_angles"])
+    action = np.array([0.5, -0.5, 1.0], dtype=np.float32)
+    for _ in range(3):  # and they step alike, each in its own world
+        np.testing.assert_array_equal(twin.step(action)[0], env.step(action)[0])
+    assert twin.world.client != env.world.client
+    twin.close()
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", sorted(ENV_IDS))
+def test_an_unknown_argument_is_reported_for_its_own_task(env_id):
+    with pytest.raises(ValueError) as err:
+        gym.make(env_id, bogus=1)
+    message = str(err.value)
+    assert f"unknown {env_id} argument(s) ['bogus']" in message, message
+    assert not any(other in message for other in ENV_IDS if other != env_id), message
+    assert "damage" in message and "drag_coefficient" in message, message  # what is allowed
+    if env_id == "AquaFishStationKeeping-v0":
+        assert "current_speed" in message, message
+    if env_id == "AquaFishHeading-v0":
+        assert "target_heading_deg" in message, message
+
+
+def test_a_damage_option_holds_for_its_episode_and_random_draws_from_the_presets():
+    env = gym.make("AquaFish-v0", episode_duration_s=0.2).unwrapped
+    assert env.reset(seed=0, options={"damage": "left_pectoral_half"})[1]["damage"] == "left_pectoral_half"
+    _, info = env.reset(seed=0)  # the next episode is the constructor's damage again
+    assert info["damage"] == "none" and env.morphology == Morphology.healthy()
+    drawn = {env.reset(seed=s, options={"damage": "random"})[1]["damage"] for s in range(20)}
+    assert len(drawn) >= 3 and drawn <= set(DAMAGES)
+    listed = {env.reset(seed=s, options={"damage": ["caudal_half", "left_pectoral_missing"]})[1]["damage"]
+              for s in range(20)}
+    assert listed == {"caudal_half", "left_pectoral_missing"}
+    env.close()
