@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -117,9 +115,10 @@ def run_transfer(args: argparse.Namespace) -> int:
         raise ValueError(f"give one --title per --controller ({len(args.controller)}), got {len(args.title)}")
     angles = _angles(args.initial_angles)
     check_output_dir(args.out)
+    controllers = [load_controller(path) for path in args.controller]  # every file refused before any episode
     results = []
-    for path, native in zip(args.controller, natives):
-        result = score_transfer(load_controller(path), native, args.target, seed=args.seed, episodes=args.episodes,
+    for path, controller, native in zip(args.controller, controllers, natives):
+        result = score_transfer(controller, native, args.target, seed=args.seed, episodes=args.episodes,
                                 initial_angles=angles)
         results.append(result)
         print(f"{path}: native {result.native.label} {result.native_distance:.3f} units, "
@@ -131,10 +130,10 @@ def run_transfer(args: argparse.Namespace) -> int:
 
 
 def run_rl(args: argparse.Namespace) -> int:
-    if importlib.util.find_spec("stable_baselines3") is None:
-        print("aquafish rl: needs stable-baselines3 and torch: pip install 'aquafish[rl]'", file=sys.stderr)
-        return 2
+    from gait.controller import require_rl
     from gait.rl import train_rl
+
+    require_rl(f"--algo {args.algo}", args.algo, training=True)
 
     path = train_rl(args.algo, args.morphology, args.timesteps, args.seed, args.out, damage=args.damage,
                     hyperparams_path=args.hyperparams, episode_duration_s=args.episode_duration_s,

@@ -17,6 +17,7 @@ reads either from disk.
 
 from __future__ import annotations
 
+import importlib.util
 import pickle
 import zipfile
 from pathlib import Path
@@ -257,7 +258,7 @@ class SB3PolicyController:
 
         Raises:
             ValueError: an unknown algorithm.
-            ImportError: stable-baselines3 is not installed (the ``[rl]`` extra).
+            MissingExtraError: stable-baselines3 is not installed (the ``[rl]`` extra).
         """
         algo_cls = sb3_algorithm(algo)
         return cls(algo_cls.load(str(path), device="cpu"), clock_period_s, deterministic)
@@ -266,23 +267,55 @@ class SB3PolicyController:
         return f"SB3PolicyController({type(self.model).__name__}, clock {self.clock_period_s} s)"
 
 
+#: How to install the packages of the RL baselines.
+RL_EXTRA_INSTALL = "pip install 'aquafish[rl]'"
+
+
+class MissingExtraError(ValueError):
+    """An optional dependency is not installed; the message names the extra to install.
+
+    A ``ValueError`` (not an ``ImportError``), so that the command line reports it as one line.
+    """
+
+
+def require_rl(what: str, algo: str = "ppo", *, training: bool = False, alternative: str = "") -> None:
+    """Check, without importing them, that the ``[rl]`` extra's packages are installed.
+
+    Args:
+        what: what needs them (the start of the message, e.g. ``"loading model.zip"``).
+        algo: the algorithm (:data:`SB3_ALGOS`); ``recurrent_ppo`` also needs sb3-contrib.
+        training: also check pandas (SB3 reads the learning curve with it).
+        alternative: appended to the message (e.g. how to do without the extra).
+
+    Raises:
+        MissingExtraError: a package is missing; the message names it and :data:`RL_EXTRA_INSTALL`.
+    """
+    modules = ["stable_baselines3", "torch"] + (["sb3_contrib"] if algo == "recurrent_ppo" else []) + \
+        (["pandas"] if training else [])
+    missing = [m for m in modules if importlib.util.find_spec(m) is None]
+    if missing:
+        raise MissingExtraError(f"{what} needs the [rl] extra ({', '.join(missing)} not installed): "
+                                f"{RL_EXTRA_INSTALL}{alternative}")
+
+
 def sb3_algorithm(algo: str):
     """Return the class for ``algo`` (:data:`SB3_ALGOS`), imported lazily.
 
     Raises:
         ValueError: an unknown algorithm name.
-        ImportError: stable-baselines3 (or sb3-contrib, for ``recurrent_ppo``) is missing
-            (install the ``[rl]`` extra).
+        MissingExtraError: stable-baselines3 or torch (or sb3-contrib, for ``recurrent_ppo``)
+            is missing (install the ``[rl]`` extra).
     """
     if algo not in SB3_ALGOS:
         raise ValueError(f"unknown RL algorithm {algo!r}; allowed: {', '.join(SB3_ALGOS)}")
+    require_rl(f"the {algo} algorithm", algo)
     try:
         import stable_baselines3
         if algo == "recurrent_ppo":
             import sb3_contrib
     except ImportError as err:
-        raise ImportError("RL controllers need stable-baselines3, sb3-contrib and torch: pip install 'aquafish[rl]'") \
-            from err
+        raise MissingExtraError(f"the {algo} algorithm needs the [rl] extra, which cannot be imported "
+                                f"({type(err).__name__}: {err}): {RL_EXTRA_INSTALL}") from err
     if algo == "recurrent_ppo":
         return sb3_contrib.RecurrentPPO
     return {"ppo": stable_baselines3.PPO, "sac": stable_baselines3.SAC}[algo]

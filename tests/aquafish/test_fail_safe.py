@@ -526,3 +526,39 @@ def test_a_smaller_rounds_keeps_config_json(copy, capsys):
     assert main([str(a) for a in _eea(run, "--rounds", "1")]) == 0
     assert (run / "config.json").read_text() == config
     assert "2 rounds" in capsys.readouterr().out
+
+
+# -- 12. a missing optional extra is a one-line error, before anything is created ----------------------------
+
+@pytest.fixture
+def without_rl(monkeypatch):
+    """Simulate an install without the [rl] extra: ``import stable_baselines3`` raises ImportError."""
+    for name in ("stable_baselines3", "sb3_contrib"):
+        monkeypatch.setitem(sys.modules, name, None)
+
+
+def test_transfer_of_an_sb3_model_without_the_rl_extra_names_the_extra(made, tmp_path, capsys, without_rl):
+    model = tmp_path / "ppo" / "model.zip"
+    model.parent.mkdir()
+    model.write_bytes(b"not read")
+    (tmp_path / "ppo" / "model.json").write_text(json.dumps({"algo": "ppo", "clock_period_s": 1.0}))
+    out = tmp_path / "t"
+    # the NEAT gait first: it must not be scored before the SB3 model is refused
+    fails_safe(["transfer", "--controller", made / "gait", model, "--target", "healthy", "--out", out], capsys,
+               "[rl]", "pip install 'aquafish[rl]'")
+    assert not out.exists()
+    fails_safe(["rl", "--timesteps", "64", "--out", out], capsys, "pip install 'aquafish[rl]'")
+    assert not out.exists()
+
+
+def test_baselines_with_ppo_steps_without_the_rl_extra_refuses_before_any_work(tmp_path, capsys, without_rl):
+    out = tmp_path / "b"
+    argv = ["baselines", "--envs", "AquaFish-v0", "--neat-generations", "1", "--neat-population", "4",
+            "--neat-episodes", "1", "--starts", "1", "--out", out]
+    fails_safe([*argv, "--ppo-timesteps", "100"], capsys, "--ppo-timesteps 100", "pip install 'aquafish[rl]'",
+               "--ppo-timesteps 0")
+    assert not out.exists()
+    from aquafish.task_table import BaselineBudget, task_table
+    with pytest.raises(ValueError, match=r"aquafish\[rl\]"):
+        task_table(out, env_ids=["AquaFish-v0"], budget=BaselineBudget(1, 4, 1, 100), starts=1, progress=False)
+    assert not out.exists()
