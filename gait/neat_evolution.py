@@ -193,7 +193,7 @@ class HistoryReporter(neat.reporting.BaseReporter):
 
     Args:
         task: the fitness task (to build controllers).
-        out_dir: directory for ``fitness_history.json`` and ``best_controller.pkl``, or None.
+        out_dir: directory for ``fitness_history.json`` and ``best_controller.json``, or None.
         history: entries of earlier generations (when resuming).
         best: best controller of earlier generations (when resuming), or None.
     """
@@ -283,14 +283,32 @@ def latest_checkpoint(out_dir) -> Path:
 def _restore(resume, population_size: int | None, settings: dict[str, Any]) -> neat.Population:
     """The population of the checkpoint ``resume``, checked against the run's fitness ``settings``.
 
+    A NEAT checkpoint is a pickle (neat-python's format), and unpickling runs code: it is read
+    only from ``RUN/checkpoints/`` of a run directory whose manifest (``fitness_settings.json``)
+    records ``settings`` (and ``population_size``, if given), checked before anything is unpickled.
+    A run directory is trusted like code.
+
     Raises:
-        ValueError: no such file; :class:`~aquafish_gym.rundir.FileError` if it is truncated
-            or not a NEAT checkpoint; :class:`~aquafish_gym.rundir.MismatchError` if it was
-            written by a run with other fitness settings (its fingerprint) or another population size.
+        ValueError: no such file, or a checkpoint outside a run directory with a manifest;
+            :class:`~aquafish_gym.rundir.FileError` if it is truncated or not a NEAT checkpoint;
+            :class:`~aquafish_gym.rundir.MismatchError` if the manifest (or the checkpoint's
+            fingerprint) records other fitness settings or another population size.
     """
     path = Path(resume)
     if not path.is_file():
         raise ValueError(f"no NEAT checkpoint {path}")
+    manifest = path.parent.parent / SETTINGS_FILE
+    if path.parent.name != CHECKPOINT_DIR or not manifest.is_file():
+        raise ValueError(f"cannot resume from {path}: a checkpoint is only read from {CHECKPOINT_DIR}/ of a gait run "
+                         f"directory with its {SETTINGS_FILE} (checkpoints are pickles, which run code when loaded: "
+                         "resume only runs you trust)")
+    recorded = read_json(manifest)
+    check_fingerprint(path, {k: v for k, v in recorded.items() if k != "population_size"}, settings,
+                      f"cannot resume: the checkpoint belongs to another run (as its {manifest} records; it was "
+                      "not read); give the settings it was made with, or start a new run in another --out")
+    if population_size is not None and recorded.get("population_size", population_size) != population_size:
+        raise MismatchError(f"cannot resume: --population-size {population_size} differs from the run's "
+                            f"{recorded['population_size']} ({manifest})")
     data = read_pickle(path, gzipped=True, what="NEAT checkpoint",
                        fix="delete it to resume from the checkpoint before it, or restore it from a copy")
     if not (isinstance(data, tuple) and len(data) == 5 and isinstance(data[1], neat.Config)):
@@ -364,12 +382,14 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
         generations: total generations; when resuming, the run continues up to this count.
         population_size: genomes per generation (default: the config's ``pop_size``, 50).
         seed: seeds NEAT (Python ``random``), NumPy, and the fitness episode's initial angles.
-        out_dir: writes ``best_controller.pkl``, ``best_genome.txt``, ``fitness_history.json``
+        out_dir: writes ``best_controller.json``, ``best_genome.txt``, ``fitness_history.json``
             and ``.png``, ``run.json``, ``fitness_settings.json``, ``neat_config.ini`` and
             ``checkpoints/``; None: no files.
         workers: evaluation processes (default ``os.cpu_count()``); 1 evaluates in-process.
         config_path: NEAT INI file (default ``gait/neat_config.ini``).
-        resume: a checkpoint file to continue from (see :func:`latest_checkpoint`). A run whose
+        resume: a checkpoint file to continue from (see :func:`latest_checkpoint`), in
+            ``checkpoints/`` of a run directory whose ``fitness_settings.json`` matches the
+            settings (checked before the checkpoint, a pickle, is read). A run whose
             latest checkpoint is already at ``generations`` but that has no ``run.json`` (killed
             after its final checkpoint) is finished: its outputs are written from the saved
             history and best controller, without a new generation.

@@ -67,7 +67,7 @@ def test_evolution_never_loses_the_best_and_writes_outputs(tmp_path):
     assert result.best_fitness == max(best) == result.history[-1]["best_so_far"]
     assert result.best_rollout.distance == result.best_fitness
     assert result.history[-1]["evaluations"] == 4 * 6
-    for name in ("best_controller.pkl", "best_genome.txt", "fitness_history.json", "fitness_history.png",
+    for name in ("best_controller.json", "best_genome.txt", "fitness_history.json", "fitness_history.png",
                  "run.json", "neat_config.ini"):
         assert (out / name).is_file(), name
     assert json.loads((out / "fitness_history.json").read_text()) == result.history
@@ -147,7 +147,7 @@ def test_neat_on_another_task_gets_its_inputs_and_scores_its_return(tmp_path):
     assert result.best_fitness == pytest.approx(np.mean(returns), abs=1e-12)   # the return, not the distance
     assert json.loads((tmp_path / "run.json").read_text())["env_id"] == "AquaFishHeading-v0"
     # the evolved network can be reloaded, and refuses an observation of another task
-    loaded = load_controller(tmp_path / "best_controller.pkl")
+    loaded = load_controller(tmp_path / "best_controller.json")
     with pytest.raises(ValueError, match="takes 14 observation entries, got 12"):
         loaded.act(np.zeros(12), 0.0)
     with pytest.raises(ValueError, match="unknown env id"):
