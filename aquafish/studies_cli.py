@@ -99,8 +99,9 @@ def _diagnose(args: argparse.Namespace) -> int:
 
 
 def _baselines(args: argparse.Namespace) -> int:
-    from aquafish.task_table import BaselineBudget, format_table, task_table
+    from aquafish.task_table import BaselineBudget, check_ppo_extra, format_table, task_table
 
+    check_ppo_extra(args.ppo_timesteps)  # before the output directory is created
     check_output_dir(args.out)
     budget = BaselineBudget(args.neat_generations, args.neat_population, args.neat_episodes, args.ppo_timesteps,
                             args.seed, args.workers)
@@ -223,7 +224,7 @@ def add_commands(sub) -> None:
     b.add_argument("--neat-generations", type=int_at_least(1), default=10, help="NEAT generations per task (default 10)")
     b.add_argument("--neat-population", type=int_at_least(2), default=30, help="NEAT genomes per generation (default 30)")
     b.add_argument("--neat-episodes", type=int_at_least(1), default=3, help="NEAT training starts per genome (default 3)")
-    b.add_argument("--ppo-timesteps", type=int_at_least(0), default=100_000, help="PPO env steps per task; 0: no PPO (default 1e5)")
+    b.add_argument("--ppo-timesteps", type=int_at_least(0), default=100_000, help="PPO env steps per task; 0: no PPO (default 1e5; more than 0 needs the [rl] extra)")
     b.add_argument("--starts", type=int_at_least(1), default=10, help="fresh starts per task and learner (default 10)")
     b.add_argument("--seed", type=int_at_least(0), default=0, help="training seed (default 0)")
     b.add_argument("--eval-seed", type=int_at_least(0), default=1000, help="seed of the first fresh start (default 1000)")

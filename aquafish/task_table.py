@@ -6,7 +6,7 @@ return (and the forward distance) of
 * a **random policy** (:class:`gait.RandomController`, uniform actions): "learned nothing";
 * a **NEAT** controller (:func:`gait.evolve_or_load_gait` with the task's ``env_id``);
 * a **PPO** policy (:func:`gait.train_rl`, the task's section of ``gait/rl_hyperparams.yml``;
-  needs the ``[rl]`` extra, else the row is left out),
+  needs the ``[rl]`` extra; ``ppo_timesteps = 0`` leaves it out),
 
 each over the same fresh starts (``reset(seed=eval_seed + k)``: initial flipper angles,
 target heading or current drawn by the task), with the training wall time. Every learner
@@ -18,7 +18,6 @@ interrupted NEAT run resumes from its last checkpoint). The table is written to
 from __future__ import annotations
 
 import dataclasses
-import importlib.util
 import json
 from pathlib import Path
 from typing import Any
@@ -29,7 +28,7 @@ from aquafish_gym import ENV_IDS
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import read_json
-from gait.controller import RandomController, load_controller, sb3_sidecar
+from gait.controller import RandomController, load_controller, require_rl, sb3_sidecar
 from gait.neat_evolution import RUN_FILE, evolve_or_load_gait
 from gait.rl import train_or_load_rl
 from gait.rollout import check_env_id, rollout
@@ -60,6 +59,17 @@ class BaselineBudget:
         check_int("neat_episodes", self.neat_episodes, 1)
         check_int("ppo_timesteps", self.ppo_timesteps, 0)
         check_int("workers", self.workers, 1)
+
+
+def check_ppo_extra(ppo_timesteps: int) -> None:
+    """Refuse a PPO baseline (``ppo_timesteps`` > 0) when the ``[rl]`` extra is not installed.
+
+    Raises:
+        MissingExtraError: naming the extra, and ``--ppo-timesteps 0`` to leave PPO out.
+    """
+    if ppo_timesteps > 0:
+        require_rl(f"the PPO baseline (--ppo-timesteps {ppo_timesteps})", training=True,
+                   alternative=", or give --ppo-timesteps 0 to leave PPO out")
 
 
 def _scores(controller, env_id: str, eval_seed: int, starts: int) -> dict[str, Any]:
@@ -99,12 +109,16 @@ def task_table(out, *, env_ids=None, budget: BaselineBudget = BaselineBudget(), 
         ``return_std``, ``returns``, ``distance_mean`` (units in 20 s), ``train_wall_s``.
 
     Raises:
-        ValueError: an unknown task or a bad count.
+        ValueError: an unknown task or a bad count;
+            :class:`~gait.controller.MissingExtraError` if ``ppo_timesteps`` > 0 without the
+            ``[rl]`` extra (before anything is trained or written).
     """
     env_ids = list(ENV_IDS) if env_ids is None else [check_env_id(e) for e in env_ids]
     check_int("starts", starts, 1)
     out = Path(out)
-    with_ppo = budget.ppo_timesteps > 0 and importlib.util.find_spec("stable_baselines3") is not None
+    with_ppo = budget.ppo_timesteps > 0
+    if with_ppo:
+        check_ppo_extra(budget.ppo_timesteps)
     rows = []
     for env_id in env_ids:
         learners = {"random policy": (RandomController(budget.seed), 0.0),

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -35,7 +33,9 @@ def add_commands(subparsers) -> None:
     p.add_argument("--out", type=path, default=Path("runs/gait"), help="output directory (default runs/gait)")
     p.add_argument("--workers", type=int_at_least(1), default=os.cpu_count(), help="evaluation processes (default: all CPUs)")
     p.add_argument("--config", type=path, default=None, help="NEAT INI file (default gait/neat_config.ini)")
-    p.add_argument("--resume", default=None, help="checkpoint file to continue from, or 'latest' (in --out)")
+    p.add_argument("--resume", default=None, help="checkpoint file (in checkpoints/ of a run directory with its fitness_settings.json) to "
+                        "continue from, or 'latest' (in --out). A run directory is trusted like code: its "
+                        "checkpoints are pickles, so resume only runs you made or trust")
     p.add_argument("--episode-duration-s", type=positive_float, default=20.0, help="simulated seconds per evaluation (default 20)")
     p.add_argument("--episodes-per-genome", type=int_at_least(1), default=1,
                    help="episodes per evaluation from different initial angles (seeds seed, seed+1, ...); fitness is their mean (default 1)")
@@ -48,7 +48,8 @@ def add_commands(subparsers) -> None:
                               description="Run each controller on its native robot and on the target from the same "
                                           "initial flipper angles; write distances, trajectories and a Figure-12 plot.")
     p.add_argument("--controller", nargs="+", required=True, type=path,
-                   help="controller files (.pkl NEAT, .zip SB3) or run directories, one panel each")
+                   help="controller files (best_controller.json NEAT, model.zip SB3) or run directories, one panel "
+                        "each; no controller file runs code when loaded (pickles are refused)")
     p.add_argument("--native", nargs="+", default=["healthy"], help=f"each controller's own robot: {ROBOT_HELP}; one, or one per controller")
     p.add_argument("--target", required=True, help=f"robot to transfer to: {ROBOT_HELP}")
     p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of the first episode: draws the initial angles (default 0, as `aquafish gait`)")
@@ -117,9 +118,10 @@ def run_transfer(args: argparse.Namespace) -> int:
         raise ValueError(f"give one --title per --controller ({len(args.controller)}), got {len(args.title)}")
     angles = _angles(args.initial_angles)
     check_output_dir(args.out)
+    controllers = [load_controller(path) for path in args.controller]  # every file refused before any episode
     results = []
-    for path, native in zip(args.controller, natives):
-        result = score_transfer(load_controller(path), native, args.target, seed=args.seed, episodes=args.episodes,
+    for path, controller, native in zip(args.controller, controllers, natives):
+        result = score_transfer(controller, native, args.target, seed=args.seed, episodes=args.episodes,
                                 initial_angles=angles)
         results.append(result)
         print(f"{path}: native {result.native.label} {result.native_distance:.3f} units, "
@@ -131,10 +133,10 @@ def run_transfer(args: argparse.Namespace) -> int:
 
 
 def run_rl(args: argparse.Namespace) -> int:
-    if importlib.util.find_spec("stable_baselines3") is None:
-        print("aquafish rl: needs stable-baselines3 and torch: pip install 'aquafish[rl]'", file=sys.stderr)
-        return 2
+    from gait.controller import require_rl
     from gait.rl import train_rl
+
+    require_rl(f"--algo {args.algo}", args.algo, training=True)
 
     path = train_rl(args.algo, args.morphology, args.timesteps, args.seed, args.out, damage=args.damage,
                     hyperparams_path=args.hyperparams, episode_duration_s=args.episode_duration_s,

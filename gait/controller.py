@@ -12,12 +12,21 @@ longer). :class:`RandomController` is the random-policy baseline and
   AquaFish-v0 wrapped in :class:`~gait.clock.ClockObservation`.
 
 Both see the same 14 inputs (:func:`gait.clock.with_clock`). :func:`load_controller`
-reads either from disk.
+reads either from disk, and runs no code from the file: a NEAT controller is saved as JSON
+(``best_controller.json``: genome, NEAT config text, clock period; see
+:meth:`NEATController.to_dict`), a pickle is refused, and an SB3 model's pickled
+(``:serialized:``) entries are rebuilt from safe information instead of being unpickled
+(:meth:`SB3PolicyController.load`).
 """
 
 from __future__ import annotations
 
+import collections
+import importlib.util
+import json
+import os
 import pickle
+import tempfile
 import zipfile
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
@@ -26,11 +35,18 @@ import neat
 import numpy as np
 
 from aquafish_gym.files import atomic_write
-from aquafish_gym.rundir import FileError, read_json, read_pickle
+from aquafish_gym.rundir import FileError, read_json
 from gait.clock import CLOCK_DIM, CLOCK_PERIOD_S, OBS_DIM, check_clock_period, with_clock
 
 #: File names inside a run directory that :func:`load_controller` looks for.
-NEAT_CONTROLLER_FILE = "best_controller.pkl"
+NEAT_CONTROLLER_FILE = "best_controller.json"
+#: The ``format`` and ``version`` fields of a saved NEAT controller (:meth:`NEATController.to_dict`).
+NEAT_CONTROLLER_FORMAT, NEAT_CONTROLLER_VERSION = "aquafish NEAT controller", 1
+#: What :func:`load_controller` says to a pickle (``.pkl``), which it never loads.
+PICKLE_REFUSED = ("pickled controllers are not loaded, because unpickling runs code (a file from someone else could "
+                  "do anything); run `aquafish gait` again to get best_controller.json, or convert a pickle you made "
+                  "yourself once in Python: import pickle; pickle.load(open('best_controller.pkl', 'rb'))"
+                  ".save('best_controller.json') (docs/gaits.md)")
 SB3_MODEL_FILE = "model.zip"
 #: SB3 algorithms that :func:`load_controller` and :mod:`gait.rl` know: stable-baselines3's PPO
 #: and SAC, and sb3-contrib's ``RecurrentPPO`` (an LSTM policy, which can tell a damage from
@@ -193,15 +209,71 @@ class NEATController:
         out = self._net.activate(inputs.tolist())
         return np.clip(np.asarray(out, dtype=np.float64), -1.0, 1.0)
 
+    def to_dict(self) -> dict[str, Any]:
+        """The controller as JSON-ready data (no code): what :meth:`save` writes.
+
+        Keys: ``format`` and ``version`` (:data:`NEAT_CONTROLLER_FORMAT`, :data:`NEAT_CONTROLLER_VERSION`),
+        ``clock_period_s``, ``num_inputs``, ``neat_config`` (the config as neat-python's INI text,
+        ``num_inputs`` included) and ``genome``: ``key``, ``fitness`` and lists of ``nodes``
+        (``key`` and every gene attribute: ``bias``, ``response``, ``activation``,
+        ``aggregation``, ``time_constant``) and ``connections`` (``key`` ``[in, out]``,
+        ``innovation``, ``weight``, ``enabled``), in the genome's order (the network sums its inputs
+        in that order). Floats are written exactly (JSON round-trips them).
+        """
+        def genes(items, conn: bool):
+            return [{"key": list(k) if conn else k, **({"innovation": g.innovation} if conn else {}),
+                     **{a.name: getattr(g, a.name) for a in g._gene_attributes}} for k, g in items]
+
+        genome = self.genome
+        return {"format": NEAT_CONTROLLER_FORMAT, "version": NEAT_CONTROLLER_VERSION,
+                "clock_period_s": self.clock_period_s, "num_inputs": self.config.genome_config.num_inputs,
+                "neat_config": _config_text(self.config),
+                "genome": {"key": genome.key, "fitness": genome.fitness,
+                           "nodes": genes(genome.nodes.items(), False),
+                           "connections": genes(genome.connections.items(), True)}}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> "NEATController":
+        """Rebuild a controller from :meth:`to_dict`'s data: the same network, bit for bit.
+
+        Raises:
+            ValueError: another format or version, a missing or mistyped field, or a NEAT
+                config neat-python rejects.
+        """
+        if not isinstance(data, dict) or data.get("format") != NEAT_CONTROLLER_FORMAT:
+            raise ValueError(f"not a saved NEAT controller (format must be {NEAT_CONTROLLER_FORMAT!r})")
+        if data.get("version") != NEAT_CONTROLLER_VERSION:
+            raise ValueError(f"NEAT controller format version {data.get('version')!r}; this AquaFish reads "
+                             f"version {NEAT_CONTROLLER_VERSION}")
+        try:
+            config = _config_from_text(data["neat_config"])
+            if config.genome_config.num_inputs != data["num_inputs"]:
+                raise ValueError(f"num_inputs {data['num_inputs']} differs from the config's "
+                                 f"{config.genome_config.num_inputs}")
+            g = data["genome"]
+            genome = config.genome_type(int(g["key"]))
+            genome.fitness = g["fitness"]
+            for node in g["nodes"]:
+                genome.nodes[int(node["key"])] = _gene(config.genome_config.node_gene_type(int(node["key"])), node)
+            for conn in g["connections"]:
+                key = tuple(int(k) for k in conn["key"])
+                if len(key) != 2:
+                    raise ValueError(f"connection key {conn['key']!r} is not [in, out]")
+                gene = config.genome_config.connection_gene_type(key, innovation=int(conn["innovation"]))
+                genome.connections[key] = _gene(gene, conn)
+            return cls(genome, config, data["clock_period_s"])
+        except (KeyError, TypeError, AttributeError, AssertionError) as err:
+            raise ValueError(f"a field is missing or mistyped ({type(err).__name__}: {err})") from None
+
     def save(self, path) -> Path:
-        """Pickle the controller (genome, config, clock period) to ``path`` atomically; return it.
+        """Write the controller as JSON (:meth:`to_dict`) to ``path`` atomically; return it.
 
         Raises:
             OSError: as :func:`aquafish_gym.files.atomic_write`.
         """
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        atomic_write(path, pickle.dumps(self, protocol=pickle.HIGHEST_PROTOCOL))
+        atomic_write(path, json.dumps(self.to_dict(), indent=1).encode())
         return path
 
     def __getstate__(self) -> dict[str, Any]:
@@ -214,6 +286,38 @@ class NEATController:
         n_hidden = len(self.genome.nodes) - self.config.genome_config.num_outputs
         n_conn = sum(c.enabled for c in self.genome.connections.values())
         return f"NEATController(genome {self.genome.key}, {kind}, {n_hidden} hidden, {n_conn} connections, clock {self.clock_period_s} s)"
+
+
+def _config_text(config: neat.Config) -> str:
+    """``config`` as neat-python's INI text (``neat.Config.save`` writes every parameter)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        config.save(os.path.join(tmp, "neat_config.ini"))
+        return Path(tmp, "neat_config.ini").read_text()
+
+
+def _config_from_text(text: str) -> neat.Config:
+    """The ``neat.Config`` (default genome, reproduction, species and stagnation) of INI ``text``."""
+    if not isinstance(text, str):
+        raise TypeError(f"neat_config must be INI text, got {type(text).__name__}")
+    with tempfile.TemporaryDirectory() as tmp:
+        Path(tmp, "neat_config.ini").write_text(text)
+        try:
+            return neat.Config(neat.DefaultGenome, neat.DefaultReproduction, neat.DefaultSpeciesSet,
+                               neat.DefaultStagnation, os.path.join(tmp, "neat_config.ini"))
+        except Exception as err:  # neat-python raises bare Exception, RuntimeError, configparser errors
+            raise ValueError(f"its NEAT config is not valid ({type(err).__name__}: {err})") from None
+
+
+def _gene(gene, fields: dict[str, Any]):
+    """Set every gene attribute of ``gene`` from ``fields`` (checked types); return ``gene``."""
+    for attr in gene._gene_attributes:
+        value = fields[attr.name]
+        kind = {"FloatAttribute": (int, float), "BoolAttribute": bool, "StringAttribute": str}.get(
+            type(attr).__name__, object)
+        if isinstance(value, bool) and kind != bool or not isinstance(value, kind):
+            raise TypeError(f"gene {fields.get('key')!r}: {attr.name} = {value!r}")
+        setattr(gene, attr.name, float(value) if kind == (int, float) else value)
+    return gene
 
 
 class SB3PolicyController:
@@ -252,18 +356,65 @@ class SB3PolicyController:
         return np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
 
     @classmethod
-    def load(cls, path, algo: str, clock_period_s: float = CLOCK_PERIOD_S, deterministic: bool = True) -> "SB3PolicyController":
-        """Load a saved SB3 model (``.zip``) of algorithm ``algo`` (:data:`SB3_ALGOS`).
+    def load(cls, path, algo: str, clock_period_s: float = CLOCK_PERIOD_S, deterministic: bool = True,
+             meta: dict[str, Any] | None = None) -> "SB3PolicyController":
+        """Load a saved SB3 model (``.zip``) of algorithm ``algo`` (:data:`SB3_ALGOS`), running no code from it.
+
+        SB3 saves some entries of the zip's ``data`` JSON as cloudpickles (``:serialized:``):
+        the spaces, the policy class, the schedules, buffers. None is unpickled: each is
+        given to SB3 as a ``custom_objects`` entry rebuilt from safe information (the spaces
+        of the task ``meta["env_id"]`` with the clock, the policy class of the algorithm's
+        ``meta["fingerprint"]["hyperparams"]["policy"]``, constant schedules: the model is
+        for prediction). The weights are read by ``torch.load(weights_only=True)`` (SB3 >= 2.9).
+
+        Args:
+            path: the ``model.zip``.
+            algo: its algorithm.
+            clock_period_s, deterministic: as the constructor.
+            meta: the sidecar ``model.json`` (:func:`sb3_sidecar`) as a dict (default ``{}``).
 
         Raises:
-            ValueError: an unknown algorithm.
-            ImportError: stable-baselines3 is not installed (the ``[rl]`` extra).
+            ValueError: an unknown algorithm; :class:`~aquafish_gym.rundir.FileError` if the
+                zip's ``data`` is not JSON or holds a pickled entry this cannot rebuild.
+            MissingExtraError: stable-baselines3 is not installed (the ``[rl]`` extra).
         """
         algo_cls = sb3_algorithm(algo)
-        return cls(algo_cls.load(str(path), device="cpu"), clock_period_s, deterministic)
+        custom = _sb3_custom_objects(Path(path), algo_cls, algo, meta or {})
+        return cls(algo_cls.load(str(path), device="cpu", custom_objects=custom), clock_period_s, deterministic)
 
     def __repr__(self) -> str:
         return f"SB3PolicyController({type(self.model).__name__}, clock {self.clock_period_s} s)"
+
+
+#: How to install the packages of the RL baselines.
+RL_EXTRA_INSTALL = "pip install 'aquafish[rl]'"
+
+
+class MissingExtraError(ValueError):
+    """An optional dependency is not installed; the message names the extra to install.
+
+    A ``ValueError`` (not an ``ImportError``), so that the command line reports it as one line.
+    """
+
+
+def require_rl(what: str, algo: str = "ppo", *, training: bool = False, alternative: str = "") -> None:
+    """Check, without importing them, that the ``[rl]`` extra's packages are installed.
+
+    Args:
+        what: what needs them (the start of the message, e.g. ``"loading model.zip"``).
+        algo: the algorithm (:data:`SB3_ALGOS`); ``recurrent_ppo`` also needs sb3-contrib.
+        training: also check pandas (SB3 reads the learning curve with it).
+        alternative: appended to the message (e.g. how to do without the extra).
+
+    Raises:
+        MissingExtraError: a package is missing; the message names it and :data:`RL_EXTRA_INSTALL`.
+    """
+    modules = ["stable_baselines3", "torch"] + (["sb3_contrib"] if algo == "recurrent_ppo" else []) + \
+        (["pandas"] if training else [])
+    missing = [m for m in modules if importlib.util.find_spec(m) is None]
+    if missing:
+        raise MissingExtraError(f"{what} needs the [rl] extra ({', '.join(missing)} not installed): "
+                                f"{RL_EXTRA_INSTALL}{alternative}")
 
 
 def sb3_algorithm(algo: str):
@@ -271,21 +422,74 @@ def sb3_algorithm(algo: str):
 
     Raises:
         ValueError: an unknown algorithm name.
-        ImportError: stable-baselines3 (or sb3-contrib, for ``recurrent_ppo``) is missing
-            (install the ``[rl]`` extra).
+        MissingExtraError: stable-baselines3 or torch (or sb3-contrib, for ``recurrent_ppo``)
+            is missing (install the ``[rl]`` extra).
     """
     if algo not in SB3_ALGOS:
         raise ValueError(f"unknown RL algorithm {algo!r}; allowed: {', '.join(SB3_ALGOS)}")
+    require_rl(f"the {algo} algorithm", algo)
     try:
         import stable_baselines3
         if algo == "recurrent_ppo":
             import sb3_contrib
     except ImportError as err:
-        raise ImportError("RL controllers need stable-baselines3, sb3-contrib and torch: pip install 'aquafish[rl]'") \
-            from err
+        raise MissingExtraError(f"the {algo} algorithm needs the [rl] extra, which cannot be imported "
+                                f"({type(err).__name__}: {err}): {RL_EXTRA_INSTALL}") from err
     if algo == "recurrent_ppo":
         return sb3_contrib.RecurrentPPO
     return {"ppo": stable_baselines3.PPO, "sac": stable_baselines3.SAC}[algo]
+
+
+def _sb3_custom_objects(path: Path, algo_cls, algo: str, meta: dict[str, Any]) -> dict[str, Any]:
+    """A safe replacement for every pickled (``:serialized:``) entry of the SB3 model ``path``.
+
+    Raises:
+        FileError: no readable ``data`` JSON, or a pickled entry with no safe replacement.
+    """
+    from stable_baselines3.common.type_aliases import TrainFreq, TrainFrequencyUnit
+    from stable_baselines3.common.utils import FloatSchedule
+
+    from gait.clock import ClockObservation
+    from gait.rollout import DEFAULT_ENV_ID, make_env
+
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data").decode())
+    except (KeyError, UnicodeDecodeError, json.JSONDecodeError, zipfile.BadZipFile, EOFError) as err:
+        raise FileError(path, f"is not a readable SB3 model: no valid data JSON ({type(err).__name__}: {err})") \
+            from None
+    if not isinstance(data, dict):
+        raise FileError(path, "is not a readable SB3 model: its data is not a JSON object")
+    serialized = sorted(k for k, v in data.items() if isinstance(v, dict) and ":serialized:" in v)
+    fingerprint = meta.get("fingerprint") if isinstance(meta.get("fingerprint"), dict) else {}
+    hp = fingerprint.get("hyperparams") if isinstance(fingerprint.get("hyperparams"), dict) else {}
+    policy = hp.get("policy", "MlpLstmPolicy" if algo == "recurrent_ppo" else "MlpPolicy")
+    if policy not in algo_cls.policy_aliases:
+        raise FileError(sb3_sidecar(path), f"names the policy {policy!r}, which {algo} does not know")
+
+    def constant(value, default: float):
+        return FloatSchedule(float(value) if isinstance(value, (int, float)) and not isinstance(value, bool)
+                               else default)
+
+    env = ClockObservation(make_env("healthy", env_id=meta.get("env_id", DEFAULT_ENV_ID)),
+                           meta.get("clock_period_s", CLOCK_PERIOD_S))
+    try:
+        spaces = {"observation_space": env.observation_space, "action_space": env.action_space}
+    finally:
+        env.close()
+    window = data.get("_stats_window_size", 100) if isinstance(data.get("_stats_window_size"), int) else 100
+    safe = {**spaces, "policy_class": algo_cls.policy_aliases[policy],
+            "lr_schedule": constant(data.get("learning_rate"), 3e-4),
+            "clip_range": constant(hp.get("clip_range"), 0.2), "clip_range_vf": None,
+            "train_freq": TrainFreq(1, TrainFrequencyUnit.STEP),
+            "rollout_buffer_class": None, "replay_buffer_class": None,  # None: the algorithm's default
+            "_last_obs": None, "_last_episode_starts": None, "_last_original_obs": None,
+            "ep_info_buffer": collections.deque(maxlen=window), "ep_success_buffer": collections.deque(maxlen=window)}
+    unknown = [k for k in serialized if k not in safe]
+    if unknown:
+        raise FileError(path, f"holds pickled entries {unknown} in its data, which are not loaded (unpickling runs "
+                              "code)", "train the model again with `aquafish rl`")
+    return {k: safe[k] for k in serialized}
 
 
 def sb3_sidecar(model_path) -> Path:
@@ -296,37 +500,46 @@ def sb3_sidecar(model_path) -> Path:
 def load_controller(path) -> Controller:
     """Load a controller saved by ``aquafish gait`` or ``aquafish rl``.
 
+    No file runs code when loaded, so a controller from someone else is safe to load.
+
     Args:
-        path: a NEAT controller pickle (``.pkl``), an SB3 model (``.zip``, with the
-            ``.json`` written next to it by :func:`gait.train_rl`), or a run directory
-            containing ``best_controller.pkl`` or ``model.zip``. Pickles execute code when
-            loaded: load only files you trust.
+        path: a NEAT controller (``.json``, written by :meth:`NEATController.save`), an SB3
+            model (``.zip``, with the ``.json`` written next to it by :func:`gait.train_rl`),
+            or a run directory containing ``best_controller.json`` or ``model.zip``.
 
     Raises:
-        ValueError: no such file, an unknown file type, or a pickle that is not a controller;
-            :class:`~aquafish_gym.rundir.FileError` for a truncated or garbled file.
+        ValueError: no such file, an unknown file type, or a pickle (``.pkl``: never loaded,
+            unpickling runs code; the message says how to convert one's own);
+            :class:`~aquafish_gym.rundir.FileError` for a truncated, garbled or foreign file;
+            :class:`MissingExtraError` for an SB3 model without the ``[rl]`` extra.
     """
     path = Path(path)
     if path.is_dir():
-        for name in (NEAT_CONTROLLER_FILE, SB3_MODEL_FILE):
+        for name in (NEAT_CONTROLLER_FILE, SB3_MODEL_FILE, "best_controller.pkl"):
             if (path / name).is_file():
                 return load_controller(path / name)
         raise ValueError(f"{path} holds neither {NEAT_CONTROLLER_FILE} nor {SB3_MODEL_FILE}")
     if not path.is_file():
         raise ValueError(f"no controller file {path}")
     if path.suffix == ".pkl":
-        controller = read_pickle(path, what="controller")
-        if not isinstance(controller, Controller):
-            raise ValueError(f"{path} does not hold a controller (got {type(controller).__name__})")
-        return controller
+        raise ValueError(f"{path}: {PICKLE_REFUSED}")
+    if path.suffix == ".json":
+        try:
+            return NEATController.from_dict(read_json(path))
+        except FileError:
+            raise
+        except ValueError as err:
+            raise FileError(path, f"is not a NEAT controller: {err}",
+                            "give a best_controller.json written by `aquafish gait`") from None
     if path.suffix == ".zip":
         sidecar = sb3_sidecar(path)
         if not sidecar.is_file():
             raise ValueError(f"{path}: missing {sidecar.name} (algo and clock period, written by train_rl)")
         meta = read_json(sidecar)
         try:
-            return SB3PolicyController.load(path, meta.get("algo"), meta.get("clock_period_s", CLOCK_PERIOD_S))
+            return SB3PolicyController.load(path, meta.get("algo"), meta.get("clock_period_s", CLOCK_PERIOD_S),
+                                            meta=meta)
         except (EOFError, KeyError, zipfile.BadZipFile, pickle.UnpicklingError) as err:
             raise FileError(path, f"is not a readable SB3 model: truncated or corrupt ({type(err).__name__}: {err})") \
                 from None
-    raise ValueError(f"unknown controller file {path}; expected a .pkl (NEAT), a .zip (SB3) or a run directory")
+    raise ValueError(f"unknown controller file {path}; expected a .json (NEAT), a .zip (SB3) or a run directory")

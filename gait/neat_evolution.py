@@ -193,7 +193,7 @@ class HistoryReporter(neat.reporting.BaseReporter):
 
     Args:
         task: the fitness task (to build controllers).
-        out_dir: directory for ``fitness_history.json`` and ``best_controller.pkl``, or None.
+        out_dir: directory for ``fitness_history.json`` and ``best_controller.json``, or None.
         history: entries of earlier generations (when resuming).
         best: best controller of earlier generations (when resuming), or None.
     """
@@ -283,14 +283,32 @@ def latest_checkpoint(out_dir) -> Path:
 def _restore(resume, population_size: int | None, settings: dict[str, Any]) -> neat.Population:
     """The population of the checkpoint ``resume``, checked against the run's fitness ``settings``.
 
+    A NEAT checkpoint is a pickle (neat-python's format), and unpickling runs code: it is read
+    only from ``RUN/checkpoints/`` of a run directory whose manifest (``fitness_settings.json``)
+    records ``settings`` (and ``population_size``, if given), checked before anything is unpickled.
+    A run directory is trusted like code.
+
     Raises:
-        ValueError: no such file; :class:`~aquafish_gym.rundir.FileError` if it is truncated
-            or not a NEAT checkpoint; :class:`~aquafish_gym.rundir.MismatchError` if it was
-            written by a run with other fitness settings (its fingerprint) or another population size.
+        ValueError: no such file, or a checkpoint outside a run directory with a manifest;
+            :class:`~aquafish_gym.rundir.FileError` if it is truncated or not a NEAT checkpoint;
+            :class:`~aquafish_gym.rundir.MismatchError` if the manifest (or the checkpoint's
+            fingerprint) records other fitness settings or another population size.
     """
     path = Path(resume)
     if not path.is_file():
         raise ValueError(f"no NEAT checkpoint {path}")
+    manifest = path.parent.parent / SETTINGS_FILE
+    if path.parent.name != CHECKPOINT_DIR or not manifest.is_file():
+        raise ValueError(f"cannot resume from {path}: a checkpoint is only read from {CHECKPOINT_DIR}/ of a gait run "
+                         f"directory with its {SETTINGS_FILE} (checkpoints are pickles, which run code when loaded: "
+                         "resume only runs you trust)")
+    recorded = read_json(manifest)
+    check_fingerprint(path, {k: v for k, v in recorded.items() if k != "population_size"}, settings,
+                      f"cannot resume: the checkpoint belongs to another run (as its {manifest} records; it was "
+                      "not read); give the settings it was made with, or start a new run in another --out")
+    if population_size is not None and recorded.get("population_size", population_size) != population_size:
+        raise MismatchError(f"cannot resume: --population-size {population_size} differs from the run's "
+                            f"{recorded['population_size']} ({manifest})")
     data = read_pickle(path, gzipped=True, what="NEAT checkpoint",
                        fix="delete it to resume from the checkpoint before it, or restore it from a copy")
     if not (isinstance(data, tuple) and len(data) == 5 and isinstance(data[1], neat.Config)):
@@ -364,12 +382,17 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
         generations: total generations; when resuming, the run continues up to this count.
         population_size: genomes per generation (default: the config's ``pop_size``, 50).
         seed: seeds NEAT (Python ``random``), NumPy, and the fitness episode's initial angles.
-        out_dir: writes ``best_controller.pkl``, ``best_genome.txt``, ``fitness_history.json``
+        out_dir: writes ``best_controller.json``, ``best_genome.txt``, ``fitness_history.json``
             and ``.png``, ``run.json``, ``fitness_settings.json``, ``neat_config.ini`` and
             ``checkpoints/``; None: no files.
         workers: evaluation processes (default ``os.cpu_count()``); 1 evaluates in-process.
         config_path: NEAT INI file (default ``gait/neat_config.ini``).
-        resume: a checkpoint file to continue from (see :func:`latest_checkpoint`).
+        resume: a checkpoint file to continue from (see :func:`latest_checkpoint`), in
+            ``checkpoints/`` of a run directory whose ``fitness_settings.json`` matches the
+            settings (checked before the checkpoint, a pickle, is read). A run whose
+            latest checkpoint is already at ``generations`` but that has no ``run.json`` (killed
+            after its final checkpoint) is finished: its outputs are written from the saved
+            history and best controller, without a new generation.
         initial_angles: ``(3,)`` rad for every evaluation (default: drawn from ``seed``).
         episode_duration_s: simulated seconds per evaluation (paper: 20).
         clock_period_s: period of the controller's clock input (s).
@@ -387,7 +410,7 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
 
     Raises:
         ValueError: invalid robot, counts, duration, config, checkpoint, or a checkpoint
-            already at or beyond ``generations``; an ``out_dir`` that cannot be written
+            beyond ``generations`` (or at it, in a finished run; the message names the run directory); an ``out_dir`` that cannot be written
             (checked before anything is created), that another process is writing
             (:class:`~aquafish_gym.rundir.BusyError`), that holds a run with other settings, or
             (without ``resume``) any run with checkpoints (:class:`~aquafish_gym.rundir.MismatchError`);
@@ -419,8 +442,20 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
         population = neat.Population(config, seed=seed)
     setattr(population.config, FINGERPRINT_ATTR, _settings(task) | {"population_size": population.config.pop_size})
     remaining = generations - population.generation
+    if remaining == 0 and out_dir is not None and not (out_dir / RUN_FILE).is_file():
+        # killed after the final checkpoint and before run.json: finish it, with no new generation
+        with run_lock(out_dir):
+            _check_run_dir(out_dir, getattr(population.config, FINGERPRINT_ATTR), True)
+            history, best, best_fitness = _previous_run(out_dir, population.generation)
+            if best is None or len(history) != population.generation:
+                raise FileError(out_dir, f"has a checkpoint at generation {population.generation} but not the "
+                                         f"history and {NEAT_CONTROLLER_FILE} of its generations, so it cannot be "
+                                         "finished", "delete the directory and run again, or use another --out")
+            return _finish(population, task, out_dir, HistoryReporter(task, out_dir, history, best, best_fitness))
     if remaining < 1:
-        raise ValueError(f"the checkpoint is at generation {population.generation}; generations must exceed it, got {generations}")
+        where = f"{out_dir} holds a finished gait run" if out_dir is not None else f"the checkpoint {resume} is"
+        raise ValueError(f"{where} at generation {population.generation}; generations must exceed it to extend "
+                         f"it, got {generations}")
     if out_dir is None:
         return _evolve(population, task, None, resume is not None, verbose, checkpoint_every, generations, workers,
                        progress)
@@ -500,6 +535,13 @@ def _evolve(population: neat.Population, task: FitnessTask, out_dir: Path | None
     if checkpointer is not None and checkpointer.last_generation_checkpoint != population.generation:
         # always leave a checkpoint of the final state, so a finished run can be extended
         checkpointer.save_checkpoint(population.config, population.population, population.species, population.generation)
+    return _finish(population, task, out_dir, recorder)
+
+
+def _finish(population: neat.Population, task: FitnessTask, out_dir: Path | None,
+            recorder: HistoryReporter) -> GaitResult:
+    """The result of a run whose generations are all evaluated: the best controller's rollout, and the
+    outputs (``run.json`` last) in ``out_dir``. Also finishes a run killed after its final checkpoint."""
     best_rollout = task.run(recorder.best_controller)
     result = GaitResult(recorder.best_controller, recorder.best_fitness, recorder.history, best_rollout, task.robot,
                         task.seed, best_rollout.initial_angles, population.generation,
@@ -513,7 +555,8 @@ def evolve_or_load_gait(morphology, out_dir, **kwargs) -> NEATController:
     """The best controller of a NEAT run in ``out_dir``, evolving it only if it is not finished.
 
     A finished run (its ``run.json`` written) is loaded, not repeated; a run interrupted after
-    a checkpoint resumes from its latest one; otherwise a new run starts. The case study and
+    a checkpoint resumes from its latest one (one killed after its final checkpoint is only
+    finished: see :func:`evolve_gait`); otherwise a new run starts. The case study and
     the damage table evolve every gait through this, so repeating a command reuses its gaits.
 
     Args:

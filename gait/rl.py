@@ -22,7 +22,8 @@ from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import MismatchError, check_fingerprint, check_output_dir, read_json, run_lock
 from gait.clock import CLOCK_PERIOD_S, ClockObservation, check_clock_period
-from gait.controller import SB3_ALGOS, SB3_MODEL_FILE, SB3PolicyController, sb3_algorithm, sb3_sidecar
+from gait.controller import (SB3_ALGOS, SB3_MODEL_FILE, SB3PolicyController, require_rl, sb3_algorithm,
+                             sb3_sidecar)
 from gait.plots import plot_learning_curve
 from gait.robots import Robot, as_robot
 from gait.rollout import DEFAULT_ENV_ID, EPISODE_DURATION_S, check_env_id, make_env, rollout
@@ -166,9 +167,10 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
             cannot be written (checked before anything is created), that another process is
             writing (:class:`~aquafish_gym.rundir.BusyError`), or that already holds a
             trained model (:class:`~aquafish_gym.rundir.MismatchError`; nothing is overwritten).
-        ImportError: stable-baselines3, or pandas (for SB3's ``load_results``), is missing
-            (install the ``[rl]`` extra); raised before training.
+        MissingExtraError: stable-baselines3, torch or pandas (for SB3's ``load_results``) is
+            missing (install the ``[rl]`` extra); raised before anything is created.
     """
+    require_rl(f"training {algo}", algo, training=True)
     algo_cls = sb3_algorithm(algo)
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.monitor import load_results

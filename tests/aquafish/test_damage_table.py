@@ -32,7 +32,7 @@ def test_damage_table_rows_ratio_and_reuse(tmp_path):
     assert saved["rows"] == rows and saved["starts"] == 2
     assert "caudal_missing" in (tmp_path / "damage_table.md").read_text()
 
-    gait_file = tmp_path / "gaits" / "caudal_missing" / "best_controller.pkl"
+    gait_file = tmp_path / "gaits" / "caudal_missing" / "best_controller.json"
     stamp = gait_file.stat().st_mtime_ns
     assert damage_table(tmp_path, damages=["caudal_missing"], budget=TINY, starts=2, eval_seed=100) == rows
     assert gait_file.stat().st_mtime_ns == stamp  # reused, not evolved again

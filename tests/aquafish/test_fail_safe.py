@@ -100,7 +100,7 @@ def _eea(out, *flags):
 
 def _commands(made: Path, out: Path) -> dict[str, list]:
     """Every command that writes, with ``out`` as its output."""
-    controller = made / "gait" / "best_controller.pkl"
+    controller = made / "gait" / "best_controller.json"
     return {
         "swim": ["swim", "--duration", "0.1", "--out", out],
         "eea": _eea(out),
@@ -215,9 +215,9 @@ def test_truncated_neat_checkpoint_and_garbled_json_of_a_gait_run(copy, capsys):
     settings.write_text(settings.read_text()[:30])
     fails_safe(["gait", *TINY_GAIT, "--generations", "2", "--resume", "latest", "--out", run], capsys, settings,
                "not valid JSON")
-    _truncate(run / "best_controller.pkl")
-    fails_safe(["transfer", "--controller", run / "best_controller.pkl", "--target", "healthy", "--out", run / "t"],
-               capsys, run / "best_controller.pkl")
+    _truncate(run / "best_controller.json")
+    fails_safe(["transfer", "--controller", run / "best_controller.json", "--target", "healthy", "--out", run / "t"],
+               capsys, run / "best_controller.json")
 
 
 def test_garbled_study_json_names_the_file(tmp_path, capsys):
@@ -528,3 +528,74 @@ def test_a_smaller_rounds_keeps_config_json(copy, capsys):
     assert main([str(a) for a in _eea(run, "--rounds", "1")]) == 0
     assert (run / "config.json").read_text() == config
     assert "2 rounds" in capsys.readouterr().out
+
+
+# -- 12. a missing optional extra is a one-line error, before anything is created ----------------------------
+
+@pytest.fixture
+def without_rl(monkeypatch):
+    """Simulate an install without the [rl] extra: ``import stable_baselines3`` raises ImportError."""
+    for name in ("stable_baselines3", "sb3_contrib"):
+        monkeypatch.setitem(sys.modules, name, None)
+
+
+def test_transfer_of_an_sb3_model_without_the_rl_extra_names_the_extra(made, tmp_path, capsys, without_rl):
+    model = tmp_path / "ppo" / "model.zip"
+    model.parent.mkdir()
+    model.write_bytes(b"not read")
+    (tmp_path / "ppo" / "model.json").write_text(json.dumps({"algo": "ppo", "clock_period_s": 1.0}))
+    out = tmp_path / "t"
+    # the NEAT gait first: it must not be scored before the SB3 model is refused
+    fails_safe(["transfer", "--controller", made / "gait", model, "--target", "healthy", "--out", out], capsys,
+               "[rl]", "pip install 'aquafish[rl]'")
+    assert not out.exists()
+    fails_safe(["rl", "--timesteps", "64", "--out", out], capsys, "pip install 'aquafish[rl]'")
+    assert not out.exists()
+
+
+def test_baselines_with_ppo_steps_without_the_rl_extra_refuses_before_any_work(tmp_path, capsys, without_rl):
+    out = tmp_path / "b"
+    argv = ["baselines", "--envs", "AquaFish-v0", "--neat-generations", "1", "--neat-population", "4",
+            "--neat-episodes", "1", "--starts", "1", "--out", out]
+    fails_safe([*argv, "--ppo-timesteps", "100"], capsys, "--ppo-timesteps 100", "pip install 'aquafish[rl]'",
+               "--ppo-timesteps 0")
+    assert not out.exists()
+    from aquafish.task_table import BaselineBudget, task_table
+    with pytest.raises(ValueError, match=r"aquafish\[rl\]"):
+        task_table(out, env_ids=["AquaFish-v0"], budget=BaselineBudget(1, 4, 1, 100), starts=1, progress=False)
+    assert not out.exists()
+
+
+# -- 13. no file a user may receive from someone else runs code when loaded ---------------------------------
+
+class _Payload:
+    """Pickles to a call that creates the directory ``marker`` when it is unpickled."""
+
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return os.mkdir, (self.marker,)
+
+
+def test_a_pickled_controller_or_a_foreign_checkpoint_is_refused_unread(copy, tmp_path, capsys):
+    marker = tmp_path / "ran"
+    evil = tmp_path / "evil.pkl"
+    evil.write_bytes(pickle.dumps(_Payload(marker)))
+    out = tmp_path / "t"
+    fails_safe(["transfer", "--controller", evil, "--target", "healthy", "--out", out], capsys, evil, "runs code",
+               "best_controller.json")
+    assert not out.exists()
+    with gzip.open(tmp_path / "neat-checkpoint-1", "wb") as f:
+        pickle.dump(_Payload(marker), f)
+    fails_safe(["gait", *TINY_GAIT, "--generations", "2", "--resume", tmp_path / "neat-checkpoint-1", "--out",
+                tmp_path / "g"], capsys, tmp_path / "neat-checkpoint-1", "fitness_settings.json")
+    run = copy("gait")  # a checkpoint swapped into a run of other settings
+    shutil.copy(tmp_path / "neat-checkpoint-1", run / "checkpoints" / "neat-checkpoint-1")
+    fails_safe(["gait", *TINY_GAIT, "--seed", "5", "--generations", "2", "--resume", "latest", "--out", run], capsys,
+               "fitness_settings.json", "seed")
+    assert not marker.exists()
+    # the help says a run directory is trusted like code
+    with pytest.raises(SystemExit):
+        main(["gait", "--help"])
+    assert "trusted like code" in " ".join(capsys.readouterr().out.split())

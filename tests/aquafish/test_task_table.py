@@ -18,7 +18,7 @@ def test_rows_are_the_returns_on_the_fresh_starts_and_learners_are_reused(tmp_pa
     random_row, neat_row = rows
     expected = [rollout(RandomController(0), seed=50 + k, env_id="AquaFishHeading-v0").episode_return for k in (0, 1)]
     assert random_row["returns"] == expected and random_row["return_mean"] == pytest.approx(np.mean(expected))
-    neat = load_controller(tmp_path / "AquaFishHeading-v0" / "neat" / "best_controller.pkl")
+    neat = load_controller(tmp_path / "AquaFishHeading-v0" / "neat" / "best_controller.json")
     assert neat_row["returns"][1] == rollout(neat, seed=51, env_id="AquaFishHeading-v0").episode_return
     saved = json.loads((tmp_path / "task_table.json").read_text())
     assert saved["rows"] == rows and "| `AquaFishHeading-v0` | NEAT |" in (tmp_path / "task_table.md").read_text()

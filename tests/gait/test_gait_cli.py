@@ -30,7 +30,7 @@ def test_gait_then_transfer(tmp_path, capsys):
     assert len(json.loads((out / "fitness_history.json").read_text())) == 3
 
     tout = tmp_path / "transfer"
-    assert _run(["transfer", "--controller", str(out), str(out / "best_controller.pkl"), "--native", "healthy",
+    assert _run(["transfer", "--controller", str(out), str(out / "best_controller.json"), "--native", "healthy",
                  "--target", "left_pectoral_half", "--seed", "1", "--out", str(tout), "--title", "a", "b"]) == 0
     results = json.loads((tout / "transfer.json").read_text())
     assert len(results) == 2 and results[0]["target"]["damage"] == "left_pectoral_half"

@@ -96,3 +96,98 @@ def test_heading_hold_keeps_a_half_left_pectoral_on_course_where_the_open_loop_c
     assert hold.distance > 1.5 * open_loop.distance
     dx, dy = hold.trajectory[-1, :2] - hold.trajectory[0, :2]
     assert abs(dx) < dy                                             # within 45 deg of the initial heading
+
+
+# -- no file a user may receive from someone else runs code when loaded -------------------------------------
+
+class _Payload:
+    """Pickles to a call that creates the directory ``marker`` when it is unpickled."""
+
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        import os
+        return os.mkdir, (self.marker,)
+
+
+def test_a_saved_neat_controller_is_json_and_loads_bit_for_bit(tmp_path, controller):
+    import json
+
+    from gait import evolve_gait, load_controller
+    from gait.controller import NEAT_CONTROLLER_FILE
+
+    evolved = evolve_gait(None, generations=3, population_size=6, seed=3, workers=1, episode_duration_s=1.0,
+                          progress=False).best_controller
+    rng = np.random.default_rng(0)
+    for original in (controller, evolved):
+        path = original.save(tmp_path / NEAT_CONTROLLER_FILE)
+        data = json.loads(path.read_text())  # data, not a pickle
+        assert NEAT_CONTROLLER_FILE == "best_controller.json"
+        assert {"format", "version", "clock_period_s", "num_inputs", "neat_config", "genome"} <= set(data)
+        assert {"key", "bias", "response", "activation", "aggregation"} <= set(data["genome"]["nodes"][0])
+        assert {"key", "weight", "enabled"} <= set(data["genome"]["connections"][0])
+        loaded = load_controller(path)
+        assert repr(loaded) == repr(original)
+        for _ in range(5):
+            obs, t = rng.normal(size=12), float(rng.uniform(0, 5))
+            assert loaded.act(obs, t).tobytes() == original.act(obs, t).tobytes()
+        assert load_controller(tmp_path).act(obs, t).tobytes() == original.act(obs, t).tobytes()  # the run directory
+
+
+def test_load_controller_refuses_a_pickle_without_unpickling_it(tmp_path, controller):
+    import pickle
+
+    from aquafish_gym.rundir import FileError
+    from gait import load_controller
+
+    marker = tmp_path / "ran"
+    evil = tmp_path / "evil.pkl"
+    evil.write_bytes(pickle.dumps(_Payload(marker)))
+    with pytest.raises(ValueError, match="not loaded, because unpickling runs code.*best_controller.json") as err:
+        load_controller(evil)
+    assert "\n" not in str(err.value)
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "best_controller.pkl").write_bytes(pickle.dumps(_Payload(marker)))
+    with pytest.raises(ValueError, match="runs code"):
+        load_controller(tmp_path / "run")
+    assert not marker.exists()
+    pickle.loads(evil.read_bytes())  # the payload does run when unpickled
+    assert marker.exists()
+    # the documented one-off conversion of one's own pickle
+    own = tmp_path / "own.pkl"
+    own.write_bytes(pickle.dumps(controller))
+    pickle.load(open(own, "rb")).save(tmp_path / "own.json")
+    assert load_controller(tmp_path / "own.json").act(np.zeros(12), 0.3).tobytes() == \
+        controller.act(np.zeros(12), 0.3).tobytes()
+    (tmp_path / "bad.json").write_text('{"format": "something else"}')
+    with pytest.raises(FileError, match="bad.json.*not a NEAT controller"):
+        load_controller(tmp_path / "bad.json")
+
+
+def test_a_neat_checkpoint_is_unpickled_only_in_a_run_directory_whose_manifest_matches(tmp_path):
+    import gzip
+    import pickle
+    import shutil
+
+    from gait import evolve_gait, latest_checkpoint
+
+    kw = dict(population_size=4, seed=3, workers=1, episode_duration_s=0.5, checkpoint_every=1, progress=False)
+    evolve_gait(None, generations=1, out_dir=tmp_path / "run", **kw)
+    marker = tmp_path / "ran"
+    checkpoint = latest_checkpoint(tmp_path / "run")
+    with gzip.open(checkpoint, "wb") as f:
+        pickle.dump(_Payload(marker), f)
+    # other settings than the manifest's: refused before the checkpoint is read
+    with pytest.raises(ValueError, match="neat-checkpoint-1.*seed: 3 -> 4.*fitness_settings.json"):
+        evolve_gait(None, generations=2, out_dir=tmp_path / "run", resume=checkpoint, **(kw | dict(seed=4)))
+    with pytest.raises(ValueError, match="population"):
+        evolve_gait(None, generations=2, out_dir=tmp_path / "run", resume=checkpoint, **(kw | dict(population_size=5)))
+    # a checkpoint outside a run directory, or in one without a manifest
+    shutil.copy(checkpoint, tmp_path / "neat-checkpoint-1")
+    with pytest.raises(ValueError, match="trust"):
+        evolve_gait(None, generations=2, out_dir=tmp_path / "other", resume=tmp_path / "neat-checkpoint-1", **kw)
+    (tmp_path / "run" / "fitness_settings.json").unlink()
+    with pytest.raises(ValueError, match="fitness_settings.json"):
+        evolve_gait(None, generations=2, out_dir=tmp_path / "run", resume=checkpoint, **kw)
+    assert not marker.exists()

@@ -67,7 +67,7 @@ def test_evolution_never_loses_the_best_and_writes_outputs(tmp_path):
     assert result.best_fitness == max(best) == result.history[-1]["best_so_far"]
     assert result.best_rollout.distance == result.best_fitness
     assert result.history[-1]["evaluations"] == 4 * 6
-    for name in ("best_controller.pkl", "best_genome.txt", "fitness_history.json", "fitness_history.png",
+    for name in ("best_controller.json", "best_genome.txt", "fitness_history.json", "fitness_history.png",
                  "run.json", "neat_config.ini"):
         assert (out / name).is_file(), name
     assert json.loads((out / "fitness_history.json").read_text()) == result.history
@@ -147,8 +147,46 @@ def test_neat_on_another_task_gets_its_inputs_and_scores_its_return(tmp_path):
     assert result.best_fitness == pytest.approx(np.mean(returns), abs=1e-12)   # the return, not the distance
     assert json.loads((tmp_path / "run.json").read_text())["env_id"] == "AquaFishHeading-v0"
     # the evolved network can be reloaded, and refuses an observation of another task
-    loaded = load_controller(tmp_path / "best_controller.pkl")
+    loaded = load_controller(tmp_path / "best_controller.json")
     with pytest.raises(ValueError, match="takes 14 observation entries, got 12"):
         loaded.act(np.zeros(12), 0.0)
     with pytest.raises(ValueError, match="unknown env id"):
         evolve_gait(None, generations=1, env_id="CartPole-v1", **TINY)
+
+
+def test_a_run_killed_after_its_final_checkpoint_is_finished_by_resuming(tmp_path, monkeypatch, capsys):
+    """Issue: a kill -9 between the final checkpoint and run.json left a run that `--resume latest`
+    (checkpoint already at `generations`), a plain rerun (a run is there) and evolve_or_load_gait
+    (case-study, damages) all refused. Resuming now finishes it from the saved history and controller."""
+    from aquafish.cli import main
+    from gait import neat_evolution
+
+    full = evolve_gait(None, generations=2, out_dir=tmp_path / "full", **TINY)
+
+    def killed(*args, **kwargs):
+        raise KeyboardInterrupt("killed after the final checkpoint")
+
+    monkeypatch.setattr(neat_evolution, "_write_outputs", killed)
+    for name in ("cli", "api"):
+        with pytest.raises(KeyboardInterrupt):
+            evolve_gait(None, generations=2, out_dir=tmp_path / name, **TINY)
+        assert latest_checkpoint(tmp_path / name).name == "neat-checkpoint-2"
+        assert not (tmp_path / name / "run.json").exists()
+    monkeypatch.undo()
+
+    # no new generation is run: evaluating a genome would fail
+    monkeypatch.setattr(neat_evolution, "evaluate_genome", lambda *a, **k: pytest.fail("evaluated a genome"))
+    assert main(["gait", "--out", str(tmp_path / "cli"), "--resume", "latest", "--generations", "2",
+                 "--population-size", "6", "--seed", "3", "--workers", "1", "--episode-duration-s", "1",
+                 "--quiet"]) == 0
+    loaded = evolve_or_load_gait(None, tmp_path / "api", generations=2, **TINY)
+    for name in ("cli", "api"):
+        run = json.loads((tmp_path / name / "run.json").read_text())
+        assert run["best_fitness"] == full.best_fitness and run["generations"] == 2
+        assert _strip_time(json.loads((tmp_path / name / "fitness_history.json").read_text())) == \
+            _strip_time(full.history)
+    assert rollout(loaded, seed=3, episode_duration_s=1.0).distance == full.best_fitness
+    # a checkpoint beyond the asked budget is refused naming the run directory
+    (tmp_path / "api" / "run.json").unlink()
+    with pytest.raises(ValueError, match=f"{tmp_path / 'api'}.*generation 2"):
+        evolve_or_load_gait(None, tmp_path / "api", generations=1, **TINY)

@@ -123,3 +123,71 @@ def test_ppo_on_another_task_uses_its_section_and_reports_its_return(tmp_path):
     for algo in ("ppo", "sac", "recurrent_ppo"):  # the shipped file has a section for every task
         for env_id in aquafish_gym.ENV_IDS:
             assert load_hyperparams(algo, env_id=env_id)["policy"].startswith("Mlp")
+
+
+class _Payload:
+    """Pickles to a call that creates the directory ``marker`` when it is unpickled."""
+
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        import os
+        return os.mkdir, (self.marker,)
+
+
+def _rewrite_data(model, edit):
+    """Rewrite the ``data`` JSON of the SB3 zip ``model`` with ``edit(data)``."""
+    import zipfile
+
+    with zipfile.ZipFile(model) as archive:
+        entries = {name: archive.read(name) for name in archive.namelist()}
+    data = json.loads(entries["data"])
+    edit(data)
+    entries["data"] = json.dumps(data).encode()
+    with zipfile.ZipFile(model, "w") as archive:
+        for name, content in entries.items():
+            archive.writestr(name, content)
+
+
+def test_loading_an_sb3_model_runs_no_pickle_from_it(tmp_path):
+    import base64
+    import inspect
+
+    import cloudpickle
+    from stable_baselines3.common import save_util
+
+    from aquafish_gym.rundir import FileError
+
+    hp = tmp_path / "hp.yml"
+    hp.write_text(yaml.safe_dump({"ppo": {"AquaFish-v0": {
+        "n_timesteps": 64, "policy": "MlpPolicy", "n_envs": 1, "n_steps": 32, "batch_size": 16, "n_epochs": 1,
+        "policy_kwargs": {"net_arch": [8]}}}}))
+    path = train_rl("ppo", "healthy", 64, 0, tmp_path / "ppo", hyperparams_path=hp, episode_duration_s=0.5,
+                    num_threads=1)
+    original = load_controller(path)
+    marker = tmp_path / "ran"
+    payload = base64.b64encode(cloudpickle.dumps(_Payload(marker))).decode()
+    cloudpickle.loads(base64.b64decode(payload))  # the payload does run when unpickled
+    assert marker.exists()
+    marker.rmdir()
+
+    def poison(data):  # every pickled entry of SB3's data carries the payload
+        for value in data.values():
+            if isinstance(value, dict) and ":serialized:" in value:
+                value[":serialized:"] = payload
+
+    _rewrite_data(path, poison)
+    loaded = load_controller(path)
+    assert not marker.exists()
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        obs, t = rng.normal(size=12), float(rng.uniform(0, 5))
+        assert loaded.act(obs, t).tobytes() == original.act(obs, t).tobytes()
+    # a pickled entry that cannot be rebuilt safely is refused, not unpickled
+    _rewrite_data(path, lambda data: data.update(extra={":type:": "x", ":serialized:": payload}))
+    with pytest.raises(FileError, match="extra.*not loaded"):
+        load_controller(path)
+    assert not marker.exists()
+    # the weights are read without pickles (a torch.load with weights_only=True)
+    assert "weights_only=True" in inspect.getsource(save_util.load_from_zip_file)
