@@ -37,6 +37,15 @@ def test_smoke_case_study_writes_report_and_figures(tmp_path):
     assert again["controllers"] == report["controllers"]
 
 
+def test_a_case_study_without_the_rl_extra_says_its_ppo_rows_are_left_out(tmp_path, monkeypatch, caplog):
+    monkeypatch.setattr("aquafish.case_study._rl_available", lambda: False)
+    report = run_case_study("smoke", "left_pectoral_half", 0, tmp_path, workers=1, progress=False, video=False)
+    assert not {"ppo", "robust_ppo"} & set(report["controllers"])
+    assert report["left_out"] and "aquafish[rl]" in report["left_out"][0]
+    assert f"Left out: {report['left_out'][0]}." in (tmp_path / "report.md").read_text()
+    assert "PPO rows are left out" in caplog.text
+
+
 def test_tiny_case_study_new_rows_servo_gains_and_video(tmp_path, capsys):
     """The whole command on the smoke preset with 2 s episodes: the self-model in morphology+servos,
     its gains on its gait's robot, the damage-robust rows (NEAT, and PPO with the ``[rl]`` extra),
