@@ -17,10 +17,9 @@ import os
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
-from tqdm.auto import tqdm
-
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
+from aquafish_gym.progress import progress_bar
 from aquafish_gym.rundir import FileError, check_output_dir, die_with_parent, read_json, run_lock
 from eea.config import EEAConfig
 from eea.methods import METHODS, method_fields
@@ -129,8 +128,8 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
             ``"ray"`` (Ray tasks; ``address`` as for ``ray.init``, e.g. ``"auto"`` or
             ``"ray://head:10001"``; ``None`` starts a local Ray instance).
         processes: local pool size (default ``os.cpu_count()``).
-        progress: show a tqdm bar over runs, with the best final objective fitness per
-            condition among the runs finished so far in its postfix.
+        progress: show progress over runs (a tqdm bar on a terminal, else one line per run),
+            with the best final objective fitness per condition among the runs finished so far.
 
     Raises:
         ValueError: unknown backend, ``processes`` < 1, ``out_dir`` cannot be written
@@ -158,7 +157,7 @@ def _run_study_locked(spec: StudySpec, out_dir: Path, backend: str, address: str
     _write_spec(spec, out_dir)
     runs = spec.runs(out_dir)
     todo = [(c, d) for c, d in runs if rounds_done(d) < c.rounds]
-    bar = tqdm(total=len(runs), initial=len(runs) - len(todo), desc="study runs", unit="run", disable=not progress)
+    bar = progress_bar(len(runs), initial=len(runs) - len(todo), desc="study runs", unit="run", disable=not progress)
     best = {}
 
     def finished(run_dir: str) -> None:
