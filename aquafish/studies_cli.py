@@ -173,7 +173,11 @@ def add_commands(sub) -> None:
                    help="the first seed S (default 0); shards of one study's seeds can share its --out")
     s.add_argument("--out", required=True, help="study directory")
     s.add_argument("--backend", choices=["local", "ray"], default="local", help="local process pool or Ray tasks")
-    s.add_argument("--address", default=None, help="Ray cluster address (ray.init); default: start a local Ray")
+    s.add_argument("--address", default=None,
+                   help="Ray cluster address (ray.init: 'auto', HOST:PORT or ray://HOST:PORT; default: start a local "
+                        "Ray). A token-authenticated cluster (Ray's RAY_AUTH_MODE=token) needs RAY_AUTH_MODE=token and "
+                        "its token in RAY_AUTH_TOKEN (or RAY_AUTH_TOKEN_PATH, or ~/.ray/auth_token) in this "
+                        "command's environment")
     s.add_argument("--processes", type=int_at_least(1), default=None, help="local pool size (default: all cores)")
     add_config_flags(s, exclude=STUDY_EXCLUDED)
     add_no_progress(s, "finished run")

@@ -18,7 +18,6 @@ from concurrent.futures import ProcessPoolExecutor
 
 import neat
 import numpy as np
-from tqdm.auto import tqdm
 
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
@@ -60,7 +59,7 @@ class GenerationBar(neat.reporting.BaseReporter):
 
     def __setstate__(self, state: dict) -> None:
         self.best = state["best"]
-        self.bar = tqdm(disable=True)
+        self.bar = progress_bar(disable=True)
 
 
 class QuietCheckpointer(neat.Checkpointer):
