@@ -65,10 +65,10 @@ class GaitBudget:
     workers: int = 1
 
 
-def _gait(robot: str, budget: GaitBudget, out_dir: Path, verbose: bool):
+def _gait(robot: str, budget: GaitBudget, out_dir: Path, verbose: bool, progress: bool = True):
     return evolve_or_load_gait(robot, out_dir, generations=budget.generations, population_size=budget.population_size,
                                seed=budget.seed, workers=budget.workers,
-                               episodes_per_genome=budget.episodes_per_genome, verbose=verbose)
+                               episodes_per_genome=budget.episodes_per_genome, verbose=verbose, progress=progress)
 
 
 def distances(controller, robot: str, eval_seed: int, starts: int, duration_s: float = 20.0) -> np.ndarray:
@@ -97,7 +97,7 @@ def _summary(values: np.ndarray) -> dict[str, Any]:
 
 
 def damage_table(out, *, damages=None, budget: GaitBudget = GaitBudget(), starts: int = 10,
-                 eval_seed: int = 1000, verbose: bool = False) -> list[dict[str, Any]]:
+                 eval_seed: int = 1000, verbose: bool = False, progress: bool = True) -> list[dict[str, Any]]:
     """Evolve the gaits and measure the table; write ``damage_table.json`` and ``.md`` to ``out``.
 
     Args:
@@ -107,6 +107,7 @@ def damage_table(out, *, damages=None, budget: GaitBudget = GaitBudget(), starts
         starts: fresh starts per (gait, robot) pair.
         eval_seed: seed of the first fresh start (keep it away from the training seeds).
         verbose: NEAT's per-generation report.
+        progress: progress over each gait's generations.
 
     Returns:
         One row per damage (the JSON's content).
@@ -120,12 +121,12 @@ def damage_table(out, *, damages=None, budget: GaitBudget = GaitBudget(), starts
         raise ValueError(f"unknown damage(s) {unknown}; valid: {', '.join(sorted(d for d in DAMAGES if d != 'none'))}")
     check_int("starts", starts, 1)
     out = Path(out)
-    healthy_gait = _gait("healthy", budget, out / "gaits" / "healthy", verbose)
+    healthy_gait = _gait("healthy", budget, out / "gaits" / "healthy", verbose, progress)
     on_healthy = distances(healthy_gait, "healthy", eval_seed, starts)
     on_healthy_long = distances(healthy_gait, "healthy", eval_seed, starts, LONG_EPISODE_S)
     rows = []
     for name in names:
-        oracle = _gait(name, budget, out / "gaits" / name, verbose)
+        oracle = _gait(name, budget, out / "gaits" / name, verbose, progress)
         healthy_on_damaged = distances(healthy_gait, name, eval_seed, starts)
         oracle_on_damaged = distances(oracle, name, eval_seed, starts)
         healthy_long = distances(healthy_gait, name, eval_seed, starts, LONG_EPISODE_S)

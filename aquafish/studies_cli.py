@@ -28,7 +28,7 @@ def _case_study(args: argparse.Namespace) -> int:
     report = run_case_study(args.preset, args.damage, args.seed, args.out, method=args.method,
                             model_space=args.model_space, behaviour_summary=args.behaviour_summary,
                             episode_duration_s=args.episode_duration,
-                            video=args.video, workers=args.workers)
+                            video=args.video, workers=args.workers, progress=not args.no_progress)
     print((Path(args.out) / "report.md").read_text())
     video = f", {report['video']}" if report.get("video") else ""
     print(f"wrote {Path(args.out) / 'report.md'}, report.json{video} ({report['wall_seconds'] / 60:.1f} min)")
@@ -42,7 +42,8 @@ def _study(args: argparse.Namespace) -> int:
     base = EEAConfig(workers=1, **config_fields(args, names))
     fixed = list(given_flags(args, names))  # flags given win over the methods' fields
     spec = StudySpec(args.conditions, args.durations, args.replicates, base, first_seed=args.first_seed, fixed=fixed)
-    dirs = run_study(spec, args.out, backend=args.backend, address=args.address, processes=args.processes)
+    dirs = run_study(spec, args.out, backend=args.backend, address=args.address, processes=args.processes,
+                     progress=not args.no_progress)
     print(f"{len(dirs)} runs under {args.out}; plot them with: aquafish plot {args.out}")
     return 0
 
@@ -106,7 +107,8 @@ def _baselines(args: argparse.Namespace) -> int:
     budget = BaselineBudget(args.neat_generations, args.neat_population, args.neat_episodes, args.ppo_timesteps,
                             args.seed, args.workers)
     with run_lock(args.out, command="baselines"):  # a second writer fails at once; each learner's directory is locked too
-        rows = task_table(args.out, env_ids=args.envs, budget=budget, starts=args.starts, eval_seed=args.eval_seed)
+        rows = task_table(args.out, env_ids=args.envs, budget=budget, starts=args.starts, eval_seed=args.eval_seed,
+                          progress=not args.no_progress)
     print(format_table(rows, args.starts))
     print(f"wrote {args.out}/task_table.md and task_table.json")
     return 0
@@ -119,10 +121,17 @@ def _damages(args: argparse.Namespace) -> int:
     budget = GaitBudget(args.generations, args.population_size, args.episodes_per_genome, args.seed, args.workers)
     with run_lock(args.out, command="damages"):  # a second writer fails at once; each gait's directory is locked too
         rows = damage_table(args.out, damages=args.damages, budget=budget, starts=args.starts,
-                            eval_seed=args.eval_seed, verbose=args.verbose)
+                            eval_seed=args.eval_seed, verbose=args.verbose,
+                            progress=not args.no_progress)
     print(format_table(rows, args.starts))
     print(f"wrote {Path(args.out) / 'damage_table.md'} and damage_table.json")
     return 0
+
+
+def add_no_progress(parser: argparse.ArgumentParser, unit: str) -> None:
+    """Add ``--no-progress`` (every long-running command has it): no progress display at all."""
+    parser.add_argument("--no-progress", action="store_true",
+                        help=f"no progress (default: a bar on a terminal, one line per {unit} otherwise)")
 
 
 def add_commands(sub) -> None:
@@ -151,6 +160,7 @@ def add_commands(sub) -> None:
     c.add_argument("--seed", type=int_at_least(0), default=0, help="seeds every run (default 0)")
     c.add_argument("--out", default="case_study_out", help="output directory (finished steps are reused)")
     c.add_argument("--workers", type=int_at_least(1), default=None, help="processes for evaluation (default: all cores)")
+    add_no_progress(c, "round, generation or training chunk")
     c.set_defaults(func=_case_study)
 
     s = sub.add_parser("study", help="many resumable EEA runs: conditions x durations x replicates (Figures 5-10)")
@@ -164,9 +174,14 @@ def add_commands(sub) -> None:
                    help="the first seed S (default 0); shards of one study's seeds can share its --out")
     s.add_argument("--out", required=True, help="study directory")
     s.add_argument("--backend", choices=["local", "ray"], default="local", help="local process pool or Ray tasks")
-    s.add_argument("--address", default=None, help="Ray cluster address (ray.init); default: start a local Ray")
+    s.add_argument("--address", default=None,
+                   help="Ray cluster address (ray.init: 'auto', HOST:PORT or ray://HOST:PORT; default: start a local "
+                        "Ray). A token-authenticated cluster (Ray's RAY_AUTH_MODE=token) needs RAY_AUTH_MODE=token and "
+                        "its token in RAY_AUTH_TOKEN (or RAY_AUTH_TOKEN_PATH, or ~/.ray/auth_token) in this "
+                        "command's environment")
     s.add_argument("--processes", type=int_at_least(1), default=None, help="local pool size (default: all cores)")
     add_config_flags(s, exclude=STUDY_EXCLUDED)
+    add_no_progress(s, "finished run")
     s.set_defaults(func=_study)
 
     p = sub.add_parser("plot", help="plot mean objective fitness vs round per condition and duration (Figures 5-10)")
@@ -215,6 +230,7 @@ def add_commands(sub) -> None:
     t.add_argument("--eval-seed", type=int_at_least(0), default=1000, help="seed of the first fresh start (default 1000)")
     t.add_argument("--workers", type=int_at_least(1), default=1, help="NEAT evaluation processes (default 1)")
     t.add_argument("--verbose", action="store_true", help="NEAT's per-generation report")
+    add_no_progress(t, "generation")
     t.set_defaults(func=_damages)
 
     b = sub.add_parser("baselines", help="random policy, NEAT and PPO on every task of the env family "
@@ -229,4 +245,5 @@ def add_commands(sub) -> None:
     b.add_argument("--seed", type=int_at_least(0), default=0, help="training seed (default 0)")
     b.add_argument("--eval-seed", type=int_at_least(0), default=1000, help="seed of the first fresh start (default 1000)")
     b.add_argument("--workers", type=int_at_least(1), default=1, help="NEAT evaluation processes (default 1)")
+    add_no_progress(b, "generation or training chunk")
     b.set_defaults(func=_baselines)

@@ -25,8 +25,8 @@ import os
 from pathlib import Path
 
 import numpy as np
-from tqdm.auto import tqdm
 
+from aquafish_gym.progress import progress_bar
 from aquafish_gym.rundir import FileError, MismatchError, check_fingerprint, check_memory, check_output_dir, run_lock
 from eea.checkpoint import STATE_FILE, RunState, load_state, save_state
 from eea.config import RESULT_NEUTRAL_FIELDS, EEAConfig
@@ -97,7 +97,8 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
             returned without simulating. ``rounds``, ``workers`` and ``max_batch_robots``
             may differ from the stored config (they do not change results; a larger
             ``rounds`` extends the run, a smaller one leaves ``config.json`` as it is).
-        progress: show a tqdm bar over rounds with the current phase as postfix.
+        progress: show progress over rounds (:func:`aquafish_gym.progress.progress_bar`: a tqdm
+            bar with the current phase on a terminal, else one line per round).
 
     Returns:
         The :class:`~eea.record.RunResult` (all finished rounds).
@@ -132,8 +133,8 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
     else:
         estimation, experiments, state = None, (), RunState(config.to_dict())
     _write_records(out, state.rows, estimation, config.model_space)  # repairs a kill between checkpoint and csv
-    bar = tqdm(total=config.rounds, initial=min(state.rounds_done, config.rounds), unit="round",
-               desc=f"eea {config.inference} seed {config.seed}", disable=not progress)
+    bar = progress_bar(config.rounds, initial=min(state.rounds_done, config.rounds), unit="round",
+                       desc=f"eea {config.inference} seed {config.seed}", disable=not progress)
 
     def on_phase(name: str, generations: int | None):
         bar.set_postfix_str(name)
@@ -164,8 +165,8 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
                              wall_seconds=wall, rows=(*state.rows, row))
             save_state(out, state)
             _write_records(out, state.rows, parts.estimation, config.model_space)
-            bar.update(1)
             bar.set_postfix_str(f"obj {row['objective_fitness']:.3f}")
+            bar.update(1)
     return RunResult(out, config, list(state.rows))
 
 

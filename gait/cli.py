@@ -41,7 +41,9 @@ def add_commands(subparsers) -> None:
                    help="episodes per evaluation from different initial angles (seeds seed, seed+1, ...); fitness is their mean (default 1)")
     p.add_argument("--checkpoint-every", type=int_at_least(1), default=5, help="generations between checkpoints (default 5)")
     p.add_argument("--verbose", action="store_true", help="NEAT's per-generation report (species, fitness statistics)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress (default: a bar on a terminal, one line per generation otherwise)")
+    p.add_argument("--quiet", action="store_true", dest="no_progress", help=argparse.SUPPRESS)  # the old name
     p.set_defaults(func=run_gait)
 
     p = subparsers.add_parser("transfer", help="score controllers on their native robot and on a target (Figure 12)",
@@ -74,6 +76,8 @@ def add_commands(subparsers) -> None:
     p.add_argument("--episode-duration-s", type=positive_float, default=20.0, help="simulated seconds per training episode (default 20)")
     p.add_argument("--num-threads", type=int_at_least(1), default=1, help="torch CPU threads (default 1)")
     p.add_argument("--verbose", type=int, default=0, choices=(0, 1, 2), help="SB3 verbosity (default 0)")
+    p.add_argument("--no-progress", action="store_true",
+                   help="no progress (default: a bar on a terminal, one line per rollout otherwise)")
     p.set_defaults(func=run_rl)
 
 
@@ -86,7 +90,7 @@ def run_gait(args: argparse.Namespace) -> int:
                          population_size=args.population_size, seed=args.seed, out_dir=args.out, workers=args.workers,
                          config_path=args.config, resume=resume, episode_duration_s=args.episode_duration_s,
                          episodes_per_genome=args.episodes_per_genome, checkpoint_every=args.checkpoint_every, verbose=args.verbose,
-                         progress=not args.quiet, env_id=args.env)
+                         progress=not args.no_progress, env_id=args.env)
     score = (f"forward distance {result.best_fitness:.3f} units ({result.best_fitness * 8:.1f} cm)" if args.env == "AquaFish-v0"
              else f"{args.env} return {result.best_fitness:.3f}")
     print(f"best {score} in {args.episode_duration_s:g} s on {result.robot.label}; {result.generations} generations, "
@@ -140,7 +144,8 @@ def run_rl(args: argparse.Namespace) -> int:
 
     path = train_rl(args.algo, args.morphology, args.timesteps, args.seed, args.out, damage=args.damage,
                     hyperparams_path=args.hyperparams, episode_duration_s=args.episode_duration_s,
-                    num_threads=args.num_threads, verbose=args.verbose, env_id=args.env)
+                    num_threads=args.num_threads, verbose=args.verbose, env_id=args.env,
+                    progress=not args.no_progress)
     meta = json.loads(path.with_suffix(".json").read_text())
     asked = meta.get("timesteps_requested", meta["timesteps"])
     if asked != meta["timesteps"]:

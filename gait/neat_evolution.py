@@ -2,7 +2,7 @@
 
 ``evolve_gait`` runs ``neat.Population`` on the config in ``gait/neat_config.ini`` with
 a ``Checkpointer``, a :class:`HistoryReporter` (fitness per generation, best controller), a
-tqdm bar over generations (:class:`gait.neat_progress.GenerationBar`) and, with
+progress display over generations (:class:`gait.neat_progress.GenerationBar`) and, with
 ``verbose``, NEAT's ``StdOutReporter``; genomes are evaluated on a process pool
 (:class:`gait.neat_progress.PoolEvaluator`) or in-process for one worker.
 
@@ -401,7 +401,8 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
         checkpoint_every: generations between checkpoints (needs ``out_dir``); the final
             generation is always checkpointed, so ``resume=latest_checkpoint(out_dir)`` extends a run.
         verbose: print NEAT's per-generation report (species, fitness statistics).
-        progress: show a tqdm bar over generations with the best and mean fitness.
+        progress: show progress over generations with the best and mean fitness (a tqdm bar on a
+            terminal, else one line per generation).
         env_id: the task (default the paper's ``"AquaFish-v0"``); the network gets one
             input per observation entry of the task, plus the clock.
 

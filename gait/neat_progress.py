@@ -1,4 +1,4 @@
-"""What a NEAT run shows while it runs: one tqdm bar over generations, and a quiet pool.
+"""What a NEAT run shows while it runs: progress over generations, and a quiet pool.
 
 neat-python's ``ParallelEvaluator`` draws a tqdm bar over the genomes of every generation
 (one screen line per generation), its ``StdOutReporter`` prints a report per generation
@@ -18,16 +18,17 @@ from concurrent.futures import ProcessPoolExecutor
 
 import neat
 import numpy as np
-from tqdm.auto import tqdm
 
 from aquafish_gym.files import atomic_write
+from aquafish_gym.progress import progress_bar
 from aquafish_gym.rundir import die_with_parent
 
 __all__ = ["GenerationBar", "PoolEvaluator", "QuietCheckpointer"]
 
 
 class GenerationBar(neat.reporting.BaseReporter):
-    """A tqdm bar over generations; its postfix shows the best and mean fitness so far.
+    """Progress over generations (:func:`aquafish_gym.progress.progress_bar`: a tqdm bar on a
+    terminal, else one line per generation), with the best and mean fitness so far.
 
     Args:
         total: the run's total generations.
@@ -37,7 +38,7 @@ class GenerationBar(neat.reporting.BaseReporter):
     """
 
     def __init__(self, total: int, initial: int = 0, desc: str = "NEAT generations", disable: bool = False):
-        self.bar = tqdm(total=total, initial=initial, desc=desc, unit="gen", disable=disable)
+        self.bar = progress_bar(total, initial=initial, desc=desc, unit="gen", disable=disable)
         self.best = -np.inf
 
     def post_evaluate(self, config, population, species, best_genome) -> None:
@@ -58,7 +59,7 @@ class GenerationBar(neat.reporting.BaseReporter):
 
     def __setstate__(self, state: dict) -> None:
         self.best = state["best"]
-        self.bar = tqdm(disable=True)
+        self.bar = progress_bar(disable=True)
 
 
 class QuietCheckpointer(neat.Checkpointer):

@@ -97,30 +97,69 @@ def _linear_schedule(initial: float) -> Callable[[float], float]:
     return schedule
 
 
-def training_bar(total_timesteps: int, desc: str, disable: bool = False):
-    """An SB3 callback drawing one tqdm bar over env steps, the mean return of the last 100
-    episodes (SB3's ``ep_info_buffer``) and the best such mean in its postfix.
+def timesteps_to_train(model, requested: int) -> int:
+    """The env steps ``model.learn(total_timesteps=requested)`` will train: SB3 collects whole
+    rollouts, so ``requested`` is rounded up to a multiple of ``n_steps x n_envs`` (PPO,
+    RecurrentPPO) or of ``train_freq x n_envs`` (SAC, a step-based ``train_freq``)."""
+    from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
 
+    if isinstance(model, OnPolicyAlgorithm):
+        chunk = model.n_steps * model.n_envs
+    else:
+        freq = getattr(model, "train_freq", None)
+        step_unit = freq is not None and getattr(freq.unit, "value", None) == "step"
+        chunk = freq.frequency * model.n_envs if step_unit else model.n_envs
+    return -(-int(requested) // chunk) * chunk
+
+
+def _bar_label(algo: str, robot: Robot, env_id: str) -> str:
+    """``PPO on <robot>``, and the task unless it is AquaFish-v0 (as NEAT's ``NEAT gait on <robot>``)."""
+    return f"{algo.upper()} on {robot.label}" + ("" if env_id == DEFAULT_ENV_ID else f" ({env_id})")
+
+
+def training_bar(total_timesteps: int, desc: str, disable: bool = False):
+    """An SB3 callback showing progress over env steps, with the mean return of the last 100
+    episodes (SB3's ``ep_info_buffer``) and the best such mean.
+
+    ``total_timesteps`` should be what is trained (:func:`timesteps_to_train`). On a terminal
+    it is a tqdm bar updated every step; otherwise (:func:`aquafish_gym.progress.progress_bar`)
+    one line per training chunk: at the end of a rollout, once at least 1% of the total has
+    passed since the last line (so PPO prints one line per rollout, SAC one per 1%).
     (SB3's own ``progress_bar=True`` needs the ``rich`` package; this needs only tqdm.)
     """
     from stable_baselines3.common.callbacks import BaseCallback
-    from tqdm.auto import tqdm
+
+    from aquafish_gym.progress import LineProgress, progress_bar
 
     class TrainingBar(BaseCallback):
         def _on_training_start(self) -> None:
-            self.bar = tqdm(total=total_timesteps, desc=desc, unit="step", disable=disable)
+            self.bar = progress_bar(total_timesteps, desc=desc, unit="step", disable=disable)
+            self.lines = isinstance(self.bar, LineProgress)
             self.best = -np.inf
 
-        def _on_step(self) -> bool:
-            self.bar.update(self.training_env.num_envs)
+        def _returns(self) -> None:
             episodes = self.model.ep_info_buffer
-            if episodes and self.n_calls % 50 == 0:
+            if episodes:
                 mean = float(np.mean([e["r"] for e in episodes]))
                 self.best = max(self.best, mean)
                 self.bar.set_postfix(mean_return=f"{mean:.3f}", best=f"{self.best:.3f}")
+
+        def _on_step(self) -> bool:
+            if not self.lines:
+                self.bar.update(self.training_env.num_envs)
+                if self.n_calls % 50 == 0:
+                    self._returns()
             return True
 
+        def _on_rollout_end(self) -> None:
+            if self.lines and self.num_timesteps - self.bar.n >= max(1, total_timesteps // 100):
+                self._returns()
+                self.bar.update(self.num_timesteps - self.bar.n)
+
         def _on_training_end(self) -> None:
+            if self.lines and self.num_timesteps > self.bar.n:
+                self._returns()
+                self.bar.update(self.num_timesteps - self.bar.n)
             self.bar.close()
 
     return TrainingBar()
@@ -154,7 +193,8 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
         num_threads: torch CPU threads (None: torch's default).
         verbose: SB3 verbosity (0, 1, 2).
         env_id: the task (``aquafish_gym.ENV_IDS``); its section of the YAML file is used.
-        progress: show a tqdm bar over env steps with the mean and best episode return.
+        progress: show progress over the env steps trained (:func:`training_bar`) with the mean
+            and best episode return.
 
     Returns:
         Path of ``model.zip`` (load it with :func:`gait.load_controller`). ``model.json``
@@ -235,8 +275,9 @@ def _train(algo_cls, algo, robot, n_timesteps, seed, out_dir, hp, hyperparams_pa
                         n_envs=n_envs, seed=seed, monitor_dir=str(out_dir / "monitor"))
     model = algo_cls(policy, venv, seed=seed, device="cpu", verbose=verbose, **hp)
     start = time.perf_counter()
-    model.learn(total_timesteps=int(n_timesteps),
-                callback=training_bar(int(n_timesteps), f"{algo.upper()} on {env_id}", disable=not progress))
+    model.learn(total_timesteps=int(n_timesteps),  # the bar counts the whole rollouts SB3 trains
+                callback=training_bar(timesteps_to_train(model, n_timesteps), _bar_label(algo, robot, env_id),
+                                      disable=not progress))
     wall_time_s = time.perf_counter() - start
     venv.close()
     model_path = out_dir / SB3_MODEL_FILE
