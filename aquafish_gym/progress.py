@@ -16,6 +16,7 @@ from tqdm.auto import tqdm
 
 __all__ = ["LineProgress", "interactive", "progress_bar"]
 
+
 def interactive() -> bool:
     """Whether standard error is a terminal (a tqdm bar redraws in place there)."""
     isatty = getattr(sys.stderr, "isatty", None)
