@@ -92,7 +92,7 @@ def test_study_command_line_of_the_readme(monkeypatch, tmp_path):
 
     assert spec.base == EEAConfig(workers=1, rounds=10, estimation_generations=30, exploration_generations=10,
                                   oob_period=10, estimation_search="cma", cma_sigma=0.2)
-    assert kw == {"backend": "local", "address": None, "processes": None}
+    assert kw == {"backend": "local", "address": None, "processes": None, "progress": True}
 
 
 def test_methods_and_budgets_on_the_command_line_and_flags_over_them(monkeypatch, tmp_path):
