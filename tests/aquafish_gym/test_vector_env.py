@@ -193,3 +193,11 @@ def test_bad_reset_and_step_raise_value_error():
             venv.step(bad)
     venv.close()
     assert venv.closed
+
+
+def test_benchmark_runs_and_prints_its_table(capsys):
+    from benchmarks import vector_env
+
+    vector_env.main(["--sizes", "2", "--env-steps", "4", "--repeats", "1"])
+    out = capsys.readouterr().out
+    assert "SyncVectorEnv" in out and "PyBullet bound" in out and out.strip().splitlines()[-1].split()[0] == "2"
