@@ -47,8 +47,9 @@ _DOC = """N sub-envs of ``{env_id}`` stepped together as N robots of one PyBulle
     closer than that perturb each other through PyBullet's solver), and a position
     ``home + x`` rounds differently from ``x``: positions, ``distance``, and the reward
     terms made of them (``reward_forward``, ``reward_position``, ``distance_from_start``)
-    differ from the single env's by round-off, below 1e-9 units over an episode (sub-env 0,
-    at the origin like the single env, is exact); the observations never see positions.
+    differ from the single env's by round-off (at most 6e-13 units over 20 s episodes of 64
+    sub-envs, measured; tested to 1e-9). Observations never see positions. Sub-env 0, at
+    the origin like the single env's robot, is exact in everything.
 
     ## Action Space
     ``Box(-1, 1, (N, 3), float32)``: row i is sub-env i's action (``single_action_space``
