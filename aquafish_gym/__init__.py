@@ -9,6 +9,9 @@ algorithm, and a Gymnasium env family registered on import (``aquafish envs`` li
 * ``AquaFishStationKeeping-v0``: hold position and heading in a water current
   (:mod:`aquafish_gym.station_keeping`);
 * ``AquaFishHeading-v0``: turn to and hold a target heading (:mod:`aquafish_gym.heading`).
+
+Each registers a ``vector_entry_point`` (:mod:`aquafish_gym.vector_env`): ``gym.make_vec(id,
+num_envs=N)`` steps N robots in one PyBullet world.
 """
 
 from aquafish_gym.damage import DAMAGES, Damage, ServoFaults, get_damage, register_damage
@@ -24,12 +27,19 @@ ENV_IDS: dict[str, str] = {
     "AquaFishStationKeeping-v0": "aquafish_gym.station_keeping:StationKeepingEnv",
     "AquaFishHeading-v0": "aquafish_gym.heading:HeadingEnv",
 }
+#: Their batched vector envs (``gym.make_vec(id, num_envs=N)``: N robots in one world):
+#: env id -> vector entry point (:mod:`aquafish_gym.vector_env`).
+VECTOR_ENTRY_POINTS: dict[str, str] = {
+    "AquaFish-v0": "aquafish_gym.vector_env:AquaFishVectorEnv",
+    "AquaFishStationKeeping-v0": "aquafish_gym.vector_env:StationKeepingVectorEnv",
+    "AquaFishHeading-v0": "aquafish_gym.vector_env:HeadingVectorEnv",
+}
 for _id, _entry_point in ENV_IDS.items():
     if _id not in _gym.registry:
-        _gym.register(id=_id, entry_point=_entry_point, kwargs={})
+        _gym.register(id=_id, entry_point=_entry_point, vector_entry_point=VECTOR_ENTRY_POINTS[_id], kwargs={})
 
 __all__ = [
-    "ACTION_BOUNDS", "ACTION_FIELDS", "DAMAGES", "DT_S", "ENV_IDS", "MORPHOLOGY_BOUNDS", "MORPHOLOGY_FIELDS",
+    "ACTION_BOUNDS", "ACTION_FIELDS", "DAMAGES", "DT_S", "ENV_IDS", "VECTOR_ENTRY_POINTS", "MORPHOLOGY_BOUNDS", "MORPHOLOGY_FIELDS",
     "BatchWorld", "Damage", "Morphology", "ServoFaults", "SimParams",
     "get_damage", "register_damage", "simulate_batch",
 ]

@@ -6,6 +6,7 @@ the manner of Gymnasium's MuJoCo ``swimmer_v5``.
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import logging
 import math
@@ -21,6 +22,7 @@ from gymnasium.utils import EzPickle
 from aquafish_gym.checks import check_int, check_weight
 from aquafish_gym.bullet import p
 from aquafish_gym.damage import DAMAGES, ServoFaults, get_damage
+from aquafish_gym.imu import roll_pitch_yaw_deg
 from aquafish_gym.morphology import Morphology
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.simulator import ACTION_BOUNDS, BatchWorld
@@ -91,6 +93,89 @@ def _gui_possible() -> bool:
         logger.warning('render_mode="human": no display (DISPLAY and WAYLAND_DISPLAY are unset), so PyBullet\'s GUI '
                        'is not opened and the env runs headless; use render_mode="rgb_array" for frames')
     return False
+
+
+#: The initial heading of every robot (world frame): +y.
+INITIAL_HEADING = np.array([0.0, 1.0, 0.0])
+INITIAL_HEADING.setflags(write=False)
+
+
+def world_to_body(rotation: np.ndarray, vector: np.ndarray) -> np.ndarray:
+    """``R^T v`` for ``(N, 3, 3)`` rotations and ``(N, 3)`` vectors, element by element in a
+    fixed order, so row i does not depend on N (the same doubles as ``rotation[i].T @ vector[i]``)."""
+    return rotation[:, 0, :] * vector[:, 0:1] + rotation[:, 1, :] * vector[:, 1:2] + rotation[:, 2, :] * vector[:, 2:3]
+
+
+@dataclasses.dataclass
+class BodyState:
+    """The bodies of N robots, what the tasks' observations, rewards and infos are computed from.
+
+    Attributes:
+        rotation: ``(N, 3, 3)`` body-to-world rotations.
+        angular_velocity: ``(N, 3)`` world-frame angular velocities (rad/s).
+        linear_velocity: ``(N, 3)`` world-frame velocities of the body's centre of mass (units/s).
+        position: ``(N, 3)`` the body's centre of mass relative to the robot's home, where it
+            starts every episode (units).
+    """
+
+    rotation: np.ndarray
+    angular_velocity: np.ndarray
+    linear_velocity: np.ndarray
+    position: np.ndarray
+
+    @classmethod
+    def of(cls, worlds: list[BatchWorld]) -> "BodyState":
+        """The bodies of the robots of ``worlds``, in order (robot j of world k after those of
+        worlds 0..k-1)."""
+        parts = [(w.rotation[:, 0], w.angular_velocity[:, 0], w.linear_velocity[:, 0], w.position[:, 0] - w.home)
+                 for w in worlds]
+        if len(parts) == 1:
+            return cls(*parts[0])
+        return cls(*(np.concatenate(arrays) for arrays in zip(*parts)))
+
+    def rpy_rad(self) -> np.ndarray:
+        """``(N, 3)`` roll, pitch, yaw (rad) as the IMU reports them (:mod:`aquafish_gym.imu`)."""
+        return np.radians(roll_pitch_yaw_deg(self.rotation))
+
+
+@dataclasses.dataclass
+class Episodes:
+    """What N episodes drew at reset and have accumulated since (one row per robot).
+
+    Attributes:
+        damage: ``(N,)`` object array of damage preset names.
+        initial_angles: ``(N, 3)`` initial flipper angles (rad).
+        task: the task's variables drawn per episode, ``(N, ...)`` arrays by name (e.g.
+            ``"current"`` ``(N, 3)``, ``"target_heading_rad"`` ``(N,)``; none for ``AquaFish-v0``).
+        start: ``(N, 3)`` the body's position at reset (units, relative to its home).
+        distance: ``(N,)`` summed forward displacement along the initial heading (units).
+        steps: control steps taken in these episodes.
+    """
+
+    damage: np.ndarray
+    initial_angles: np.ndarray
+    task: dict[str, np.ndarray]
+    start: np.ndarray
+    distance: np.ndarray
+    steps: int = 0
+
+    @classmethod
+    def stack(cls, envs: list["AquaFishEnv"], start: np.ndarray) -> "Episodes":
+        """The episodes ``envs`` have just drawn at reset (:meth:`AquaFishEnv._draw_episode`)."""
+        variables = [env._task_variables() for env in envs]
+        return cls(damage=np.array([env.damage_name for env in envs], dtype=object),
+                   initial_angles=np.stack([env._initial_angles for env in envs]),
+                   task={key: np.stack([v[key] for v in variables]) for key in variables[0]},
+                   start=start.copy(), distance=np.zeros(len(envs)))
+
+
+def info_row(info: dict[str, np.ndarray], i: int) -> dict[str, Any]:
+    """Row ``i`` of a batched info as the single env gives it: floats, strings, ``(k,)`` arrays."""
+    row: dict[str, Any] = {}
+    for key, value in info.items():
+        item = value[i]
+        row[key] = item.copy() if isinstance(item, np.ndarray) else (item if value.dtype == object else float(item))
+    return row
 
 
 def _as_morphology(morphology) -> Morphology:
@@ -246,9 +331,7 @@ class AquaFishEnv(gym.Env, EzPickle):
         high = np.concatenate([np.ones(6), np.full(6, OBS_VELOCITY_LIMIT), task_high])
         self.observation_space = spaces.Box(-high, high, dtype=np.float64)
         self._world: BatchWorld | None = None
-        self._steps = 0
-        self._distance = 0.0
-        self._heading = np.array([0.0, 1.0, 0.0])
+        self._episodes: Episodes | None = None
         # copy and pickle by the constructor's arguments (a task records its own after this)
         EzPickle.__init__(self, morphology=morphology, damage=damage, faults=faults, initial_angles=initial_angles,
                           frame_skip=frame_skip, episode_duration_s=episode_duration_s,
@@ -267,21 +350,44 @@ class AquaFishEnv(gym.Env, EzPickle):
         return names
 
     # -- task hooks (overridden by the other tasks of the family) ---------------------
+    # The observation, reward and info of N robots are computed over (N, ...) arrays: the
+    # env (N = 1) and its vector env (aquafish_gym.vector_env) call the same methods.
     def _task_observation_high(self) -> np.ndarray:
         """Bounds (+-) of the task's entries appended to the 12 IMU entries (none here)."""
         return np.empty(0)
 
-    def _task_observation(self) -> np.ndarray:
-        """The task's entries of the observation (none here)."""
-        return np.empty(0)
+    def _task_observations(self, state: BodyState, episodes: Episodes) -> np.ndarray:
+        """``(N, k)`` the task's entries of the observation (none here)."""
+        return np.empty((state.rotation.shape[0], 0))
 
-    def _reset_task(self, options: dict | None) -> SimParams:
-        """Draw the episode's task variables from ``self.np_random``; return its simulator parameters."""
-        return self.params
+    def _reset_task(self, options: dict | None) -> None:
+        """Draw the episode's task variables from ``self.np_random`` (none here)."""
 
-    def _task_info(self) -> dict[str, Any]:
-        """The task's entries of ``info`` (none here)."""
+    def _task_variables(self) -> dict[str, np.ndarray]:
+        """The episode's task variables by name, as arrays (stacked into :attr:`Episodes.task`)."""
         return {}
+
+    def _water_current(self) -> np.ndarray:
+        """``(3,)`` the episode's water velocity (world frame, units/s)."""
+        return np.asarray(self.params.water_current, dtype=np.float64)
+
+    def _task_infos(self, state: BodyState, episodes: Episodes) -> dict[str, np.ndarray]:
+        """The task's entries of ``info``, ``(N, ...)`` arrays (none here)."""
+        return {}
+
+    def _rewards(self, state: BodyState, episodes: Episodes, displacement: np.ndarray,
+                 actions: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """``(N,)`` rewards of a control step and their terms (``(N,)`` each, in ``info``).
+
+        Args:
+            state: the bodies after the step.
+            episodes: the episodes' variables.
+            displacement: ``(N, 3)`` the bodies' displacement during the step (units).
+            actions: ``(N, 3)`` the env actions in [-1, 1].
+        """
+        forward = displacement @ INITIAL_HEADING
+        ctrl = self.ctrl_cost_weight * np.sum(np.square(actions), axis=1)
+        return forward - ctrl, {"reward_forward": forward, "reward_ctrl": -ctrl}
 
     def _draw_task_value(self, options: dict | None, key: str, default: tuple[float, float],
                          bounds: tuple[float, float], name: str | None = None) -> float:
@@ -290,6 +396,52 @@ class AquaFishEnv(gym.Env, EzPickle):
         if options and key in options:
             default = check_task_value(name or key, options[key], *bounds)
         return float(self.np_random.uniform(*default))
+
+    # -- N robots at once: the env's and the vector env's one implementation -----------
+    def _observations(self, state: BodyState, episodes: Episodes) -> np.ndarray:
+        """``(N, D)`` observations (see the class docstring's Observation Space)."""
+        rpy = state.rpy_rad()
+        ang = world_to_body(state.rotation, state.angular_velocity)
+        lin = world_to_body(state.rotation, state.linear_velocity)
+        vel = np.clip(np.concatenate([ang, lin], axis=1), -OBS_VELOCITY_LIMIT, OBS_VELOCITY_LIMIT)
+        return np.concatenate([np.sin(rpy), np.cos(rpy), vel, self._task_observations(state, episodes)], axis=1)
+
+    def _infos(self, state: BodyState, episodes: Episodes) -> dict[str, np.ndarray]:
+        """``info`` of N robots, ``(N, ...)`` arrays by key (damage names: an object array)."""
+        n, pos = state.position.shape[0], state.position
+        return {
+            "x_position": pos[:, 0].copy(),
+            "y_position": pos[:, 1].copy(),
+            "z_position": pos[:, 2].copy(),
+            "distance": episodes.distance.copy(),
+            "time_s": np.full(n, float(episodes.steps * self.frame_skip * DT_S)),
+            "initial_angles": episodes.initial_angles.copy(),
+            "damage": episodes.damage.copy(),
+        } | self._task_infos(state, episodes)
+
+    def _reset_results(self, state: BodyState, episodes: Episodes) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Observations ``(N, D)`` and infos of episodes just started."""
+        return self._observations(state, episodes), self._infos(state, episodes)
+
+    def _step_results(self, state: BodyState, episodes: Episodes, before: np.ndarray, actions: np.ndarray):
+        """Finish a control step of N robots (``episodes`` is advanced in place).
+
+        Args:
+            state: the bodies after the step.
+            episodes: the episodes' variables (``distance`` and ``steps`` are updated).
+            before: ``(N, 3)`` the bodies' positions before the step.
+            actions: ``(N, 3)`` the env actions in [-1, 1].
+
+        Returns:
+            ``(observations (N, D), rewards (N,), truncated, info)``; ``truncated`` (a bool)
+            holds for all N, as every episode has the same length.
+        """
+        displacement = state.position - before
+        episodes.distance += displacement @ INITIAL_HEADING
+        episodes.steps += 1
+        rewards, terms = self._rewards(state, episodes, displacement, actions)
+        truncated = episodes.steps >= self.max_control_steps
+        return self._observations(state, episodes), rewards, truncated, self._infos(state, episodes) | terms
 
     # -- helpers ---------------------------------------------------------------------
     def _set_damage(self, name: str) -> None:
@@ -307,10 +459,33 @@ class AquaFishEnv(gym.Env, EzPickle):
 
     @staticmethod
     def servo_command(action) -> np.ndarray:
-        """Map an env action in [-1, 1]^3 to servo units ``(3,)``: rev/s, rev/s, Hz."""
+        """Map env actions in [-1, 1]^3 (``(3,)`` or ``(N, 3)``) to servo units: rev/s, rev/s, Hz."""
         a = np.asarray(action, dtype=np.float64)
         lo, hi = ACTION_BOUNDS[:, 0], ACTION_BOUNDS[:, 1]
         return lo + (a + 1.0) * 0.5 * (hi - lo)
+
+    @staticmethod
+    def check_actions(actions, n: int | None = None) -> np.ndarray:
+        """Check env actions, ``(3,)`` (``n`` None) or ``(n, 3)``, and return them as float64.
+
+        Entries beyond +-1 by float32 round-off (1e-6) are clipped; nothing else is.
+
+        Raises:
+            ValueError: wrong shape, or an entry not finite or outside [-1, 1] (named).
+        """
+        arr = np.asarray(actions, dtype=np.float64)
+        shape = (3,) if n is None else (n, 3)
+        if arr.shape != shape:
+            what = "(left pectoral, right pectoral, caudal) in [-1, 1]"
+            raise ValueError(f"action must have shape {shape}: {'one' if n is None else 'a row per sub-env:'} {what}, "
+                             f"got shape {np.shape(actions)}")
+        bad = ~np.isfinite(arr) | (np.abs(arr) > 1.0 + 1e-6)
+        if bad.any():
+            if n is None:
+                raise ValueError(f"action entries must be finite and in [-1, 1], got {arr.tolist()}")
+            i = int(np.argwhere(bad)[0][0])
+            raise ValueError(f"action entries must be finite and in [-1, 1]; sub-env {i}'s action is {arr[i].tolist()}")
+        return np.clip(arr, -1.0, 1.0)  # only float32 round-off beyond +-1 reaches here
 
     @property
     def world(self) -> BatchWorld:
@@ -318,34 +493,8 @@ class AquaFishEnv(gym.Env, EzPickle):
             raise RuntimeError("call reset() before step()")
         return self._world
 
-    def _get_obs(self) -> np.ndarray:
-        w = self.world
-        rpy = np.radians(w.imu_rpy_deg()[0])
-        rot = w.rotation[0, 0]
-        ang = rot.T @ w.angular_velocity[0, 0]
-        lin = rot.T @ w.linear_velocity[0, 0]
-        vel = np.clip(np.concatenate([ang, lin]), -OBS_VELOCITY_LIMIT, OBS_VELOCITY_LIMIT)
-        return np.concatenate([np.sin(rpy), np.cos(rpy), vel, self._task_observation()])
-
     def _position(self) -> np.ndarray:
         return self.world.position[0, 0].copy()
-
-    def _get_info(self) -> dict[str, Any]:
-        pos = self._position()
-        return {
-            "x_position": float(pos[0]),
-            "y_position": float(pos[1]),
-            "z_position": float(pos[2]),
-            "distance": float(self._distance),
-            "time_s": float(self._steps * self.frame_skip * DT_S),
-            "initial_angles": self._initial_angles.copy(),
-            "damage": self.damage_name,
-        } | self._task_info()
-
-    def _get_rew(self, displacement: np.ndarray, action: np.ndarray) -> tuple[float, dict[str, float]]:
-        forward = float(displacement @ self._heading)
-        ctrl = self.ctrl_cost_weight * float(np.sum(np.square(action)))
-        return forward - ctrl, {"reward_forward": forward, "reward_ctrl": -ctrl}
 
     # -- gymnasium API ---------------------------------------------------------------
     def _check_options(self, options) -> dict[str, Any]:
@@ -362,15 +511,14 @@ class AquaFishEnv(gym.Env, EzPickle):
                              f"allowed keys are {allowed}")
         return options
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        """Start an episode (see the class docstring's Starting State).
+    def _draw_episode(self, seed: int | None, options) -> None:
+        """Seed (if ``seed`` is given) and draw an episode: damage, initial angles, task variables.
 
-        Raises:
-            ValueError: ``options`` is not None or a dict, has a key not in
-                :attr:`reset_options`, or a value out of range (named in the message).
+        Sets ``damage_name``, ``morphology``, ``faults``, ``_initial_angles`` and the task's
+        variables; builds no world (the vector env draws each sub-env's episode with this).
         """
         options = self._check_options(options)
-        super().reset(seed=seed)
+        gym.Env.reset(self, seed=seed)
         names = _damage_names(options["damage"]) if "damage" in options else self.damage_names
         self._set_damage(names[int(self.np_random.integers(len(names)))] if len(names) > 1 else names[0])
         if "initial_angles" in options:
@@ -381,39 +529,39 @@ class AquaFishEnv(gym.Env, EzPickle):
             amp = self.params.caudal_amplitude_rad
             angles = np.array([self.np_random.uniform(0, 2 * np.pi), self.np_random.uniform(0, 2 * np.pi), self.np_random.uniform(-amp, amp)])
         self._initial_angles = np.asarray(angles, dtype=np.float64)
-        params = self._reset_task(options)
+        self._reset_task(options)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        """Start an episode (see the class docstring's Starting State).
+
+        Raises:
+            ValueError: ``options`` is not None or a dict, has a key not in
+                :attr:`reset_options`, or a value out of range (named in the message).
+        """
+        self._draw_episode(seed, options)
+        # a fresh world every episode makes every episode bit-for-bit reproducible
         if self._world is None:
             client = p.connect(p.GUI) if self.render_mode == "human" and _gui_possible() else None
-            self._world = BatchWorld(self.morphology.to_array()[None], params, self.faults,
-                                     visual=self.render_mode is not None, client=client)
-            self._world._owns_client = True
-        else:  # rebuild: a fresh world makes every episode bit-for-bit reproducible
-            self._world = BatchWorld(self.morphology.to_array()[None], params, self.faults,
-                                     visual=self.render_mode is not None, client=self._world.client)
-            self._world._owns_client = True
+        else:
+            client = self._world.client
+        self._world = BatchWorld(self.morphology.to_array()[None], self.params, self.faults,
+                                 visual=self.render_mode is not None, client=client,
+                                 water_current=self._water_current()[None])
+        self._world._owns_client = True
         self._world.reset(self._initial_angles[None])
-        self._steps = 0
-        self._distance = 0.0
-        return self._get_obs(), self._get_info()
+        state = BodyState.of([self._world])
+        self._episodes = Episodes.stack([self], state.position)
+        obs, info = self._reset_results(state, self._episodes)
+        return obs[0], info_row(info, 0)
 
     def step(self, action):
-        action = np.asarray(action, dtype=np.float64)
-        if action.shape != (3,):
-            raise ValueError(f"action must have shape (3,), got {action.shape}")
-        if not np.all(np.isfinite(action)) or np.any(np.abs(action) > 1.0 + 1e-6):
-            raise ValueError(f"action entries must be finite and in [-1, 1], got {action.tolist()}")
-        action = np.clip(action, -1.0, 1.0)  # only float32 round-off beyond +-1 reaches here
+        action = self.check_actions(action)
         w = self.world
         w.set_actions(self.servo_command(action)[None])
-        before = self._position()
+        before = w.position[:, 0] - w.home
         w.advance(self.frame_skip)
-        displacement = self._position() - before
-        self._distance += float(displacement @ self._heading)
-        reward, reward_info = self._get_rew(displacement, action)
-        self._steps += 1
-        truncated = self._steps >= self.max_control_steps
-        info = self._get_info() | reward_info
-        return self._get_obs(), reward, False, bool(truncated), info
+        obs, reward, truncated, info = self._step_results(BodyState.of([w]), self._episodes, before, action[None])
+        return obs[0], float(reward[0]), False, bool(truncated), info_row(info, 0)
 
     def camera_matrices(self) -> tuple[np.ndarray, np.ndarray]:
         """The ``(4, 4)`` view and projection matrices of the next ``render()`` (OpenGL

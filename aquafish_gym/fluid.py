@@ -93,7 +93,8 @@ def drag_wrench(
         drag_coefficient: c_d.
         fluid_density: rho (used by the quadratic law only).
         drag_law: ``"quadratic"`` or ``"linear"``.
-        water_current: ``(3,)`` uniform water velocity, world frame (units/s).
+        water_current: ``(3,)`` uniform water velocity, world frame (units/s), or any shape
+            broadcasting against ``linear_velocity`` (one current per robot).
 
     Returns:
         ``force (..., 3)`` (world frame, to apply at the centre of mass) and
@@ -228,7 +229,8 @@ def reactive_force(
         tangent: ``(..., 3)`` unit t (towards the trailing edge), link frame.
         normal: ``(..., 3)`` unit n, link frame.
         added_mass: ``(...)`` m (mass units / unit); 0 switches a fin off.
-        water_current: ``(3,)`` uniform water velocity, world frame (units/s).
+        water_current: ``(3,)`` uniform water velocity, world frame (units/s), or any shape
+            broadcasting against ``linear_velocity`` (one current per robot).
 
     Returns:
         ``force (..., 3)`` (link frame, acting at the trailing edge) and ``torque (..., 3)``
@@ -272,7 +274,8 @@ def caudal_reactive_force(
         angular_velocity: ``(..., 3)`` world angular velocity (rad/s).
         half_length: ``(...)`` l/2, centre of mass to trailing edge (units).
         added_mass: ``(...)`` m (mass units / unit); 0 switches a fin off.
-        water_current: ``(3,)`` uniform water velocity, world frame (units/s).
+        water_current: ``(3,)`` uniform water velocity, world frame (units/s), or any shape
+            broadcasting against ``linear_velocity`` (one current per robot).
 
     Returns:
         ``force (..., 3)`` and ``torque (..., 3)`` about the centre of mass, link frame.

@@ -14,7 +14,7 @@ import numpy as np
 from gymnasium.utils import EzPickle
 
 from aquafish_gym.checks import check_weight
-from aquafish_gym.env import AquaFishEnv, check_task_value
+from aquafish_gym.env import AquaFishEnv, BodyState, Episodes, check_task_value
 
 __all__ = ["HeadingEnv"]
 
@@ -98,30 +98,34 @@ class HeadingEnv(AquaFishEnv):
     def _task_observation_high(self) -> np.ndarray:
         return np.ones(2)
 
-    def _reset_task(self, options):
+    def _reset_task(self, options) -> None:
         self._target = math.radians(self._draw_task_value(options, "target_heading_deg", self.target_heading_range,
                                                           _HEADING_BOUNDS))
-        return self.params
 
-    def _error(self) -> float:
-        """Target heading minus yaw (rad), wrapped to (-pi, pi]."""
-        error = self._target - math.radians(float(self.world.imu_rpy_deg()[0, 2]))
-        return math.pi - (math.pi - error) % (2.0 * math.pi)
+    def _task_variables(self) -> dict[str, np.ndarray]:
+        return {"target_heading_rad": np.float64(self._target)}
 
-    def _task_observation(self) -> np.ndarray:
-        error = self._error()
-        return np.array([math.sin(error), math.cos(error)])
+    @staticmethod
+    def _errors(state: BodyState, episodes: Episodes) -> np.ndarray:
+        """``(N,)`` target heading minus yaw (rad), wrapped to (-pi, pi]."""
+        error = episodes.task["target_heading_rad"] - state.rpy_rad()[:, 2]
+        return math.pi - np.remainder(math.pi - error, 2.0 * math.pi)
 
-    def _task_info(self) -> dict[str, Any]:
-        if self._world is None:
-            return {}
-        return {"target_heading_rad": self._target, "heading_error_rad": self._error()}
+    def _task_observations(self, state: BodyState, episodes: Episodes) -> np.ndarray:
+        error = self._errors(state, episodes)
+        return np.stack([np.sin(error), np.cos(error)], axis=1)
 
-    def _get_rew(self, displacement: np.ndarray, action: np.ndarray) -> tuple[float, dict[str, float]]:
-        direction = np.array([-math.sin(self._target), math.cos(self._target), 0.0])
+    def _task_infos(self, state: BodyState, episodes: Episodes) -> dict[str, np.ndarray]:
+        return {"target_heading_rad": episodes.task["target_heading_rad"].copy(),
+                "heading_error_rad": self._errors(state, episodes)}
+
+    def _rewards(self, state: BodyState, episodes: Episodes, displacement: np.ndarray,
+                 actions: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        target = episodes.task["target_heading_rad"]
+        along = displacement[:, 0] * -np.sin(target) + displacement[:, 1] * np.cos(target)  # direction (-sin, cos, 0)
         terms = {
-            "reward_heading": self.heading_reward_weight * math.cos(self._error()),
-            "reward_forward": self.forward_reward_weight * float(displacement @ direction),
-            "reward_ctrl": -self.ctrl_cost_weight * float(np.sum(np.square(action))),
+            "reward_heading": self.heading_reward_weight * np.cos(self._errors(state, episodes)),
+            "reward_forward": self.forward_reward_weight * along,
+            "reward_ctrl": -self.ctrl_cost_weight * np.sum(np.square(actions), axis=1),
         }
-        return sum(terms.values()), terms
+        return terms["reward_heading"] + terms["reward_forward"] + terms["reward_ctrl"], terms

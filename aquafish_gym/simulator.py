@@ -78,6 +78,20 @@ def validate_initial_angles(angles, n: int, caudal_amplitude_rad: float) -> np.n
     return arr
 
 
+def validate_water_currents(currents, n: int, default=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """Check per-robot water velocities ``(n, 3)`` (units/s, world frame; None: ``default`` for
+    every robot) and return them as float64.
+
+    Raises:
+        ValueError: wrong shape or a non-finite entry.
+    """
+    arr = np.tile(np.asarray(default, dtype=np.float64), (n, 1)) if currents is None else np.asarray(currents, dtype=np.float64)
+    if arr.shape != (n, 3) or not np.all(np.isfinite(arr)):
+        raise ValueError(f"water_current must be None or {n} finite velocities, shape ({n}, 3) (units/s, world frame), "
+                         f"got shape {np.shape(currents)}")
+    return np.ascontiguousarray(arr)
+
+
 class BatchWorld:
     """N robots in one PyBullet world (collisions masked off), stepped together.
 
@@ -91,17 +105,21 @@ class BatchWorld:
         native: step with the compiled loop (:mod:`aquafish_gym.native`, same results bit
             for bit); None (default): whenever it is built, False: the NumPy path, True:
             require it.
+        water_current: ``(N, 3)`` each robot's own uniform water velocity (units/s, world
+            frame), overriding ``params.water_current`` (robots never interact, so each can
+            swim in its own current); default: ``params.water_current`` for every robot.
 
     Raises:
-        ValueError: invalid morphologies or faults, or ``native=True`` without the
-            compiled step (the message says how to build it).
+        ValueError: invalid morphologies, faults or water currents, or ``native=True``
+            without the compiled step (the message says how to build it).
     """
 
     def __init__(self, morphologies, params: SimParams | None = None, faults=None, *, visual: bool = False,
-                 client: int | None = None, native: bool | None = None):
+                 client: int | None = None, native: bool | None = None, water_current=None):
         self.params = params if params is not None else SimParams()
         self.morphologies = validate_morphologies(morphologies)
         self.n = self.morphologies.shape[0]
+        self.water_current = validate_water_currents(water_current, self.n, self.params.water_current)
         self.seized, self.speed_scale = faults_array(faults, self.n)
         self.spec = robot_spec(self.morphologies, self.params)
         self._owns_client = client is None
@@ -234,11 +252,11 @@ class BatchWorld:
         prm = self.params
         if self.surface is not None:
             return surface_wrench(self.surface, self.spec, prm, self.rotation, self.position, self.linear_velocity,
-                                  self.angular_velocity)
+                                  self.angular_velocity, water_current=self.water_current)
         force, torque = box_drag(
             self.rotation, self.linear_velocity, self.angular_velocity, self.spec.box_offsets, self.spec.axis_areas,
             drag_coefficient=prm.drag_coefficient, fluid_density=prm.fluid_density,
-            drag_law=prm.drag_law, water_current=prm.water_current,
+            drag_law=prm.drag_law, water_current=self.water_current[:, None],
         )
         body_rot = self.rotation[:, 0]
         righting = righting_torque(body_rot, self.spec.masses[:, 0], prm.gravity, prm.ballast_offset)
@@ -246,7 +264,7 @@ class BatchWorld:
             fin_rot = self.rotation[:, 3]
             f_fin, t_fin = caudal_reactive_force(
                 fin_rot, self.linear_velocity[:, 3], self.angular_velocity[:, 3], self.spec.caudal_half_length,
-                self.spec.caudal_added_mass, water_current=prm.water_current,
+                self.spec.caudal_added_mass, water_current=self.water_current,
             )
             force[:, 3] += f_fin
             righting += np.einsum("nij,nj->ni", fin_rot, t_fin)  # the couple, in the world frame

@@ -7,7 +7,6 @@ and simulator parameters as ``AquaFish-v0`` (:class:`~aquafish_gym.env.AquaFishE
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from typing import Any
 
@@ -15,8 +14,7 @@ import numpy as np
 from gymnasium.utils import EzPickle
 
 from aquafish_gym.checks import check_weight
-from aquafish_gym.env import AquaFishEnv, check_task_value
-from aquafish_gym.params import SimParams
+from aquafish_gym.env import AquaFishEnv, BodyState, Episodes, check_task_value
 
 __all__ = ["StationKeepingEnv"]
 
@@ -105,45 +103,36 @@ class StationKeepingEnv(AquaFishEnv):
         self.position_cost_weight = check_weight("position_cost_weight", position_cost_weight)
         self.heading_cost_weight = check_weight("heading_cost_weight", heading_cost_weight)
         self._current = np.zeros(3)
-        self._start = np.zeros(3)
         super().__init__(**kwargs)
         EzPickle.__init__(self, current_speed=current_speed, current_direction_deg=current_direction_deg,
                           position_cost_weight=position_cost_weight, heading_cost_weight=heading_cost_weight, **kwargs)
 
-    def _reset_task(self, options: dict | None) -> SimParams:
+    def _reset_task(self, options: dict | None) -> None:
         speed = self._draw_task_value(options, "current_speed", self.current_speed_range, _SPEED_BOUNDS, _SPEED_NAME)
         direction = math.radians(self._draw_task_value(options, "current_direction_deg", self.current_direction_range,
                                                        _DIRECTION_BOUNDS))
         self._current = np.array([-math.sin(direction), math.cos(direction), 0.0]) * speed
-        return dataclasses.replace(self.params, water_current=tuple(self._current.tolist()))
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
-        """Start an episode in the current drawn (or fixed by ``options``) for it.
+    def _task_variables(self) -> dict[str, np.ndarray]:
+        return {"current": self._current.copy()}
 
-        Raises:
-            ValueError: ``options`` is not None or a dict, has a key not in
-                :attr:`reset_options`, or a value out of range (named in the message).
-        """
-        obs, info = super().reset(seed=seed, options=options)
-        self._start = self._position()
-        return obs, info | self._task_info()
+    def _water_current(self) -> np.ndarray:
+        return self._current
 
-    def _yaw_rad(self) -> float:
-        return math.radians(float(self.world.imu_rpy_deg()[0, 2]))
+    def _offsets(self, state: BodyState, episodes: Episodes) -> np.ndarray:
+        """``(N,)`` horizontal distance of each body from its start (units)."""
+        offset = state.position - episodes.start
+        return np.hypot(offset[:, 0], offset[:, 1])
 
-    def _offset(self) -> float:
-        return float(np.hypot(*(self._position() - self._start)[:2]))
+    def _task_infos(self, state: BodyState, episodes: Episodes) -> dict[str, np.ndarray]:
+        return {"current": episodes.task["current"].copy(), "distance_from_start": self._offsets(state, episodes),
+                "heading_error_rad": state.rpy_rad()[:, 2]}
 
-    def _task_info(self) -> dict[str, Any]:
-        if self._world is None:
-            return {}
-        return {"current": self._current.copy(), "distance_from_start": self._offset(),
-                "heading_error_rad": self._yaw_rad()}
-
-    def _get_rew(self, displacement: np.ndarray, action: np.ndarray) -> tuple[float, dict[str, float]]:
+    def _rewards(self, state: BodyState, episodes: Episodes, displacement: np.ndarray,
+                 actions: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         terms = {
-            "reward_position": -self.position_cost_weight * self._offset(),
-            "reward_heading": -self.heading_cost_weight * (1.0 - math.cos(self._yaw_rad())),
-            "reward_ctrl": -self.ctrl_cost_weight * float(np.sum(np.square(action))),
+            "reward_position": -self.position_cost_weight * self._offsets(state, episodes),
+            "reward_heading": -self.heading_cost_weight * (1.0 - np.cos(state.rpy_rad()[:, 2])),
+            "reward_ctrl": -self.ctrl_cost_weight * np.sum(np.square(actions), axis=1),
         }
-        return sum(terms.values()), terms
+        return terms["reward_position"] + terms["reward_heading"] + terms["reward_ctrl"], terms

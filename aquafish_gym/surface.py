@@ -126,7 +126,7 @@ def _half_height(rotation, half):
 
 
 def surface_wrench(surface: SurfaceSpec, spec, params: SimParams, rotation, position, linear_velocity,
-                   angular_velocity) -> tuple[np.ndarray, np.ndarray]:
+                   angular_velocity, water_current=None) -> tuple[np.ndarray, np.ndarray]:
     """Fluid and hydrostatic force and torque on every link of N surface swimmers.
 
     Args:
@@ -137,6 +137,8 @@ def surface_wrench(surface: SurfaceSpec, spec, params: SimParams, rotation, posi
         position: ``(N, 4, 3)`` world positions of the links' centres of mass (units).
         linear_velocity: ``(N, 4, 3)`` their world velocities (units/s).
         angular_velocity: ``(N, 4, 3)`` world angular velocities (rad/s).
+        water_current: ``(N, 3)`` each robot's water velocity (units/s, world frame);
+            default: ``params.water_current`` for all.
 
     Returns:
         ``force (N, 4, 3)`` at each link's centre of mass and ``torque (N, 4, 3)`` about
@@ -145,7 +147,7 @@ def surface_wrench(surface: SurfaceSpec, spec, params: SimParams, rotation, posi
     """
     quadratic = params.drag_law == "quadratic"
     drag_c = (-0.5 * params.drag_coefficient * params.fluid_density) if quadratic else -params.drag_coefficient
-    current = np.asarray(params.water_current)
+    current = np.asarray(params.water_current) if water_current is None else np.asarray(water_current)[:, None]
     n = rotation.shape[0]
     force = np.zeros((n, 4, 3))
     torque = np.zeros((n, 4, 3))

@@ -43,7 +43,7 @@ __all__ = ["LIBRARY", "PYBULLET_RANGE", "NativeStep", "NativeUnavailable", "avai
 
 #: The plugin built by :mod:`aquafish_gym.native.build`.
 LIBRARY = Path(__file__).with_name("_aquafish_step.so")
-_VERSION = 4  # af_run's signature; the library must match
+_VERSION = 5  # af_run's signature; the library must match
 _POSTFIX = "_aquafish"
 
 _lib: ctypes.CDLL | None = None
@@ -232,7 +232,7 @@ class NativeStep:
         self.caudal_mass = np.ascontiguousarray(spec.caudal_added_mass, dtype=np.float64)
         self.quadratic = prm.drag_law == "quadratic"
         self.drag_c = (-0.5 * prm.drag_coefficient * prm.fluid_density) if self.quadratic else -prm.drag_coefficient
-        self.current = np.ascontiguousarray(prm.water_current, dtype=np.float64)
+        self.current = np.ascontiguousarray(world.water_current, dtype=np.float64)  # (N, 3), one per robot
         self.surface = None
         if world.surface is not None:  # the surface swimmer's constants (aquafish_gym.surface.SurfaceSpec)
             sf = world.surface

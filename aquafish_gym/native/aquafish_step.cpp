@@ -24,7 +24,7 @@
 
 #include "pybullet_abi.h" /* the project's own declarations of PyBullet's C ABI (no PyBullet headers needed) */
 
-#define AF_VERSION 4 /* bump whenever af_run's signature or its arrays' layout change */
+#define AF_VERSION 5 /* bump whenever af_run's signature or its arrays' layout change */
 #define AF_API extern "C" __attribute__((visibility("default")))
 
 /* ---- PyBullet C API, resolved at run time --------------------------------------------- */
@@ -321,10 +321,11 @@ static void surface_wrench(const struct af_surface* sf, int i, double rot[4][3][
  * (as read after the last step or reset), leaving the new state there; see
  * aquafish_gym.native.NativeStep.run for the arrays' shapes. Returns 0 on success, or a
  * negative code: -1 not bound, -2 a state request failed, -3 an unexpected link count.
+ * `currents` is (n, 3): each robot's own uniform water velocity (world frame).
  */
 AF_API int af_run(void* client_handle, int n, int steps, const int* bodies, const int* active, const double* box_offsets,
            const double* axis_areas, const double* righting_w, const double* caudal_half, const double* caudal_mass,
-           double drag_c, int quadratic, const double* current, int reactive, int caudal_q,
+           double drag_c, int quadratic, const double* currents, int reactive, int caudal_q,
            int caudal_u, double kp, double kd, double max_force, int n_osc, const int* osc_index,
            const double* caudal_angle, const double* caudal_velocity, double* position, double* orientation,
            double* linear_velocity, double* angular_velocity, double* body_quaternions,
@@ -340,6 +341,7 @@ AF_API int af_run(void* client_handle, int n, int steps, const int* bodies, cons
             for (int i = 0; i < n; ++i) {
                 double rot[4][3][3], force[4][3], torque[3];
                 const int* act = active + 4 * i;
+                const double* current = currents + 3 * i; /* robot i's water velocity (world frame) */
                 for (int k = 0; k < 4; ++k) quat_to_matrix(orientation + 16 * i + 4 * k, rot[k]);
                 if (surface_robot) { /* the surface swimmer: aquafish_gym.surface */
                     surface_wrench(&sf, i, rot, position + 12 * i, linear_velocity + 12 * i, angular_velocity + 12 * i,
