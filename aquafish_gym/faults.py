@@ -46,7 +46,8 @@ def _error(message: str) -> ValueError:
 def _number(value, where: str, allowed: str) -> float:
     """A finite JSON number (not a bool), as a float; -0.0 becomes 0.0."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise _error(f"{where} must be a number in {allowed}, got {json.dumps(value) if _jsonable(value) else value!r}")
+        got = json.dumps(value) if _jsonable(value) else repr(value)
+        raise _error(f"{where} must be a number in {allowed}, got {got}")
     return float(value) + 0.0
 
 
@@ -195,10 +196,10 @@ class Fault:
             given = {f: scale[f] for f in fields if f in scale}
             if len(given) == 3 and all(v == 0.0 for v in given.values()):
                 parts.append(f"{name} lost")
-            elif list(given) == [f"{flipper}_y"]:
-                parts.append(f"{name} length x {_fmt(given[f'{flipper}_y'])}")
+            elif list(given) == [f"{flipper}_y"] and given[f"{flipper}_y"] < 1.0:
+                parts.append(f"{name} shortened to {_fmt(given[f'{flipper}_y'])} of its length")
             else:
-                parts += [f"{field} x {_fmt(v)}" for field, v in given.items()]
+                parts += [f"{field} scaled by {_fmt(v)}" for field, v in given.items()]
         for servo, seized, gain in zip(_SERVOS, self.seized, self.gains):
             if seized:
                 parts.append(f"{servo} servo seized")
