@@ -12,6 +12,7 @@ algorithm, and a Gymnasium env family registered on import (``aquafish envs`` li
 """
 
 from aquafish_gym.damage import DAMAGES, Damage, ServoFaults, get_damage, register_damage
+from aquafish_gym.faults import Fault, sampled_fault
 from aquafish_gym.morphology import MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.simulator import ACTION_BOUNDS, ACTION_FIELDS, BatchWorld, simulate_batch
@@ -30,6 +31,6 @@ for _id, _entry_point in ENV_IDS.items():
 
 __all__ = [
     "ACTION_BOUNDS", "ACTION_FIELDS", "DAMAGES", "DT_S", "ENV_IDS", "MORPHOLOGY_BOUNDS", "MORPHOLOGY_FIELDS",
-    "BatchWorld", "Damage", "Morphology", "ServoFaults", "SimParams",
-    "get_damage", "register_damage", "simulate_batch",
+    "BatchWorld", "Damage", "Fault", "Morphology", "ServoFaults", "SimParams",
+    "get_damage", "register_damage", "sampled_fault", "simulate_batch",
 ]

@@ -111,7 +111,12 @@ DAMAGES: dict[str, Damage] = {}
 
 
 def register_damage(damage: Damage) -> Damage:
-    """Add a damage preset to :data:`DAMAGES` (raises ``ValueError`` if the name is taken)."""
+    """Add a damage preset to :data:`DAMAGES` (raises ``ValueError`` if the name is taken).
+
+    The preset exists only in this process: a worker process (a spawned pool re-imports the
+    main module) does not have it. To hand a damage to workers, give it as a JSON fault
+    (:func:`get_damage`), which every process rebuilds from its text.
+    """
     if damage.name in DAMAGES:
         raise ValueError(f"damage {damage.name!r} is already registered")
     DAMAGES[damage.name] = damage

@@ -82,3 +82,21 @@ def test_an_eea_run_records_the_fault_itself_and_resumes(tmp_path, capsys):
     assert _rounds(run) == 3
     assert json.loads((run / "config.json").read_text())["damage"] == canonical
     fails_safe(["eea", "--damage", "sampled:1", *flags, "--rounds", "3"], capsys, "damage")   # another fault
+
+
+def test_the_damage_table_takes_faults(tmp_path):
+    from aquafish.damage_table import GaitBudget, check_damages, damage_table, gait_dir_name
+
+    fault = tmp_path / "fault.json"
+    fault.write_text('{"gains": [1, 1, 0.5]}')
+    assert check_damages(["caudal_half", str(fault), "sampled:8", '{"gains":[-1,1,1]}']) == \
+        ["caudal_half", '{"gains":[1.0,1.0,0.5]}', "sampled:8", '{"gains":[-1.0,1.0,1.0]}']
+    assert [gait_dir_name(d) for d in ("caudal_half", "sampled:8")] == ["caudal_half", "sampled_8"]
+    assert gait_dir_name('{"gains":[1.0,1.0,0.5]}').startswith("fault_") and "/" not in gait_dir_name("{}")
+    for nothing in ("none", '{"gains": [1, 1, 1]}', "broken_fin"):
+        with pytest.raises(ValueError, match="unknown damage"):
+            check_damages([nothing])
+    tiny = GaitBudget(generations=1, population_size=2, episodes_per_genome=1, seed=0, workers=1)
+    (row,) = damage_table(tmp_path / "table", damages=["sampled:8"], budget=tiny, starts=1, eval_seed=100)
+    assert row["damage"] == "sampled:8" and row["description"] == "Caudal servo dead (gain 0)."
+    assert (tmp_path / "table" / "gaits" / "sampled_8" / "best_controller.json").is_file()
