@@ -151,7 +151,9 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
 
     Args:
         preset: ``"smoke"``, ``"quick"``, ``"medium"`` or ``"paper"`` (:data:`PRESETS`).
-        damage: damage name applied to the healthy robot to make the target.
+        damage: damage applied to the healthy robot to make the target: a preset name, a JSON
+            fault (inline or a ``.json`` file, recorded as its canonical JSON) or ``sampled:SEED``
+            (:func:`aquafish_gym.get_damage`).
         seed: seeds every EEA run, gait evolution and RL run.
         out_dir: output directory (created; finished steps found there are reused).
         method: the self-model's method (:data:`eea.methods.METHODS`; default the best,
@@ -188,6 +190,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
                 or not (np.isfinite(episode_duration_s) and episode_duration_s > 0):
             raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
         settings = dataclasses.replace(settings, episode_duration_s=float(episode_duration_s))
+    damage = get_damage(damage).name  # canonical text: a JSON file is read once, and recorded as its content
     target = get_damage(damage).apply()
     check_int("seed", seed, 0)
     if workers is not None:

@@ -27,6 +27,7 @@ to ``OUT/damage_table.json`` and ``.md`` through :func:`aquafish_gym.files.atomi
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
 from pathlib import Path
 from typing import Any
@@ -34,7 +35,8 @@ from typing import Any
 import numpy as np
 
 from aquafish_gym.checks import check_int
-from aquafish_gym import DAMAGES
+from aquafish_gym import DAMAGES, get_damage
+from aquafish_gym.faults import SAMPLED_PREFIX, sampled_fault
 from aquafish_gym.files import atomic_write
 from gait.neat_evolution import evolve_or_load_gait
 from gait.rollout import rollout
@@ -96,13 +98,71 @@ def _summary(values: np.ndarray) -> dict[str, Any]:
             "distances": values.tolist()}
 
 
+def check_damages(damages=None) -> list[str]:
+    """The table's damages as canonical text (:func:`aquafish_gym.get_damage`'s ``name``; a file is read here).
+
+    Args:
+        damages: None (every preset but ``"none"``) or a sequence of damages (preset names,
+            JSON faults inline or as ``.json`` files, ``sampled:SEED``).
+
+    Raises:
+        ValueError: an unknown name, ``"none"`` or a fault that changes nothing (no damage to
+            adapt to), or an invalid fault (its one-line message).
+    """
+    if damages is None:
+        return sorted(d for d in DAMAGES if d != "none")
+    names, unknown = [], []
+    for d in damages:
+        try:
+            name = get_damage(d).name
+        except ValueError as err:
+            if not str(err).startswith("unknown damage"):
+                raise
+            unknown.append(d)
+            continue
+        if name in ("none", "{}"):
+            unknown.append(d)
+        else:
+            names.append(name)
+    if unknown:
+        raise ValueError(f"unknown damage(s) {unknown}; valid: {', '.join(sorted(d for d in DAMAGES if d != 'none'))}, "
+                         f"a JSON fault (inline or FILE.json) or sampled:SEED")
+    return names
+
+
+def gait_dir_name(damage: str) -> str:
+    """The directory under ``gaits/`` of the gait evolved on ``damage`` (canonical text): a
+    preset's name, ``sampled_SEED``, or ``fault_`` and 12 hex digits of the JSON's SHA-256."""
+    if damage in DAMAGES:
+        return damage
+    if damage.startswith(SAMPLED_PREFIX):
+        return "sampled_" + damage[len(SAMPLED_PREFIX):]
+    return "fault_" + hashlib.sha256(damage.encode()).hexdigest()[:12]
+
+
+def damage_list_lines(seeds=range(10)) -> list[str]:
+    """What ``aquafish damages --list`` prints: each preset (name and description), then for each
+    seed what ``sampled:SEED`` gives (its canonical JSON and a one-sentence description)."""
+    lines = ["presets (a --damage or --damages value):"]
+    width = max(map(len, DAMAGES))
+    lines += [f"  {name:<{width}}  {DAMAGES[name].description}" for name in sorted(DAMAGES)]
+    lines += ["", "sampled faults (sampled:SEED; the distribution: docs/simulator.md, Damage):"]
+    for seed in seeds:
+        fault = sampled_fault(seed)
+        lines.append(f"  sampled:{seed:<3} {fault.to_json()}  {fault.describe()}")
+    lines += ["", "a fault written out: --damages '{\"gains\": [1, -0.5, 1]}' or FILE.json (keys scale, seized, gains)"]
+    return lines
+
+
 def damage_table(out, *, damages=None, budget: GaitBudget = GaitBudget(), starts: int = 10,
                  eval_seed: int = 1000, verbose: bool = False, progress: bool = True) -> list[dict[str, Any]]:
     """Evolve the gaits and measure the table; write ``damage_table.json`` and ``.md`` to ``out``.
 
     Args:
         out: output directory.
-        damages: damage names (default: every preset but ``"none"``).
+        damages: damages (default: every preset but ``"none"``): preset names, JSON faults
+            (inline or ``.json`` files) or ``sampled:SEED`` (:func:`aquafish_gym.get_damage`);
+            a row's ``damage`` is the canonical text, its gait in ``gaits/``:func:`gait_dir_name`.
         budget: NEAT budget of every gait.
         starts: fresh starts per (gait, robot) pair.
         eval_seed: seed of the first fresh start (keep it away from the training seeds).
@@ -113,12 +173,10 @@ def damage_table(out, *, damages=None, budget: GaitBudget = GaitBudget(), starts
         One row per damage (the JSON's content).
 
     Raises:
-        ValueError: an unknown damage name or ``starts`` < 1.
+        ValueError: an unknown damage name, ``"none"`` or a fault that is no damage, an invalid
+            fault (:func:`~aquafish_gym.get_damage`'s message) or ``starts`` < 1.
     """
-    names = sorted(d for d in DAMAGES if d != "none") if damages is None else list(damages)
-    unknown = [d for d in names if d not in DAMAGES or d == "none"]
-    if unknown:
-        raise ValueError(f"unknown damage(s) {unknown}; valid: {', '.join(sorted(d for d in DAMAGES if d != 'none'))}")
+    names = check_damages(damages)
     check_int("starts", starts, 1)
     out = Path(out)
     healthy_gait = _gait("healthy", budget, out / "gaits" / "healthy", verbose, progress)
@@ -126,7 +184,7 @@ def damage_table(out, *, damages=None, budget: GaitBudget = GaitBudget(), starts
     on_healthy_long = distances(healthy_gait, "healthy", eval_seed, starts, LONG_EPISODE_S)
     rows = []
     for name in names:
-        oracle = _gait(name, budget, out / "gaits" / name, verbose, progress)
+        oracle = _gait(name, budget, out / "gaits" / gait_dir_name(name), verbose, progress)
         healthy_on_damaged = distances(healthy_gait, name, eval_seed, starts)
         oracle_on_damaged = distances(oracle, name, eval_seed, starts)
         healthy_long = distances(healthy_gait, name, eval_seed, starts, LONG_EPISODE_S)
@@ -134,7 +192,7 @@ def damage_table(out, *, damages=None, budget: GaitBudget = GaitBudget(), starts
         ratio, ratio_long = _ratio(healthy_on_damaged, oracle_on_damaged), _ratio(healthy_long, oracle_long)
         rows.append({
             "damage": name,
-            "description": DAMAGES[name].description,
+            "description": get_damage(name).description,
             "healthy_gait_on_healthy": _summary(on_healthy),
             "healthy_gait_on_damaged": _summary(healthy_on_damaged),
             "oracle_gait_on_damaged": _summary(oracle_on_damaged),

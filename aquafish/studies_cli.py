@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from aquafish_gym.argtypes import csv_list, int_at_least, positive_float
+from aquafish_gym.argtypes import csv_list, damage_list, int_at_least, positive_float
 from aquafish_gym.rundir import check_output_dir, check_output_file, run_lock
 from eea.cli import add_config_flags, config_fields, config_flag_names, given_flags
 from eea import INFERENCE_NAMES, MODEL_SPACES, EEAConfig
@@ -115,8 +115,14 @@ def _baselines(args: argparse.Namespace) -> int:
 
 
 def _damages(args: argparse.Namespace) -> int:
-    from aquafish.damage_table import GaitBudget, damage_table, format_table
+    from aquafish.damage_table import GaitBudget, check_damages, damage_list_lines, damage_table, format_table
 
+    if args.list:
+        print("\n".join(damage_list_lines()))
+        return 0
+    if args.out is None:
+        raise ValueError("--out is required (the output directory), unless --list")
+    check_damages(args.damages)  # before the output directory is created
     check_output_dir(args.out)
     budget = GaitBudget(args.generations, args.population_size, args.episodes_per_genome, args.seed, args.workers)
     with run_lock(args.out, command="damages"):  # a second writer fails at once; each gait's directory is locked too
@@ -156,7 +162,9 @@ def add_commands(sub) -> None:
     c.add_argument("--video", action=argparse.BooleanOptionalAction, default=True,
                    help="write recovery.mp4 (recovery.gif without imageio-ffmpeg): the damaged robot from above "
                         "under the healthy, self-model and oracle gaits (default: on)")
-    c.add_argument("--damage", default="left_pectoral_half", help="damage of the target robot")
+    c.add_argument("--damage", default="left_pectoral_half",
+                   help="damage of the target robot: a preset name (aquafish damages --list), a JSON fault inline or "
+                        "as FILE.json (keys scale, seized, gains) or sampled:SEED (default left_pectoral_half)")
     c.add_argument("--seed", type=int_at_least(0), default=0, help="seeds every run (default 0)")
     c.add_argument("--out", default="case_study_out", help="output directory (finished steps are reused)")
     c.add_argument("--workers", type=int_at_least(1), default=None, help="processes for evaluation (default: all cores)")
@@ -219,9 +227,15 @@ def add_commands(sub) -> None:
 
 
     t = sub.add_parser("damages", help="which damages a gait must adapt to: healthy gait vs a gait evolved on the "
-                                       "damaged robot, per damage preset (aquafish.damage_table)")
-    t.add_argument("--out", required=True, help="output directory (gaits are evolved once and reused)")
-    t.add_argument("--damages", type=csv_list(str), default=None, help="damage presets (default: all but none)")
+                                       "damaged robot, per damage (aquafish.damage_table); --list lists the "
+                                       "presets and sampled faults")
+    t.add_argument("--list", action="store_true",
+                   help="print the presets and what sampled:SEED gives for seeds 0-9, and exit (writes nothing)")
+    t.add_argument("--out", default=None, help="output directory (gaits are evolved once and reused; required "
+                                               "unless --list)")
+    t.add_argument("--damages", type=damage_list, default=None,
+                   help="comma-separated damages (default: every preset but none): preset names, JSON faults "
+                        "inline or as FILE.json (keys scale, seized, gains), sampled:SEED")
     t.add_argument("--generations", type=int_at_least(1), default=30, help="NEAT generations per gait (default 30)")
     t.add_argument("--population-size", type=int_at_least(2), default=50, help="NEAT genomes per generation (default 50)")
     t.add_argument("--episodes-per-genome", type=int_at_least(1), default=2, help="training starts per genome (default 2)")

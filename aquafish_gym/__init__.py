@@ -15,6 +15,7 @@ num_envs=N)`` steps N robots in one PyBullet world.
 """
 
 from aquafish_gym.damage import DAMAGES, Damage, ServoFaults, get_damage, register_damage
+from aquafish_gym.faults import Fault, sampled_fault
 from aquafish_gym.morphology import MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.simulator import ACTION_BOUNDS, ACTION_FIELDS, BatchWorld, simulate_batch
@@ -39,7 +40,7 @@ for _id, _entry_point in ENV_IDS.items():
         _gym.register(id=_id, entry_point=_entry_point, vector_entry_point=VECTOR_ENTRY_POINTS[_id], kwargs={})
 
 __all__ = [
-    "ACTION_BOUNDS", "ACTION_FIELDS", "DAMAGES", "DT_S", "ENV_IDS", "VECTOR_ENTRY_POINTS", "MORPHOLOGY_BOUNDS", "MORPHOLOGY_FIELDS",
-    "BatchWorld", "Damage", "Morphology", "ServoFaults", "SimParams",
-    "get_damage", "register_damage", "simulate_batch",
+    "ACTION_BOUNDS", "ACTION_FIELDS", "DAMAGES", "DT_S", "ENV_IDS", "VECTOR_ENTRY_POINTS", "MORPHOLOGY_BOUNDS",
+    "MORPHOLOGY_FIELDS", "BatchWorld", "Damage", "Fault", "Morphology", "ServoFaults", "SimParams",
+    "get_damage", "register_damage", "sampled_fault", "simulate_batch",
 ]

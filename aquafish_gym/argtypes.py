@@ -8,7 +8,7 @@ import argparse
 import math
 from pathlib import Path
 
-__all__ = ["csv_list", "int_at_least", "path", "positive_float"]
+__all__ = ["csv_list", "damage_list", "int_at_least", "path", "positive_float"]
 
 
 def int_at_least(minimum: int):
@@ -78,3 +78,26 @@ def csv_list(kind=str, choices=None):
 
     parse.__name__ = f"comma-separated {kind.__name__} list"
     return parse
+
+
+def damage_list(text: str) -> tuple[str, ...]:
+    """An argparse ``type``: a non-empty comma-separated list of damages, as a tuple of strings.
+
+    A comma inside a JSON fault's brackets or braces does not split
+    (``none,{"gains":[1,-0.5,1]},sampled:3`` is three damages); each damage is checked by
+    :func:`aquafish_gym.get_damage` where it is used.
+    """
+    values, depth, start = [], 0, 0
+    for i, ch in enumerate(text):
+        if ch in "[{":
+            depth += 1
+        elif ch in "]}":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            values.append(text[start:i])
+            start = i + 1
+    values.append(text[start:])
+    values = tuple(v.strip() for v in values if v.strip())
+    if not values:
+        raise argparse.ArgumentTypeError(f"expected at least one comma-separated damage, got {text!r}")
+    return values

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from aquafish_gym.argtypes import csv_list, positive_float
+from aquafish_gym.argtypes import csv_list, damage_list, positive_float
 
 
 def _swim(args: argparse.Namespace) -> int:
@@ -13,9 +13,7 @@ def _swim(args: argparse.Namespace) -> int:
     from aquafish_gym.rundir import check_memory, check_output_dir
     from aquafish_gym.swim import plot_trajectories, swim_trajectories
 
-    damages = list(args.damages)
-    for name in damages:
-        get_damage(name)  # an unknown name: the message lists the valid ones
+    damages = [get_damage(name).name for name in args.damages]  # an unknown name: the message lists the valid ones
     action = list(args.action)
     if len(action) != 3:
         raise ValueError(f"--action needs 3 comma-separated numbers (left rev/s, right rev/s, caudal Hz), got {len(action)}")
@@ -56,10 +54,10 @@ def _envs(args: argparse.Namespace) -> int:
 def add_commands(sub) -> None:
     """Add the ``swim`` and ``envs`` sub-commands to an argparse ``subparsers`` object."""
     p = sub.add_parser("swim", help="swim the healthy and damaged robots with a fixed gait; plot trajectories")
-    p.add_argument("--damages", type=csv_list(str),
+    p.add_argument("--damages", type=damage_list,
                    default=("none", "left_pectoral_half", "reversed_left_pectoral", "caudal_missing"),
-                   help="comma-separated damage names (default none,left_pectoral_half,reversed_left_pectoral,"
-                        "caudal_missing)")
+                   help="comma-separated damages: preset names, JSON faults inline or as FILE.json, sampled:SEED "
+                        "(default none,left_pectoral_half,reversed_left_pectoral,caudal_missing)")
     p.add_argument("--action", type=csv_list(float), default=(-0.5, -0.5, 1.0),
                    help="servo command: left rev/s, right rev/s, caudal Hz (default -0.5,-0.5,1.0: both paddles "
                         "pushing backwards under water, the tail at 1 Hz)")

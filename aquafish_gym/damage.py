@@ -1,17 +1,22 @@
-"""Damage presets: a transformation of a morphology plus servo faults (docs/simulator.md).
+"""Damages: a transformation of a morphology plus servo faults (docs/simulator.md).
 
 Damage is not a different robot class: :class:`Damage` maps a healthy :class:`Morphology`
 to a damaged one and carries :class:`ServoFaults` that the simulator applies to the motors.
-Add a preset with :func:`register_damage`.
+:func:`get_damage` resolves a damage's text: a preset name (:data:`DAMAGES`), a fault written
+out as JSON (inline or a ``.json`` file) or ``sampled:SEED`` (:mod:`aquafish_gym.faults`).
+A preset added with :func:`register_damage` exists only in the process that registered it;
+a fault given as text is rebuilt from its text in every worker process.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from aquafish_gym.faults import SAMPLED_PREFIX, Fault, fault_from_file, parse_sampled_seed, sampled_fault
 from aquafish_gym.morphology import Morphology
 
 SERVO_NAMES = ("left_pectoral", "right_pectoral", "caudal")
@@ -60,9 +65,12 @@ class Damage:
     """A named damage: a morphology transformation and servo faults.
 
     Attributes:
-        name: registry key, e.g. ``"left_pectoral_half"``.
+        name: the damage's text, which :func:`get_damage` resolves back to it: a preset name
+            (``"left_pectoral_half"``), a fault's canonical JSON (``'{"gains":[1.0,-0.5,1.0]}'``)
+            or ``"sampled:7"``.
         description: one sentence for documentation and reports.
-        transform: maps a morphology to the damaged morphology.
+        transform: maps a morphology to the damaged morphology (picklable for the built-in
+            damages: a :class:`ScaleTransform` or a module-level function).
         faults: servo faults the damaged robot has.
     """
 
@@ -76,11 +84,23 @@ class Damage:
         return self.transform(morphology if morphology is not None else Morphology.healthy())
 
 
-def _scale(**factors: float) -> Callable[[Morphology], Morphology]:
-    def transform(m: Morphology) -> Morphology:
-        return m.replace(**{k: getattr(m, k) * f for k, f in factors.items()})
+@dataclasses.dataclass(frozen=True)
+class ScaleTransform:
+    """A morphology transformation that multiplies some dimensions by factors (picklable).
 
-    return transform
+    Attributes:
+        factors: ``((field, factor), ...)``, field names from ``MORPHOLOGY_FIELDS``.
+    """
+
+    factors: tuple[tuple[str, float], ...] = ()
+
+    def __call__(self, m: Morphology) -> Morphology:
+        """``m`` with each named dimension times its factor (ValueError out of bounds)."""
+        return m.replace(**{k: getattr(m, k) * f for k, f in self.factors})
+
+
+def _scale(**factors: float) -> ScaleTransform:
+    return ScaleTransform(tuple(factors.items()))
 
 
 def _identity(m: Morphology) -> Morphology:
@@ -91,7 +111,12 @@ DAMAGES: dict[str, Damage] = {}
 
 
 def register_damage(damage: Damage) -> Damage:
-    """Add a damage preset to :data:`DAMAGES` (raises ``ValueError`` if the name is taken)."""
+    """Add a damage preset to :data:`DAMAGES` (raises ``ValueError`` if the name is taken).
+
+    The preset exists only in this process: a worker process (a spawned pool re-imports the
+    main module) does not have it. To hand a damage to workers, give it as a JSON fault
+    (:func:`get_damage`), which every process rebuilds from its text.
+    """
     if damage.name in DAMAGES:
         raise ValueError(f"damage {damage.name!r} is already registered")
     DAMAGES[damage.name] = damage
@@ -112,16 +137,50 @@ for _d in (
     register_damage(_d)
 
 
+def fault_damage(fault: Fault, name: str | None = None) -> Damage:
+    """The :class:`Damage` of a :class:`~aquafish_gym.faults.Fault`, named ``name`` (default: its
+    canonical JSON); its transform is a picklable :class:`ScaleTransform`."""
+    return Damage(name if name is not None else fault.to_json(), fault.describe(), ScaleTransform(fault.scale),
+                  ServoFaults(seized=fault.seized, speed_scale=fault.gains))
+
+
 def get_damage(name: str) -> Damage:
-    """Look up a damage preset by name.
+    """Resolve a damage's text to a :class:`Damage`.
+
+    Args:
+        name: one of
+
+            * a preset name in :data:`DAMAGES` (``"left_pectoral_half"``): that preset;
+            * a fault written out as JSON (:class:`~aquafish_gym.faults.Fault`), inline
+              (``'{"gains": [1, -0.5, 1]}'``) or in a file (a path ending in ``.json``, read
+              now): a damage named by the fault's canonical JSON (so a file's damage no
+              longer depends on the file);
+            * ``"sampled:SEED"`` (SEED an int >= 0): the fault
+              :func:`~aquafish_gym.faults.sampled_fault` draws, named ``"sampled:SEED"``
+              (leading zeros dropped).
+
+    Returns:
+        The damage; its ``name`` is the canonical text, which resolves to an equal damage.
 
     Raises:
-        ValueError: unknown name; the message lists the valid names.
+        ValueError: one line: an unknown name (listing the presets and the other forms), or
+            an invalid fault (``damage fault: ...``, naming the key and its allowed range).
     """
-    try:
+    if not isinstance(name, str):
+        raise ValueError(f"a damage is a preset name, a JSON fault or sampled:SEED (text), got {type(name).__name__}")
+    if name in DAMAGES:
         return DAMAGES[name]
-    except (KeyError, TypeError):
-        raise ValueError(f"unknown damage {name!r}; valid names: {', '.join(sorted(DAMAGES))}") from None
+    text = name.strip()
+    if text.startswith(SAMPLED_PREFIX):
+        seed = parse_sampled_seed(text)
+        return fault_damage(sampled_fault(seed), f"{SAMPLED_PREFIX}{seed}")
+    if text.startswith(("{", "[")):
+        return fault_damage(Fault.from_json(text))
+    if text.lower().endswith(".json"):
+        return fault_damage(fault_from_file(Path(text)))
+    raise ValueError(f"unknown damage {name!r}; valid names: {', '.join(sorted(DAMAGES))}; or a JSON fault "
+                     f"(inline '{{\"gains\": [1, -0.5, 1]}}' or a FILE.json with the keys scale, seized, gains) "
+                     f"or sampled:SEED")
 
 
 def faults_array(faults, n: int) -> tuple[np.ndarray, np.ndarray]:

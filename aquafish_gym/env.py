@@ -34,16 +34,23 @@ OBS_VELOCITY_LIMIT = 100.0  #: bound of the velocity entries of the observation 
 
 
 def _damage_names(damage) -> tuple[str, ...]:
-    """The damage presets an env draws from: one name, ``"random"`` (every preset) or a list."""
+    """The damages an env draws from, as canonical text (:func:`get_damage`'s ``name``).
+
+    ``damage`` is one damage (a preset name, a JSON fault inline or as a ``.json`` file, or
+    ``sampled:SEED``), ``"random"`` (every preset) or a non-empty list of damages (the forms
+    may be mixed); a file is read here, once.
+
+    Raises:
+        ValueError: anything else, or an invalid damage (:func:`get_damage`'s message).
+    """
     if isinstance(damage, str):
         names = tuple(sorted(DAMAGES)) if damage == "random" else (damage,)
     elif isinstance(damage, (list, tuple)) and damage and all(isinstance(d, str) for d in damage):
         names = tuple(damage)
     else:
-        raise ValueError(f"damage must be a preset name, 'random' or a non-empty list of names, got {damage!r}")
-    for name in names:
-        get_damage(name)  # raises on an unknown name, listing the valid ones
-    return names
+        raise ValueError(f"damage must be a damage (preset name, JSON fault or sampled:SEED), 'random' or a non-empty "
+                         f"list of damages, got {damage!r}")
+    return tuple(get_damage(name).name for name in names)  # raises on an invalid one, naming what is valid
 
 
 def check_task_value(name: str, value, low: float, high: float) -> tuple[float, float]:

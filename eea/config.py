@@ -77,7 +77,8 @@ RETIRED_VALUES: dict[str, tuple] = {
 #: One help line per field (command-line ``--help`` and documentation).
 FIELD_HELP: dict[str, str] = {
     "inference": f"context inference strategy, one of {', '.join(INFERENCE_NAMES)} (paper 3.3, 3.4, 4)",
-    "damage": "named damage of the target robot (aquafish_gym.DAMAGES), paper section 5",
+    "damage": "damage of the target robot (paper section 5): a preset name (aquafish_gym.DAMAGES), a JSON fault "
+              "inline or as FILE.json (keys scale, seized, gains; recorded as its canonical JSON) or sampled:SEED",
     "behaviour_summary": "dft (the paper's DFT magnitudes) or signed_dft (the zero-frequency term keeps its sign, "
                          "so a robot and its mirror image differ; not the paper's)",
     "model_space": "what a self-model holds: morphology (the paper's 9 flipper dimensions, 45-bit genomes) or "
@@ -219,7 +220,8 @@ class EEAConfig:
             raise ValueError(f"EEAConfig.waterline: {err}") from None
         if self.inference not in INFERENCE_NAMES:
             raise ValueError(f"unknown inference {self.inference!r}; valid names: {', '.join(INFERENCE_NAMES)}")
-        get_damage(self.damage)  # raises ValueError listing the valid names
+        # the damage's canonical text (a JSON file is read once, here): config.json records the fault itself
+        object.__setattr__(self, "damage", get_damage(self.damage).name)  # raises ValueError naming what is valid
         if self.behaviour_summary not in SUMMARIES:
             raise ValueError(f"unknown behaviour_summary {self.behaviour_summary!r}; valid names: {', '.join(SUMMARIES)}")
         if self.model_space not in MODEL_SPACE_NAMES:

@@ -16,7 +16,10 @@ from aquafish_gym.rundir import check_output_dir
 #: (tests/gait/test_gait_rl.py checks the two agree).
 RL_ALGOS = ("ppo", "sac", "recurrent_ppo")
 
-ROBOT_HELP = "'healthy', a damage name (the healthy robot with that damage), 9 comma-separated numbers, or a JSON/text file"
+ROBOT_HELP = ("'healthy', a damage name, inline JSON fault or sampled:SEED (the healthy robot with that damage), "
+              "9 comma-separated numbers, or a JSON/text file")
+DAMAGE_HELP = ("damage applied to --morphology: a preset name, a JSON fault inline or as FILE.json (keys scale, seized, "
+               "gains) or sampled:SEED (default none)")
 
 
 def add_commands(subparsers) -> None:
@@ -26,7 +29,7 @@ def add_commands(subparsers) -> None:
                                           "(or maximises the return of another AquaFish task, --env).")
     p.add_argument("--env", default="AquaFish-v0", help="task (`aquafish envs` lists them; default AquaFish-v0)")
     p.add_argument("--morphology", default="healthy", help=f"robot to evolve for: {ROBOT_HELP} (default healthy)")
-    p.add_argument("--damage", default="none", help="damage applied to --morphology (default none)")
+    p.add_argument("--damage", default="none", help=DAMAGE_HELP)
     p.add_argument("--generations", type=int_at_least(1), default=30, help="total generations (default 30)")
     p.add_argument("--population-size", type=int_at_least(2), default=None, help="genomes per generation (default: the config's, 50)")
     p.add_argument("--seed", type=int_at_least(0), default=0, help="seeds NEAT and the fitness episode's initial flipper angles (default 0)")
@@ -68,7 +71,7 @@ def add_commands(subparsers) -> None:
     p.add_argument("--algo", choices=RL_ALGOS, default="ppo", help="algorithm (default ppo)")
     p.add_argument("--env", default="AquaFish-v0", help="task (`aquafish envs` lists them; default AquaFish-v0)")
     p.add_argument("--morphology", default="healthy", help=f"robot: {ROBOT_HELP} (default healthy)")
-    p.add_argument("--damage", default="none", help="damage applied to --morphology (default none)")
+    p.add_argument("--damage", default="none", help=DAMAGE_HELP)
     p.add_argument("--timesteps", type=int_at_least(1), default=None, help="env steps of 0.1 s (default: the YAML's n_timesteps)")
     p.add_argument("--seed", type=int_at_least(0), default=0, help="training seed (default 0)")
     p.add_argument("--out", type=path, default=Path("runs/rl"), help="output directory (default runs/rl)")

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from aquafish_gym import DAMAGES, MORPHOLOGY_FIELDS, Morphology, ServoFaults, get_damage
+from aquafish_gym.faults import SAMPLED_PREFIX
 
 #: The ``damage`` of a :class:`Robot` that draws a damage preset per episode (AquaFish-v0's
 #: damage randomisation): a robot trained on it is the damage-robust policy's.
@@ -30,7 +31,9 @@ class Robot:
 
     Attributes:
         morphology: the nine flipper dimensions before the damage (simulator units).
-        damage: a name in ``aquafish_gym.DAMAGES``, applied to ``morphology`` by the env, or
+        damage: a damage :func:`aquafish_gym.get_damage` resolves (a preset name, a JSON fault
+            inline or as a ``.json`` file, ``sampled:SEED``), kept as its canonical text (a file
+            is read once) and applied to ``morphology`` by the env, or
             :data:`RANDOM_DAMAGE` (``"random"``): every episode draws a preset from its
             ``reset(seed=...)`` generator, so one seed always draws the same damage.
         label: a short name for legends and reports.
@@ -52,7 +55,7 @@ class Robot:
         if not isinstance(self.morphology, Morphology):
             raise ValueError(f"Robot.morphology must be a Morphology, got {type(self.morphology).__name__}")
         if self.damage != RANDOM_DAMAGE:
-            get_damage(self.damage)
+            object.__setattr__(self, "damage", get_damage(self.damage).name)
         if self.faults is not None and not isinstance(self.faults, ServoFaults):
             raise ValueError(f"Robot.faults must be a ServoFaults or None, got {type(self.faults).__name__}")
         if not self.label:
@@ -113,8 +116,10 @@ def parse_robot(spec: str) -> Robot:
 
     Accepted forms:
         * ``healthy``: the undamaged robot.
-        * a damage name (``left_pectoral_half``, ...): the healthy robot with that damage,
-          including its servo faults; this is the paper's damaged *target*.
+        * a damage name (``left_pectoral_half``, ...), an inline JSON fault
+          (``{"gains": [1, -0.5, 1]}``) or ``sampled:SEED``: the healthy robot with that damage,
+          including its servo faults; this is the paper's damaged *target*. (A ``.json`` file
+          is a robot, below; pass a fault file as a ``damage``.)
         * 9 comma-separated numbers: a morphology (``MORPHOLOGY_FIELDS`` order, units).
         * a file: JSON (a list of 9 numbers, a mapping of the nine field names, or a mapping
           with a ``"morphology"`` entry of either form, an optional ``"damage"`` and optional
@@ -126,8 +131,9 @@ def parse_robot(spec: str) -> Robot:
     spec = spec.strip()
     if spec == "healthy":
         return Robot(Morphology.healthy(), "none", "healthy")
-    if spec in DAMAGES:
-        return Robot(Morphology.healthy(), spec, spec)
+    if spec in DAMAGES or spec.startswith((SAMPLED_PREFIX, "{")):
+        damage = get_damage(spec).name
+        return Robot(Morphology.healthy(), damage, damage)
     path = Path(spec)
     if path.is_file():
         return _robot_from_file(path)
@@ -138,6 +144,7 @@ def parse_robot(spec: str) -> Robot:
             raise ValueError(f"morphology {spec!r}: expected 9 comma-separated numbers") from None
         return Robot(Morphology.from_array(numbers), "none", "custom")
     raise ValueError(f"unknown robot {spec!r}; use 'healthy', a damage name ({', '.join(sorted(DAMAGES))}), "
+                     f"a JSON fault or sampled:SEED, "
                      f"9 comma-separated numbers ({', '.join(MORPHOLOGY_FIELDS)}) or a JSON/text file")
 
 
