@@ -251,7 +251,7 @@ class AquaFishEnv(gym.Env, EzPickle):
     | Parameter            | Default             | Description                                   |
     |----------------------|---------------------|-----------------------------------------------|
     | `morphology`         | healthy             | `Morphology`, or 9 numbers (simulator units)  |
-    | `damage`             | `"none"`            | name in `aquafish_gym.DAMAGES` applied to the morphology; `"random"` or a list of names draws one per episode (damage randomisation, reported as `info["damage"]`) |
+    | `damage`             | `"none"`            | applied to the morphology: a preset name (`aquafish_gym.DAMAGES`), a JSON fault (inline or a `.json` file: `scale`, `seized`, `gains`) or `"sampled:SEED"` (`aquafish_gym.get_damage`); `"random"` (every preset) or a list draws one per episode (damage randomisation, reported as `info["damage"]`) |
     | `faults`             | from `damage`       | `ServoFaults` overriding the damage's faults  |
     | `initial_angles`     | random              | (3,) left, right pectoral, caudal (rad)       |
     | `frame_skip`         | 10                  | 0.01 s physics steps per control step         |
@@ -340,7 +340,10 @@ class AquaFishEnv(gym.Env, EzPickle):
         self._world: BatchWorld | None = None
         self._episodes: Episodes | None = None
         # copy and pickle by the constructor's arguments (a task records its own after this)
-        EzPickle.__init__(self, morphology=morphology, damage=damage, faults=faults, initial_angles=initial_angles,
+        # the damage as resolved text (a fault file is read once: a copy does not read it again)
+        recorded = damage if damage == "random" else (self.damage_names[0] if isinstance(damage, str)
+                                                      else list(self.damage_names))
+        EzPickle.__init__(self, morphology=morphology, damage=recorded, faults=faults, initial_angles=initial_angles,
                           frame_skip=frame_skip, episode_duration_s=episode_duration_s,
                           ctrl_cost_weight=ctrl_cost_weight, render_mode=render_mode, width=width, height=height,
                           camera=camera, camera_distance=camera_distance, **sim_params)

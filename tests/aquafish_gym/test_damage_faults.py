@@ -267,3 +267,19 @@ def test_damage_lists_split_outside_json():
         ("none", '{"gains":[1,-0.5,1]}', "sampled:3", "caudal_half")
     assert damage_list('{"scale": {"left_pectoral_y": 0.5, "caudal_y": 0.5}}') == \
         ('{"scale": {"left_pectoral_y": 0.5, "caudal_y": 0.5}}',)
+
+
+def test_an_env_made_from_a_fault_file_copies_without_the_file(tmp_path):
+    import pickle
+
+    import gymnasium as gym
+
+    path = tmp_path / "fault.json"
+    path.write_text('{"gains": [1, -0.5, 1]}')
+    env = gym.make("AquaFish-v0", damage=str(path)).unwrapped
+    env.reset(seed=0)
+    path.unlink()  # the file is read once: a copy carries the fault itself
+    copy = pickle.loads(pickle.dumps(env))
+    assert copy.reset(seed=0)[1]["damage"] == '{"gains":[1.0,-0.5,1.0]}'
+    env.close()
+    copy.close()
