@@ -48,7 +48,7 @@ from aquafish_gym.drawing import plot_morphologies
 from aquafish_gym.env import FRAME_SKIP
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
-from aquafish_gym.rundir import check_output_dir, run_lock
+from aquafish_gym.rundir import BusyError, check_output_dir, run_lock
 from eea import EEAConfig
 from eea.methods import BEST_METHOD
 from gait.robots import RANDOM_DAMAGE, Robot
@@ -111,6 +111,13 @@ CONTROLLER_KEYS: dict[str, str] = {
 }
 #: The damage-robust rows: trained on the healthy robot with a damage preset drawn per episode.
 ROBUST_KEYS = ("robust", "robust_ppo")
+#: The rows that do not depend on the damage (trained on the healthy robot, or on it with
+#: random damages): ``run_case_study(shared_dir=...)`` trains or loads them there, so case
+#: studies of one seed on several damages share them (``aquafish recovery``).
+SHARED_KEYS = ("healthy", "robust", "robust_ppo")
+#: How long a case study waits for a shared row's directory that another case study is
+#: reading (its lock is held for the moment of a load) before it gives up with the BusyError.
+SHARED_WAIT_S = 60.0
 #: Goals of the verdict: the healthy gait keeps at most this share of the oracle on the
 #: target (the damage breaks it), and the self-model gait reaches at least this share of
 #: the oracle and this multiple of the healthy gait (it recovers).
@@ -146,7 +153,8 @@ def _rl_available() -> bool:
 def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str = DEFAULT_METHOD,
                    model_space: str = DEFAULT_MODEL_SPACE, behaviour_summary: str = DEFAULT_SUMMARY,
                    episode_duration_s: float | None = None,
-                   video: bool = True, workers: int | None = None, progress: bool = True) -> dict:
+                   video: bool = True, workers: int | None = None, progress: bool = True,
+                   shared_dir=None) -> dict:
     """Run the case study and write its report; return the report as a dict.
 
     Args:
@@ -174,22 +182,19 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
         video: write the recovery video (``recovery.mp4``, or ``.gif`` without imageio-ffmpeg).
         workers: processes for evaluation (default: all cores).
         progress: show progress bars.
+        shared_dir: where the rows that do not depend on the damage (:data:`SHARED_KEYS`: the
+            healthy and the damage-robust gaits, the damage-robust PPO policy) are trained, or
+            loaded when finished (:func:`train_shared_rows` trains them beforehand); default
+            ``out_dir``, like every other row. The report then records it as ``shared_dir``.
 
     Raises:
         ValueError: unknown preset, damage, method or model space, a bad seed, duration or
-            worker count, or an ``out_dir`` that cannot be written (all checked before anything
-            is created); an ``out_dir`` that another process is writing
+            worker count, or an ``out_dir`` or ``shared_dir`` that cannot be written (all checked
+            before anything is created); an ``out_dir`` that another process is writing
             (:class:`~aquafish_gym.rundir.BusyError`) or whose steps were made with other
             settings (:class:`~aquafish_gym.rundir.MismatchError`, naming the fields).
     """
-    if preset not in PRESETS:
-        raise ValueError(f"unknown preset {preset!r}; valid: {sorted(PRESETS)}")
-    settings = PRESETS[preset]
-    if episode_duration_s is not None:
-        if isinstance(episode_duration_s, bool) or not isinstance(episode_duration_s, (int, float)) \
-                or not (np.isfinite(episode_duration_s) and episode_duration_s > 0):
-            raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
-        settings = dataclasses.replace(settings, episode_duration_s=float(episode_duration_s))
+    settings = preset_settings(preset, episode_duration_s)
     damage = get_damage(damage).name  # canonical text: a JSON file is read once, and recorded as its content
     target = get_damage(damage).apply()
     check_int("seed", seed, 0)
@@ -204,9 +209,106 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
                                           **({"workers": workers} if workers else {}))
                for key, (name, space, summary) in runs.items()}
     out = check_output_dir(out_dir)
+    shared = None if shared_dir is None else check_output_dir(shared_dir, "shared_dir")
     with run_lock(out, command="case-study"):
         return _run_locked(preset, settings, damage, target, seed, out, method, model_space, video, workers,
-                           progress, runs, configs)
+                           progress, runs, configs, shared)
+
+
+def preset_settings(preset: str, episode_duration_s: float | None = None) -> CaseStudyPreset:
+    """The settings of ``preset``, with ``episode_duration_s`` (simulated seconds) when given.
+
+    Raises:
+        ValueError: an unknown preset, or a duration that is no positive finite number.
+    """
+    if preset not in PRESETS:
+        raise ValueError(f"unknown preset {preset!r}; valid: {sorted(PRESETS)}")
+    settings = PRESETS[preset]
+    if episode_duration_s is not None:
+        if isinstance(episode_duration_s, bool) or not isinstance(episode_duration_s, (int, float)) \
+                or not (np.isfinite(episode_duration_s) and episode_duration_s > 0):
+            raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
+        settings = dataclasses.replace(settings, episode_duration_s=float(episode_duration_s))
+    return settings
+
+
+def train_shared_rows(preset: str, seed: int, shared_dir, *, episode_duration_s: float | None = None,
+                      workers: int | None = None, progress: bool = True) -> list[Path]:
+    """Train (or find finished) the rows that do not depend on the damage (:data:`SHARED_KEYS`)
+    in ``shared_dir``, as :func:`run_case_study` with ``shared_dir`` would: the healthy gait,
+    the damage-robust gait and, with the ``[rl]`` extra, the damage-robust PPO policy. Case
+    studies of this preset, duration and seed given ``shared_dir`` then only load them.
+
+    Returns:
+        The rows' run directories.
+
+    Raises:
+        ValueError: an unknown preset, a bad seed, duration or worker count, a ``shared_dir``
+            that cannot be written, one of its runs busy (:class:`~aquafish_gym.rundir.BusyError`)
+            or made with other settings (:class:`~aquafish_gym.rundir.MismatchError`).
+    """
+    settings = preset_settings(preset, episode_duration_s)
+    check_int("seed", seed, 0)
+    if workers is not None:
+        check_int("workers", workers, 1)
+    shared = check_output_dir(shared_dir, "shared_dir")
+    natives = _shared_natives()
+    dirs = []
+    for key in ("healthy", "robust"):
+        dirs.append(shared / _gait_dir(key, settings.episode_duration_s))
+        _evolve(natives[key], dirs[-1], settings, seed, workers, progress)
+    if _rl_available():
+        dirs.append(shared / _rl_dir("random_damage", settings.episode_duration_s))
+        _train_ppo(natives["robust"], dirs[-1], settings, seed, progress)
+    return dirs
+
+
+def _shared_natives() -> dict[str, Robot]:
+    """The native robots of the NEAT rows of :data:`SHARED_KEYS`: the healthy robot, and the
+    healthy robot with a damage preset drawn per episode."""
+    return {"healthy": Robot(Morphology.healthy(), "none", "healthy"),
+            "robust": Robot(Morphology.healthy(), RANDOM_DAMAGE, "random damage")}
+
+
+def _evolve(native: Robot, run_dir: Path, settings: CaseStudyPreset, seed: int, workers: int | None, progress: bool):
+    """The NEAT gait of ``native`` in ``run_dir`` with the preset's budget (a finished gait is
+    reused, an interrupted one resumed)."""
+    return gait.evolve_or_load_gait(
+        native, run_dir, generations=settings.gait_generations, population_size=settings.gait_population,
+        seed=seed, workers=workers, episodes_per_genome=settings.gait_episodes,
+        episode_duration_s=settings.episode_duration_s, progress=progress)
+
+
+def _train_ppo(native: Robot, run_dir: Path, settings: CaseStudyPreset, seed: int, progress: bool) -> Path:
+    """The PPO policy of ``native`` in ``run_dir`` for :attr:`CaseStudyPreset.rl_timesteps`
+    (a finished one is reused); its ``model.zip``."""
+    # one torch thread: the small MLP trains fastest so (1,070 steps/s against 205 with
+    # torch's default of 2 threads, beside a 2-process study on the 2-core machine), and the
+    # policy does not depend on the machine's core count
+    return gait.train_or_load_rl("ppo", native, settings.rl_timesteps, seed, run_dir,
+                                 episode_duration_s=settings.episode_duration_s, num_threads=1, progress=progress)
+
+
+def _rl_dir(name: str, duration_s: float) -> str:
+    """``rl_ppo_<name>`` for the paper's 20 s episodes, ``rl_ppo_<name>_<N>s`` for others."""
+    return f"rl_ppo_{name}" if duration_s == 20.0 else f"rl_ppo_{name}_{duration_s:g}s"
+
+
+def _wait_if_busy(load, seconds: float = SHARED_WAIT_S):
+    """``load()``, tried again while its directory is busy (another case study loading the same
+    shared row), for up to ``seconds``.
+
+    Raises:
+        BusyError: still busy after ``seconds``.
+    """
+    deadline = time.monotonic() + seconds
+    while True:
+        try:
+            return load()
+        except BusyError:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.2)
 
 
 def model_fields(method: str = DEFAULT_METHOD, model_space: str = DEFAULT_MODEL_SPACE,
@@ -261,8 +363,9 @@ def _true_gains(damage: str) -> list[float]:
 
 def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int, out: Path,
                 method: str, model_space: str, video: bool, workers: int | None, progress: bool, runs: dict,
-                configs: dict) -> dict:
-    """The body of :func:`run_case_study`, under the lock of ``out``."""
+                configs: dict, shared: Path | None = None) -> dict:
+    """The body of :func:`run_case_study`, under the lock of ``out`` (the rows of
+    :data:`SHARED_KEYS` in ``shared`` when given)."""
     t0 = time.perf_counter()
     duration = settings.episode_duration_s
 
@@ -276,26 +379,27 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
 
     # 3. gaits: native robots are the models (with their servo gains), the oracle's is the damaged
     # robot (faults included), the robust gait's the healthy robot with a damage drawn per episode
-    natives = {"healthy": Robot(Morphology.healthy(), "none", "healthy"),
+    shared_natives = _shared_natives()
+    natives = {"healthy": shared_natives["healthy"],
                **{key: model_robot(result, key) for key, result in eea_results.items()},
                "true_damaged": gait.as_robot(damage),
-               "robust": Robot(Morphology.healthy(), RANDOM_DAMAGE, "random damage")}
+               "robust": shared_natives["robust"]}
+
+    def base(key: str) -> Path:
+        return shared if shared is not None and key in SHARED_KEYS else out
+
     controllers = {}
     for key, native in natives.items():
-        controllers[key] = gait.evolve_or_load_gait(  # a finished gait is reused, an interrupted one resumed
-            native, out / _gait_dir(key, duration), generations=settings.gait_generations,
-            population_size=settings.gait_population, seed=seed, workers=workers,
-            episodes_per_genome=settings.gait_episodes, episode_duration_s=duration, progress=progress)
+        def evolve(native=native, run_dir=base(key) / _gait_dir(key, duration)):
+            return _evolve(native, run_dir, settings, seed, workers, progress)
+
+        # a shared gait may be being loaded by another case study at this moment: wait for it
+        controllers[key] = _wait_if_busy(evolve) if base(key) is shared else evolve()
     if not _rl_available():
         logging.getLogger(__name__).warning("case-study: %s: the two PPO rows are left out", MISSING_RL)
     else:  # the two PPO rows, each for rl_timesteps
         for key, native, name in (("ppo", "self_model", "self_model"), ("robust_ppo", "robust", "random_damage")):
-            rl_dir = f"rl_ppo_{name}" if duration == 20.0 else f"rl_ppo_{name}_{duration:g}s"
-            # one torch thread: the small MLP trains fastest so (1,070 steps/s against 205 with
-            # torch's default of 2 threads, beside a 2-process study on the 2-core machine), and the
-            # policy does not depend on the machine's core count
-            path = gait.train_or_load_rl("ppo", natives[native], settings.rl_timesteps, seed, out / rl_dir,
-                                         episode_duration_s=duration, num_threads=1, progress=progress)
+            path = _train_ppo(natives[native], base(key) / _rl_dir(name, duration), settings, seed, progress)
             controllers[key] = gait.load_controller(path)
             natives[key] = natives[native]
 
@@ -352,6 +456,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         "figures": figures,
         "video": video_name,
         "wall_seconds": time.perf_counter() - t0,
+        **({"shared_dir": str(shared)} if shared is not None else {}),
     }
     atomic_write(out / "report.json", json.dumps(report, indent=2).encode())
     atomic_write(out / "report.md", render_report(report).encode())

@@ -1,0 +1,381 @@
+"""The recovery benchmark (``aquafish recovery``): the damage-recovery case study over many faults.
+
+A **cell** is one case study (:func:`aquafish.case_study.run_case_study`) of one damage and one
+seed, in ``OUT/cells/<damage>/seed<S>`` (``<damage>``: a preset's name, ``sampled_SEED``, or
+``fault_`` and a short hash of a JSON fault; :func:`aquafish.damage_table.gait_dir_name`). A
+cell whose ``report.json`` exists is finished and read back, never run again; an interrupted
+one resumes from its finished steps.
+
+The rows that do not depend on the damage (:data:`aquafish.case_study.SHARED_KEYS`: the
+healthy gait, the damage-robust gait and the damage-robust PPO policy) are trained once per
+seed in ``OUT/shared/seed<S>`` (:func:`aquafish.case_study.train_shared_rows`) before that
+seed's cells, which load them from there (``run_case_study(shared_dir=...)``).
+
+``OUT/recovery.json`` is the run's manifest (preset, episode duration, damages, seeds): a
+rerun with another preset or duration is refused naming the fields; one with other damages
+or seeds extends it. At the end of every run, ``OUT/summary.json`` and ``OUT/summary.md`` are
+rebuilt from the reports of every finished cell of the manifest (:func:`summarize`,
+:func:`render_summary`).
+
+Cells run one at a time in this process (each case study's evaluation on every core), on a
+local process pool (``processes`` > 1; each case study's evaluation serial) or as Ray tasks
+(``backend="ray"``, :func:`aquafish.study.connect_ray`; a cell's report comes back to the
+driver as the task's value).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from pathlib import Path
+from typing import Callable, Iterable, Iterator
+
+from aquafish_gym.checks import check_int
+from aquafish_gym.files import atomic_write
+from aquafish_gym.progress import progress_bar
+from aquafish_gym.rundir import check_fingerprint, check_output_dir, die_with_parent, read_json, run_lock
+
+#: The rows of the summary, in column order (``report.json`` controller keys; the oracle,
+#: ``true_damaged``, is what every share is taken of).
+ROWS = ("healthy", "plain_eea", "out_of_band", "self_model", "robust", "robust_ppo", "ppo")
+#: The run's manifest: its settings, and the union of the damages and seeds run into it.
+MANIFEST_FILE = "recovery.json"
+#: The summary files, rebuilt at the end of every run.
+SUMMARY_JSON, SUMMARY_MD = "summary.json", "summary.md"
+BACKENDS = ("local", "ray")
+#: The mark of a share whose row recovers, in ``summary.md``.
+RECOVERS_MARK = "✓"
+
+
+@dataclasses.dataclass(frozen=True)
+class RecoverySpec:
+    """What a recovery benchmark runs (checked by :func:`check_spec`).
+
+    Attributes:
+        preset: the case-study preset (:data:`aquafish.case_study.PRESETS`).
+        episode_duration_s: simulated seconds of every episode (the preset's when not given).
+        damages: damages as canonical text (:func:`aquafish_gym.get_damage`'s ``name``).
+        seeds: the case-study seeds, ascending.
+    """
+
+    preset: str
+    episode_duration_s: float
+    damages: tuple[str, ...]
+    seeds: tuple[int, ...]
+
+    def cells(self) -> list[tuple[str, int]]:
+        """Every ``(damage, seed)``, damage by damage."""
+        return [(damage, seed) for damage in self.damages for seed in self.seeds]
+
+    def settings(self) -> dict:
+        """The fields a rerun must keep (other damages and seeds extend the run)."""
+        return {"preset": self.preset, "episode_duration_s": self.episode_duration_s}
+
+    def to_dict(self) -> dict:
+        return {**self.settings(), "damages": list(self.damages), "seeds": list(self.seeds)}
+
+
+def check_spec(preset: str, damages: Iterable[str] | None, seeds: Iterable[int],
+               episode_duration_s: float | None = None) -> RecoverySpec:
+    """The benchmark's settings, checked; a JSON fault file is read here, once.
+
+    Args:
+        preset: a case-study preset name.
+        damages: preset names, JSON faults (inline or ``.json`` files) or ``sampled:SEED``;
+            None: every preset but ``none``.
+        seeds: case-study seeds (ints >= 0).
+        episode_duration_s: simulated seconds per episode (None: the preset's).
+
+    Raises:
+        ValueError: an unknown preset, an unknown or empty damage (``none``), an invalid fault, a
+            damage given twice, no seeds, a seed that is no int >= 0 or is given twice, or a bad
+            duration.
+    """
+    from aquafish.case_study import preset_settings
+    from aquafish.damage_table import check_damages
+
+    settings = preset_settings(preset, episode_duration_s)
+    names = check_damages(None if damages is None else list(damages))
+    _check_unique("damage", names)
+    seeds = list(seeds)
+    if not seeds:
+        raise ValueError("give at least one seed")
+    for seed in seeds:
+        check_int("seed", seed, 0)
+    _check_unique("seed", seeds)
+    return RecoverySpec(preset, settings.episode_duration_s, tuple(names), tuple(sorted(seeds)))
+
+
+def _check_unique(what: str, values: list) -> None:
+    """Raises: ValueError if a value of ``values`` repeats."""
+    repeated = sorted({str(v) for v in values if values.count(v) > 1})
+    if repeated:
+        raise ValueError(f"{what}s given more than once: {', '.join(repeated)}")
+
+
+def cell_dir(out: Path, damage: str, seed: int) -> Path:
+    """``OUT/cells/<damage dir>/seed<S>``: the case study of ``damage`` (canonical text) and ``seed``."""
+    from aquafish.damage_table import gait_dir_name
+
+    return Path(out) / "cells" / gait_dir_name(damage) / f"seed{seed}"
+
+
+def shared_dir(out: Path, seed: int) -> Path:
+    """``OUT/shared/seed<S>``: the rows of ``seed`` that do not depend on the damage."""
+    return Path(out) / "shared" / f"seed{seed}"
+
+
+def merge_manifest(out: Path, spec: RecoverySpec) -> RecoverySpec:
+    """``spec`` merged into ``OUT/recovery.json`` (the damages and seeds run so far, and these),
+    written atomically; the merged spec.
+
+    Raises:
+        MismatchError: the manifest records another preset or duration (the fields named).
+        FileError: the manifest is corrupt.
+    """
+    path = Path(out) / MANIFEST_FILE
+    merged = spec
+    if path.is_file():
+        recorded = read_json(path)
+        check_fingerprint(out, recorded, spec.settings(),
+                          "use another --out, or the preset and --episode-duration it was run with")
+        damages = tuple(dict.fromkeys([*recorded.get("damages", []), *spec.damages]))
+        seeds = tuple(sorted({*recorded.get("seeds", []), *spec.seeds}))
+        merged = dataclasses.replace(spec, damages=damages, seeds=seeds)
+    atomic_write(path, json.dumps(merged.to_dict(), indent=2).encode())
+    return merged
+
+
+def read_cell(out: Path, damage: str, seed: int, spec: RecoverySpec) -> dict | None:
+    """The report of a finished cell (None when its ``report.json`` is missing).
+
+    Raises:
+        MismatchError: the report was made with another preset, duration, damage or seed.
+        FileError: the report is corrupt.
+    """
+    path = cell_dir(out, damage, seed) / "report.json"
+    if not path.is_file():
+        return None
+    report = read_json(path)
+    check_fingerprint(path.parent, report, {**spec.settings(), "damage": damage, "seed": seed},
+                      "remove the cell's directory to run it again")
+    return report
+
+
+# -- the tasks (top-level, so that process pools and Ray can ship them) ------------------------------
+
+
+def _train_shared(preset: str, seed: int, shared: str, episode_duration_s: float, workers: int | None,
+                  progress: bool) -> int:
+    """Train the shared rows of ``seed`` (:func:`aquafish.case_study.train_shared_rows`); return ``seed``."""
+    from aquafish.case_study import train_shared_rows
+
+    train_shared_rows(preset, seed, shared, episode_duration_s=episode_duration_s, workers=workers,
+                      progress=progress)
+    return seed
+
+
+def _run_cell(preset: str, damage: str, seed: int, cell: str, shared: str, episode_duration_s: float,
+              workers: int | None, progress: bool) -> dict:
+    """Run one cell's case study (no video) with the shared rows of its seed; return its report."""
+    from aquafish.case_study import run_case_study
+
+    return run_case_study(preset, damage, seed, cell, episode_duration_s=episode_duration_s, video=False,
+                          workers=workers, progress=progress, shared_dir=shared)
+
+
+# -- running tasks ----------------------------------------------------------------------------------
+
+
+def _run_tasks(tasks: list[tuple[Callable, tuple]], backend: str, processes: int, address: str | None) -> Iterator:
+    """The values of ``tasks`` (``(function, args)``), as they finish: in this process
+    (``processes == 1``), on a local pool whose workers die with this process, or as Ray tasks.
+
+    Raises:
+        ValueError: a task raised one (its own error, also from a Ray task).
+    """
+    if not tasks:
+        return
+    if backend == "ray":
+        from aquafish.study import _task_cause, connect_ray
+
+        ray = connect_ray(address)
+        pending = [ray.remote(num_cpus=1)(fn).remote(*args) for fn, args in tasks]
+        while pending:
+            done, pending = ray.wait(pending, num_returns=1)
+            try:
+                yield from ray.get(done)
+            except ray.exceptions.RayTaskError as err:
+                raise _task_cause(err) from err
+    elif processes == 1:
+        for fn, args in tasks:
+            yield fn(*args)
+    else:
+        with ProcessPoolExecutor(max_workers=min(processes, len(tasks)), initializer=die_with_parent,
+                                 initargs=(os.getpid(),)) as pool:
+            pending = {pool.submit(fn, *args) for fn, args in tasks}
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for future in done:
+                    yield future.result()
+
+
+def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | None = None, seeds: Iterable[int] = (0,),
+                 episode_duration_s: float | None = None, processes: int = 1, workers: int | None = None,
+                 backend: str = "local", address: str | None = None, progress: bool = True) -> dict:
+    """Run every unfinished cell (damage x seed) of the benchmark and write its summary; return it.
+
+    Args:
+        out_dir: the benchmark's directory (finished cells and shared rows are reused).
+        preset: the case-study preset.
+        damages: as :func:`check_spec` (None: every preset but ``none``).
+        seeds: the case-study seeds.
+        episode_duration_s: simulated seconds per episode (None: the preset's).
+        processes: cells at once on the local backend (1: in this process).
+        workers: evaluation processes of each case study when cells run one at a time (default:
+            all cores); cells that run at once (``processes`` > 1, Ray) evaluate serially.
+        backend: ``"local"`` or ``"ray"`` (``address`` as for :func:`aquafish.study.connect_ray`).
+        progress: show progress (over cells; each case study's own bars when cells run one at a time).
+
+    Raises:
+        ValueError: bad settings (:func:`check_spec`, ``processes``, ``workers``, ``backend``) or an
+            ``out_dir`` that cannot be written, checked before anything is created; another
+            process writing ``out_dir`` (:class:`~aquafish_gym.rundir.BusyError`); a manifest or a
+            finished cell made with other settings (:class:`~aquafish_gym.rundir.MismatchError`,
+            naming the fields); a cell's own error.
+        ClusterError: ``backend="ray"`` without Ray or without a reachable cluster.
+    """
+    spec = check_spec(preset, damages, seeds, episode_duration_s)
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    check_int("processes", processes, 1)
+    if workers is not None:
+        check_int("workers", workers, 1)
+    out = check_output_dir(out_dir)
+    if backend == "ray":
+        from aquafish.study import connect_ray
+
+        connect_ray(address)
+    with run_lock(out, command="recovery"):
+        return _run_locked(spec, out, processes, workers, backend, address, progress)
+
+
+def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | None, backend: str,
+                address: str | None, progress: bool) -> dict:
+    """The body of :func:`run_recovery`, under the lock of ``out``."""
+    manifest = merge_manifest(out, spec)
+    reports = {cell: read_cell(out, *cell, manifest) for cell in manifest.cells()}
+    todo = [cell for cell in spec.cells() if reports[cell] is None]
+    alone = backend == "local" and processes == 1  # one cell at a time, in this process
+    cell_workers, inner_progress = (workers, progress) if alone else (1, False)
+    duration = spec.episode_duration_s
+    seeds = sorted({seed for _, seed in todo})
+    bar = progress_bar(len(seeds), desc="shared rows", unit="seed", disable=not progress or not seeds)
+    for _ in _run_tasks([(_train_shared, (spec.preset, seed, str(shared_dir(out, seed)), duration, cell_workers,
+                                          inner_progress)) for seed in seeds], backend, processes, address):
+        bar.update()
+    bar.close()
+    bar = progress_bar(len(spec.cells()), initial=len(spec.cells()) - len(todo), desc="recovery cells", unit="cell",
+                       disable=not progress)
+    tasks = [(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)), str(shared_dir(out, seed)),
+                          duration, cell_workers, inner_progress)) for damage, seed in todo]
+    for report in _run_tasks(tasks, backend, processes, address):
+        reports[(report["damage"], report["seed"])] = report
+        bar.update()
+    bar.close()
+    summary = {"settings": manifest.to_dict(), **summarize([r for r in reports.values() if r is not None]),
+               "missing": [{"damage": d, "seed": s} for (d, s), r in reports.items() if r is None]}
+    atomic_write(out / SUMMARY_JSON, json.dumps(summary, indent=2).encode())
+    atomic_write(out / SUMMARY_MD, render_summary(summary).encode())
+    return summary
+
+
+# -- the summary ------------------------------------------------------------------------------------
+
+
+def shares(controllers: dict) -> dict[str, float | None]:
+    """Each row's mean distance on the damaged robot over the oracle's (``true_damaged``), for the
+    rows of :data:`ROWS` present; None when the oracle does not swim forward (as
+    :func:`aquafish.case_study.verdict`)."""
+    oracle = float(controllers["true_damaged"]["target_distance"])
+    return {key: float(controllers[key]["target_distance"]) / oracle if oracle > 0 else None
+            for key in ROWS if key in controllers}
+
+
+def cell_summary(report: dict) -> dict:
+    """One cell of ``summary.json`` from its case study's report: ``damage``, ``seed``, ``breaks``,
+    ``shares``, ``recovers`` (per row but ``healthy``: the verdict's test), ``gains`` (the
+    self-model's and the target's servo gains), ``target_experiments`` (per EEA model) and
+    ``wall_seconds`` (of the case-study run that finished the cell).
+
+    Raises:
+        KeyError: the report lacks a field every case-study report has.
+    """
+    row_shares = shares(report["controllers"])
+    recovering = set(report["verdict"]["recovering"])
+    models = report["models"]
+    return {
+        "damage": report["damage"], "seed": report["seed"], "breaks": bool(report["verdict"]["breaks"]),
+        "shares": row_shares,
+        "recovers": {key: key in recovering for key in row_shares if key != "healthy"},
+        "gains": {"self_model": models.get("self_model", {}).get("servo_gains"),
+                  "target": report.get("target_servo_gains")},
+        "target_experiments": {key: m["target_experiments"] for key, m in models.items()},
+        "wall_seconds": report["wall_seconds"],
+    }
+
+
+def summarize(reports: Iterable[dict]) -> dict:
+    """``cells`` (:func:`cell_summary` of every report) and ``totals``: the number of ``cells``,
+    of cells whose damage ``breaks`` the healthy gait, and per row (but ``healthy``) how many of
+    the breaking cells that have the row it recovers in (``recovers``, ``of``, ``rate``: None
+    without such a cell).
+
+    Raises:
+        KeyError: a report lacks a field every case-study report has.
+    """
+    cells = [cell_summary(r) for r in reports]
+    breaking = [c for c in cells if c["breaks"]]
+    rows = {}
+    for key in ROWS[1:]:
+        having = [c for c in breaking if key in c["recovers"]]
+        if any(key in c["recovers"] for c in cells):
+            n = sum(c["recovers"][key] for c in having)
+            rows[key] = {"recovers": n, "of": len(having), "rate": n / len(having) if having else None}
+    return {"cells": cells, "totals": {"cells": len(cells), "breaking": len(breaking), "rows": rows}}
+
+
+def _share_text(cell: dict, key: str) -> str:
+    if key not in cell["shares"]:
+        return ""
+    share = cell["shares"][key]
+    text = "n/a" if share is None else f"{share:.0%}"
+    return text + (f" {RECOVERS_MARK}" if cell["recovers"].get(key) else "")
+
+
+def render_summary(summary: dict) -> str:
+    """``summary.md``: per damage and seed whether the damage breaks the healthy gait and each row's
+    share of the oracle (marked where the row recovers), then each row's recoveries among the
+    breaking cells."""
+    from aquafish.case_study import BREAKS_SHARE, RECOVERS_OVER_HEALTHY, RECOVERS_SHARE
+
+    s, totals = summary["settings"], summary["totals"]
+    keys = [k for k in ROWS if any(k in c["shares"] for c in summary["cells"])]
+    lines = [f"# Recovery benchmark: {s['preset']} preset, {s['episode_duration_s']:g} s episodes", "",
+             f"Each row's mean distance on the damaged robot as a share of the oracle gait's (evolved on the "
+             f"damaged robot); {RECOVERS_MARK}: the row recovers (at least {RECOVERS_SHARE:.0%} of the oracle and "
+             f"{RECOVERS_OVER_HEALTHY:g}x the healthy gait). A damage breaks the healthy gait when it keeps at most "
+             f"{BREAKS_SHARE:.0%} of the oracle; n/a: the oracle does not swim forward.", "",
+             "| damage | seed | breaks | " + " | ".join(f"`{k}`" for k in keys) + " |",
+             "|---|---|---|" + "---|" * len(keys)]
+    for cell in summary["cells"]:
+        lines.append(f"| `{cell['damage']}` | {cell['seed']} | {'yes' if cell['breaks'] else 'no'} | "
+                     + " | ".join(_share_text(cell, k) for k in keys) + " |")
+    lines += ["", f"Recovers in the {totals['breaking']} of {totals['cells']} cells that break: "
+              + (", ".join(f"`{k}` {r['recovers']}/{r['of']}" for k, r in totals["rows"].items()) or "no rows") + "."]
+    if summary.get("missing"):
+        lines += ["", "Not finished (run the command again to finish them): "
+                  + ", ".join(f"`{m['damage']}` seed {m['seed']}" for m in summary["missing"]) + "."]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,46 @@
+"""``aquafish recovery``: the recovery benchmark, the damage-recovery case study over many
+damages and seeds (:mod:`aquafish.recovery`)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from aquafish_gym.argtypes import csv_list, damage_list, int_at_least, positive_float
+
+
+def _recovery(args: argparse.Namespace) -> int:
+    from aquafish.recovery import SUMMARY_MD, run_recovery
+
+    summary = run_recovery(args.out, preset=args.preset, damages=args.damages, seeds=args.seeds,
+                           episode_duration_s=args.episode_duration, processes=args.processes, workers=args.workers,
+                           backend=args.backend, address=args.address, progress=not args.no_progress)
+    print((Path(args.out) / SUMMARY_MD).read_text())
+    print(f"wrote {Path(args.out) / SUMMARY_MD} and summary.json ({summary['totals']['cells']} cells)")
+    return 0
+
+
+def add_commands(sub) -> None:
+    from aquafish.studies_cli import add_no_progress
+
+    r = sub.add_parser("recovery", help="recovery benchmark: the damage-recovery case study per damage and seed, "
+                                        "the damage-independent rows trained once per seed, and a summary "
+                                        "(aquafish.recovery)")
+    r.add_argument("--damages", type=damage_list, default=None,
+                   help="comma-separated damages (default: every preset but none): preset names, JSON faults "
+                        "inline or as FILE.json (keys scale, seized, gains), sampled:SEED")
+    r.add_argument("--seeds", type=csv_list(int_at_least(0)), default=(0,), help="comma-separated case-study seeds (default 0)")
+    r.add_argument("--preset", default="quick", choices=["smoke", "quick", "medium", "paper"],
+                   help="the case-study preset of every cell (default quick)")
+    r.add_argument("--episode-duration", type=positive_float, default=None, metavar="SECONDS",
+                   help="simulated seconds of every episode (default: the preset's, 20 s)")
+    r.add_argument("--out", required=True, help="benchmark directory (finished cells and shared rows are reused)")
+    r.add_argument("--processes", type=int_at_least(1), default=1,
+                   help="cells at once on the local backend (default 1; above 1 each cell evaluates serially)")
+    r.add_argument("--workers", type=int_at_least(1), default=None,
+                   help="evaluation processes of a cell when cells run one at a time (default: all cores)")
+    r.add_argument("--backend", choices=["local", "ray"], default="local", help="local processes or Ray tasks")
+    r.add_argument("--address", default=None,
+                   help="Ray cluster address (as for aquafish study --address; default: start a local Ray)")
+    add_no_progress(r, "cell")
+    r.set_defaults(func=_recovery)
