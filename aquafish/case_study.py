@@ -27,7 +27,9 @@
    the self-model gait recovers, and which rows recover.
 
 Every step writes into its own sub-directory and is skipped when its result exists, so an
-interrupted case study resumes where it stopped.
+interrupted case study resumes where it stopped. With ``shared_dir``, the rows that do not
+depend on the damage (:data:`SHARED_KEYS`) are trained, or loaded when finished, there instead,
+so case studies of one seed on several damages share them (:mod:`aquafish.recovery`).
 """
 
 from __future__ import annotations

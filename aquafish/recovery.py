@@ -139,7 +139,7 @@ def merge_manifest(out: Path, spec: RecoverySpec) -> RecoverySpec:
     merged = spec
     if path.is_file():
         recorded = read_json(path)
-        check_fingerprint(out, recorded, spec.settings(),
+        check_fingerprint(out, {k: recorded[k] for k in spec.settings() if k in recorded}, spec.settings(),
                           "use another --out, or the preset and --episode-duration it was run with")
         damages = tuple(dict.fromkeys([*recorded.get("damages", []), *spec.damages]))
         seeds = tuple(sorted({*recorded.get("seeds", []), *spec.seeds}))
@@ -159,7 +159,8 @@ def read_cell(out: Path, damage: str, seed: int, spec: RecoverySpec) -> dict | N
     if not path.is_file():
         return None
     report = read_json(path)
-    check_fingerprint(path.parent, report, {**spec.settings(), "damage": damage, "seed": seed},
+    wanted = {**spec.settings(), "damage": damage, "seed": seed}
+    check_fingerprint(path.parent, {k: report[k] for k in wanted if k in report}, wanted,
                       "remove the cell's directory to run it again")
     return report
 

@@ -1,0 +1,130 @@
+"""The recovery benchmark (``aquafish recovery``): cells, shared rows, the summary."""
+
+import json
+
+import pytest
+
+from aquafish.case_study import verdict
+from aquafish.cli import main
+from aquafish.recovery import (MANIFEST_FILE, cell_dir, check_spec, merge_manifest, render_summary,
+                               summarize)
+from aquafish_gym.rundir import MismatchError
+
+
+def _report(damage, seed, distances, gains=None):
+    """A case-study report with the fields the summary reads; ``distances``: target distance per row."""
+    controllers = {key: {"target_distance": d} for key, d in distances.items()}
+    return {"preset": "smoke", "episode_duration_s": 20.0, "damage": damage, "seed": seed,
+            "controllers": controllers, "verdict": verdict(controllers),
+            "models": {"plain_eea": {"servo_gains": None, "target_experiments": 3},
+                       "self_model": {"servo_gains": gains, "target_experiments": 4}},
+            "target_servo_gains": {"left_pectoral_gain": 0.5, "right_pectoral_gain": 1.0, "caudal_gain": 1.0},
+            "wall_seconds": 12.5}
+
+
+#: Four cells (oracle = true_damaged): A and B break the healthy gait (20 % and 40 % of the
+#: oracle), C does not (80 %), D's oracle does not swim forward (and has no PPO rows).
+REPORTS = [
+    _report("a", 0, {"healthy": 2, "plain_eea": 5, "self_model": 9, "out_of_band": 8.5, "true_damaged": 10,
+                     "robust": 3, "ppo": 1, "robust_ppo": 9}, gains={"left_pectoral_gain": 0.4}),
+    _report("b", 0, {"healthy": 4, "plain_eea": 9, "self_model": 8.5, "out_of_band": 2, "true_damaged": 10,
+                     "robust": 8, "ppo": 5, "robust_ppo": 1}),
+    _report("c", 0, {"healthy": 8, "plain_eea": 9, "self_model": 9.5, "out_of_band": 9, "true_damaged": 10,
+                     "robust": 9, "ppo": 9, "robust_ppo": 9}),
+    _report("d", 0, {"healthy": 1, "plain_eea": 1, "self_model": 1, "out_of_band": 1, "true_damaged": -1,
+                     "robust": 1}),
+]
+
+
+def test_summary_totals_hand_computed():
+    summary = summarize(REPORTS)
+    a, b, c, d = summary["cells"]
+    assert [x["breaks"] for x in (a, b, c, d)] == [True, True, False, False]
+    assert a["shares"] == pytest.approx({"healthy": 0.2, "plain_eea": 0.5, "out_of_band": 0.85, "self_model": 0.9,
+                                         "robust": 0.3, "robust_ppo": 0.9, "ppo": 0.1})
+    assert a["recovers"] == {"plain_eea": False, "out_of_band": True, "self_model": True, "robust": False,
+                             "robust_ppo": True, "ppo": False}
+    # c: 95 % of the oracle but not 1.5x the healthy gait; d: nothing to recover, no PPO rows
+    assert not any(c["recovers"].values()) and c["breaks"] is False
+    assert set(d["shares"].values()) == {None} and "ppo" not in d["shares"]
+    assert a["gains"] == {"self_model": {"left_pectoral_gain": 0.4}, "target": REPORTS[0]["target_servo_gains"]}
+    assert a["target_experiments"] == {"plain_eea": 3, "self_model": 4} and a["wall_seconds"] == 12.5
+    totals = summary["totals"]
+    assert (totals["cells"], totals["breaking"]) == (4, 2)
+    assert {k: (r["recovers"], r["of"]) for k, r in totals["rows"].items()} == {
+        "plain_eea": (1, 2), "out_of_band": (1, 2), "self_model": (2, 2), "robust": (1, 2), "robust_ppo": (1, 2),
+        "ppo": (0, 2)}
+    assert totals["rows"]["self_model"]["rate"] == 1.0 and totals["rows"]["ppo"]["rate"] == 0.0
+
+    md = render_summary({"settings": {"preset": "smoke", "episode_duration_s": 20.0}, **summary})
+    assert "| `a` | 0 | yes | 20% | 50% | 85% ✓ | 90% ✓ | 30% | 90% ✓ | 10% |" in md
+    assert "| `d` | 0 | no | n/a | n/a | n/a | n/a | n/a |  |  |" in md
+    assert "Recovers in the 2 of 4 cells that break: `plain_eea` 1/2, `out_of_band` 1/2, `self_model` 2/2" in md
+
+
+def test_a_rerun_extends_the_manifest_with_damages_and_seeds_but_refuses_another_preset(tmp_path):
+    merge_manifest(tmp_path, check_spec("smoke", ["left_pectoral_half"], [0]))
+    merged = merge_manifest(tmp_path, check_spec("smoke", ["sampled:3", "left_pectoral_half"], [2, 1]))
+    assert merged.damages == ("left_pectoral_half", "sampled:3") and merged.seeds == (0, 1, 2)
+    assert json.loads((tmp_path / MANIFEST_FILE).read_text())["seeds"] == [0, 1, 2]
+    with pytest.raises(MismatchError, match=r"preset: \"smoke\" -> \"quick\".*episode_duration_s: 20.0 -> 60.0"):
+        merge_manifest(tmp_path, check_spec("quick", ["left_pectoral_half"], [0], 60))
+    assert cell_dir(tmp_path, "sampled:3", 1) == tmp_path / "cells" / "sampled_3" / "seed1"
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--damages", "nope,left_pectoral_half"], "unknown damage(s) ['nope']"),
+    (["--damages", "none"], "unknown damage(s) ['none']"),
+    (["--damages", 'left_pectoral_half,{"gains":[1, 0.5, 1]},left_pectoral_half'], "damages given more than once"),
+    (["--damages", "left_pectoral_half", "--seeds", "1,1"], "seeds given more than once: 1"),
+    (["--damages", "left_pectoral_half", "--seeds", "0,-2"], "argument --seeds: must be an int >= 0"),
+    (["--damages", '{"gains": [1, 2]}'], "gains"),
+])
+def test_bad_settings_fail_in_one_line_creating_nothing(tmp_path, capsys, argv, message):
+    out = tmp_path / "new" / "bench"
+    with pytest.raises(SystemExit) as exc:
+        main(["recovery", "--preset", "smoke", "--out", str(out), *argv])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "new").exists()
+
+
+def test_two_cells_share_the_healthy_and_robust_rows_and_a_rerun_is_a_no_op(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr("aquafish.case_study._rl_available", lambda: False)  # no PPO rows: faster
+    out = tmp_path / "bench"
+    argv = ["recovery", "--preset", "smoke", "--damages", "left_pectoral_half,reversed_left_pectoral", "--seeds", "0",
+            "--workers", "1", "--no-progress", "--out", str(out)]
+    assert main(argv) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert [(c["damage"], c["seed"]) for c in summary["cells"]] == [("left_pectoral_half", 0),
+                                                                    ("reversed_left_pectoral", 0)]
+    assert summary["settings"] == {"preset": "smoke", "episode_duration_s": 20.0,
+                                   "damages": ["left_pectoral_half", "reversed_left_pectoral"], "seeds": [0]}
+    # the damage-independent rows were trained once, in shared/seed0, and every cell used them
+    shared = out / "shared" / "seed0"
+    assert (shared / "gait_healthy" / "run.json").is_file() and (shared / "gait_robust" / "run.json").is_file()
+    assert not list((out / "cells").rglob("gait_healthy*")) and not list((out / "cells").rglob("gait_robust*"))
+    reports = [json.loads((cell_dir(out, d, 0) / "report.json").read_text())
+               for d in ("left_pectoral_half", "reversed_left_pectoral")]
+    assert {r["shared_dir"] for r in reports} == {str(shared)}
+    # one healthy gait: the same distances on its native (healthy) robot in both cells
+    assert reports[0]["controllers"]["healthy"]["native_distances"] == \
+        reports[1]["controllers"]["healthy"]["native_distances"]
+    assert {k: v for k, v in summary.items() if k in ("cells", "totals")} == json.loads(json.dumps(summarize(reports)))
+    md = (out / "summary.md").read_text()
+    assert md == render_summary(summary) and md in capsys.readouterr().out
+    assert f"cells that break: `plain_eea` {summary['totals']['rows']['plain_eea']['recovers']}/" in md
+
+    # a rerun is a no-op: the cells are read back, the summary is the same
+    stamps = [(cell_dir(out, d, 0) / "report.json").stat().st_mtime_ns for d in ("left_pectoral_half",
+                                                                                 "reversed_left_pectoral")]
+    assert main(argv) == 0
+    assert json.loads((out / "summary.json").read_text()) == summary
+    assert [(cell_dir(out, d, 0) / "report.json").stat().st_mtime_ns
+            for d in ("left_pectoral_half", "reversed_left_pectoral")] == stamps
+
+    # another preset is refused naming the field, before any work
+    with pytest.raises(SystemExit):
+        main([*argv[:2], "quick", *argv[3:]])
+    assert 'preset: "smoke" -> "quick"' in capsys.readouterr().err
