@@ -74,6 +74,7 @@ class RecoverySpec:
         return {"preset": self.preset, "episode_duration_s": self.episode_duration_s}
 
     def to_dict(self) -> dict:
+        """The manifest (``recovery.json``) and the summary's ``settings``."""
         return {**self.settings(), "damages": list(self.damages), "seeds": list(self.seeds)}
 
 
@@ -349,6 +350,7 @@ def summarize(reports: Iterable[dict]) -> dict:
 
 
 def _share_text(cell: dict, key: str) -> str:
+    """A row's share in ``summary.md`` (percent, marked where it recovers; empty without the row)."""
     if key not in cell["shares"]:
         return ""
     share = cell["shares"][key]
