@@ -4,9 +4,10 @@
 :class:`~gait.neat_evolution.FitnessTask` in one ``gym.make_vec(task.env_id, ...)``
 (:mod:`aquafish_gym.vector_env`): genome j's start k is sub-env ``j * K + k``
 (K = ``task.episodes``), seeded ``task.seed + k``, so it starts from the initial angles
-(and damage draw) of the single env's episode k. Each sub-env has its own
-:class:`~gait.controller.NEATController` (network activated per control step, clock from
-:func:`gait.clock.with_clock`), exactly as :meth:`FitnessTask.run` drives the single env.
+(and damage draw) of the single env's episode k. Each sub-env has its own network
+(:meth:`~gait.controller.NEATController.network`, activated per control step on the
+observation and the clock, outputs clipped), the same numbers as
+:meth:`~gait.controller.NEATController.act` gives when :meth:`FitnessTask.run` drives the single env.
 
 Equivalence with :func:`~gait.neat_evolution.evaluate_genome`: observations, and so the
 networks' actions, are equal to the last bit; the distance (and a return made of positions)
@@ -35,6 +36,7 @@ import aquafish_gym  # registers the AquaFish tasks  # noqa: F401
 from aquafish_gym.checks import check_int
 from aquafish_gym.rundir import die_with_parent
 from aquafish_gym.vector_env import MAX_WORLD_ROBOTS
+from gait.clock import CLOCK_DIM, clock_features
 from gait.rollout import DEFAULT_ENV_ID
 
 if TYPE_CHECKING:
@@ -91,15 +93,24 @@ def batch_fitness(genomes, config, task: "FitnessTask", max_world_robots: int = 
 
 
 def _run_episodes(envs, controllers, seeds: list[int], env_id: str) -> np.ndarray:
-    """One episode of every sub-env, sub-env i driven by ``controllers[i]``; ``(N,)`` scores."""
-    for controller in controllers:
-        controller.reset()
+    """One episode of every sub-env, sub-env i driven by ``controllers[i]``; ``(N,)`` scores.
+
+    Each step does what :meth:`~gait.controller.NEATController.act` does, for all sub-envs:
+    the observation and the clock (:func:`gait.clock.with_clock`'s ``clock_features``), each
+    network activated on its row, the outputs clipped to [-1, 1] (the same numbers, bit for bit).
+    """
+    networks = [controller.network() for controller in controllers]
+    period = controllers[0].clock_period_s
+    num_inputs = controllers[0].config.genome_config.num_inputs
     obs, info = envs.reset(seed=seeds)
+    if obs.shape[1] + CLOCK_DIM != num_inputs:
+        raise ValueError(f"this network takes {num_inputs - CLOCK_DIM} observation entries, got {obs.shape[1]}")
     total = np.zeros(len(controllers))
     truncated = np.zeros(len(controllers), dtype=np.bool_)
     while not truncated.any():
-        times = info["time_s"]
-        actions = np.stack([c.act(o, t) for c, o, t in zip(controllers, obs, times)])
+        clock = np.array([clock_features(t, period) for t in info["time_s"]])
+        rows = np.concatenate([obs, clock], axis=1).tolist()
+        actions = np.clip(np.array([net.activate(row) for net, row in zip(networks, rows)], dtype=np.float64), -1.0, 1.0)
         obs, rewards, terminated, truncated, info = envs.step(actions)
         if terminated.any() or (truncated.any() and not truncated.all()):
             raise RuntimeError("the vector env ended some episodes and not others")  # it never does
