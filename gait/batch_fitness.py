@@ -164,12 +164,12 @@ class BatchEvaluator:
                                             initializer=die_with_parent, initargs=(os.getpid(),))
 
     def chunks(self, n: int) -> list[slice]:
-        """The genomes of each worker: ``min(workers, worlds)`` contiguous runs of whole worlds."""
+        """The genomes of each worker out of ``n``: at most ``workers`` contiguous runs of whole
+        worlds, each ending at the world boundary nearest an equal share of the genomes."""
         per_world = genomes_per_world(self.task, self.max_world_robots)
-        worlds = -(-n // per_world)
-        parts = min(self.workers, worlds)
-        bounds = [round(w * worlds / parts) * per_world for w in range(parts + 1)]
-        return [slice(a, min(b, n)) for a, b in zip(bounds, bounds[1:])]
+        parts = min(self.workers, -(-n // per_world))
+        bounds = sorted({min(n, round(n * w / parts / per_world) * per_world) for w in range(parts)} | {n})
+        return [slice(a, b) for a, b in zip(bounds, bounds[1:])]
 
     def __call__(self, genomes, config) -> None:
         genomes = [genome for _, genome in genomes if genome.fitness is None or not self.keep_fitness]

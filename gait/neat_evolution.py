@@ -14,9 +14,11 @@ genomes evolve).
 Fitness: :func:`gait.rollout.rollout`'s forward distance (units) in 20 s of swimming on the
 given robot. Every genome of the run is evaluated with the same initial flipper angles:
 ``initial_angles`` if given, else the angles ``AquaFish-v0``'s ``reset(seed=seed)`` draws.
-Fitness is therefore a deterministic function of the genome; with elitism, the best fitness
-per generation never decreases, and serial and parallel runs with one seed agree (genome for
-genome: :class:`_GenomeConfig` works around a neat-python 2.0.0 pickling side effect).
+Fitness is therefore a deterministic function of the genome (batched, also of its place in
+the generation, by round-off of 1e-13 units; an elite keeps the fitness it was given); with
+elitism, the best fitness per generation never decreases, and serial and parallel runs with
+one seed agree (genome for genome: :class:`_GenomeConfig` works around a neat-python 2.0.0
+pickling side effect; batched, whole worlds go to each process).
 A gait evolved from one start may rely on it (the servos have no position feedback, so the
 start is unknown on the real robot): ``episodes_per_genome = K`` scores each genome as the
 mean over the starts of seeds ``seed ... seed + K - 1`` instead, at K times the cost.

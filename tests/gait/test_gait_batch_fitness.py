@@ -64,7 +64,7 @@ def test_fitness_does_not_depend_on_how_the_generation_is_split_over_workers():
         serial(pairs, config)
     in_process = [g.fitness for g in genomes]
     with BatchEvaluator(task, workers=3, max_world_robots=4) as pool:
-        assert pool.chunks(7) == [slice(0, 2), slice(2, 6), slice(6, 7)]   # whole worlds of 2 genomes
+        assert pool.chunks(7) == [slice(0, 2), slice(2, 4), slice(4, 7)]   # whole worlds of 2 genomes
         for g in genomes:
             g.fitness = None
         pool(pairs, config)
