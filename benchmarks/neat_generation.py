@@ -1,62 +1,94 @@
 """NEAT generations per second: a generation on single envs genome by genome vs at once on the vector env.
 
-Runs :func:`gait.evolve_gait` (no files, no progress) at a case-study preset's NEAT settings
-(``--preset``, default ``quick``: its ``gait_population`` genomes x ``gait_episodes`` starts,
-20 s episodes, healthy robot, seed 0) for ``--generations`` generations in each mode:
+Runs NEAT (``neat.Population`` on ``gait/neat_config.ini``, as :func:`gait.evolve_gait` does,
+without its files and reporters) at a case-study preset's NEAT settings (``--preset``,
+default ``quick``: its ``gait_population`` genomes x ``gait_episodes`` starts, 20 s
+episodes, healthy robot, seed 0) for ``--generations`` generations with each evaluator:
 
-* ``single``: ``batched=False``, genome by genome on single envs (``evaluate_genome``: the
-  code of the release before the vector env), on ``W`` processes for each ``W`` of
-  ``--workers`` (1: in-process, no pool);
-* ``batched``: ``batched=True`` (the default), the generation at once on the vector env
-  (:mod:`gait.batch_fitness`), with ``workers`` = the largest of ``--workers`` (a generation
-  of at most 64 robots is one world, evaluated in-process whatever ``workers``); NEAT's
-  elites keep their fitness (``BatchEvaluator(keep_fitness=True)``), and ``batched, all
-  genomes`` scores them again, as ``single`` does, to show the batching's share alone.
+* ``single``: :func:`gait.neat_evolution.evaluate_genome` genome by genome, one single env
+  per episode (the code before the vector env, ``evolve_gait(batched=False)``), in-process
+  and, for each ``W`` > 1 of ``--workers``, on ``W`` processes
+  (:class:`gait.neat_progress.PoolEvaluator`);
+* ``batched``: :class:`gait.batch_fitness.BatchEvaluator` in-process (the default of
+  ``evolve_gait``; a generation of at most 64 robots is one world, in-process whatever
+  ``workers``): ``all genomes`` scores NEAT's elites again, as ``single`` does (the
+  batching's share alone), the default keeps their fitness.
 
-Modes run interleaved, ``--repeats`` times; it prints the median generations per second of
-each (steady state: generations after the first, so a pool's start-up is left out), its
-ratio to ``single`` on one process, and the largest difference of the best and mean fitness
-per generation from ``single`` on one process (the same genomes evolve; round-off only).
+Runs are interleaved, ``--repeats`` times. It prints, per evaluator, the median over runs of
+the generations per wall second and the CPU seconds per generation of this process (the
+pool's processes are not counted: "-"), both over the generations after the first (so a
+pool's start-up is left out); the ratio of generations per second to in-process ``single``;
+and the largest difference of any genome's fitness from ``single``'s (the same genomes
+evolve; round-off only).
 
-    python -m benchmarks.neat_generation [--preset quick] [--generations 3] [--repeats 1] [--workers 1,2]
+    python -m benchmarks.neat_generation [--preset quick] [--generations 3] [--repeats 3] [--workers 1,2]
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import functools
 import os
+import random
 import statistics
+import time
 
+import neat
 import numpy as np
 
 from aquafish.case_study import PRESETS
-from gait import evolve_gait, neat_evolution
+from gait.batch_fitness import BatchEvaluator
+from gait.neat_evolution import FitnessTask, evaluate_genome, load_neat_config, set_num_inputs
+from gait.neat_progress import PoolEvaluator
+from gait.robots import as_robot
+
+SEED = 0
 
 
 def _workers(text: str) -> list[int]:
     try:
         values = [int(w) for w in text.split(",")]
     except ValueError:
-        raise argparse.ArgumentTypeError(f"--workers must be comma-separated integers >= 1, got {text!r}") from None
+        values = []
     if not values or min(values) < 1:
         raise argparse.ArgumentTypeError(f"--workers must be comma-separated integers >= 1, got {text!r}")
     return values
 
 
-def _run(preset, generations: int, workers: int, batched: bool, keep_fitness: bool) -> tuple[float, np.ndarray]:
-    """Steady-state generations per second and ``(generations, 2)`` best and mean fitness of one run."""
-    evaluator = neat_evolution.BatchEvaluator
-    neat_evolution.BatchEvaluator = functools.partial(evaluator, keep_fitness=keep_fitness)
-    try:
-        result = evolve_gait(None, generations=generations, population_size=preset.gait_population, seed=0,
-                             workers=workers, episodes_per_genome=preset.gait_episodes, progress=False,
-                             batched=batched)
-    finally:
-        neat_evolution.BatchEvaluator = evaluator
-    wall = [h["wall_time_s"] for h in result.history]
-    fitness = np.array([(h["best_fitness"], h["mean_fitness"]) for h in result.history])
-    return (generations - 1) / (wall[-1] - wall[0]), fitness
+class _Clock(neat.reporting.BaseReporter):
+    """Wall and CPU time after each generation's evaluation, and every genome's fitness."""
+
+    def __init__(self):
+        self.wall, self.cpu, self.fitness = [], [], []
+
+    def post_evaluate(self, config, population, species, best_genome) -> None:
+        self.wall.append(time.perf_counter())
+        self.cpu.append(time.process_time())
+        self.fitness.append([g.fitness for _, g in sorted(population.items())])
+
+
+def _serial(task: FitnessTask):
+    def evaluate(genomes, config):
+        for _, genome in genomes:
+            genome.fitness = evaluate_genome(genome, config, task=task)
+    return contextlib.nullcontext(evaluate)
+
+
+def _run(task: FitnessTask, population_size: int, generations: int, evaluator) -> tuple[float, float, np.ndarray]:
+    """Generations per wall second, CPU seconds per generation (after the first), every fitness."""
+    random.seed(SEED)
+    np.random.seed(SEED)
+    config = load_neat_config(population_size=population_size)
+    set_num_inputs(config, 14)
+    population = neat.Population(config, seed=SEED)
+    clock = _Clock()
+    population.add_reporter(clock)
+    with evaluator as evaluate:
+        population.run(evaluate, generations)
+    timed = generations - 1
+    return (timed / (clock.wall[-1] - clock.wall[0]), (clock.cpu[-1] - clock.cpu[0]) / timed,
+            np.array(clock.fitness, dtype=np.float64))
 
 
 def main(argv: list[str] | None = None, prog: str | None = None,
@@ -69,30 +101,38 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     parser = parser_class(prog=prog, description=__doc__.splitlines()[0])
     parser.add_argument("--preset", choices=sorted(PRESETS), default="quick")
     parser.add_argument("--generations", type=int, default=3, help="per run (>= 2; the first is not timed)")
-    parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--workers", type=_workers, default=[1, 2], help="comma-separated process counts")
     args = parser.parse_args(argv)
     if args.generations < 2 or args.repeats < 1:
         parser.error("--generations must be >= 2 and --repeats >= 1")
     preset = PRESETS[args.preset]
-    workers = max(args.workers)
-    modes = [(f"single, {w} process{'es' if w > 1 else ''}", w, False, False) for w in args.workers]
-    modes += [(f"batched, all genomes (w={workers})", workers, True, False), (f"batched (w={workers})", workers, True, True)]
-    rates: dict[str, list[float]] = {mode[0]: [] for mode in modes}
+    task = FitnessTask(as_robot("healthy"), SEED, episodes=preset.gait_episodes)
+    evaluate = functools.partial(evaluate_genome, task=task)
+    modes = {"single, in-process": lambda: _serial(task)}
+    for w in sorted(set(args.workers) - {1}):
+        modes[f"single, {w} processes"] = lambda w=w: PoolEvaluator(w, evaluate)
+    modes["batched, all genomes"] = lambda: BatchEvaluator(task, keep_fitness=False)
+    modes["batched (elites kept)"] = lambda: BatchEvaluator(task)
+    runs: dict[str, list[tuple[float, float]]] = {name: [] for name in modes}
     fitness: dict[str, np.ndarray] = {}
     for _ in range(args.repeats):
-        for name, w, batched, keep in modes:
-            rate, fitness[name] = _run(preset, args.generations, w, batched, keep)
-            rates[name].append(rate)
-    reference = modes[0][0]
-    base = statistics.median(rates[reference])
+        for name, make in modes.items():
+            rate, cpu, fitness[name] = _run(task, preset.gait_population, args.generations, make())
+            runs[name].append((rate, cpu))
+    reference = "single, in-process"
+    base = statistics.median(r for r, _ in runs[reference])
     print(f"NEAT at preset {args.preset!r}: {preset.gait_population} genomes x {preset.gait_episodes} starts, "
-          f"20 s episodes, {args.generations} generations, median of {args.repeats}, {os.cpu_count()} CPUs")
-    print(f"{'mode':<30} {'generations/s':>14} {'s/generation':>13} {'ratio':>7} {'max |fitness diff|':>19}")
-    for name, *_ in modes:
-        rate = statistics.median(rates[name])
+          f"20 s episodes, {args.generations} generations ({args.generations - 1} timed), median of "
+          f"{args.repeats}, {os.cpu_count()} CPUs")
+    print(f"{'evaluator':<24} {'generations/s':>14} {'s/generation':>13} {'CPU s/generation':>17} {'ratio':>7} "
+          f"{'max |fitness diff|':>19}  generations/s of each run")
+    for name, values in runs.items():
+        rate = statistics.median(r for r, _ in values)
+        cpu = f"{statistics.median(c for _, c in values):17.2f}" if "processes" not in name else f"{'-':>17}"
         diff = float(np.abs(fitness[name] - fitness[reference]).max())
-        print(f"{name:<30} {rate:14.3f} {1 / rate:13.2f} {rate / base:6.1f}x {diff:19.1e}")
+        print(f"{name:<24} {rate:14.3f} {1 / rate:13.2f} {cpu} {rate / base:6.1f}x {diff:19.1e}  "
+              f"{', '.join(f'{r:.3f}' for r, _ in values)}")
 
 
 if __name__ == "__main__":
