@@ -253,8 +253,9 @@ class GaitResult:
         best_controller: the best controller found (over all generations).
         best_fitness: its forward distance (units) under the run's fitness episode.
         history: one dict per generation (see :class:`HistoryReporter`).
-        best_rollout: the best controller's first fitness episode (seed ``seed``; trajectory
-            ``(T + 1, 2)``); its distance is ``best_fitness`` when ``episodes_per_genome`` is 1.
+        best_rollout: the best controller's first fitness episode on the single env (seed
+            ``seed``; trajectory ``(T + 1, 2)``); its distance is ``best_fitness`` when
+            ``episodes_per_genome`` is 1 (batched: to the vector env's round-off, ~1e-13 units).
         robot: the robot evolved for.
         seed: the run seed (also the episode seed unless ``initial_angles``).
         initial_angles: ``(3,)`` rad used for every evaluation.
