@@ -29,12 +29,13 @@ def _single(genomes, config, task):
 
 
 @pytest.mark.parametrize("robot, episodes, angles", [
-    ("healthy", 2, None),                                   # the case study's K starts, drawn from seed, seed + 1
-    ("reversed_left_pectoral", 1, (0.3, -1.2, 0.1)),        # a damaged robot, fixed initial angles
+    (as_robot("healthy"), 2, None),                         # the case study's K starts, drawn from seed, seed + 1
+    (as_robot("reversed_left_pectoral"), 1, (0.3, -1.2, 0.1)),   # a damaged robot, fixed initial angles
+    (as_robot("healthy", damage="random"), 2, None),        # a damage drawn per start from its seed
 ])
 def test_every_genome_scores_as_evaluate_genome(robot, episodes, angles):
     genomes, config = _genomes(6)
-    task = FitnessTask(as_robot(robot), 3, angles, SHORT_S, episodes=episodes)
+    task = FitnessTask(robot, 3, angles, SHORT_S, episodes=episodes)
     batched = batch_fitness(genomes, config, task, max_world_robots=4)   # 2 or 3 worlds: slots beyond the origin
     np.testing.assert_allclose(batched, _single(genomes, config, task), rtol=0, atol=1e-9)
     assert len(set(batched.tolist())) == len(genomes)   # distinct genomes, distinct fitnesses (not one copied)
