@@ -9,7 +9,8 @@ way.
 
 Public API:
     evolve_gait(morphology, *, damage, generations, population_size, seed, out_dir, workers,
-                episodes_per_genome) -> GaitResult
+                episodes_per_genome, batched) -> GaitResult: a generation scored at once on the
+                vector env (batched, the default; gait.batch_fitness) or genome by genome
     load_controller(path) -> Controller
     score_transfer(controller, native, target, *, seed, episodes, initial_angles) -> TransferResult
     plot_transfer(results, path, titles=None) -> Path

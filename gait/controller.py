@@ -187,12 +187,17 @@ class NEATController:
         """True for a feed-forward network, False for a recurrent one."""
         return bool(self.config.genome_config.feed_forward)
 
+    def network(self):
+        """A new network of the genome (``neat.nn.FeedForwardNetwork`` or, recurrent, at zero state):
+        ``network().activate(inputs)`` with the ``num_inputs`` inputs of :meth:`act` returns its
+        3 outputs, before clipping."""
+        if self.feed_forward:
+            return neat.nn.FeedForwardNetwork.create(self.genome, self.config)
+        return neat.nn.RecurrentNetwork.create(self.genome, self.config)
+
     def reset(self) -> None:
         """Build the network from the genome (a recurrent network starts at zero state)."""
-        if self.feed_forward:
-            self._net = neat.nn.FeedForwardNetwork.create(self.genome, self.config)
-        else:
-            self._net = neat.nn.RecurrentNetwork.create(self.genome, self.config)
+        self._net = self.network()
 
     def act(self, obs, time_s: float) -> np.ndarray:
         """Return the action ``(3,)`` float64 in [-1, 1] (network outputs, clipped).

@@ -3,15 +3,22 @@
 ``evolve_gait`` runs ``neat.Population`` on the config in ``gait/neat_config.ini`` with
 a ``Checkpointer``, a :class:`HistoryReporter` (fitness per generation, best controller), a
 progress display over generations (:class:`gait.neat_progress.GenerationBar`) and, with
-``verbose``, NEAT's ``StdOutReporter``; genomes are evaluated on a process pool
-(:class:`gait.neat_progress.PoolEvaluator`) or in-process for one worker.
+``verbose``, NEAT's ``StdOutReporter``. A generation is evaluated at once on the batched
+vector env (:class:`gait.batch_fitness.BatchEvaluator`: every genome and start a robot of
+one PyBullet world, whole worlds dealt to ``workers`` processes); ``batched=False`` scores
+genome by genome with :func:`evaluate_genome` (a single env per episode, on a process pool,
+:class:`gait.neat_progress.PoolEvaluator`, or in-process for one worker), the reference
+the batched fitness equals to the vector env's round-off (about 1e-13 units; the same
+genomes evolve).
 
 Fitness: :func:`gait.rollout.rollout`'s forward distance (units) in 20 s of swimming on the
 given robot. Every genome of the run is evaluated with the same initial flipper angles:
 ``initial_angles`` if given, else the angles ``AquaFish-v0``'s ``reset(seed=seed)`` draws.
-Fitness is therefore a deterministic function of the genome; with elitism, the best fitness
-per generation never decreases, and serial and parallel runs with one seed agree (genome for
-genome: :class:`_GenomeConfig` works around a neat-python 2.0.0 pickling side effect).
+Fitness is therefore a deterministic function of the genome (batched, also of its place in
+the generation, by round-off of 1e-13 units; an elite keeps the fitness it was given); with
+elitism, the best fitness per generation never decreases, and serial and parallel runs with
+one seed agree (genome for genome: :class:`_GenomeConfig` works around a neat-python 2.0.0
+pickling side effect; batched, whole worlds go to each process).
 A gait evolved from one start may rely on it (the servos have no position feedback, so the
 start is unknown on the real robot): ``episodes_per_genome = K`` scores each genome as the
 mean over the starts of seeds ``seed ... seed + K - 1`` instead, at K times the cost.
@@ -45,6 +52,7 @@ from aquafish_gym.rundir import (FileError, MismatchError, check_fingerprint, ch
                                  read_json, read_pickle, run_lock)
 from gait.clock import CLOCK_DIM, CLOCK_PERIOD_S, check_clock_period
 from gait.controller import NEAT_CONTROLLER_FILE, NEATController, load_controller
+from gait.batch_fitness import BatchEvaluator
 from gait.neat_progress import GenerationBar, PoolEvaluator, QuietCheckpointer
 from gait.plots import plot_fitness_history
 from gait.robots import Robot, as_robot
@@ -245,8 +253,9 @@ class GaitResult:
         best_controller: the best controller found (over all generations).
         best_fitness: its forward distance (units) under the run's fitness episode.
         history: one dict per generation (see :class:`HistoryReporter`).
-        best_rollout: the best controller's first fitness episode (seed ``seed``; trajectory
-            ``(T + 1, 2)``); its distance is ``best_fitness`` when ``episodes_per_genome`` is 1.
+        best_rollout: the best controller's first fitness episode on the single env (seed
+            ``seed``; trajectory ``(T + 1, 2)``); its distance is ``best_fitness`` when
+            ``episodes_per_genome`` is 1 (batched: to the vector env's round-off, ~1e-13 units).
         robot: the robot evolved for.
         seed: the run seed (also the episode seed unless ``initial_angles``).
         initial_angles: ``(3,)`` rad used for every evaluation.
@@ -372,7 +381,8 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
                 seed: int = 0, out_dir=None, workers: int | None = None, config_path=None, resume=None,
                 initial_angles=None, episode_duration_s: float = EPISODE_DURATION_S,
                 clock_period_s: float = CLOCK_PERIOD_S, episodes_per_genome: int = 1, checkpoint_every: int = 5,
-                verbose: bool = False, progress: bool = True, env_id: str = DEFAULT_ENV_ID) -> GaitResult:
+                verbose: bool = False, progress: bool = True, env_id: str = DEFAULT_ENV_ID,
+                batched: bool = True) -> GaitResult:
     """Evolve a NEAT controller that swims forward on a robot (or solves another AquaFish task).
 
     Args:
@@ -386,6 +396,8 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
             and ``.png``, ``run.json``, ``fitness_settings.json``, ``neat_config.ini`` and
             ``checkpoints/``; None: no files.
         workers: evaluation processes (default ``os.cpu_count()``); 1 evaluates in-process.
+            Batched, a generation smaller than two PyBullet worlds (64 robots each:
+            genomes x ``episodes_per_genome``) is evaluated in-process whatever ``workers``.
         config_path: NEAT INI file (default ``gait/neat_config.ini``).
         resume: a checkpoint file to continue from (see :func:`latest_checkpoint`), in
             ``checkpoints/`` of a run directory whose ``fitness_settings.json`` matches the
@@ -405,6 +417,10 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
             terminal, else one line per generation).
         env_id: the task (default the paper's ``"AquaFish-v0"``); the network gets one
             input per observation entry of the task, plus the clock.
+        batched: evaluate each generation at once on the vector env
+            (:mod:`gait.batch_fitness`; default), else genome by genome on single envs
+            (:func:`evaluate_genome`). The fitnesses agree to about 1e-13 units (positions'
+            round-off), and do not depend on ``workers`` either way.
 
     Returns:
         :class:`GaitResult`.
@@ -459,13 +475,13 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
                          f"it, got {generations}")
     if out_dir is None:
         return _evolve(population, task, None, resume is not None, verbose, checkpoint_every, generations, workers,
-                       progress)
+                       progress, batched)
     with run_lock(out_dir, command="gait"):
         _check_run_dir(out_dir, getattr(population.config, FINGERPRINT_ATTR), resume is not None)
         if config_text is not None:
             atomic_write(out_dir / "neat_config.ini", config_text.encode())
         return _evolve(population, task, out_dir, resume is not None, verbose, checkpoint_every, generations, workers,
-                       progress)
+                       progress, batched)
 
 
 def _make_task(robot: Robot, seed: int, initial_angles, episode_duration_s, clock_period_s, episodes_per_genome,
@@ -512,7 +528,7 @@ def _check_run_dir(out_dir: Path, fingerprint: dict[str, Any], resuming: bool) -
 
 
 def _evolve(population: neat.Population, task: FitnessTask, out_dir: Path | None, resuming: bool, verbose: bool,
-            checkpoint_every: int, generations: int, workers: int, progress: bool) -> GaitResult:
+            checkpoint_every: int, generations: int, workers: int, progress: bool, batched: bool) -> GaitResult:
     """Run ``population`` up to ``generations`` and write the outputs (the body of :func:`evolve_gait`)."""
     recorder, checkpointer = _attach_reporters(population, task, out_dir, resuming, verbose, checkpoint_every)
     remaining = generations - population.generation
@@ -521,7 +537,10 @@ def _evolve(population: neat.Population, task: FitnessTask, out_dir: Path | None
                         disable=not progress)
     population.add_reporter(bar)
     try:
-        if workers == 1:
+        if batched:
+            with BatchEvaluator(task, workers) as evaluator:
+                population.run(evaluator, remaining)
+        elif workers == 1:
             def serial(genomes, config):
                 for _, genome in genomes:
                     genome.fitness = evaluate(genome, config)

@@ -176,6 +176,7 @@ def test_a_run_killed_after_its_final_checkpoint_is_finished_by_resuming(tmp_pat
 
     # no new generation is run: evaluating a genome would fail
     monkeypatch.setattr(neat_evolution, "evaluate_genome", lambda *a, **k: pytest.fail("evaluated a genome"))
+    monkeypatch.setattr(neat_evolution, "BatchEvaluator", lambda *a, **k: pytest.fail("evaluated a generation"))
     assert main(["gait", "--out", str(tmp_path / "cli"), "--resume", "latest", "--generations", "2",
                  "--population-size", "6", "--seed", "3", "--workers", "1", "--episode-duration-s", "1",
                  "--quiet"]) == 0

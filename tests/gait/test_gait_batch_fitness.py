@@ -1,0 +1,111 @@
+"""Batched NEAT fitness: a generation on the vector env scores every genome as the single env does."""
+
+import random
+
+import neat
+import numpy as np
+import pytest
+from gait_helpers import SHORT_S
+
+from gait import evolve_gait
+from gait.batch_fitness import BatchEvaluator, batch_fitness, genomes_per_world
+from gait.neat_evolution import FitnessTask, evaluate_genome, load_neat_config, set_num_inputs
+from gait.robots import as_robot
+
+
+def _genomes(n: int, seed: int = 11, num_inputs: int = 14):
+    state = random.getstate()
+    try:
+        config = load_neat_config(population_size=n)
+        set_num_inputs(config, num_inputs)
+        population = neat.Population(config, seed=seed)
+    finally:
+        random.setstate(state)
+    return [population.population[k] for k in sorted(population.population)], config
+
+
+def _single(genomes, config, task):
+    return np.array([evaluate_genome(g, config, task=task) for g in genomes])
+
+
+@pytest.mark.parametrize("robot, episodes, angles", [
+    (as_robot("healthy"), 2, None),                         # the case study's K starts, drawn from seed, seed + 1
+    (as_robot("reversed_left_pectoral"), 1, (0.3, -1.2, 0.1)),   # a damaged robot, fixed initial angles
+    (as_robot("healthy", damage="random"), 2, None),        # a damage drawn per start from its seed
+])
+def test_every_genome_scores_as_evaluate_genome(robot, episodes, angles):
+    genomes, config = _genomes(6)
+    task = FitnessTask(robot, 3, angles, SHORT_S, episodes=episodes)
+    batched = batch_fitness(genomes, config, task, max_world_robots=4)   # 2 or 3 worlds: slots beyond the origin
+    np.testing.assert_allclose(batched, _single(genomes, config, task), rtol=0, atol=1e-9)
+    assert len(set(batched.tolist())) == len(genomes)   # distinct genomes, distinct fitnesses (not one copied)
+
+
+def test_a_robot_at_its_worlds_origin_is_exact():
+    """With one robot per world, every sub-env is the single env's robot at the origin: bit-equal
+    fitness, which checks that start k of genome j is seeded seed + k and driven by genome j."""
+    genomes, config = _genomes(4)
+    task = FitnessTask(as_robot("healthy"), 5, None, SHORT_S, episodes=2)
+    np.testing.assert_array_equal(batch_fitness(genomes, config, task, max_world_robots=1),
+                                  _single(genomes, config, task))
+
+
+def test_another_task_scores_its_return():
+    genomes, config = _genomes(3, num_inputs=16)
+    task = FitnessTask(as_robot("healthy"), 2, None, SHORT_S, episodes=2, env_id="AquaFishHeading-v0")
+    np.testing.assert_allclose(batch_fitness(genomes, config, task), _single(genomes, config, task),
+                               rtol=0, atol=1e-9)
+
+
+def test_fitness_does_not_depend_on_how_the_generation_is_split_over_workers():
+    genomes, config = _genomes(7)
+    task = FitnessTask(as_robot("healthy"), 1, None, 1.0, episodes=2)
+    pairs = list(enumerate(genomes))
+    with BatchEvaluator(task, workers=1, max_world_robots=4) as serial:
+        serial(pairs, config)
+    in_process = [g.fitness for g in genomes]
+    with BatchEvaluator(task, workers=3, max_world_robots=4) as pool:
+        assert pool.chunks(7) == [slice(0, 2), slice(2, 4), slice(4, 7)]   # whole worlds of 2 genomes
+        for g in genomes:
+            g.fitness = None
+        pool(pairs, config)
+    assert [g.fitness for g in genomes] == in_process
+
+
+def test_genomes_with_a_fitness_keep_it_as_neats_elites_do():
+    genomes, config = _genomes(3)
+    task = FitnessTask(as_robot("healthy"), 0, None, 1.0)
+    genomes[1].fitness = 123.0                         # an elite, scored in the generation before
+    BatchEvaluator(task)(list(enumerate(genomes)), config)
+    assert genomes[1].fitness == 123.0
+    expected = batch_fitness([genomes[0], genomes[2]], config, task)
+    assert [genomes[0].fitness, genomes[2].fitness] == expected.tolist()
+    BatchEvaluator(task, keep_fitness=False)(list(enumerate(genomes)), config)
+    assert genomes[1].fitness == pytest.approx(evaluate_genome(genomes[1], config, task=task), abs=1e-9)
+
+
+def test_layout_and_bad_arguments():
+    task = FitnessTask(as_robot("healthy"), 0, None, 1.0, episodes=3)
+    assert genomes_per_world(task, 64) == 21 and genomes_per_world(task, 2) == 1
+    assert BatchEvaluator(task, max_world_robots=6).chunks(5) == [slice(0, 5)]        # one process
+    assert BatchEvaluator(task, workers=2, max_world_robots=6).chunks(1) == [slice(0, 1)]
+    genomes, config = _genomes(2)
+    with pytest.raises(ValueError, match="at least one genome"):
+        batch_fitness([], config, task)
+    with pytest.raises(ValueError, match="max_world_robots"):
+        batch_fitness(genomes, config, task, max_world_robots=0)
+    with pytest.raises(ValueError, match="workers"):
+        BatchEvaluator(task, workers=0)
+
+
+def test_batched_evolution_is_the_single_env_evolution():
+    """Same seed: the same genomes every generation and the same fitnesses to round-off."""
+    kw = dict(population_size=8, seed=4, workers=1, episode_duration_s=1.0, episodes_per_genome=2, progress=False)
+    single = evolve_gait(None, generations=4, batched=False, **kw)
+    batched = evolve_gait(None, generations=4, **kw)
+    for a, b in zip(single.history, batched.history):
+        assert {k: v for k, v in a.items() if "fitness" not in k and k not in ("wall_time_s", "best_so_far")} == \
+            {k: v for k, v in b.items() if "fitness" not in k and k not in ("wall_time_s", "best_so_far")}
+        for key in ("best_fitness", "mean_fitness", "std_fitness", "best_so_far"):
+            assert b[key] == pytest.approx(a[key], rel=0, abs=1e-9)
+    assert str(batched.best_controller.genome) == str(single.best_controller.genome)
