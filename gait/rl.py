@@ -3,7 +3,10 @@
 Optional: needs the ``[rl]`` extra (stable-baselines3, torch on CPU); imported lazily so
 the rest of :mod:`gait` works without it. The policy observes AquaFish-v0's observation with
 the clock appended (:class:`gait.clock.ClockObservation`), exactly what a NEAT controller
-sees, and the trained model is scored with the same rollout and transfer protocol.
+sees, and the trained model is scored with the same rollout and transfer protocol. Training
+steps the ``n_envs`` sub-envs as robots of one PyBullet world (:mod:`gait.sb3_vec_env`,
+the same observations and rewards as SB3's ``DummyVecEnv`` over ``n_envs`` single envs
+of :func:`make_rl_env`, up to the vector env's position round-off).
 Hyperparameters come from ``gait/rl_hyperparams.yml`` (RL Zoo conventions).
 """
 
@@ -183,7 +186,8 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
         timesteps: env steps (default: the file's ``n_timesteps``).
         seed: seeds SB3 (torch, NumPy, the envs' initial angles).
         out_dir: writes ``model.zip``, ``model.json`` (algo, clock period, robot, settings,
-            score), ``hyperparams.yml`` (the settings used), ``monitor/`` (episode returns)
+            score), ``hyperparams.yml`` (the settings used), ``monitor/monitor.csv`` (every
+            training episode's return, length and wall time, SB3's ``VecMonitor``)
             and ``learning_curve.png``.
         damage: damage applied to ``morphology``.
         hyperparams_path: YAML file (default ``gait/rl_hyperparams.yml``).
@@ -212,8 +216,9 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
     """
     require_rl(f"training {algo}", algo, training=True)
     algo_cls = sb3_algorithm(algo)
-    from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.monitor import load_results
+
+    from gait.sb3_vec_env import make_clock_vec_env
 
     import pandas  # noqa: F401  (load_results needs it: fail now, not after training)
 
@@ -240,8 +245,8 @@ def train_rl(algo: str, morphology=None, timesteps: int | None = None, seed: int
             raise MismatchError(f"{out_dir} already holds this trained model ({SB3_MODEL_FILE}); use another --out "
                                 "or delete it to train again (nothing was overwritten)")
         return _train(algo_cls, algo, robot, int(n_timesteps), seed, out_dir, hp, hyperparams_path, episode_duration_s,
-                      clock_period_s, eval_seed, num_threads, verbose, env_id, progress, fingerprint, make_vec_env,
-                      load_results)
+                      clock_period_s, eval_seed, num_threads, verbose, env_id, progress, fingerprint,
+                      make_clock_vec_env, load_results)
 
 
 def rl_fingerprint(algo: str, robot: Robot, timesteps: int, seed: int, hyperparams_path, episode_duration_s: float,
@@ -262,7 +267,7 @@ def _recorded_fingerprint(sidecar: Path) -> dict[str, Any]:
 
 
 def _train(algo_cls, algo, robot, n_timesteps, seed, out_dir, hp, hyperparams_path, episode_duration_s, clock_period_s,
-           eval_seed, num_threads, verbose, env_id, progress, fingerprint, make_vec_env, load_results) -> Path:
+           eval_seed, num_threads, verbose, env_id, progress, fingerprint, make_clock_vec_env, load_results) -> Path:
     """Train, save and score (the body of :func:`train_rl`, under the run lock)."""
     policy, n_envs = hp.pop("policy"), hp.pop("n_envs")
     if num_threads is not None:
@@ -270,9 +275,9 @@ def _train(algo_cls, algo, robot, n_timesteps, seed, out_dir, hp, hyperparams_pa
 
         torch.set_num_threads(int(num_threads))
 
-    venv = make_vec_env(lambda: make_rl_env(robot, episode_duration_s=episode_duration_s, clock_period_s=clock_period_s,
-                                            env_id=env_id),
-                        n_envs=n_envs, seed=seed, monitor_dir=str(out_dir / "monitor"))
+    # the n_envs sub-envs are robots of one PyBullet world (gait.sb3_vec_env), not n_envs single envs
+    venv = make_clock_vec_env(robot, n_envs, seed=seed, monitor_dir=out_dir / "monitor",
+                              episode_duration_s=episode_duration_s, clock_period_s=clock_period_s, env_id=env_id)
     model = algo_cls(policy, venv, seed=seed, device="cpu", verbose=verbose, **hp)
     start = time.perf_counter()
     model.learn(total_timesteps=int(n_timesteps),  # the bar counts the whole rollouts SB3 trains

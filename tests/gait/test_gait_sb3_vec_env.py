@@ -130,3 +130,29 @@ def test_ppo_trains_a_few_hundred_steps_and_logs_its_episodes(tmp_path):
     curve = load_results(str(tmp_path / "monitor"))
     assert len(curve) == 4 * (128 // 20) and (curve["l"] == 20).all()  # 4 sub-envs x 128 steps, 20-step episodes
     assert np.isfinite(curve["r"]).all() and len(model.ep_info_buffer) == len(curve)
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac"])
+def test_one_sub_env_trains_the_same_model_as_dummy_vec_env_bit_for_bit(algo):
+    """Sub-env 0 is exact (its robot sits at the world's origin), so with one sub-env the training
+    (episode ends every 10 steps: terminal observations, time-limit bootstrapping) is the same."""
+    import torch
+    from stable_baselines3 import SAC
+
+    torch.set_num_threads(1)
+    params = []
+    for make in (lambda: make_vec_env(lambda: make_rl_env(as_robot("healthy"), episode_duration_s=1.0), n_envs=1,
+                                      seed=2),
+                 lambda: make_clock_vec_env("healthy", 1, seed=2, episode_duration_s=1.0)):
+        venv = make()
+        if algo == "ppo":
+            model = PPO("MlpPolicy", venv, n_steps=32, batch_size=16, n_epochs=2, seed=2, device="cpu",
+                        policy_kwargs={"net_arch": [8]})
+        else:
+            model = SAC("MlpPolicy", venv, learning_starts=16, batch_size=8, seed=2, device="cpu",
+                        policy_kwargs={"net_arch": [8]})
+        model.learn(total_timesteps=64)
+        venv.close()
+        params.append(np.concatenate([p.detach().numpy().ravel() for p in model.policy.parameters()]))
+        assert [e["l"] for e in model.ep_info_buffer] == [10] * 6
+    assert np.array_equal(params[0], params[1])
