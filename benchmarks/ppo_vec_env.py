@@ -12,10 +12,11 @@ once on each env stack, interleaved over ``--repeats``:
 and prints, per stack, the median env steps per second of ``model.learn`` (wall and this
 process's CPU time: PyBullet runs in-process), the share of the wall time spent in the env
 (``reset``, ``step_wait``), the speed-up over ``dummy``, and the mean return of the last
-100 training episodes of the first repeat (same seed on both stacks; PPO's sampling reacts
-to the vector env's round-off, so these differ as two seeds' would, not by round-off).
+100 training episodes of the first repeat (same seed on both stacks: equal, up to the
+episode log's float32 sums, while no float32 reward differs between the stacks; once one
+rounds differently, PPO's sampling diverges as with another seed).
 
-    python -m benchmarks.ppo_vec_env [--timesteps 8192] [--num-threads 1] [--repeats 1] [--n-envs N --n-steps S]
+    python -m benchmarks.ppo_vec_env (or aquafish bench ppo_vec_env) [--timesteps 8192] [--num-threads 1] [--repeats 1] [--n-envs N --n-steps S]
 """
 
 from __future__ import annotations
@@ -87,12 +88,18 @@ def train_once(stack: str, timesteps: int, seed: int, n_envs: int | None, n_step
             "episodes": len(returns), "mean_return": float(np.mean(returns)) if returns else float("nan")}
 
 
-def main(argv=None) -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--timesteps", type=int, default=8192)
-    parser.add_argument("--num-threads", type=int, default=1)
-    parser.add_argument("--repeats", type=int, default=1)
-    parser.add_argument("--seed", type=int, default=0)
+def main(argv: list[str] | None = None, prog: str | None = None,
+         parser_class: type[argparse.ArgumentParser] = argparse.ArgumentParser) -> None:
+    """Run the benchmark with the command-line arguments ``argv`` (default: ``sys.argv[1:]``).
+
+    ``prog`` and ``parser_class`` are the name and the parser class of its usage messages
+    (``aquafish bench ppo_vec_env`` passes its own). Needs the ``[rl]`` extra.
+    """
+    parser = parser_class(prog=prog, description=__doc__.splitlines()[0])
+    parser.add_argument("--timesteps", type=int, default=8192, help="env steps of PPO per run")
+    parser.add_argument("--num-threads", type=int, default=1, help="torch CPU threads")
+    parser.add_argument("--repeats", type=int, default=1, help="interleaved runs per stack (the median is shown)")
+    parser.add_argument("--seed", type=int, default=0, help="SB3's seed (both stacks)")
     parser.add_argument("--n-envs", type=int, default=None, help="override the YAML's n_envs")
     parser.add_argument("--n-steps", type=int, default=None, help="override the YAML's n_steps (per env)")
     args = parser.parse_args(argv)

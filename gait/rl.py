@@ -275,6 +275,10 @@ def _train(algo_cls, algo, robot, n_timesteps, seed, out_dir, hp, hyperparams_pa
 
         torch.set_num_threads(int(num_threads))
 
+    # an unfinished earlier run's episode logs (e.g. the per-env 0.monitor.csv, ... of the
+    # DummyVecEnv stack) would join this run's learning curve: this run rewrites the log
+    for stale in (out_dir / "monitor").glob("*monitor.csv"):
+        stale.unlink()
     # the n_envs sub-envs are robots of one PyBullet world (gait.sb3_vec_env), not n_envs single envs
     venv = make_clock_vec_env(robot, n_envs, seed=seed, monitor_dir=out_dir / "monitor",
                               episode_duration_s=episode_duration_s, clock_period_s=clock_period_s, env_id=env_id)

@@ -156,3 +156,22 @@ def test_one_sub_env_trains_the_same_model_as_dummy_vec_env_bit_for_bit(algo):
         params.append(np.concatenate([p.detach().numpy().ravel() for p in model.policy.parameters()]))
         assert [e["l"] for e in model.ep_info_buffer] == [10] * 6
     assert np.array_equal(params[0], params[1])
+
+
+def test_train_rl_logs_one_episode_file_and_drops_an_unfinished_runs_logs(tmp_path):
+    import yaml
+
+    from gait import train_rl
+
+    hp = tmp_path / "hp.yml"
+    hp.write_text(yaml.safe_dump({"ppo": {"AquaFish-v0": {"n_timesteps": 64, "policy": "MlpPolicy", "n_envs": 2,
+                                                          "n_steps": 32, "batch_size": 32, "n_epochs": 1,
+                                                          "policy_kwargs": {"net_arch": [8]}}}}))
+    stale = tmp_path / "run" / "monitor" / "0.monitor.csv"  # left by an interrupted run
+    stale.parent.mkdir(parents=True)
+    stale.write_text('#{"t_start": 0.0, "env_id": "None"}\nr,l,t\n99.0,10,0.1\n')
+    train_rl("ppo", "healthy", 64, 0, tmp_path / "run", hyperparams_path=hp, episode_duration_s=1.0, num_threads=1,
+             progress=False)
+    assert sorted(p.name for p in stale.parent.iterdir()) == ["monitor.csv"]
+    curve = load_results(str(stale.parent))
+    assert len(curve) == 2 * (32 // 10) and (curve["l"] == 10).all() and (curve["r"] != 99.0).all()
