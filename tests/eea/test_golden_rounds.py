@@ -4,8 +4,9 @@ the ``library`` preset and the best method, the ``lineages`` preset.
 The files in ``tests/eea/test_golden_rounds/`` were recorded on main before the EEA's
 composition was reshaped (issue 12) and must stay identical, except the ``wall_seconds``
 column: every text field and integer byte for byte, every real number to 1e-12 relative
-(:func:`_same_rounds`; NumPy releases may change the last bit of a sum, as 2.4.6 did for an
-action fitness, 0.011514829633879634 against ...963). A refactor that changes one random draw,
+(:func:`_same_rounds`; the last bit of a NumPy sum can differ between machines, by the CPU's
+SIMD paths: one action fitness came out 0.011514829633879634 against ...963 on another machine,
+with NumPy 2.4.5 and 2.4.6 alike). A refactor that changes one random draw,
 one cache key or one tournament moves numbers by far more and shows up here (``profile_*`` and ``library*`` were recorded later, when they
 were added). A change that is *meant* to change results (new physics, a
 new algorithm setting) regenerates them with
