@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from aquafish_gym.argtypes import csv_list, damage_list, int_at_least, positive_float
+from aquafish_gym.argtypes import add_no_progress, csv_list, damage_list, int_at_least, positive_float
 
 
 def _recovery(args: argparse.Namespace) -> int:
@@ -21,8 +21,6 @@ def _recovery(args: argparse.Namespace) -> int:
 
 
 def add_commands(sub) -> None:
-    from aquafish.studies_cli import add_no_progress
-
     r = sub.add_parser("recovery", help="recovery benchmark: the damage-recovery case study per damage and seed, "
                                         "the damage-independent rows trained once per seed, and a summary "
                                         "(aquafish.recovery)")

@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from aquafish_gym.argtypes import csv_list, damage_list, int_at_least, positive_float
+from aquafish_gym.argtypes import add_no_progress, csv_list, damage_list, int_at_least, positive_float
 from aquafish_gym.rundir import check_output_dir, check_output_file, run_lock
 from eea.cli import add_config_flags, config_fields, config_flag_names, given_flags
 from eea import INFERENCE_NAMES, MODEL_SPACES, EEAConfig
@@ -132,12 +132,6 @@ def _damages(args: argparse.Namespace) -> int:
     print(format_table(rows, args.starts))
     print(f"wrote {Path(args.out) / 'damage_table.md'} and damage_table.json")
     return 0
-
-
-def add_no_progress(parser: argparse.ArgumentParser, unit: str) -> None:
-    """Add ``--no-progress`` (every long-running command has it): no progress display at all."""
-    parser.add_argument("--no-progress", action="store_true",
-                        help=f"no progress (default: a bar on a terminal, one line per {unit} otherwise)")
 
 
 def add_commands(sub) -> None:

@@ -8,7 +8,7 @@ import argparse
 import math
 from pathlib import Path
 
-__all__ = ["csv_list", "damage_list", "int_at_least", "path", "positive_float"]
+__all__ = ["add_no_progress", "csv_list", "damage_list", "int_at_least", "path", "positive_float"]
 
 
 def int_at_least(minimum: int):
@@ -101,3 +101,16 @@ def damage_list(text: str) -> tuple[str, ...]:
     if not values:
         raise argparse.ArgumentTypeError(f"expected at least one comma-separated damage, got {text!r}")
     return values
+
+
+def add_no_progress(parser: argparse.ArgumentParser, unit: str) -> None:
+    """Add ``--no-progress`` to a long-running command's parser (every one has it, under this one
+    name): no progress display at all (:func:`aquafish_gym.progress.progress_bar`).
+
+    Args:
+        parser: the (sub-)command's parser.
+        unit: what one line of progress reports when standard error is not a terminal
+            (``"round"``, ``"generation"``, ...).
+    """
+    parser.add_argument("--no-progress", action="store_true",
+                        help=f"no progress (default: a bar on a terminal, one line per {unit} otherwise)")

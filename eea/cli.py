@@ -146,7 +146,6 @@ def add_commands(subparsers) -> None:
                                             "robot (paper sections 3.2-3.4, 4); resumes DIR if it holds the same run.")
     eea.add_argument("--out", required=True, metavar="DIR", help="run directory (config.json, rounds.csv, state.pkl); its checkpoint state.pkl is a pickle, "
                           "so a run directory is trusted like code: resume only your own or trusted ones")
-    eea.add_argument("--no-progress", action="store_true",
-                     help="no progress (default: a bar on a terminal, one line per round otherwise)")
+    argtypes.add_no_progress(eea, "round")
     add_config_flags(eea)
     eea.set_defaults(func=_run_eea)

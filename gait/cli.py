@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from aquafish_gym.argtypes import int_at_least, path, positive_float
+from aquafish_gym.argtypes import add_no_progress, int_at_least, path, positive_float
 from aquafish_gym.rundir import check_output_dir
 
 #: gait.controller.SB3_ALGOS, spelled out: importing gait here would cost every command 0.6 s
@@ -44,8 +44,7 @@ def add_commands(subparsers) -> None:
                    help="episodes per evaluation from different initial angles (seeds seed, seed+1, ...); fitness is their mean (default 1)")
     p.add_argument("--checkpoint-every", type=int_at_least(1), default=5, help="generations between checkpoints (default 5)")
     p.add_argument("--verbose", action="store_true", help="NEAT's per-generation report (species, fitness statistics)")
-    p.add_argument("--no-progress", action="store_true",
-                   help="no progress (default: a bar on a terminal, one line per generation otherwise)")
+    add_no_progress(p, "generation")
     p.add_argument("--quiet", action="store_true", dest="no_progress", help=argparse.SUPPRESS)  # the old name
     p.set_defaults(func=run_gait)
 
@@ -79,8 +78,7 @@ def add_commands(subparsers) -> None:
     p.add_argument("--episode-duration-s", type=positive_float, default=20.0, help="simulated seconds per training episode (default 20)")
     p.add_argument("--num-threads", type=int_at_least(1), default=1, help="torch CPU threads (default 1)")
     p.add_argument("--verbose", type=int, default=0, choices=(0, 1, 2), help="SB3 verbosity (default 0)")
-    p.add_argument("--no-progress", action="store_true",
-                   help="no progress (default: a bar on a terminal, one line per rollout otherwise)")
+    add_no_progress(p, "rollout")
     p.set_defaults(func=run_rl)
 
 
