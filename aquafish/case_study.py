@@ -197,8 +197,8 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             settings (:class:`~aquafish_gym.rundir.MismatchError`, naming the fields).
     """
     settings = preset_settings(preset, episode_duration_s)
-    damage = get_damage(damage).name  # canonical text: a JSON file is read once, and recorded as its content
-    target = get_damage(damage).apply()
+    resolved = get_damage(damage)
+    damage, target = resolved.name, resolved.apply()  # canonical text: a JSON file is read once, recorded as its content
     check_int("seed", seed, 0)
     if workers is not None:
         check_int("workers", workers, 1)

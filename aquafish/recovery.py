@@ -27,15 +27,13 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
-from aquafish_gym.rundir import check_fingerprint, check_output_dir, die_with_parent, read_json, run_lock
+from aquafish_gym.rundir import check_fingerprint, check_output_dir, read_json, run_lock
 
 #: The rows of the summary, in column order (``report.json`` controller keys; the oracle,
 #: ``true_damaged``, is what every share is taken of).
@@ -192,36 +190,20 @@ def _run_cell(preset: str, damage: str, seed: int, cell: str, shared: str, episo
 
 
 def _run_tasks(tasks: list[tuple[Callable, tuple]], backend: str, processes: int, address: str | None) -> Iterator:
-    """The values of ``tasks`` (``(function, args)``), as they finish: in this process
-    (``processes == 1``), on a local pool whose workers die with this process, or as Ray tasks.
+    """The values of ``tasks`` (``(function, args)``), as they finish: in this process (local,
+    ``processes == 1``, so that a cell's evaluation may use every core), else through
+    :func:`aquafish.study.run_tasks` (a local pool whose workers die with this process, or Ray tasks).
 
     Raises:
         ValueError: a task raised one (its own error, also from a Ray task).
     """
-    if not tasks:
-        return
-    if backend == "ray":
-        from aquafish.study import _task_cause, connect_ray
-
-        ray = connect_ray(address)
-        pending = [ray.remote(num_cpus=1)(fn).remote(*args) for fn, args in tasks]
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            try:
-                yield from ray.get(done)
-            except ray.exceptions.RayTaskError as err:
-                raise _task_cause(err) from err
-    elif processes == 1:
+    if backend == "local" and processes == 1:
         for fn, args in tasks:
             yield fn(*args)
-    else:
-        with ProcessPoolExecutor(max_workers=min(processes, len(tasks)), initializer=die_with_parent,
-                                 initargs=(os.getpid(),)) as pool:
-            pending = {pool.submit(fn, *args) for fn, args in tasks}
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for future in done:
-                    yield future.result()
+        return
+    from aquafish.study import run_tasks
+
+    yield from run_tasks(tasks, backend=backend, processes=processes, address=address)
 
 
 def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | None = None, seeds: Iterable[int] = (0,),

@@ -21,6 +21,7 @@ import socket
 import sys
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
+from typing import Callable, Iterator
 
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
@@ -191,27 +192,43 @@ def _run_study_locked(spec: StudySpec, out_dir: Path, backend: str, address: str
             bar.set_postfix_str(", ".join(f"{c} {v:.3f}" for c, v in best.items()))
         bar.update()
 
-    if backend == "local":
-        # workers die with this process (a killed study leaves no orphan running its queue)
-        with ProcessPoolExecutor(max_workers=processes or os.cpu_count(), initializer=die_with_parent,
-                                 initargs=(os.getpid(),)) as pool:
-            futures = [pool.submit(_run_one, c.to_dict(), str(d)) for c, d in todo]
-            for future in as_completed(futures):
-                finished(future.result())
-    else:
+    for run_dir in run_tasks([(_run_one, (c.to_dict(), str(d))) for c, d in todo], backend=backend,
+                             processes=processes or os.cpu_count() or 1, address=address):
+        finished(run_dir)
+    bar.close()
+    return [d for _, d in runs]
+
+
+def run_tasks(tasks: list[tuple[Callable, tuple]], *, backend: str = "local", processes: int = 1,
+              address: str | None = None) -> Iterator:
+    """The values of ``tasks`` (``(function, args)``, top-level functions and picklable
+    arguments), as they finish: on a local pool of ``processes`` workers that die with this
+    process (:func:`~aquafish_gym.rundir.die_with_parent`), or as Ray tasks of one CPU each
+    (``backend="ray"``, :func:`connect_ray` with ``address``). A study's runs and a recovery
+    benchmark's cells run through it.
+
+    Raises:
+        ClusterError: as :func:`connect_ray`.
+        ValueError: a task raised one: its own error, also from a Ray task (not Ray's
+            ``RayTaskError`` around it).
+    """
+    if not tasks:
+        return
+    if backend == "ray":
         ray = connect_ray(address)
-        remote = ray.remote(num_cpus=1)(_run_one)
-        pending = [remote.remote(c.to_dict(), str(d)) for c, d in todo]
+        pending = [ray.remote(num_cpus=1)(fn).remote(*args) for fn, args in tasks]
         while pending:
             done, pending = ray.wait(pending, num_returns=1)
             try:
-                run_dirs = ray.get(done)
+                yield from ray.get(done)
             except ray.exceptions.RayTaskError as err:
                 raise _task_cause(err) from err
-            for run_dir in run_dirs:
-                finished(run_dir)
-    bar.close()
-    return [d for _, d in runs]
+        return
+    # workers die with this process (a killed study leaves no orphan running its queue)
+    with ProcessPoolExecutor(max_workers=min(processes, len(tasks)), initializer=die_with_parent,
+                             initargs=(os.getpid(),)) as pool:
+        for future in as_completed([pool.submit(fn, *args) for fn, args in tasks]):
+            yield future.result()
 
 
 def _task_cause(err: Exception) -> Exception:
