@@ -168,8 +168,9 @@ class AquaFishVectorEnv(VectorEnv):
             envs = self.envs[part]
             # a fresh world every episode, on the same client, as the single env does
             client = self._worlds[k].client if k < len(self._worlds) else None
-            world = BatchWorld(np.stack([env.morphology.to_array() for env in envs]), self.task.params,
-                               [env.faults for env in envs], client=client,
+            robots = [env._start_robot() for env in envs]  # healthy while a damage waits for its onset
+            world = BatchWorld(np.stack([m.to_array() for m, _ in robots]), self.task.params,
+                               [f for _, f in robots], client=client,
                                water_current=np.stack([env._water_current() for env in envs]))
             world._owns_client = True
             world.reset(np.stack([env._initial_angles for env in envs]))
@@ -229,8 +230,9 @@ class AquaFishVectorEnv(VectorEnv):
         before = BodyState.of(self._worlds).position
         for world in self._worlds:
             world.advance(self.task.frame_skip)
-        obs, rewards, truncated, info = self.task._step_results(BodyState.of(self._worlds), self._episodes, before,
-                                                                actions)
+        state = BodyState.of(self._worlds)  # before an onset's switch, as the single env
+        self.task._damage_onsets(self._worlds, self._slices, self.envs, self._episodes, self._episodes.steps + 1)
+        obs, rewards, truncated, info = self.task._step_results(state, self._episodes, before, actions)
         self._autoreset = bool(truncated)
         return (obs, rewards, np.zeros(n, dtype=np.bool_), np.full(n, bool(truncated)), self._vector_info(info))
 
