@@ -206,7 +206,7 @@ class BatchWorld:
         cannot move a link's centre of mass (its inertial frame) nor change its visual shape,
         and a resized flipper's centre of mass moves. So from here on robot ``i`` is, to the
         last bit, a robot built with ``morphology`` and put in this state as PyBullet reports
-        it (tested), except that the body has a new id in :attr:`bodies`. (PyBullet reports
+        it (tested); :attr:`bodies` holds the new body's id (PyBullet may reuse the old one). (PyBullet reports
         the base's orientation rounded by up to an ulp of what it integrates, so a body put in
         the reported state is that much off the old body's internal one; positions,
         velocities and joint states carry over exactly.) Robot ``i``'s state arrays
