@@ -68,7 +68,9 @@ _DOC = """N sub-envs of ``{env_id}`` stepped together as N robots of one PyBulle
     (as :class:`gymnasium.vector.SyncVectorEnv`), ``reset(seed=[s0, ..., sN-1])`` each
     with its own (None: fresh entropy); ``options`` (the single env's keys) apply to
     every sub-env. Every sub-env is reset at once: a partial reset
-    (``options["reset_mask"]`` not all True) is refused.
+    (``options["reset_mask"]`` not all True) is refused. With ``damage_onset_s`` every
+    sub-env starts healthy and switches to its own damage at the onset of its episode's
+    time, as the single env does (``info["damaged"]``); an autoreset starts healthy again.
 
     ## Episode End
     As the single env: never terminated; every sub-env is truncated at the same step,
