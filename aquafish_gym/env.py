@@ -21,7 +21,7 @@ from gymnasium.utils import EzPickle
 
 from aquafish_gym.checks import check_int, check_weight
 from aquafish_gym.bullet import p
-from aquafish_gym.damage import DAMAGES, ServoFaults, get_damage
+from aquafish_gym.damage import DAMAGES, NO_FAULTS, ServoFaults, get_damage
 from aquafish_gym.imu import roll_pitch_yaw_deg
 from aquafish_gym.morphology import Morphology
 from aquafish_gym.params import DT_S, SimParams
@@ -51,6 +51,24 @@ def _damage_names(damage) -> tuple[str, ...]:
         raise ValueError(f"damage must be a damage (preset name, JSON fault or sampled:SEED), 'random' or a non-empty "
                          f"list of damages, got {damage!r}")
     return tuple(get_damage(name).name for name in names)  # raises on an invalid one, naming what is valid
+
+
+def check_onset(damage_onset_s) -> float | None:
+    """``damage_onset_s`` as a float (None stays None: damaged from the start).
+
+    Raises:
+        ValueError: not None and not a finite number of seconds >= 0 (a bool, NaN, an
+            infinity or a negative number included).
+    """
+    if damage_onset_s is None:
+        return None
+    valid = isinstance(damage_onset_s, (int, float, np.integer, np.floating)) and not isinstance(damage_onset_s, bool)
+    if valid:
+        valid = math.isfinite(float(damage_onset_s)) and float(damage_onset_s) >= 0.0
+    if not valid:
+        raise ValueError(f"damage_onset_s must be None (damaged from the start) or a finite number of seconds of "
+                         f"simulated time >= 0 (the damage's onset), got {damage_onset_s!r}")
+    return float(damage_onset_s)
 
 
 def check_task_value(name: str, value, low: float, high: float) -> tuple[float, float]:
@@ -156,6 +174,10 @@ class Episodes:
             ``"current"`` ``(N, 3)``, ``"target_heading_rad"`` ``(N,)``; none for ``AquaFish-v0``).
         start: ``(N, 3)`` the body's position at reset (units, relative to its home).
         distance: ``(N,)`` summed forward displacement along the initial heading (units).
+        pending: ``(N,)`` True while the episode's damage waits for its onset (the robot is
+            still the healthy one).
+        damaged: ``(N,)`` True while the damage is in force and changes the robot
+            (``info["damaged"]``; never for a damage that changes nothing, such as ``"none"``).
         steps: control steps taken in these episodes.
     """
 
@@ -164,16 +186,20 @@ class Episodes:
     task: dict[str, np.ndarray]
     start: np.ndarray
     distance: np.ndarray
+    pending: np.ndarray
+    damaged: np.ndarray
     steps: int = 0
 
     @classmethod
     def stack(cls, envs: list["AquaFishEnv"], start: np.ndarray) -> "Episodes":
         """The episodes ``envs`` have just drawn at reset (:meth:`AquaFishEnv._draw_episode`)."""
         variables = [env._task_variables() for env in envs]
+        pending = np.array([env._damage_pending for env in envs], dtype=np.bool_)
         return cls(damage=np.array([env.damage_name for env in envs], dtype=object),
                    initial_angles=np.stack([env._initial_angles for env in envs]),
                    task={key: np.stack([v[key] for v in variables]) for key in variables[0]},
-                   start=start.copy(), distance=np.zeros(len(envs)))
+                   start=start.copy(), distance=np.zeros(len(envs)), pending=pending,
+                   damaged=np.array([env.damage_changes_robot for env in envs], dtype=np.bool_) & ~pending)
 
 
 def info_row(info: dict[str, np.ndarray], i: int) -> dict[str, Any]:
@@ -181,7 +207,12 @@ def info_row(info: dict[str, np.ndarray], i: int) -> dict[str, Any]:
     row: dict[str, Any] = {}
     for key, value in info.items():
         item = value[i]
-        row[key] = item.copy() if isinstance(item, np.ndarray) else (item if value.dtype == object else float(item))
+        if isinstance(item, np.ndarray):
+            row[key] = item.copy()
+        elif value.dtype == object:
+            row[key] = item
+        else:
+            row[key] = bool(item) if value.dtype == np.bool_ else float(item)
     return row
 
 
@@ -247,12 +278,35 @@ class AquaFishEnv(gym.Env, EzPickle):
     ## Episode End
     Never terminated; truncated after ``episode_duration_s`` of simulated time.
 
+    ## Damage onset
+    With ``damage_onset_s=t`` the episode starts with the healthy robot (``morphology``
+    without the damage, no servo faults) and the damage comes in force, in the same world
+    and without a reset, at the first control step boundary at or after ``t`` s of
+    simulated time (the first ``k * frame_skip * 0.01 >= t``, to 1e-9 of round-off): the
+    step that returns ``info["time_s"] >= t`` swam healthy and switches the robot after it,
+    so every action from then on acts on the damaged robot. Until then the trajectory is the
+    healthy robot's to the last bit. Servo faults switch at that instant (a servo seized
+    there holds its flipper where it is). A morphology change (a flipper resized or lost)
+    replaces the robot's PyBullet body by one built damaged, put in the same state (base
+    pose and velocity, flipper angles and speeds, the caudal sweep's phase): masses,
+    inertias, centres of mass, drag areas, the caudal fin's reactive thrust and the shapes
+    ``render()`` draws are the damaged robot's, and the motion from there is a robot's built
+    damaged and started in that state, to the last bit
+    (:meth:`~aquafish_gym.BatchWorld.change_robot`). ``t = 0`` is the same episode as None.
+    Every damage form works (presets, JSON faults, ``sampled:SEED``, ``"random"``, lists);
+    an onset with a damage that changes nothing (``"none"``) is allowed and does nothing.
+    Each ``reset`` starts healthy again. ``info["damaged"]`` (bool, on ``reset`` and every
+    step) is True while the damage is in force and changes the robot: from ``reset`` on
+    without an onset, from the switch on with one, never for ``"none"``. ``morphology`` and
+    ``faults`` (attributes) are the episode's damaged robot's throughout.
+
     ## Arguments
     | Parameter            | Default             | Description                                   |
     |----------------------|---------------------|-----------------------------------------------|
     | `morphology`         | healthy             | `Morphology`, or 9 numbers (simulator units)  |
     | `damage`             | `"none"`            | applied to the morphology: a preset name (`aquafish_gym.DAMAGES`), a JSON fault (inline or a `.json` file: `scale`, `seized`, `gains`) or `"sampled:SEED"` (`aquafish_gym.get_damage`); `"random"` (every preset) or a list draws one per episode (damage randomisation, reported as `info["damage"]`) |
     | `faults`             | from `damage`       | `ServoFaults` overriding the damage's faults  |
+    | `damage_onset_s`     | None                | simulated time (s, a finite number >= 0) at which the damage comes in force mid-episode (see Damage onset); None: damaged from the start |
     | `initial_angles`     | random              | (3,) left, right pectoral, caudal (rad)       |
     | `frame_skip`         | 10                  | 0.01 s physics steps per control step         |
     | `episode_duration_s` | 20.0                | simulated seconds per episode                 |
@@ -272,7 +326,9 @@ class AquaFishEnv(gym.Env, EzPickle):
     ``reset(seed=s)`` gives what the original's ``reset(seed=s)`` gives.
 
     Raises:
-        ValueError: an unknown keyword, or a value out of range (named in the message).
+        ValueError: an unknown keyword, or a value out of range (named in the message);
+            ``damage_onset_s`` not None and not a finite number >= 0 (NaN, an infinity, a
+            negative number or a bool).
     """
 
     #: ``"human"`` opens PyBullet's GUI where a display exists (:func:`display_available`);
@@ -292,6 +348,7 @@ class AquaFishEnv(gym.Env, EzPickle):
         morphology=None,
         damage: str = "none",
         faults: ServoFaults | None = None,
+        damage_onset_s: float | None = None,
         initial_angles=None,
         frame_skip: int = FRAME_SKIP,
         episode_duration_s: float = 20.0,
@@ -315,6 +372,7 @@ class AquaFishEnv(gym.Env, EzPickle):
             raise ValueError(f"faults must be a ServoFaults, got {type(faults).__name__}")
         self.fixed_faults = faults
         self._set_damage(self.damage_names[0])
+        self.damage_onset_s = check_onset(damage_onset_s)
         check_int(f"frame_skip (physics steps of {DT_S} s)", frame_skip, 1)
         if not (isinstance(episode_duration_s, (int, float)) and math.isfinite(episode_duration_s) and episode_duration_s > 0):
             raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
@@ -329,6 +387,10 @@ class AquaFishEnv(gym.Env, EzPickle):
         self.frame_skip = int(frame_skip)
         self.episode_duration_s = float(episode_duration_s)
         self.max_control_steps = int(round(self.episode_duration_s / (DT_S * self.frame_skip)))
+        #: the control steps swum healthy before the damage's onset (None: no onset)
+        self.onset_step = (None if self.damage_onset_s is None
+                           else max(0, math.ceil(self.damage_onset_s / (DT_S * self.frame_skip) - 1e-9)))
+        self._damage_pending = False
         self.ctrl_cost_weight = check_weight("ctrl_cost_weight", ctrl_cost_weight)
         self.render_mode = render_mode
         self.width, self.height = int(width), int(height)
@@ -343,7 +405,8 @@ class AquaFishEnv(gym.Env, EzPickle):
         # the damage as resolved text (a fault file is read once: a copy does not read it again)
         recorded = damage if damage == "random" else (self.damage_names[0] if isinstance(damage, str)
                                                       else list(self.damage_names))
-        EzPickle.__init__(self, morphology=morphology, damage=recorded, faults=faults, initial_angles=initial_angles,
+        EzPickle.__init__(self, morphology=morphology, damage=recorded, faults=faults, damage_onset_s=damage_onset_s,
+                          initial_angles=initial_angles,
                           frame_skip=frame_skip, episode_duration_s=episode_duration_s,
                           ctrl_cost_weight=ctrl_cost_weight, render_mode=render_mode, width=width, height=height,
                           camera=camera, camera_distance=camera_distance, **sim_params)
@@ -427,6 +490,7 @@ class AquaFishEnv(gym.Env, EzPickle):
             "time_s": np.full(n, float(episodes.steps * self.frame_skip * DT_S)),
             "initial_angles": episodes.initial_angles.copy(),
             "damage": episodes.damage.copy(),
+            "damaged": episodes.damaged.copy(),
         } | self._task_infos(state, episodes)
 
     def _reset_results(self, state: BodyState, episodes: Episodes) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -459,6 +523,42 @@ class AquaFishEnv(gym.Env, EzPickle):
         self.damage = get_damage(name)
         self.morphology = self.damage.apply(self.base_morphology)
         self.faults = self.fixed_faults if self.fixed_faults is not None else self.damage.faults
+
+    @property
+    def damage_changes_robot(self) -> bool:
+        """Whether the episode's damage makes a robot other than the healthy one (``morphology``
+        differs from the constructor's, or a servo is faulty); False for ``"none"``."""
+        return self.morphology != self.base_morphology or not self.faults.healthy
+
+    def _start_robot(self) -> tuple[Morphology, ServoFaults]:
+        """The robot an episode starts with: the damaged one, or the healthy one while the
+        damage waits for its onset (:attr:`onset_step` > 0)."""
+        if self._damage_pending:
+            return self.base_morphology, NO_FAULTS
+        return self.morphology, self.faults
+
+    def _damage_onsets(self, worlds: list[BatchWorld], slices: list[slice], envs: list["AquaFishEnv"],
+                       episodes: Episodes, steps: int) -> None:
+        """Bring the pending damages in force once ``steps`` control steps have been swum (the
+        onset): robot i of ``envs`` (robot ``i - part.start`` of the world of ``part``)
+        becomes ``envs[i]``'s damaged robot in place (:meth:`BatchWorld.change_robot`).
+
+        Call it after taking the step's :class:`BodyState`: a new body is put in the old one's
+        state through PyBullet's API, whose orientation rounds by up to an ulp, so the step's
+        observation is taken from the robot that swam it (``change_robot`` replaces the
+        world's state arrays, it does not write into them).
+        """
+        if self.onset_step is None or steps < self.onset_step or not episodes.pending.any():
+            return
+        for world, part in zip(worlds, slices):
+            for i in range(part.start, part.stop):
+                if not episodes.pending[i]:
+                    continue
+                env = envs[i]
+                if env.damage_changes_robot:
+                    world.change_robot(i - part.start, env.morphology.to_array(), env.faults)
+                episodes.damaged[i] = env.damage_changes_robot
+                episodes.pending[i] = False
 
     def _check_angles(self, angles) -> np.ndarray:
         arr = np.asarray(angles, dtype=np.float64)
@@ -539,6 +639,7 @@ class AquaFishEnv(gym.Env, EzPickle):
             amp = self.params.caudal_amplitude_rad
             angles = np.array([self.np_random.uniform(0, 2 * np.pi), self.np_random.uniform(0, 2 * np.pi), self.np_random.uniform(-amp, amp)])
         self._initial_angles = np.asarray(angles, dtype=np.float64)
+        self._damage_pending = self.onset_step is not None and self.onset_step > 0
         self._reset_task(options)
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -554,7 +655,8 @@ class AquaFishEnv(gym.Env, EzPickle):
             client = p.connect(p.GUI) if self.render_mode == "human" and _gui_possible() else None
         else:
             client = self._world.client
-        self._world = BatchWorld(self.morphology.to_array()[None], self.params, self.faults,
+        morphology, faults = self._start_robot()
+        self._world = BatchWorld(morphology.to_array()[None], self.params, faults,
                                  visual=self.render_mode is not None, client=client,
                                  water_current=self._water_current()[None])
         self._world._owns_client = True
@@ -570,7 +672,9 @@ class AquaFishEnv(gym.Env, EzPickle):
         w.set_actions(self.servo_command(action)[None])
         before = w.position[:, 0] - w.home
         w.advance(self.frame_skip)
-        obs, reward, truncated, info = self._step_results(BodyState.of([w]), self._episodes, before, action[None])
+        state = BodyState.of([w])  # before an onset's switch: the step's end as the healthy robot swam it
+        self._damage_onsets([w], [slice(0, 1)], [self], self._episodes, self._episodes.steps + 1)
+        obs, reward, truncated, info = self._step_results(state, self._episodes, before, action[None])
         return obs[0], float(reward[0]), False, bool(truncated), info_row(info, 0)
 
     def camera_matrices(self) -> tuple[np.ndarray, np.ndarray]:

@@ -122,6 +122,7 @@ class BatchWorld:
         self.water_current = validate_water_currents(water_current, self.n, self.params.water_current)
         self.seized, self.speed_scale = faults_array(faults, self.n)
         self.spec = robot_spec(self.morphologies, self.params)
+        self.visual = bool(visual)
         self._owns_client = client is None
         self.client = p.connect(p.DIRECT) if client is None else client
         p.resetSimulation(physicsClientId=self.client)
@@ -129,10 +130,7 @@ class BatchWorld:
         p.setTimeStep(DT_S, physicsClientId=self.client)
         self.home = np.array([[ROBOT_SPACING * (i % _GRID_COLUMNS), ROBOT_SPACING * (i // _GRID_COLUMNS), 0.0] for i in range(self.n)])
         self.bodies = [create_robot(self.client, self.spec, i, position=self.home[i], visual=visual) for i in range(self.n)]
-        # links that feel drag: the body always, flippers only when they have area
-        # at the surface the body carries the pectorals' forces (aquafish_gym.surface)
-        fins = (3,) if self.params.surface else (1, 2, 3)
-        self._active = [[0] + [k for k in fins if self.spec.face_areas[i, k].any()] for i in range(self.n)]
+        self._active = [self._active_links(i) for i in range(self.n)]
         self.time_s = 0.0
         self.actions = np.zeros((self.n, 3))
         self.initial_angles = np.zeros((self.n, 3))
@@ -153,6 +151,12 @@ class BatchWorld:
             if native:
                 raise ValueError(f"native=True: {err}") from None
             return None
+
+    def _active_links(self, i: int) -> list[int]:
+        """The links of robot ``i`` that feel drag: the body always, flippers only when they have
+        area; at the surface the body carries the pectorals' forces (:mod:`aquafish_gym.surface`)."""
+        fins = (3,) if self.params.surface else (1, 2, 3)
+        return [0] + [k for k in fins if self.spec.face_areas[i, k].any()]
 
     @property
     def native(self) -> bool:
@@ -185,6 +189,65 @@ class BatchWorld:
         self._caudal_phase = np.arcsin(np.clip(self.initial_angles[:, 2] / amp, -1.0, 1.0))
         self.actions = np.zeros((self.n, 3))
         self.set_actions(np.zeros((self.n, 3)) if actions is None else actions)
+        self._read_state()
+
+    def change_robot(self, i: int, morphology, faults=None) -> None:
+        """Turn robot ``i`` into another robot mid-run, in the same state (a damage's onset).
+
+        The world is not reset: the other robots, the time and robot ``i``'s state (base pose
+        and velocity, flipper angles and speeds, the caudal sweep's phase) carry on. Servo
+        faults take effect at once (the motors are commanded again with the current actions:
+        a servo seized now holds its flipper where it is now). A new morphology replaces the
+        robot's PyBullet body by one built for it, exactly as :meth:`__init__` builds one
+        (link masses, inertias and centres of mass, visual shapes, none for a flipper without
+        volume), put in the old body's state; the fluid model's dimensions (drag areas, the
+        caudal fin's length and added mass, the surface model's strips) and the set of links
+        that feel drag are recomputed. A new body rather than ``changeDynamics``: PyBullet
+        cannot move a link's centre of mass (its inertial frame) nor change its visual shape,
+        and a resized flipper's centre of mass moves. So from here on robot ``i`` is, to the
+        last bit, a robot built with ``morphology`` and put in this state as PyBullet reports
+        it (tested); :attr:`bodies` holds the new body's id (PyBullet may reuse the old one). (PyBullet reports
+        the base's orientation rounded by up to an ulp of what it integrates, so a body put in
+        the reported state is that much off the old body's internal one; positions,
+        velocities and joint states carry over exactly.) Robot ``i``'s state arrays
+        (:attr:`position`, ...) are replaced, not written into.
+
+        Args:
+            i: the robot's index.
+            morphology: ``(9,)`` its new flipper dimensions (or a :class:`~aquafish_gym.Morphology`).
+            faults: its servo faults, a :class:`~aquafish_gym.ServoFaults` (None: none).
+
+        Raises:
+            ValueError: ``i`` out of range, or an invalid morphology or faults.
+        """
+        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not 0 <= i < self.n:
+            raise ValueError(f"robot index i must be an int in [0, {self.n}), got {i!r}")
+        i = int(i)
+        morph = validate_morphologies(morphology)[0]
+        seized, speed_scale = faults_array(faults, 1)
+        self.seized[i], self.speed_scale[i] = seized[0], speed_scale[0]
+        if not np.array_equal(morph, self.morphologies[i]):
+            c, old = self.client, self.bodies[i]
+            position, orientation = p.getBasePositionAndOrientation(old, physicsClientId=c)
+            linear, angular = p.getBaseVelocity(old, physicsClientId=c)
+            joints = [s[:2] for s in p.getJointStates(old, JOINTS, physicsClientId=c)]
+            morphologies = self.morphologies.copy()  # not the caller's array
+            morphologies[i] = morph
+            self.morphologies = morphologies
+            self.spec = robot_spec(self.morphologies, self.params)
+            p.removeBody(old, physicsClientId=c)
+            body = create_robot(c, self.spec, i, position=self.home[i], visual=self.visual)
+            p.resetBasePositionAndOrientation(body, position, orientation, physicsClientId=c)
+            p.resetBaseVelocity(body, linear, angular, physicsClientId=c)
+            for j, (angle, speed) in zip(JOINTS, joints):
+                p.resetJointState(body, j, angle, speed, physicsClientId=c)
+            self.bodies[i] = body
+            self._active[i] = self._active_links(i)
+            if self.surface is not None:
+                self.surface = SurfaceSpec.build(self.spec, self.params, self.home[:, 2])
+        self.set_actions(self.actions)  # every robot's motors again: the same commands for the others
+        if self._native is not None:
+            self._native = _native.NativeStep(self)  # it copies the bodies and the fluid model's dimensions
         self._read_state()
 
     def set_actions(self, actions) -> None:

@@ -68,7 +68,9 @@ _DOC = """N sub-envs of ``{env_id}`` stepped together as N robots of one PyBulle
     (as :class:`gymnasium.vector.SyncVectorEnv`), ``reset(seed=[s0, ..., sN-1])`` each
     with its own (None: fresh entropy); ``options`` (the single env's keys) apply to
     every sub-env. Every sub-env is reset at once: a partial reset
-    (``options["reset_mask"]`` not all True) is refused.
+    (``options["reset_mask"]`` not all True) is refused. With ``damage_onset_s`` every
+    sub-env starts healthy and switches to its own damage at the onset of its episode's
+    time, as the single env does (``info["damaged"]``); an autoreset starts healthy again.
 
     ## Episode End
     As the single env: never terminated; every sub-env is truncated at the same step,
@@ -168,8 +170,9 @@ class AquaFishVectorEnv(VectorEnv):
             envs = self.envs[part]
             # a fresh world every episode, on the same client, as the single env does
             client = self._worlds[k].client if k < len(self._worlds) else None
-            world = BatchWorld(np.stack([env.morphology.to_array() for env in envs]), self.task.params,
-                               [env.faults for env in envs], client=client,
+            robots = [env._start_robot() for env in envs]  # healthy while a damage waits for its onset
+            world = BatchWorld(np.stack([m.to_array() for m, _ in robots]), self.task.params,
+                               [f for _, f in robots], client=client,
                                water_current=np.stack([env._water_current() for env in envs]))
             world._owns_client = True
             world.reset(np.stack([env._initial_angles for env in envs]))
@@ -229,8 +232,9 @@ class AquaFishVectorEnv(VectorEnv):
         before = BodyState.of(self._worlds).position
         for world in self._worlds:
             world.advance(self.task.frame_skip)
-        obs, rewards, truncated, info = self.task._step_results(BodyState.of(self._worlds), self._episodes, before,
-                                                                actions)
+        state = BodyState.of(self._worlds)  # before an onset's switch, as the single env
+        self.task._damage_onsets(self._worlds, self._slices, self.envs, self._episodes, self._episodes.steps + 1)
+        obs, rewards, truncated, info = self.task._step_results(state, self._episodes, before, actions)
         self._autoreset = bool(truncated)
         return (obs, rewards, np.zeros(n, dtype=np.bool_), np.full(n, bool(truncated)), self._vector_info(info))
 

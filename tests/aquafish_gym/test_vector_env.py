@@ -50,6 +50,11 @@ CASES = [
     ("AquaFish-v0", dict(damage="random", waterline=None), 4),
     ("AquaFishStationKeeping-v0", dict(current_speed=(0.1, 0.3), current_direction_deg=None, damage="random"), 4),
     ("AquaFishHeading-v0", dict(forward_reward_weight=1.0, damage=["left_pectoral_half", "caudal_half"]), 4),
+    # damage during an episode: healthy until 0.25 s (the step ending at 0.3 switches), every autoreset healthy again
+    ("AquaFish-v0", dict(damage="random", damage_onset_s=0.25), 4),
+    ("AquaFish-v0", dict(damage=["sampled:15", "reversed_left_pectoral", "none", "caudal_missing"], damage_onset_s=0.1,
+                         waterline=None), 5),
+    ("AquaFishStationKeeping-v0", dict(current_speed=0.2, damage="left_pectoral_missing", damage_onset_s=0.2), 3),
 ]
 
 
