@@ -102,7 +102,7 @@ def window_means(speeds, window: int) -> np.ndarray:
     return np.lib.stride_tricks.sliding_window_view(x, window, axis=-1).mean(axis=-1)
 
 
-def healthy_range(values, quantile: float = 0.0, margin: float = 0.5) -> tuple[float, float, float]:
+def healthy_range(values, quantile: float = 0.0, margin: float = 0.25) -> tuple[float, float, float]:
     """The healthy range of a windowed signal: ``(lower, median, upper)``.
 
     ``lower = q_lo - margin * (median - q_lo)`` and ``upper = q_hi + margin * (q_hi - median)``
@@ -158,7 +158,7 @@ class MonitorCalibration:
     window_s: float
     warmup_s: float
     quantile: float = 0.0
-    margin: float = 0.5
+    margin: float = 0.25
     control_period_s: float = CONTROL_PERIOD_S
     episodes: int = 0
     seeds: tuple[int, ...] = ()
