@@ -31,10 +31,11 @@ unfinished cells are trained first, as tasks of their own (``shared/seed<S>`` se
 written on the driver), and every cell task then carries a copy of its seed's
 ``shared/seed<S>`` (an input directory: the cell loads the finished rows from it, and nothing
 it writes there comes back). The shared rows are trained once per seed, as on the local
-backend; the cost is sending a seed's shared rows (about 0.4 MB at ``smoke``, a cell's own directory about 1.3 MB) with
-each of its cells. The alternatives were worse: training the shared rows inside every cell
-repeats the most expensive rows per damage, and keeping them in Ray's object store would not
-survive the driver, while ``OUT/shared`` does and is reused by a rerun.
+backend; the cost is sending a seed's shared rows (about 0.4 MB at ``smoke``; a cell's own
+directory is about 1.3 MB) with each of its cells. The alternatives were worse: training the
+shared rows inside every cell repeats the most expensive rows per damage, and keeping them in
+Ray's object store would not survive the driver, while ``OUT/shared`` does and is reused by a
+rerun.
 """
 
 from __future__ import annotations
@@ -283,8 +284,9 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     bar.close()
     bar = progress_bar(len(spec.cells()), initial=len(spec.cells()) - len(todo), desc="recovery cells", unit="cell",
                        disable=not progress)
-    tasks = [DirTask(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)), str(shared_dir(out, seed)),
-                                 duration, cell_workers, inner_progress), outputs=(3,), inputs=(4,),
+    tasks = [DirTask(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)),
+                                 str(shared_dir(out, seed)), duration, cell_workers, inner_progress),
+                     outputs=(3,), inputs=(4,),
                      label=f"cell {damage} seed {seed}") for damage, seed in todo]
     for report in _run_tasks(tasks, backend, processes, address):
         reports[(report["damage"], report["seed"])] = report

@@ -7,7 +7,10 @@ already holds every round is skipped, and an interrupted one resumes from its la
 finished round. Runs execute in a local process pool (one process per core, each run
 serial) or, with ``backend="ray"``, as Ray tasks on a cluster (the ``[cluster]`` extra;
 :func:`connect_ray` fails in about a second, with one line, without Ray, without a cluster at
-the address or without the token a token-authenticated cluster asks for).
+the address or without the token a token-authenticated cluster asks for). On Ray a run works in
+a temporary directory on its node and its finished files come back to this process, which
+writes them into ``OUT`` (:mod:`aquafish.shipping`): no shared file system is needed, and which
+runs are finished is decided here, as on the local pool.
 The results are read back and plotted by :mod:`eea.analysis.plot` (``aquafish plot``).
 """
 
@@ -149,7 +152,9 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
         out_dir: study directory; ``study.json`` records the spec and every seed run into it.
         backend: ``"local"`` (a process pool over ``processes`` cores, default all) or
             ``"ray"`` (Ray tasks; ``address`` as for ``ray.init``, e.g. ``"auto"`` or
-            ``"ray://head:10001"``; ``None`` starts a local Ray instance).
+            ``"ray://head:10001"``; ``None`` starts a local Ray instance). On Ray each run's
+            directory is written here from the files its task sends back (no shared file
+            system); a run whose worker is lost is retried and logged.
         processes: local pool size (default ``os.cpu_count()``).
         progress: show progress over runs (a tqdm bar on a terminal, else one line per run),
             with the best final objective fitness per condition among the runs finished so far.

@@ -219,6 +219,41 @@ def test_a_lost_workers_task_is_retried_and_logged_and_one_lost_on_every_try_is_
     assert (out / "a" / "done.txt").read_text() == "finished on a retry"
     assert not (out / "b").exists()  # nothing of the lost task is written
     lines = [r.getMessage() for r in caplog.records]
-    assert [line for line in lines if line.startswith("cell a:")] == ["cell a: its Ray worker was lost; finished on try 2"]
+    assert [line for line in lines if line.startswith("cell a:")] == \
+        ["cell a: its Ray worker was lost; finished on try 2"]
     lost = [line for line in lines if line.startswith("cell b:")]
     assert len(lost) == 1 and "lost on the Ray cluster after 4 tries" in lost[0] and "run the command again" in lost[0]
+
+
+def _without_rl() -> None:
+    """A Ray worker's setup: no PPO rows (faster), as ``_rl_available`` patched in the driver."""
+    import aquafish.case_study
+
+    aquafish.case_study._rl_available = lambda: False
+
+
+@pytest.mark.cluster
+@pytest.mark.slow
+def test_recovery_on_a_local_ray_cluster_matches_a_local_run_and_resumes(tmp_path, monkeypatch):
+    ray = pytest.importorskip("ray")
+    monkeypatch.setenv("RAY_AUTH_MODE", "disabled")
+    monkeypatch.setattr("aquafish.case_study._rl_available", lambda: False)
+    local = run_recovery(tmp_path / "local", preset="smoke", damages=DAMAGES[:1], seeds=[0], workers=1, progress=False)
+    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    ray.init(num_cpus=1, include_dashboard=False, log_to_driver=False, _node_ip_address="127.0.0.1",
+             runtime_env={"worker_process_setup_hook": _without_rl})
+    try:
+        out = tmp_path / "ray"
+        summary = run_recovery(out, preset="smoke", damages=DAMAGES[:1], seeds=[0], backend="ray", progress=False)
+        assert _without_times(summary) == _without_times(local)
+        assert (out / "summary.md").read_text() == (tmp_path / "local" / "summary.md").read_text()
+        assert _files(out) == _files(tmp_path / "local")
+        report = json.loads((cell_dir(out, DAMAGES[0], 0) / "report.json").read_text())
+        assert report["shared_dir"] == str(out / "shared" / "seed0")
+        stamps = _tree(out / "cells")
+        assert _without_times(run_recovery(out, preset="smoke", damages=DAMAGES[:1], seeds=[0], backend="ray",
+                                           progress=False)) == _without_times(summary)
+        assert _tree(out / "cells") == stamps  # the finished cell was read back, not run again
+    finally:
+        ray.shutdown()
+        ray.cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
