@@ -45,6 +45,7 @@ import json
 from pathlib import Path
 from typing import Iterable, Iterator
 
+from aquafish.shipping import DirTask
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
@@ -273,8 +274,6 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     cell_workers, inner_progress = (workers, progress) if alone else (1, False)
     duration = spec.episode_duration_s
     seeds = sorted({seed for _, seed in todo})
-    from aquafish.shipping import DirTask
-
     bar = progress_bar(len(seeds), desc="shared rows", unit="seed", disable=not progress or not seeds)
     shared_tasks = [DirTask(_train_shared, (spec.preset, seed, str(shared_dir(out, seed)), duration, cell_workers,
                                             inner_progress), outputs=(2,), label=f"shared rows of seed {seed}")

@@ -27,6 +27,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Callable, Iterator
 
+from aquafish.shipping import DirTask, run_dir_tasks
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
@@ -201,8 +202,6 @@ def _run_study_locked(spec: StudySpec, out_dir: Path, backend: str, address: str
             best[condition] = max(best.get(condition, 0.0), float(rows[-1]["objective_fitness"]))
             bar.set_postfix_str(", ".join(f"{c} {v:.3f}" for c, v in best.items()))
         bar.update()
-
-    from aquafish.shipping import DirTask, run_dir_tasks
 
     tasks = [DirTask(_run_one, (c.to_dict(), str(d)), outputs=(1,), label=f"run {d.relative_to(out_dir)}")
              for c, d in todo]
