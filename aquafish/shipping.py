@@ -25,7 +25,8 @@ A task whose worker (or node) is lost is retried by Ray (``max_retries``,
 :data:`aquafish.study.MAX_RETRIES`), and the driver logs one line per retried task when it
 finishes, and one per task lost on every try (which is then left unfinished: running the
 command again finishes it). An error the task raises itself (a corrupt file, say) is not
-retried: it ends the command with its one line, as on the local pool.
+retried: it ends the command with its one line, as on the local pool (naming the driver's
+files, not the node's temporary ones).
 """
 
 from __future__ import annotations
@@ -211,6 +212,32 @@ def _attempt() -> int:
         return 0
 
 
+class _Failed(Exception):
+    """The error ``error`` that task ``index`` raised in its temporary directories ``scratch``
+    (``{argument index: temporary path}``): :func:`run_dir_tasks` raises ``error`` again, naming
+    the driver's paths instead."""
+
+    def __init__(self, error: Exception, index: int, scratch: dict[int, str]):
+        self.error, self.index, self.scratch = error, index, scratch
+        super().__init__(str(error))
+
+    def __reduce__(self):
+        return type(self), (self.error, self.index, self.scratch)
+
+
+def _translate_error(err: Exception, replace: dict[str, str]) -> Exception:
+    """``err`` with the paths of ``replace`` replaced in its message (a
+    :class:`~aquafish_gym.rundir.FileError` names the driver's file); ``err`` itself when its type
+    cannot be built again from its arguments."""
+    if isinstance(err, FileError):
+        return type(err)(_translate(str(err.path), replace), _translate(err.problem, replace),
+                         _translate(err.fix, replace))
+    try:
+        return type(err)(*_translate(tuple(err.args), replace))
+    except Exception:  # noqa: BLE001  (an exception type with other constructor arguments)
+        return err
+
+
 def _in_scratch(index: int, fn: Callable, args: tuple, dirs: dict[int, dict[str, bytes]],
                 outputs: tuple[int, ...]) -> tuple[int, Any, dict[int, dict[str, bytes]], dict[int, str], int]:
     """Run ``fn(*args)`` on a node-local copy of its directory arguments (the Ray side of
@@ -223,6 +250,9 @@ def _in_scratch(index: int, fn: Callable, args: tuple, dirs: dict[int, dict[str,
     Returns:
         ``(index, value, {i: files of the output directory i}, {i: the temporary path argument i
         had}, this try's number)``.
+
+    Raises:
+        _Failed: ``fn`` raised an exception (carried with ``index`` and the temporary paths).
     """
     attempt = _attempt()
     with tempfile.TemporaryDirectory(prefix="aquafish-task-") as root:
@@ -237,7 +267,10 @@ def _in_scratch(index: int, fn: Callable, args: tuple, dirs: dict[int, dict[str,
                 target.write_bytes(data)
             args[i] = str(path)
             scratch[i] = str(path)
-        value = fn(*args)
+        try:
+            value = fn(*args)
+        except Exception as err:
+            raise _Failed(err, index, scratch) from None
         return index, value, {i: pack_dir(scratch[i]) for i in outputs}, scratch, attempt
 
 
@@ -276,8 +309,16 @@ def run_dir_tasks(tasks: list[DirTask], *, backend: str = "local", processes: in
         return
     shipped = [(_in_scratch, (i, t.fn, _names_only(t), {j: pack_dir(t.args[j]) for j in (*t.outputs, *t.inputs)},
                               t.outputs)) for i, t in enumerate(tasks)]
-    for index, value, outputs, scratch, attempt in run_tasks(shipped, backend="ray", address=address,
-                                                             labels=[t.label for t in tasks]):
+    results = run_tasks(shipped, backend="ray", address=address, labels=[t.label for t in tasks])
+    while True:
+        try:
+            index, value, outputs, scratch, attempt = next(results)
+        except StopIteration:
+            return
+        except _Failed as failed:  # the task's own error, naming the driver's paths
+            task = tasks[failed.index]
+            replace = {path: str(task.args[i]) for i, path in failed.scratch.items()}
+            raise _translate_error(failed.error, replace) from None
         task = tasks[index]
         replace = {path: str(task.args[i]) for i, path in scratch.items()}
         for i, files in outputs.items():
