@@ -18,9 +18,24 @@ rebuilt from the reports of every finished cell of the manifest (:func:`summariz
 :func:`render_summary`).
 
 Cells run one at a time in this process (each case study's evaluation on every core), on a
-local process pool (``processes`` > 1; each case study's evaluation serial) or as Ray tasks
-(``backend="ray"``, :func:`aquafish.study.connect_ray`; a cell's report comes back to the
-driver as the task's value).
+local process pool (``processes`` > 1; each case study's evaluation serial), both writing in
+place, or as Ray tasks (``backend="ray"``, :func:`aquafish.study.connect_ray`) that need no
+file system shared with the driver (:mod:`aquafish.shipping`): each task runs in a node-local
+temporary directory and sends its finished directory back with its value; the driver writes
+it into ``OUT`` (atomically, a directory at a time) and decides here, as on the local backend,
+what is finished. A task whose worker is lost is retried by Ray and logged in one line.
+
+Shared rows without a shared file system: the cells of a seed need its shared rows, but a Ray
+node cannot read them from the driver's ``OUT``. So the shared rows of every seed that has
+unfinished cells are trained first, as tasks of their own (``shared/seed<S>`` sent back and
+written on the driver), and every cell task then carries a copy of its seed's
+``shared/seed<S>`` (an input directory: the cell loads the finished rows from it, and nothing
+it writes there comes back). The shared rows are trained once per seed, as on the local
+backend; the cost is sending a seed's shared rows (about 0.4 MB at ``smoke``; a cell's own
+directory is about 1.3 MB) with each of its cells. The alternatives were worse: training the
+shared rows inside every cell repeats the most expensive rows per damage, and keeping them in
+Ray's object store would not survive the driver, while ``OUT/shared`` does and is reused by a
+rerun.
 """
 
 from __future__ import annotations
@@ -28,8 +43,9 @@ from __future__ import annotations
 import dataclasses
 import json
 from pathlib import Path
-from typing import Callable, Iterable, Iterator
+from typing import Iterable, Iterator
 
+from aquafish.shipping import DirTask
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
@@ -189,21 +205,23 @@ def _run_cell(preset: str, damage: str, seed: int, cell: str, shared: str, episo
 # -- running tasks ----------------------------------------------------------------------------------
 
 
-def _run_tasks(tasks: list[tuple[Callable, tuple]], backend: str, processes: int, address: str | None) -> Iterator:
-    """The values of ``tasks`` (``(function, args)``), as they finish: in this process (local,
-    ``processes == 1``, so that a cell's evaluation may use every core), else through
-    :func:`aquafish.study.run_tasks` (a local pool whose workers die with this process, or Ray tasks).
+def _run_tasks(tasks: list, backend: str, processes: int, address: str | None) -> Iterator:
+    """The values of ``tasks`` (:class:`aquafish.shipping.DirTask`), as they finish: in this
+    process (local, ``processes == 1``, so that a cell's evaluation may use every core), else
+    through :func:`aquafish.shipping.run_dir_tasks` (a local pool whose workers die with this
+    process, writing in place, or Ray tasks whose directories come back to this process).
 
     Raises:
         ValueError: a task raised one (its own error, also from a Ray task).
+        ClusterError: as :func:`aquafish.study.connect_ray`.
     """
     if backend == "local" and processes == 1:
-        for fn, args in tasks:
-            yield fn(*args)
+        for task in tasks:
+            yield task.fn(*task.args)
         return
-    from aquafish.study import run_tasks
+    from aquafish.shipping import run_dir_tasks
 
-    yield from run_tasks(tasks, backend=backend, processes=processes, address=address)
+    yield from run_dir_tasks(tasks, backend=backend, processes=processes, address=address)
 
 
 def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | None = None, seeds: Iterable[int] = (0,),
@@ -257,14 +275,18 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     duration = spec.episode_duration_s
     seeds = sorted({seed for _, seed in todo})
     bar = progress_bar(len(seeds), desc="shared rows", unit="seed", disable=not progress or not seeds)
-    for _ in _run_tasks([(_train_shared, (spec.preset, seed, str(shared_dir(out, seed)), duration, cell_workers,
-                                          inner_progress)) for seed in seeds], backend, processes, address):
+    shared_tasks = [DirTask(_train_shared, (spec.preset, seed, str(shared_dir(out, seed)), duration, cell_workers,
+                                            inner_progress), outputs=(2,), label=f"shared rows of seed {seed}")
+                    for seed in seeds]
+    for _ in _run_tasks(shared_tasks, backend, processes, address):
         bar.update()
     bar.close()
     bar = progress_bar(len(spec.cells()), initial=len(spec.cells()) - len(todo), desc="recovery cells", unit="cell",
                        disable=not progress)
-    tasks = [(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)), str(shared_dir(out, seed)),
-                          duration, cell_workers, inner_progress)) for damage, seed in todo]
+    tasks = [DirTask(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)),
+                                 str(shared_dir(out, seed)), duration, cell_workers, inner_progress),
+                     outputs=(3,), inputs=(4,),
+                     label=f"cell {damage} seed {seed}") for damage, seed in todo]
     for report in _run_tasks(tasks, backend, processes, address):
         reports[(report["damage"], report["seed"])] = report
         bar.update()

@@ -7,7 +7,10 @@ already holds every round is skipped, and an interrupted one resumes from its la
 finished round. Runs execute in a local process pool (one process per core, each run
 serial) or, with ``backend="ray"``, as Ray tasks on a cluster (the ``[cluster]`` extra;
 :func:`connect_ray` fails in about a second, with one line, without Ray, without a cluster at
-the address or without the token a token-authenticated cluster asks for).
+the address or without the token a token-authenticated cluster asks for). On Ray a run works in
+a temporary directory on its node and its finished files come back to this process, which
+writes them into ``OUT`` (:mod:`aquafish.shipping`): no shared file system is needed, and which
+runs are finished is decided here, as on the local pool.
 The results are read back and plotted by :mod:`eea.analysis.plot` (``aquafish plot``).
 """
 
@@ -16,6 +19,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
+import logging
 import os
 import socket
 import sys
@@ -23,6 +27,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Callable, Iterator
 
+from aquafish.shipping import DirTask, run_dir_tasks
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
@@ -32,6 +37,10 @@ from eea.methods import METHODS, method_fields
 from eea.record import read_rounds
 
 BACKENDS = ("local", "ray")
+#: How many times Ray runs a task again whose worker process or node was lost.
+MAX_RETRIES = 3
+
+_log = logging.getLogger(__name__)
 
 #: How to install what ``backend="ray"`` needs.
 CLUSTER_EXTRA_INSTALL = "pip install 'aquafish[cluster]'"
@@ -144,7 +153,9 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
         out_dir: study directory; ``study.json`` records the spec and every seed run into it.
         backend: ``"local"`` (a process pool over ``processes`` cores, default all) or
             ``"ray"`` (Ray tasks; ``address`` as for ``ray.init``, e.g. ``"auto"`` or
-            ``"ray://head:10001"``; ``None`` starts a local Ray instance).
+            ``"ray://head:10001"``; ``None`` starts a local Ray instance). On Ray each run's
+            directory is written here from the files its task sends back (no shared file
+            system); a run whose worker is lost is retried and logged.
         processes: local pool size (default ``os.cpu_count()``).
         progress: show progress over runs (a tqdm bar on a terminal, else one line per run),
             with the best final objective fitness per condition among the runs finished so far.
@@ -192,20 +203,28 @@ def _run_study_locked(spec: StudySpec, out_dir: Path, backend: str, address: str
             bar.set_postfix_str(", ".join(f"{c} {v:.3f}" for c, v in best.items()))
         bar.update()
 
-    for run_dir in run_tasks([(_run_one, (c.to_dict(), str(d))) for c, d in todo], backend=backend,
-                             processes=processes or os.cpu_count() or 1, address=address):
+    tasks = [DirTask(_run_one, (c.to_dict(), str(d)), outputs=(1,), label=f"run {d.relative_to(out_dir)}")
+             for c, d in todo]
+    for run_dir in run_dir_tasks(tasks, backend=backend, processes=processes or os.cpu_count() or 1, address=address):
         finished(run_dir)
     bar.close()
     return [d for _, d in runs]
 
 
 def run_tasks(tasks: list[tuple[Callable, tuple]], *, backend: str = "local", processes: int = 1,
-              address: str | None = None) -> Iterator:
+              address: str | None = None, labels: list[str] | None = None) -> Iterator:
     """The values of ``tasks`` (``(function, args)``, top-level functions and picklable
     arguments), as they finish: on a local pool of ``processes`` workers that die with this
     process (:func:`~aquafish_gym.rundir.die_with_parent`), or as Ray tasks of one CPU each
-    (``backend="ray"``, :func:`connect_ray` with ``address``). A study's runs and a recovery
-    benchmark's cells run through it.
+    (``backend="ray"``, :func:`connect_ray` with ``address``; :func:`_ray_values`). A study's
+    runs and a recovery benchmark's cells run through it (:func:`aquafish.shipping.run_dir_tasks`).
+
+    Args:
+        tasks: the tasks.
+        backend: ``"local"`` or ``"ray"``.
+        processes: the local pool's size.
+        address: the Ray cluster.
+        labels: each task's name in a logged line (Ray: a task lost on every try).
 
     Raises:
         ClusterError: as :func:`connect_ray`.
@@ -215,20 +234,47 @@ def run_tasks(tasks: list[tuple[Callable, tuple]], *, backend: str = "local", pr
     if not tasks:
         return
     if backend == "ray":
-        ray = connect_ray(address)
-        pending = [ray.remote(num_cpus=1)(fn).remote(*args) for fn, args in tasks]
-        while pending:
-            done, pending = ray.wait(pending, num_returns=1)
-            try:
-                yield from ray.get(done)
-            except ray.exceptions.RayTaskError as err:
-                raise _task_cause(err) from err
+        yield from _ray_values(tasks, address, labels)
         return
     # workers die with this process (a killed study leaves no orphan running its queue)
     with ProcessPoolExecutor(max_workers=min(processes, len(tasks)), initializer=die_with_parent,
                              initargs=(os.getpid(),)) as pool:
         for future in as_completed([pool.submit(fn, *args) for fn, args in tasks]):
             yield future.result()
+
+
+def _ray_values(tasks: list[tuple[Callable, tuple]], address: str | None, labels: list[str] | None) -> Iterator:
+    """The values of ``tasks`` as Ray tasks of one CPU, as they finish.
+
+    Ray retries a task whose worker process or node is lost up to :data:`MAX_RETRIES` times
+    (``max_retries``: system failures only; ``retry_exceptions=False``: an error the task raises
+    itself is its result, not retried). A task lost on every try is logged in one line and
+    yields nothing; the others go on.
+
+    Raises:
+        ClusterError: as :func:`connect_ray`.
+        Exception: the first error a task raised itself (not Ray's ``RayTaskError`` around it).
+    """
+    ray = connect_ray(address)
+    remotes = {}
+    pending = {}
+    for i, (fn, args) in enumerate(tasks):
+        if fn not in remotes:
+            remotes[fn] = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, retry_exceptions=False)(fn)
+        pending[remotes[fn].remote(*args)] = i
+    while pending:
+        done, _ = ray.wait(list(pending), num_returns=1)
+        i = pending.pop(done[0])
+        try:
+            value = ray.get(done[0])
+        except ray.exceptions.RayTaskError as err:
+            raise _task_cause(err) from err
+        except ray.exceptions.RayError as err:  # the worker or its node was lost on every try
+            label = labels[i] if labels else f"task {i + 1} of {len(tasks)}"
+            _log.warning("%s: lost on the Ray cluster after %d tries (%s); it is left unfinished, run the "
+                         "command again to finish it", label, MAX_RETRIES + 1, type(err).__name__)
+            continue
+        yield value
 
 
 def _task_cause(err: Exception) -> Exception:
