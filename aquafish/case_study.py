@@ -156,7 +156,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
                    model_space: str = DEFAULT_MODEL_SPACE, behaviour_summary: str = DEFAULT_SUMMARY,
                    episode_duration_s: float | None = None,
                    video: bool = True, workers: int | None = None, progress: bool = True,
-                   shared_dir=None) -> dict:
+                   shared_dir=None, all_rows: bool = True) -> dict:
     """Run the case study and write its report; return the report as a dict.
 
     Args:
@@ -188,6 +188,11 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             healthy and the damage-robust gaits, the damage-robust PPO policy) are trained, or
             loaded when finished (:func:`train_shared_rows` trains them beforehand); default
             ``out_dir``, like every other row. The report then records it as ``shared_dir``.
+        all_rows: True (default): every row. False: first the healthy and the oracle gaits,
+            scored on the damaged robot; when the damage does not break the healthy gait
+            (:func:`breaks`), the report holds those two rows only (``"triaged": true``, no
+            models, figures or video) and nothing else is run. A later run with ``all_rows``
+            on the same ``out_dir`` adds the other rows (the two gaits are reused).
 
     Raises:
         ValueError: unknown preset, damage, method or model space, a bad seed, duration or
@@ -214,7 +219,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
     shared = None if shared_dir is None else check_output_dir(shared_dir, "shared_dir")
     with run_lock(out, command="case-study"):
         return _run_locked(preset, settings, damage, target, seed, out, method, model_space, video, workers,
-                           progress, runs, configs, shared)
+                           progress, runs, configs, shared, all_rows)
 
 
 def preset_settings(preset: str, episode_duration_s: float | None = None) -> CaseStudyPreset:
@@ -365,17 +370,47 @@ def _true_gains(damage: str) -> list[float]:
 
 def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int, out: Path,
                 method: str, model_space: str, video: bool, workers: int | None, progress: bool, runs: dict,
-                configs: dict, shared: Path | None = None) -> dict:
+                configs: dict, shared: Path | None = None, all_rows: bool = True) -> dict:
     """The body of :func:`run_case_study`, under the lock of ``out`` (the rows of
     :data:`SHARED_KEYS` in ``shared`` when given)."""
     t0 = time.perf_counter()
     duration = settings.episode_duration_s
+    stages: dict[str, float] = {}  # wall seconds per stage (a step found finished costs its loading)
+
+    def timed(stage: str, fn):
+        started = time.perf_counter()
+        value = fn()
+        stages[stage] = stages.get(stage, 0.0) + time.perf_counter() - started
+        return value
+
+    def base(key: str) -> Path:
+        return shared if shared is not None and key in SHARED_KEYS else out
+
+    def evolve(key: str, native: Robot):
+        def run(run_dir=base(key) / _gait_dir(key, duration)):
+            return _evolve(native, run_dir, settings, seed, workers, progress)
+
+        # a shared gait may be being loaded by another case study at this moment: wait for it
+        return timed(f"gait_{key}", lambda: _wait_if_busy(run) if base(key) is shared else run())
+
+    target_robot = gait.as_robot(damage)
+    if not all_rows:  # 1. triage: does the damage break the healthy gait at all?
+        natives = {"healthy": _shared_natives()["healthy"], "true_damaged": gait.as_robot(damage)}
+        controllers = {key: evolve(key, native) for key, native in natives.items()}
+        transfers = {key: timed("transfer", lambda key=key: gait.score_transfer(
+                         controllers[key], natives[key], target_robot, seed=seed,
+                         episodes=settings.transfer_episodes, episode_duration_s=duration))
+                     for key in controllers}
+        healthy, oracle = (transfers[k].target_distance for k in ("healthy", "true_damaged"))
+        if not breaks(healthy, oracle):
+            return _write_triaged(out, preset, settings, damage, target, seed, method, model_space, transfers,
+                                  stages, time.perf_counter() - t0, shared)
 
     # 2. self-model
     eea_results = {}
     for key, (name, space, summary) in runs.items():
         run_dir = out / _eea_dir(name, space, summary)
-        eea.run(configs[key], run_dir, progress=progress)
+        timed(f"eea_{key}", lambda key=key, run_dir=run_dir: eea.run(configs[key], run_dir, progress=progress))
         eea_results[key] = eea.load_result(run_dir)
     models = {key: result.best_morphology for key, result in eea_results.items()}
 
@@ -387,34 +422,26 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
                "true_damaged": gait.as_robot(damage),
                "robust": shared_natives["robust"]}
 
-    def base(key: str) -> Path:
-        return shared if shared is not None and key in SHARED_KEYS else out
-
-    controllers = {}
-    for key, native in natives.items():
-        def evolve(native=native, run_dir=base(key) / _gait_dir(key, duration)):
-            return _evolve(native, run_dir, settings, seed, workers, progress)
-
-        # a shared gait may be being loaded by another case study at this moment: wait for it
-        controllers[key] = _wait_if_busy(evolve) if base(key) is shared else evolve()
+    controllers = {key: evolve(key, native) for key, native in natives.items()}
     if not _rl_available():
         logging.getLogger(__name__).warning("case-study: %s: the two PPO rows are left out", MISSING_RL)
     else:  # the two PPO rows, each for rl_timesteps
         for key, native, name in (("ppo", "self_model", "self_model"), ("robust_ppo", "robust", "random_damage")):
-            path = _train_ppo(natives[native], base(key) / _rl_dir(name, duration), settings, seed, progress)
+            path = timed(f"ppo_{key}", lambda native=native, key=key, name=name: _train_ppo(
+                natives[native], base(key) / _rl_dir(name, duration), settings, seed, progress))
             controllers[key] = gait.load_controller(path)
             natives[key] = natives[native]
 
     # 4. transfer to the damaged target
-    target_robot = gait.as_robot(damage)
-    transfers = {key: gait.score_transfer(controllers[key], natives[key], target_robot, seed=seed,
-                                          episodes=settings.transfer_episodes, episode_duration_s=duration)
-                 for key in controllers}
+    transfers = timed("transfer", lambda: {
+        key: gait.score_transfer(controllers[key], natives[key], target_robot, seed=seed,
+                                 episodes=settings.transfer_episodes, episode_duration_s=duration)
+        for key in controllers})
     video_name = None
     if video:
-        video_name = record_video({title: controllers[key] for key, title in VIDEO_GAITS.items()}, target_robot,
+        video_name = timed("video", lambda: record_video({title: controllers[key] for key, title in VIDEO_GAITS.items()}, target_robot,
                                   out / "recovery", seed=seed, episode_duration_s=duration,
-                                  title=f"{damage}: the damaged robot from above, {duration:g} s").name
+                                  title=f"{damage}: the damaged robot from above, {duration:g} s").name)
 
     # 5. report
     panels = [(target, f"(a) target: {damage}")] + [
@@ -458,10 +485,53 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         "figures": figures,
         "video": video_name,
         "wall_seconds": time.perf_counter() - t0,
+        "stage_seconds": stages,
         **({"shared_dir": str(shared)} if shared is not None else {}),
     }
     atomic_write(out / "report.json", json.dumps(report, indent=2).encode())
     atomic_write(out / "report.md", render_report(report).encode())
+    return report
+
+
+def breaks(healthy_distance: float, oracle_distance: float) -> bool:
+    """Does a damage break the healthy gait? The oracle gait swims forward on the damaged robot
+    and the healthy gait keeps at most :data:`BREAKS_SHARE` of its distance (units, mean over
+    the transfer episodes; :func:`verdict`'s ``breaks``)."""
+    return bool(oracle_distance > 0 and healthy_distance / oracle_distance <= BREAKS_SHARE)
+
+
+def _write_triaged(out: Path, preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int,
+                   method: str, model_space: str, transfers: dict, stages: dict, wall_seconds: float,
+                   shared: Path | None) -> dict:
+    """The report of a case study stopped at its triage (``all_rows=False``): the damage does not
+    break the healthy gait, so only the healthy and the oracle rows were run."""
+    controllers = {key: {"native_distance": t.native_distance, "target_distance": t.target_distance,
+                         "native_distances": t.native_distances.tolist(), "target_distances": t.target_distances.tolist()}
+                   for key, t in transfers.items()}
+    healthy, oracle = (controllers[k]["target_distance"] for k in ("healthy", "true_damaged"))
+    share = healthy / oracle if oracle > 0 else None
+    line = (f"The oracle gait does not swim forward on the damaged robot ({oracle:.2f} units): there is nothing "
+            "to recover." if share is None else
+            f"The damage does not break the healthy gait (it keeps {share:.0%} of the oracle gait's {oracle:.2f} "
+            "units on the damaged robot).") + " The other rows were not run (triage)."
+    report = {
+        "preset": preset, "damage": damage, "seed": seed, "method": method, "model_space": model_space,
+        "episode_duration_s": settings.episode_duration_s,
+        "settings": {**dataclasses.asdict(settings), "rl_timesteps": settings.rl_timesteps},
+        "target_morphology": _dims(target), "target_servo_gains": dict(zip(GAIN_NAMES, _true_gains(damage))),
+        "models": {}, "controllers": controllers, "triaged": True,
+        "verdict": {"breaks": False, "recovers": False, "plain_eea_below": False, "self_model_share": None,
+                    "plain_eea_share": None, "healthy_share": share,
+                    **{f"{key}_share": None for key in ROBUST_KEYS}, **{f"{key}_recovers": None for key in ROBUST_KEYS},
+                    "recovering": [], "line": line},
+        "figures": {}, "video": None, "wall_seconds": wall_seconds, "stage_seconds": stages,
+        **({"shared_dir": str(shared)} if shared is not None else {}),
+    }
+    text = (f"# Damage-recovery case study: `{damage}` ({preset} preset, seed {seed}), triage only\n\n"
+            f"**Verdict.** {line}\n\n| gait | distance on the damaged robot (units) |\n|---|---|\n"
+            + "".join(f"| {CONTROLLER_KEYS[k]} | {c['target_distance']:.2f} |\n" for k, c in controllers.items()))
+    atomic_write(out / "report.json", json.dumps(report, indent=2).encode())
+    atomic_write(out / "report.md", text.encode())
     return report
 
 
@@ -499,7 +569,7 @@ def verdict(controllers: dict) -> dict:
         return bool(swims and share[key] >= RECOVERS_SHARE and d[key] >= RECOVERS_OVER_HEALTHY * d["healthy"]
                     and d[key] > d["healthy"])
 
-    breaks = swims and share["healthy"] <= BREAKS_SHARE
+    broken = breaks(d["healthy"], oracle)
     recovering = [key for key in d if key not in ("healthy", "true_damaged") and recovers_(key)]
     recovers = "self_model" in recovering
     plain_below = d["plain_eea"] < d["self_model"]
@@ -508,7 +578,7 @@ def verdict(controllers: dict) -> dict:
         line = (f"The oracle gait does not swim forward on the damaged robot ({oracle:.2f} units): "
                 "there is nothing to recover.")
     else:
-        line = (f"The damage {'breaks' if breaks else 'does not break'} the healthy gait (it keeps "
+        line = (f"The damage {'breaks' if broken else 'does not break'} the healthy gait (it keeps "
                 f"{share['healthy']:.0%} of the oracle gait's {oracle:.2f} units on the damaged robot). "
                 f"The self-model gait {'recovers' if recovers else 'does not recover'}: "
                 f"{share['self_model']:.0%} of the oracle, {_times(d['self_model'], d['healthy'])} the healthy gait; "
@@ -519,7 +589,7 @@ def verdict(controllers: dict) -> dict:
                      f"{share[key]:.0%} of the oracle, {_times(d[key], d['healthy'])} the healthy gait.")
         line += (" Rows that recover (at least " f"{RECOVERS_SHARE:.0%} of the oracle and {RECOVERS_OVER_HEALTHY:g}x "
                  "the healthy gait): " + (", ".join(f"`{k}`" for k in recovering) if recovering else "none") + ".")
-    return {"breaks": bool(breaks), "recovers": bool(recovers), "plain_eea_below": bool(plain_below),
+    return {"breaks": broken, "recovers": bool(recovers), "plain_eea_below": bool(plain_below),
             "self_model_share": share["self_model"], "plain_eea_share": share["plain_eea"],
             "healthy_share": share["healthy"],
             **{f"{key}_share": share.get(key) for key in ROBUST_KEYS},

@@ -194,12 +194,13 @@ def _train_shared(preset: str, seed: int, shared: str, episode_duration_s: float
 
 
 def _run_cell(preset: str, damage: str, seed: int, cell: str, shared: str, episode_duration_s: float,
-              workers: int | None, progress: bool) -> dict:
-    """Run one cell's case study (no video) with the shared rows of its seed; return its report."""
+              workers: int | None, progress: bool, all_rows: bool = False) -> dict:
+    """Run one cell's case study (no video) with the shared rows of its seed; return its report
+    (``all_rows`` False: the other rows only where the damage breaks the healthy gait)."""
     from aquafish.case_study import run_case_study
 
     return run_case_study(preset, damage, seed, cell, episode_duration_s=episode_duration_s, video=False,
-                          workers=workers, progress=progress, shared_dir=shared)
+                          workers=workers, progress=progress, shared_dir=shared, all_rows=all_rows)
 
 
 # -- running tasks ----------------------------------------------------------------------------------
@@ -226,8 +227,15 @@ def _run_tasks(tasks: list, backend: str, processes: int, address: str | None) -
 
 def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | None = None, seeds: Iterable[int] = (0,),
                  episode_duration_s: float | None = None, processes: int = 1, workers: int | None = None,
-                 backend: str = "local", address: str | None = None, progress: bool = True) -> dict:
+                 backend: str = "local", address: str | None = None, progress: bool = True,
+                 all_rows: bool = False) -> dict:
     """Run every unfinished cell (damage x seed) of the benchmark and write its summary; return it.
+
+    A cell first evolves the healthy and the oracle gaits and scores them on the damaged robot;
+    only when the damage breaks the healthy gait does it run the other rows (self-models,
+    their gaits, PPO), since the benchmark's recovery rates count breaking cells only
+    (``run_case_study(all_rows=False)``). ``all_rows=True`` runs every row on every cell, and
+    completes cells an earlier run left at their triage.
 
     Args:
         out_dir: the benchmark's directory (finished cells and shared rows are reused).
@@ -240,6 +248,7 @@ def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | Non
             all cores); cells that run at once (``processes`` > 1, Ray) evaluate serially.
         backend: ``"local"`` or ``"ray"`` (``address`` as for :func:`aquafish.study.connect_ray`).
         progress: show progress (over cells; each case study's own bars when cells run one at a time).
+        all_rows: every row on every cell, not only on the cells whose damage breaks the healthy gait.
 
     Raises:
         ValueError: bad settings (:func:`check_spec`, ``processes``, ``workers``, ``backend``) or an
@@ -261,15 +270,16 @@ def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | Non
 
         connect_ray(address)
     with run_lock(out, command="recovery"):
-        return _run_locked(spec, out, processes, workers, backend, address, progress)
+        return _run_locked(spec, out, processes, workers, backend, address, progress, all_rows)
 
 
 def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | None, backend: str,
-                address: str | None, progress: bool) -> dict:
+                address: str | None, progress: bool, all_rows: bool = False) -> dict:
     """The body of :func:`run_recovery`, under the lock of ``out``."""
     manifest = merge_manifest(out, spec)
     reports = {cell: read_cell(out, *cell, manifest) for cell in manifest.cells()}
-    todo = [cell for cell in spec.cells() if reports[cell] is None]
+    todo = [cell for cell in spec.cells()
+            if reports[cell] is None or (all_rows and reports[cell].get("triaged"))]
     alone = backend == "local" and processes == 1  # one cell at a time, in this process
     cell_workers, inner_progress = (workers, progress) if alone else (1, False)
     duration = spec.episode_duration_s
@@ -284,7 +294,7 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     bar = progress_bar(len(spec.cells()), initial=len(spec.cells()) - len(todo), desc="recovery cells", unit="cell",
                        disable=not progress)
     tasks = [DirTask(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)),
-                                 str(shared_dir(out, seed)), duration, cell_workers, inner_progress),
+                                 str(shared_dir(out, seed)), duration, cell_workers, inner_progress, all_rows),
                      outputs=(3,), inputs=(4,),
                      label=f"cell {damage} seed {seed}") for damage, seed in todo]
     for report in _run_tasks(tasks, backend, processes, address):

@@ -14,7 +14,8 @@ def _recovery(args: argparse.Namespace) -> int:
 
     summary = run_recovery(args.out, preset=args.preset, damages=args.damages, seeds=args.seeds,
                            episode_duration_s=args.episode_duration, processes=args.processes, workers=args.workers,
-                           backend=args.backend, address=args.address, progress=not args.no_progress)
+                           backend=args.backend, address=args.address, progress=not args.no_progress,
+                           all_rows=args.all_rows)
     print((Path(args.out) / SUMMARY_MD).read_text())
     print(f"wrote {Path(args.out) / SUMMARY_MD} and summary.json ({summary['totals']['cells']} cells)")
     return 0
@@ -37,6 +38,9 @@ def add_commands(sub) -> None:
                    help="cells at once on the local backend (default 1; above 1 each cell evaluates serially)")
     r.add_argument("--workers", type=int_at_least(1), default=None,
                    help="evaluation processes of a cell when cells run one at a time (default: all cores)")
+    r.add_argument("--all-rows", action="store_true",
+                   help="run every row on every cell (default: the self-models, their gaits and PPO only where the "
+                        "damage breaks the healthy gait; the recovery rates count those cells only)")
     r.add_argument("--backend", choices=["local", "ray"], default="local", help="local processes or Ray tasks")
     r.add_argument("--address", default=None,
                    help="Ray cluster address (as for aquafish study --address; default: start a local Ray)")

@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from aquafish.case_study import verdict
+from aquafish.case_study import BREAKS_SHARE, breaks, verdict
 from aquafish.cli import main
 from aquafish.recovery import (MANIFEST_FILE, cell_dir, check_spec, merge_manifest, render_summary,
                                summarize)
@@ -94,7 +94,7 @@ def test_two_cells_share_the_healthy_and_robust_rows_and_a_rerun_is_a_no_op(tmp_
     monkeypatch.setattr("aquafish.case_study._rl_available", lambda: False)  # no PPO rows: faster
     out = tmp_path / "bench"
     argv = ["recovery", "--preset", "smoke", "--damages", "left_pectoral_half,reversed_left_pectoral", "--seeds", "0",
-            "--workers", "1", "--no-progress", "--out", str(out)]
+            "--workers", "1", "--no-progress", "--all-rows", "--out", str(out)]
     assert main(argv) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert [(c["damage"], c["seed"]) for c in summary["cells"]] == [("left_pectoral_half", 0),
@@ -128,3 +128,43 @@ def test_two_cells_share_the_healthy_and_robust_rows_and_a_rerun_is_a_no_op(tmp_
     with pytest.raises(SystemExit):
         main([*argv[:2], "quick", *argv[3:]])
     assert 'preset: "smoke" -> "quick"' in capsys.readouterr().err
+
+
+def test_breaks_is_the_share_of_the_oracle_kept_by_the_healthy_gait():
+    assert BREAKS_SHARE == 0.5
+    assert breaks(5.0, 10.0) and breaks(-3.0, 10.0)          # 50 % and less of the oracle's distance
+    assert not breaks(5.01, 10.0) and not breaks(12.0, 10.0)
+    assert not breaks(-2.0, -1.0) and not breaks(0.0, 0.0)   # the oracle does not swim forward
+    assert verdict({"healthy": {"target_distance": 5.01}, "plain_eea": {"target_distance": 1},
+                    "self_model": {"target_distance": 1}, "true_damaged": {"target_distance": 10}})["breaks"] is False
+
+
+def test_a_cell_whose_damage_does_not_break_the_healthy_gait_stops_at_its_triage_and_all_rows_completes_it(
+        tmp_path, monkeypatch):
+    monkeypatch.setattr("aquafish.case_study._rl_available", lambda: False)  # no PPO rows: faster
+    monkeypatch.setattr("aquafish.case_study.breaks", lambda healthy, oracle: False)
+    out = tmp_path / "bench"
+    argv = ["recovery", "--preset", "smoke", "--damages", "reversed_left_pectoral", "--seeds", "0", "--workers", "1",
+            "--no-progress", "--out", str(out)]
+    assert main(argv) == 0
+    cell = cell_dir(out, "reversed_left_pectoral", 0)
+    report = json.loads((cell / "report.json").read_text())
+    assert report["triaged"] is True and report["models"] == {}
+    assert set(report["controllers"]) == {"healthy", "true_damaged"}
+    assert sorted(p.name for p in cell.iterdir() if p.is_dir()) == ["gait_true_damaged"]  # no EEA run, no other gait
+    assert set(report["stage_seconds"]) == {"gait_healthy", "gait_true_damaged", "transfer"}
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["totals"]["breaking"] == 0 and summary["cells"][0]["shares"].keys() == {"healthy"}
+    healthy_share = report["controllers"]["healthy"]["target_distance"] / report["controllers"]["true_damaged"]["target_distance"]
+    assert summary["cells"][0]["shares"]["healthy"] == pytest.approx(healthy_share, rel=1e-12)
+
+    # a rerun without --all-rows keeps the triaged cell; with it, the cell gets every row, its two gaits reused
+    stamp = (cell / "gait_true_damaged" / "run.json").stat().st_mtime_ns
+    assert main(argv) == 0
+    assert json.loads((cell / "report.json").read_text())["triaged"] is True
+    assert main([*argv, "--all-rows"]) == 0
+    full = json.loads((cell / "report.json").read_text())
+    assert "triaged" not in full and {"plain_eea", "self_model"} <= set(full["models"])
+    assert full["controllers"]["true_damaged"] == report["controllers"]["true_damaged"]
+    assert (cell / "gait_true_damaged" / "run.json").stat().st_mtime_ns == stamp
+    assert {"eea_self_model", "gait_self_model", "transfer"} <= set(full["stage_seconds"])
