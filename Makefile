@@ -37,7 +37,7 @@ test-all: $(STAMP)
 	AQUAFISH_REQUIRE_NATIVE=1 $(BIN)/python -m pytest -n 2 -q -m ""
 
 bench: $(STAMP)
-	$(BIN)/python -m benchmarks.sim_throughput
+	$(BIN)/python -m aquafish.benchmarks.sim_throughput
 
 clean:
 	rm -rf $(VENV) build demo_out .pytest_cache aquafish_gym/native/_aquafish_step.so aquafish_gym/native/include

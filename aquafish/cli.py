@@ -26,6 +26,8 @@ import sys
 import zlib
 from concurrent.futures.process import BrokenProcessPool
 
+import aquafish
+
 #: Modules that contribute sub-commands, in help order.
 COMMAND_MODULES = ("aquafish_gym.cli", "aquafish.bench_cli", "eea.cli", "gait.cli", "aquafish.studies_cli",
                    "aquafish.recovery_cli", "aquafish.doctor_cli")
@@ -64,6 +66,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(prog="aquafish", description="Self-modeling aquatic robot: simulate, self-model (EEA), "
                                                         "evolve gaits, transfer.")
     parser.add_argument("--debug", action="store_true", help="show the traceback of an error")
+    parser.add_argument("--version", action="version", version=f"%(prog)s {aquafish.__version__}",
+                        help="print the installed version and exit")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMAND_MODULES:
         importlib.import_module(name).add_commands(sub)
@@ -105,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
     Raises:
         SystemExit: status 2 after a one-line error on standard error (a usage error, or an
             error of :data:`EXPECTED_ERRORS` raised by the command), status 130 after an
-            interrupt, status 0 after ``--help``.
+            interrupt, status 0 after ``--help`` or ``--version``.
     """
     parser = build_parser()
     args = parser.parse_args(argv)

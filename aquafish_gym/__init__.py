@@ -14,6 +14,14 @@ Each registers a ``vector_entry_point`` (:mod:`aquafish_gym.vector_env`): ``gym.
 num_envs=N)`` steps N robots in one PyBullet world.
 """
 
+from importlib.metadata import PackageNotFoundError as _PackageNotFoundError
+from importlib.metadata import version as _version
+
+try:  # the installed distribution's version (pyproject.toml); the same in the four packages
+    __version__: str = _version("aquafish")
+except _PackageNotFoundError:  # run from a source tree that is not installed
+    __version__ = "0+unknown"
+
 from aquafish_gym.damage import DAMAGES, Damage, ServoFaults, get_damage, register_damage
 from aquafish_gym.faults import Fault, sampled_fault
 from aquafish_gym.morphology import MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology

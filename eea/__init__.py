@@ -48,6 +48,14 @@ estimation phase of a lineage run. ``eea.inference`` imports only the core;
 ``eea.search`` the core, and its lineages ``eea.inference``.
 """
 
+from importlib.metadata import PackageNotFoundError as _PackageNotFoundError
+from importlib.metadata import version as _version
+
+try:  # the installed distribution's version (pyproject.toml); the same in the four packages
+    __version__: str = _version("aquafish")
+except _PackageNotFoundError:  # run from a source tree that is not installed
+    __version__ = "0+unknown"
+
 from eea.arc import in_arc, sample_arc, smallest_inclusive_arc, smallest_inclusive_interval
 from eea.arc import widen_arc
 from eea.behaviour import CHANNELS, MAX_COEFFICIENT, behaviour_summary, similarity

@@ -1,6 +1,6 @@
 """One EEA round as one function (paper section 3.2, Figure 3).
 
-:func:`run_round` is the body of :func:`eea.run` and of ``benchmarks/eea_round.py``::
+:func:`run_round` is the body of :func:`eea.run` and of ``aquafish/benchmarks/eea_round.py``::
 
     exploration   evolve the action the candidate models disagree on most (eq. 1)
     target        perform it on the damaged robot from random initial angles

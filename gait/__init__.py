@@ -24,6 +24,14 @@ A :class:`Robot` may carry ``faults`` (``ServoFaults``, e.g. a self-model's serv
 ``damage="random"`` (:data:`RANDOM_DAMAGE`: a damage preset drawn per episode).
 """
 
+from importlib.metadata import PackageNotFoundError as _PackageNotFoundError
+from importlib.metadata import version as _version
+
+try:  # the installed distribution's version (pyproject.toml); the same in the four packages
+    __version__: str = _version("aquafish")
+except _PackageNotFoundError:  # run from a source tree that is not installed
+    __version__ = "0+unknown"
+
 from gait.clock import CLOCK_PERIOD_S, ClockObservation, clock_features, with_clock
 from gait.controller import (ConstantController, Controller, HeadingHoldController, NEATController, RandomController,
                              SB3PolicyController, load_controller)

@@ -1,6 +1,7 @@
 """The ``aquafish`` parser: every sub-command registered, no optional dependency imported, study flags."""
 
 import dataclasses
+import importlib.metadata
 import subprocess
 import sys
 from pathlib import Path
@@ -22,6 +23,23 @@ def test_building_the_parser_imports_no_optional_dependency():
             "print(sorted({m.split('.')[0] for m in sys.modules} & {'stable_baselines3', 'torch', 'ray', 'pandas'}))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_version_is_the_installed_distributions(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.strip() == f"aquafish {importlib.metadata.version('aquafish')}"
+
+
+def test_version_without_an_installed_distribution_is_unknown():
+    code = ("import importlib.metadata as m\n"
+            "def missing(name): raise m.PackageNotFoundError(name)\n"
+            "m.version = missing\n"
+            "import aquafish, aquafish_gym, eea, gait\n"
+            "print({p.__version__ for p in (aquafish, aquafish_gym, eea, gait)})")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "{'0+unknown'}"
 
 
 def test_bench_passes_the_rest_to_the_benchmark(capsys):

@@ -201,7 +201,7 @@ def test_bad_reset_and_step_raise_value_error():
 
 
 def test_benchmark_runs_and_prints_its_table(capsys):
-    from benchmarks import vector_env
+    from aquafish.benchmarks import vector_env
 
     vector_env.main(["--sizes", "2", "--env-steps", "4", "--repeats", "1"])
     out = capsys.readouterr().out

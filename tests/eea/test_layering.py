@@ -77,7 +77,7 @@ def _imports(path: Path):
 
 
 def _python_files():
-    for folder in ("eea", "aquafish", "aquafish_gym", "gait", "examples", "benchmarks"):
+    for folder in ("eea", "aquafish", "aquafish_gym", "gait", "examples"):  # aquafish/ holds aquafish/benchmarks/
         yield from sorted((ROOT / folder).rglob("*.py"))
 
 

@@ -13,7 +13,7 @@ Calibrates :class:`aquafish.monitor.DamageMonitor` for a gait on the healthy rob
 
 Prints a markdown table; ``--out FILE.json`` also writes the numbers.
 
-    python -m benchmarks.damage_monitor --controller docs/results/damage_monitor
+    python -m aquafish.benchmarks.damage_monitor --controller docs/results/damage_monitor
     aquafish bench damage_monitor --controller docs/results/damage_monitor
 """
 

@@ -18,7 +18,7 @@ process's CPU time (``time.process_time``): PyBullet's DIRECT client runs in-pro
 that is the simulator's whole cost, and other jobs on the machine change it far less than
 wall time.
 
-    python -m benchmarks.sim_throughput [--steps 128] [--repeats 5] [--sizes 1,25,100]
+    python -m aquafish.benchmarks.sim_throughput [--steps 128] [--repeats 5] [--sizes 1,25,100]
 """
 
 from __future__ import annotations

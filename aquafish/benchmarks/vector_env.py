@@ -16,10 +16,10 @@ other jobs on the machine change it far less than wall time), the median of ``--
 interleaved runs, and the vector env's speed-up over ``SyncVectorEnv`` at the same N.
 Resets (world building) are not timed; an episode is 200 steps. The last column is the
 bound PyBullet itself sets: env steps per second if a control step cost nothing but its 10
-``stepSimulation`` calls on a world of the same robots (``benchmarks.sim_throughput``'s
+``stepSimulation`` calls on a world of the same robots (``aquafish.benchmarks.sim_throughput``'s
 ``time_raw_pybullet``, worlds of at most 64 robots as the vector env's).
 
-    python -m benchmarks.vector_env [--sizes 1,16,64,256] [--env-steps 1024] [--repeats 3]
+    python -m aquafish.benchmarks.vector_env [--sizes 1,16,64,256] [--env-steps 1024] [--repeats 3]
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ import aquafish_gym  # noqa: F401  (registers the envs)
 from aquafish_gym import native
 from aquafish_gym.env import FRAME_SKIP
 from aquafish_gym.vector_env import MAX_WORLD_ROBOTS
-from benchmarks.sim_throughput import time_raw_pybullet
+from aquafish.benchmarks.sim_throughput import time_raw_pybullet
 
 ENV_ID = "AquaFish-v0"
 

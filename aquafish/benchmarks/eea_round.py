@@ -8,7 +8,7 @@ cache starts empty (a cold start: in a real run the carried-over models' results
 experiments are mostly cached, so this is an upper bound). For each worker count, prints
 wall seconds per phase, model simulations and simulations per second::
 
-    python -m benchmarks.eea_round [--workers 1,2] [--inference out_of_band] [--experiments 10]
+    python -m aquafish.benchmarks.eea_round [--workers 1,2] [--inference out_of_band] [--experiments 10]
 """
 
 from __future__ import annotations

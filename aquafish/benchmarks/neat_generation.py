@@ -21,7 +21,7 @@ pool's start-up is left out); the ratio of generations per second to in-process 
 and the largest difference of any genome's fitness from ``single``'s (the same genomes
 evolve; round-off only).
 
-    python -m benchmarks.neat_generation [--preset quick] [--generations 3] [--repeats 3] [--workers 1,2]
+    python -m aquafish.benchmarks.neat_generation [--preset quick] [--generations 3] [--repeats 3] [--workers 1,2]
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ steps of 10 physics steps, network activation) against the same episode driven b
 constant action (no network), and prints the median of ``--repeats`` runs and what a NEAT
 run of ``--population`` x ``--generations`` costs on one core.
 
-    python -m benchmarks.gait_rollout [--repeats 5] [--population 50] [--generations 30]
+    python -m aquafish.benchmarks.gait_rollout [--repeats 5] [--population 50] [--generations 30]
 """
 
 from __future__ import annotations

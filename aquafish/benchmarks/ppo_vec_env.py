@@ -16,7 +16,7 @@ process's CPU time: PyBullet runs in-process), the share of the wall time spent 
 episode log's float32 sums, while no float32 reward differs between the stacks; once one
 rounds differently, PPO's sampling diverges as with another seed).
 
-    python -m benchmarks.ppo_vec_env (or aquafish bench ppo_vec_env) [--timesteps 8192] [--num-threads 1] [--repeats 1] [--n-envs N --n-steps S]
+    python -m aquafish.benchmarks.ppo_vec_env (or aquafish bench ppo_vec_env) [--timesteps 8192] [--num-threads 1] [--repeats 1] [--n-envs N --n-steps S]
 """
 
 from __future__ import annotations

@@ -1,1 +1,0 @@
-"""Benchmark scripts (run as ``python -m benchmarks.<name>``); not part of the test suite."""

@@ -1,0 +1,34 @@
+"""The wheel's package boundary and metadata, read from pyproject.toml (no build).
+
+The wheel installs exactly the four packages (the benchmark scripts are
+:mod:`aquafish.benchmarks`, not a top-level ``benchmarks``), each with its ``py.typed``
+marker (PEP 561). ``.ci/packaging`` builds the wheel itself.
+"""
+
+import tomllib
+from pathlib import Path
+
+from setuptools import find_packages
+
+ROOT = Path(__file__).parents[1]
+PACKAGES = {"aquafish", "aquafish_gym", "eea", "gait"}
+PYPROJECT = tomllib.loads((ROOT / "pyproject.toml").read_text())
+
+
+def test_the_wheel_holds_only_the_four_packages():
+    found = find_packages(where=str(ROOT), **PYPROJECT["tool"]["setuptools"]["packages"]["find"])
+    assert {name.split(".")[0] for name in found} == PACKAGES
+    assert "aquafish.benchmarks" in found and not (ROOT / "benchmarks").exists()
+
+
+def test_every_package_ships_its_py_typed_marker():
+    package_data = PYPROJECT["tool"]["setuptools"]["package-data"]
+    for package in sorted(PACKAGES):
+        assert (ROOT / package / "py.typed").is_file(), package
+        assert "py.typed" in package_data.get(package, []), package
+
+
+def test_the_project_names_its_urls_and_version():
+    project = PYPROJECT["project"]
+    assert {"Homepage", "Documentation", "Issues"} <= set(project["urls"])
+    assert project["name"] == "aquafish" and project["version"]
