@@ -29,7 +29,11 @@
 Every step writes into its own sub-directory and is skipped when its result exists, so an
 interrupted case study resumes where it stopped. With ``shared_dir``, the rows that do not
 depend on the damage (:data:`SHARED_KEYS`) are trained, or loaded when finished, there instead,
-so case studies of one seed on several damages share them (:mod:`aquafish.recovery`).
+so case studies of one seed on several damages share them (:mod:`aquafish.recovery`). With
+``all_rows=False`` (the recovery benchmark's default) the healthy and oracle gaits come first,
+and the rest runs only when the damage breaks the healthy gait (:func:`breaks`). The report's
+``stage_seconds`` holds the wall seconds of every stage
+(``aquafish bench case_study_stages``).
 """
 
 from __future__ import annotations
@@ -439,9 +443,10 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         for key in controllers})
     video_name = None
     if video:
-        video_name = timed("video", lambda: record_video({title: controllers[key] for key, title in VIDEO_GAITS.items()}, target_robot,
-                                  out / "recovery", seed=seed, episode_duration_s=duration,
-                                  title=f"{damage}: the damaged robot from above, {duration:g} s").name)
+        gaits = {title: controllers[key] for key, title in VIDEO_GAITS.items()}
+        video_name = timed("video", lambda: record_video(
+            gaits, target_robot, out / "recovery", seed=seed, episode_duration_s=duration,
+            title=f"{damage}: the damaged robot from above, {duration:g} s").name)
 
     # 5. report
     panels = [(target, f"(a) target: {damage}")] + [
