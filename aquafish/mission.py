@@ -569,6 +569,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         "onset_s": onset_s,
         "damage_in_force_s": next((r["time_s"] for r in rows if r["damaged"]), None),
         "alarm_s": alarm_s, "recovered_s": recovered_s,
+        "false_alarm": alarm_s is not None and alarm_s < onset_s,
         "target_experiments": len(records),
         "experiment_s": (target.steps * DT_S) if target is not None else None,
         "compute_seconds": compute["eea"] + compute["gait"],
