@@ -538,7 +538,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             alarm_s = mission.time_s
             log.info("mission: alarm at %.1f s", alarm_s)
             stop_robot(mission, settings.stop_max_s)
-            config = _eea_config(settings, damage, seed, 1)
+            config = _eea_config(settings, damage, seed, workers)
             records, target, new_model, compute["eea"] = _recover_model(mission, prior, config, settings, progress)
             t0 = time.perf_counter()
             case = PRESETS[settings.case_preset]
