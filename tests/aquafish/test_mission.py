@@ -169,3 +169,18 @@ def test_a_self_model_dir_without_a_self_model_is_refused(tmp_path, capsys):
         main(["mission", "--damage", "caudal_half", "--preset", "smoke", "--out", str(tmp_path / "m"),
               "--self-model", str(tmp_path / "empty")])
     assert "holds no finished self-model" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_the_example_runs_a_smoke_mission(tmp_path, capsys):
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location("mission_example", Path(__file__).parents[2] / "examples" / "mission.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    example.main(["--preset", "smoke", "--damage", ALL_SEIZED, "--onset-s", "6", "--duration-s", "20",
+                  "--out", str(tmp_path)])
+    report = json.loads((tmp_path / "mission" / "mission.json").read_text())
+    assert report["warm_start"] is True and report["self_model_dir"] == str(tmp_path / "self_model")
+    assert "target_experiments" in capsys.readouterr().out
