@@ -289,8 +289,23 @@ class _Mission:
         self.obs, _, _, _, info = self.env.step(np.asarray(action, dtype=np.float64))
         self.time_s += CONTROL_S
         self.damaged = bool(info["damaged"])
+        self.onset_due()
         self._record(phase)
         return self.obs
+
+    def onset_due(self) -> None:
+        """Bring the damage in force once the mission's clock reaches the onset.
+
+        The env counts its onset in its own control steps, which the experiments (run on the
+        world directly) do not advance; so the mission applies it by its own clock, at the first
+        0.1 s boundary at or after ``damage_onset_s``, through the env's own switch
+        (``BatchWorld.change_robot`` for a changed morphology, the faults at once)."""
+        env = self.env
+        if env.onset_step is None or not env._episodes.pending.any():
+            return
+        if self.time_s >= env.onset_step * CONTROL_S - 1e-9:
+            env._damage_onsets([self.world], [slice(0, 1)], [env], env._episodes, env.onset_step)
+            self.damaged = bool(env._episodes.damaged[0])
 
     def at_rest(self) -> bool:
         w = self.world
@@ -358,6 +373,7 @@ class MissionTarget:
             logs.append(w.run(chunk)[0])
             done += chunk
             m.time_s += chunk * DT_S
+            m.onset_due()
             m._record("experiment")
         imu = np.concatenate(logs)
         imu[:, 2] = np.degrees(np.unwrap(np.radians(imu[:, 2] - yaw0)))

@@ -184,3 +184,17 @@ def test_the_example_runs_a_smoke_mission(tmp_path, capsys):
     report = json.loads((tmp_path / "mission" / "mission.json").read_text())
     assert report["warm_start"] is True and report["self_model_dir"] == str(tmp_path / "self_model")
     assert "target_experiments" in capsys.readouterr().out
+
+
+def test_the_onset_follows_the_missions_clock_through_experiments():
+    mission = _Mission("reversed_left_pectoral", 1.0, 20.0, seed=0, video=False)
+    try:
+        mission.step([0.0, 0.0, 1.0], "gait")
+        target = MissionTarget(mission, "reversed_left_pectoral", steps=150, stop_max_s=0.0)
+        target.perform(np.array([0.5, 0.5, 0.0]))  # 1.5 s on the world directly: the env's steps do not advance
+        assert mission.damaged
+        first = next(r for r in mission.rows if r["damaged"])
+        assert first["time_s"] == pytest.approx(1.0) and first["phase"] == "experiment"
+        np.testing.assert_allclose(mission.world.speed_scale[0], [-1.0, 1.0, 1.0])
+    finally:
+        mission.env.close()
