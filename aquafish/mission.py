@@ -571,7 +571,8 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     finally:
         mission.env.close()
 
-    speed_before = span_speed(rows, max(settings.warmup_s, onset_s - settings.speed_span_s), onset_s)
+    healthy_end = onset_s if alarm_s is None else min(onset_s, alarm_s)  # the old gait swimming, undamaged
+    speed_before = span_speed(rows, max(settings.warmup_s, healthy_end - settings.speed_span_s), healthy_end)
     speed_damaged = span_speed(rows, onset_s, alarm_s)
     after_start = None if recovered_s is None else recovered_s + settings.warmup_s
     speed_after = None if after_start is None or after_start >= rows[-1]["time_s"] else span_speed(rows, after_start)
