@@ -30,7 +30,7 @@ import aquafish
 
 #: Modules that contribute sub-commands, in help order.
 COMMAND_MODULES = ("aquafish_gym.cli", "aquafish.bench_cli", "eea.cli", "gait.cli", "aquafish.studies_cli",
-                   "aquafish.recovery_cli", "aquafish.doctor_cli")
+                   "aquafish.recovery_cli", "aquafish.mission_cli", "aquafish.doctor_cli")
 
 #: Exit status of a command that failed safe (bad input, unusable file, busy directory).
 EXIT_ERROR = 2

@@ -262,6 +262,20 @@ class BitGA(TellRecord):
     def restart(self) -> None:
         """No-op: the GA's population carries over between rounds as it is (the paper's EEA)."""
 
+    def seed_at(self, genome) -> None:
+        """Warm start: put ``genome`` ``(n_bits,)`` in the first row of the next population
+        (the rest stays as drawn), so the first generation holds it.
+
+        Raises:
+            ValueError: a genome of another length, or an ask pending.
+        """
+        if self._asked:
+            raise ValueError("seed_at before ask: the population was already asked")
+        row = _check_bits(np.asarray(genome).reshape(1, -1), f"({self.n_bits},)", "genome")
+        if row.shape[1] != self.n_bits:
+            raise ValueError(f"genome must have {self.n_bits} bits, got {row.shape[1]}")
+        self._population[0] = row[0]
+
     def tell(self, fitness) -> None:
         """Record the fitness of the last asked population and breed the next one.
 

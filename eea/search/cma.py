@@ -331,17 +331,51 @@ class CMAModelSearch(TellRecord):
         if self._best_x is None:
             return
         self._es = self._restarted(self._es, self._best_x, self.population_size - self.global_share)
-        if self.flip_gains:  # the pectoral gains (coordinates 9, 10 on [-1, 1]) mirrored about 0
-            flips = [self._best_x.copy() for _ in range(3)]
-            for x, dims in zip(flips, ([9], [10], [9, 10])):
-                x[dims] = 1.0 - x[dims]
-            self._es.inject(flips, force=True)
+        if self.flip_gains:
+            self._inject_flips()
         if self.global_share:
             keep = self.global_keep and self._global_es is not None and self._global_restarts % self.global_keep
             self._global_es = self._restarted(self._global_es, self._global_best_x, self.global_share) if keep \
                 else self._new_strategy(self._stream.random(self._n_dims), self.global_share)
             self._global_restarts += 1
         self._x, self._asked = None, False
+
+    def seed_at(self, genome) -> None:
+        """Warm start: centre the search on the model ``genome`` before its first generation.
+
+        The point at the centre of ``genome``'s cell (:func:`genomes_to_unit`) becomes the
+        best point, as if a generation had found it, and the distribution restarts there
+        (the initial step size, the point injected, so the next ``ask`` holds ``genome``
+        itself; with ``flip_gains`` its sign-flipped pectoral gains too). The estimation
+        phase's own :meth:`restart` at the start of the round then restarts there again
+        (the global share, if any, joining as in a later round). Used when
+        a known self-model is the prior (``aquafish mission``: the EEA after a damage starts
+        from the self-model it had before).
+
+        Args:
+            genome: ``(n_bits,)`` a model genome of this search's model space.
+
+        Raises:
+            ValueError: a genome of another length.
+        """
+        genome = np.asarray(genome, dtype=np.uint8).reshape(1, -1)
+        if genome.shape[1] != get_model_space(self.model_space).n_bits:
+            raise ValueError(f"seed_at needs a {get_model_space(self.model_space).n_bits}-bit model genome of the "
+                             f"{self.model_space} model space, got {genome.shape[1]} bits")
+        self._best_x = genomes_to_unit(genome, self.model_space)[0]
+        self._best_genome = genome[0].copy()
+        local = self.population_size - (self.global_share if self._global_es is not None else 0)
+        self._es = self._restarted(self._es, self._best_x, local)
+        if self.flip_gains:
+            self._inject_flips()
+        self._x, self._asked = None, False
+
+    def _inject_flips(self) -> None:
+        """Inject the best point with the pectoral gains (coordinates 9, 10 on [-1, 1]) mirrored about 0."""
+        flips = [self._best_x.copy() for _ in range(3)]
+        for x, dims in zip(flips, ([9], [10], [9, 10])):
+            x[dims] = 1.0 - x[dims]
+        self._es.inject(flips, force=True)
 
     def _restarted(self, es, best_x: np.ndarray, popsize: int):
         """A new distribution of ``popsize`` at ``best_x`` with ``es``'s carried covariance shape

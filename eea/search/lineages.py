@@ -46,7 +46,7 @@ from eea.record import write_csv
 
 __all__ = ["LINEAGES_FILE", "LINEAGE_COLUMNS", "LineageStrategies", "Lineages", "SELECT_GENERATIONS",
            "SELECT_SCAN_CYCLES", "chosen_inference_state", "estimation_from_state", "lineage_columns",
-           "make_estimation", "make_strategy", "write_lineages"]
+           "make_estimation", "make_strategy", "warm_start", "write_lineages"]
 
 #: The round's selection: generations of the equal angle fit and cycles of the per-flipper
 #: scan before the polish (:func:`eea.inference.selection.select_model`).
@@ -253,6 +253,31 @@ def make_estimation(config, rng: np.random.Generator) -> Estimation | Lineages:
     if config.lineages > 1:
         return Lineages.from_config(config, rng)
     return Estimation.from_config(config, rng)
+
+
+def warm_start(estimation: Estimation | Lineages, genome) -> None:
+    """Seed an estimation phase at a known model before its first round (a warm start).
+
+    Every model search of the phase (each lineage's, with lineages) gets ``genome`` through
+    its ``seed_at``: CMA-ES restarts its distribution at the model's point with the model
+    injected (:meth:`eea.search.cma.CMAModelSearch.seed_at`), the GA puts it in its first
+    population's first row (:meth:`eea.ga.BitGA.seed_at`). The first estimation generation
+    of every lineage then holds the model, and the search starts around it. ``aquafish
+    mission`` warm-starts the EEA after a damage at the self-model from before it.
+
+    Args:
+        estimation: a fresh :class:`~eea.estimation.Estimation` or :class:`Lineages`.
+        genome: ``(n_bits,)`` a model genome of the phase's model space.
+
+    Raises:
+        ValueError: a search that cannot be seeded, or a genome of another length.
+    """
+    members = estimation.members if isinstance(estimation, Lineages) else (estimation,)
+    for member in members:
+        seed_at = getattr(member.search, "seed_at", None)
+        if seed_at is None:
+            raise ValueError(f"the {type(member.search).__name__} search cannot be warm-started (it has no seed_at)")
+        seed_at(genome)
 
 
 def make_strategy(config) -> InferenceStrategy | LineageStrategies:

@@ -1,0 +1,653 @@
+"""A mission: the robot notices its damage while it swims, rebuilds its self-model from where
+it stands, and swims on (``aquafish mission``; docs/main_job.md, "Missions").
+
+Before the mission (:func:`prepare_prior`, reused from ``--self-model DIR``): the healthy
+robot's self-model (the case study's self-model EEA, :func:`aquafish.case_study.model_fields`,
+at the preset's budget on damage ``none``), its NEAT gait evolved on the self-model robot
+(the run directory keeps its checkpoints, so the final population is kept) and the damage
+monitor's calibration of that gait on the self-model (:mod:`aquafish.monitor`, saved beside
+the self-model as ``monitor_calibration.json``). That is all the robot knows: the only prior.
+
+The mission (:func:`run_mission`) is one AquaFish-v0 episode that is never reset, with the
+damage at ``damage_onset_s``. The gait swims and the monitor watches its forward speed. On
+the alarm the robot:
+
+1. stops: zero commands (pectorals 0 rev/s, caudal 0 Hz) until it is near rest
+   (:data:`REST_SPEED`, :data:`REST_TURN`) or :attr:`MissionPreset.stop_max_s` has passed;
+2. runs the EEA's target experiments where it is (:class:`MissionTarget`): each action is
+   commanded on the robot of the mission's world for the experiment's duration from its
+   current pose and flipper angles (not reset, not moved back to a start); its IMU log
+   (yaw taken relative to the heading it started from, as a model starts at yaw 0) is the
+   experiment's; the initial flipper angles are whatever the stop left, unknown to the EEA
+   (the true ones are recorded for the report only); it stops again after every experiment;
+3. rebuilds its self-model with the EEA warm-started at the self-model from before the
+   damage (:func:`eea.search.lineages.warm_start`: every lineage's CMA-ES starts at that
+   model, which its first estimation generation holds), for the preset's rounds;
+4. evolves a gait on the new self-model starting from the old gait's final NEAT population
+   (:func:`evolve_from_population`; the preset's generations), and swims on with it.
+
+Simulated time passes in the stops and experiments (they are in the timeline); the world is
+paused while the robot computes (the EEA's estimation and exploration, the gait's evolution),
+whose wall time is ``compute_seconds``.
+
+Heading: the mission's heading is the robot's initial forward direction (world +y,
+:data:`aquafish_gym.env.INITIAL_HEADING`); every speed is the displacement along it per second
+(units/s, 1 unit = 8 cm) over a span of the mission (:func:`span_speed`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+import math
+import random
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import aquafish_gym  # registers AquaFish-v0  # noqa: F401
+import eea
+import gait
+from aquafish.case_study import DEFAULT_METHOD, PRESETS, model_fields, model_robot, preset_settings
+from aquafish.monitor import CALIBRATION_FILE, FORWARD_SPEED_INDEX, DamageMonitor, MonitorCalibration, calibrate
+from aquafish_gym import ServoFaults, get_damage
+from aquafish_gym.checks import check_int
+from aquafish_gym.env import FRAME_SKIP, INITIAL_HEADING, check_onset
+from aquafish_gym.files import atomic_write
+from aquafish_gym.params import DT_S
+from aquafish_gym.rundir import check_output_dir, run_lock
+from eea import EEAConfig
+from eea.encoding import get_model_space
+from eea.evaluation import Evaluator
+from eea.experiment import quantise_angles
+from eea.round import RoundParts, run_round
+from eea.search.lineages import make_estimation, warm_start
+from gait.robots import Robot
+from gait.video import project
+
+__all__ = ["MISSION_FILE", "MISSION_PRESETS", "MissionPreset", "MissionTarget", "Prior", "evolve_from_population",
+           "load_prior", "make_prior", "mission_preset", "plot_timeline", "prepare_prior", "run_mission", "span_speed", "stop_robot"]
+
+log = logging.getLogger(__name__)
+
+MISSION_FILE, TRAJECTORY_FILE, TIMELINE_FILE = "mission.json", "trajectory.csv", "timeline.png"
+#: Control period of the mission (s): AquaFish-v0's.
+CONTROL_S = FRAME_SKIP * DT_S
+#: Env action that stops the robot: pectorals 0 rev/s, caudal 0 Hz (its fin held where it is).
+STOP_ACTION = np.array([0.0, 0.0, -1.0])
+#: "Near rest": speed (units/s) and turn rate (rad/s) under which a stop ends.
+REST_SPEED, REST_TURN = 0.02, 0.05
+#: The phases of the timeline (``trajectory.csv``'s ``phase``).
+PHASES = ("gait", "stop", "experiment", "new_gait")
+
+
+@dataclasses.dataclass(frozen=True)
+class MissionPreset:
+    """A mission's budgets.
+
+    Attributes:
+        case_preset: the case-study preset (:data:`aquafish.case_study.PRESETS`) giving the EEA
+            budget and the NEAT population, generations and starts per genome.
+        gait_episode_s: simulated seconds of every gait-evolution episode and oracle score.
+        calibration_seeds: healthy episodes of the monitor's calibration.
+        calibration_episode_s: their simulated seconds.
+        window_s, warmup_s: the monitor's window and warm-up (:class:`MonitorCalibration`).
+        stop_max_s: the longest stop (s) before an experiment is run anyway.
+        speed_span_s: seconds before the onset over which ``speed_before`` is measured.
+    """
+
+    case_preset: str
+    gait_episode_s: float
+    calibration_seeds: int
+    calibration_episode_s: float
+    window_s: float = 6.0
+    warmup_s: float = 6.0
+    stop_max_s: float = 5.0
+    speed_span_s: float = 20.0
+
+
+MISSION_PRESETS: dict[str, MissionPreset] = {
+    # seconds: the test's end-to-end check (tiny EEA and NEAT budgets, short episodes)
+    "smoke": MissionPreset("smoke", gait_episode_s=4.0, calibration_seeds=2, calibration_episode_s=10.0,
+                           window_s=2.0, warmup_s=2.0, stop_max_s=2.0, speed_span_s=5.0),
+    # the case study's quick budgets, 20 s gait episodes
+    "quick": MissionPreset("quick", gait_episode_s=20.0, calibration_seeds=6, calibration_episode_s=60.0),
+    "medium": MissionPreset("medium", gait_episode_s=20.0, calibration_seeds=12, calibration_episode_s=120.0),
+}
+
+
+def mission_preset(name: str) -> MissionPreset:
+    """The preset ``name``. Raises ValueError naming the valid ones."""
+    if name not in MISSION_PRESETS:
+        raise ValueError(f"unknown mission preset {name!r}; valid: {sorted(MISSION_PRESETS)}")
+    return MISSION_PRESETS[name]
+
+
+def _eea_config(preset: MissionPreset, damage: str, seed: int, workers: int | None) -> EEAConfig:
+    """The case study's self-model EEA settings at the preset's budget."""
+    return EEAConfig.from_method(DEFAULT_METHOD, PRESETS[preset.case_preset].budget, damage=damage, seed=seed,
+                                 **model_fields(), **({"workers": workers} if workers else {}))
+
+
+def _gait_kwargs(preset: MissionPreset, seed: int, workers: int | None, progress: bool) -> dict:
+    case = PRESETS[preset.case_preset]
+    return dict(generations=case.gait_generations, population_size=case.gait_population, seed=seed,
+                workers=workers, episodes_per_genome=case.gait_episodes, episode_duration_s=preset.gait_episode_s,
+                progress=progress)
+
+
+# -- the prior: self-model, gait, calibration ---------------------------------------------------------------
+
+
+@dataclasses.dataclass
+class Prior:
+    """What the robot knows before the damage (:func:`prepare_prior`).
+
+    Attributes:
+        directory: the self-model directory (``eea/``, ``gait/``, ``monitor_calibration.json``).
+        genome: ``(57,)`` the self-model's genome (``morphology+servos``).
+        robot: the self-model as a robot (:func:`aquafish.case_study.model_robot`).
+        controller: the gait evolved on it.
+        calibration: the monitor's calibration of the gait on the self-model.
+    """
+
+    directory: Path
+    genome: np.ndarray
+    robot: Robot
+    controller: object
+    calibration: MonitorCalibration
+
+    @property
+    def gait_dir(self) -> Path:
+        """The gait's NEAT run directory (its ``checkpoints/`` hold the final population)."""
+        return self.directory / "gait"
+
+
+def prepare_prior(directory, preset: str = "quick", seed: int = 0, *, workers: int | None = None,
+                  progress: bool = True) -> Prior:
+    """Make (or reuse, when finished) the healthy robot's self-model, gait and calibration in ``directory``.
+
+    ``eea/``: the self-model EEA on damage ``none`` at the preset's budget; ``gait/``: NEAT on
+    the self-model robot; ``monitor_calibration.json``: the monitor's calibration of the gait on
+    the self-model from ``calibration_seeds`` random starts. Each step is skipped when done.
+    """
+    settings = mission_preset(preset)
+    check_int("seed", seed, 0)
+    out = check_output_dir(directory, "--self-model")
+    config = _eea_config(settings, "none", seed, workers)
+    eea.run(config, out / "eea", progress=progress)
+    result = eea.load_result(out / "eea")
+    genome = get_model_space(result.config.model_space).encode(np.asarray(result.best_model)[None])[0]
+    return make_prior(out, genome, model_robot(result, "self-model (healthy)"), preset, seed, workers=workers,
+                      progress=progress)
+
+
+def make_prior(directory, genome, robot: Robot, preset: str = "quick", seed: int = 0, *, workers: int | None = None,
+               calibration_seeds: int | None = None, progress: bool = True) -> Prior:
+    """The gait and monitor calibration of a given self-model (``genome``, ``robot``) in
+    ``directory`` (``gait/``, ``monitor_calibration.json``; each reused when there): the part of
+    :func:`prepare_prior` after the EEA. ``calibration_seeds`` overrides the preset's."""
+    settings = mission_preset(preset)
+    out = check_output_dir(directory, "--self-model")
+    gait.evolve_or_load_gait(robot, out / "gait", **_gait_kwargs(settings, seed, workers, progress))
+    if not (out / CALIBRATION_FILE).is_file():
+        controller = gait.load_controller(out / "gait" / "best_controller.json")
+        n = calibration_seeds or settings.calibration_seeds
+        cal = calibrate(controller, robot, seeds=range(1000, 1000 + n), window_s=settings.window_s,
+                        warmup_s=settings.warmup_s, episode_duration_s=settings.calibration_episode_s)
+        cal.save(out / CALIBRATION_FILE)
+    genome = np.asarray(genome, dtype=np.uint8)
+    atomic_write(out / "self_model.json", (json.dumps({"genome": genome.tolist(), "robot": robot.to_dict()}) + "\n").encode())
+    return Prior(out, genome, robot, gait.load_controller(out / "gait" / "best_controller.json"),
+                 MonitorCalibration.load(out))
+
+
+def load_prior(directory) -> Prior:
+    """The :class:`Prior` :func:`prepare_prior` left in ``directory``.
+
+    Raises:
+        ValueError: a missing or unfinished part (named).
+    """
+    d = Path(directory)
+    for part in ("self_model.json", "gait/best_controller.json", "gait/run.json", CALIBRATION_FILE):
+        if not (d / part).is_file():
+            raise ValueError(f"--self-model {d} holds no finished self-model: {part} is missing (make one with "
+                             "aquafish mission without --self-model, whose OUT/self_model it writes)")
+    data = json.loads((d / "self_model.json").read_text())
+    genome = np.asarray(data["genome"], dtype=np.uint8)
+    if genome.shape != (get_model_space("morphology+servos").n_bits,):
+        raise ValueError(f"--self-model {d}: self_model.json must hold a morphology+servos model genome")
+    robot = _robot_from_dict(data["robot"])
+    return Prior(d, genome, robot, gait.load_controller(d / "gait" / "best_controller.json"), MonitorCalibration.load(d))
+
+
+def _robot_from_dict(d: dict) -> Robot:
+    """The :class:`Robot` :meth:`Robot.to_dict` described."""
+    from aquafish_gym import MORPHOLOGY_FIELDS, Morphology
+
+    faults = d.get("faults")
+    return Robot(Morphology.from_array([d["morphology"][f] for f in MORPHOLOGY_FIELDS]), d.get("damage", "none"),
+                 d.get("label", ""), None if faults is None else ServoFaults(seized=tuple(faults["seized"]),
+                                                                             speed_scale=tuple(faults["speed_scale"])))
+
+
+# -- target experiments in the mission's world ----------------------------------------------------------------
+
+
+class _Mission:
+    """The mission's world and its record: the env (never reset after the start), the clock,
+    the trajectory, frames for the video."""
+
+    def __init__(self, damage: str, onset_s: float, duration_s: float, seed: int, video: bool):
+        env_kwargs = dict(damage=damage, damage_onset_s=onset_s, episode_duration_s=10 * duration_s + 1000.0)
+        if video:
+            env_kwargs |= dict(render_mode="rgb_array", camera="top", camera_distance=7.0, width=200, height=200)
+        self.env = gym.make("AquaFish-v0", **env_kwargs).unwrapped
+        self.obs, info = self.env.reset(seed=seed)
+        self.time_s = 0.0
+        self.damaged = bool(info["damaged"])
+        self.rows: list[dict] = []
+        self.frames: list[np.ndarray] = []
+        self.video = video
+        self._record("gait")
+
+    @property
+    def world(self):
+        return self.env.world
+
+    def position(self) -> np.ndarray:
+        return (self.world.position[0, 0] - self.world.home[0]).copy()
+
+    def yaw_deg(self) -> float:
+        return float(self.world.imu_rpy_deg()[0, 2])
+
+    def _record(self, phase: str) -> None:
+        x, y, z = (float(v) for v in self.position())
+        v = self.world.linear_velocity[0, 0]
+        self.rows.append({"time_s": round(self.time_s, 6), "x": x, "y": y, "z": z, "yaw_deg": self.yaw_deg(),
+                          "speed_along_heading": float(v @ INITIAL_HEADING), "phase": phase,
+                          "damaged": int(self.damaged)})
+        if self.video and len(self.rows) % 10 == 1:
+            self.frames.append(self._frame(phase))
+
+    def _frame(self, phase: str) -> np.ndarray:
+        frame = self.env.render()
+        view, proj = self.env.camera_matrices()
+        path = np.array([[r["x"], r["y"], r["z"]] for r in self.rows]) + self.world.home[0]
+        px = project(path, view, proj, frame.shape[1], frame.shape[0]).round().astype(int)
+        ok = (px[:, 0] >= 0) & (px[:, 0] < frame.shape[1]) & (px[:, 1] >= 0) & (px[:, 1] < frame.shape[0])
+        frame[px[ok, 1], px[ok, 0]] = (30, 90, 200)
+        colour = {"gait": (40, 160, 40), "stop": (200, 150, 0), "experiment": (200, 40, 40), "new_gait": (40, 40, 200)}
+        frame[:6, :] = colour[phase]  # a bar at the top: the phase
+        return frame
+
+    def step(self, action, phase: str):
+        """One control step of the env (0.1 s) with ``action`` in [-1, 1]^3."""
+        self.obs, _, _, _, info = self.env.step(np.asarray(action, dtype=np.float64))
+        self.time_s += CONTROL_S
+        self.damaged = bool(info["damaged"])
+        self.onset_due()
+        self._record(phase)
+        return self.obs
+
+    def onset_due(self) -> None:
+        """Bring the damage in force once the mission's clock reaches the onset.
+
+        The env counts its onset in its own control steps, which the experiments (run on the
+        world directly) do not advance; so the mission applies it by its own clock, at the first
+        0.1 s boundary at or after ``damage_onset_s``, through the env's own switch
+        (``BatchWorld.change_robot`` for a changed morphology, the faults at once)."""
+        env = self.env
+        if env.onset_step is None or not env._episodes.pending.any():
+            return
+        if self.time_s >= env.onset_step * CONTROL_S - 1e-9:
+            env._damage_onsets([self.world], [slice(0, 1)], [env], env._episodes, env.onset_step)
+            self.damaged = bool(env._episodes.damaged[0])
+
+    def at_rest(self) -> bool:
+        w = self.world
+        return bool(np.linalg.norm(w.linear_velocity[0, 0]) < REST_SPEED
+                    and np.linalg.norm(w.angular_velocity[0, 0]) < REST_TURN)
+
+
+def stop_robot(mission: _Mission, max_s: float) -> float:
+    """Zero commands until the robot is near rest or ``max_s`` has passed; the seconds it took."""
+    start = mission.time_s
+    while not mission.at_rest() and mission.time_s - start < max_s - 1e-9:
+        mission.step(STOP_ACTION, "stop")
+    return mission.time_s - start
+
+
+class MissionTarget:
+    """The EEA's target (:class:`eea.target.Target`'s interface) as the robot of the mission's world.
+
+    :meth:`perform` commands the action on the robot where it is, in the state it is in (no
+    reset, no return to a start), for ``steps`` physics steps of 0.01 s, logging its IMU
+    (:meth:`aquafish_gym.BatchWorld.run`, the same code that simulates the EEA's models), then
+    stops it (:func:`stop_robot`) for the next experiment. The log's yaw is taken relative to
+    the robot's yaw at the experiment's start (a model starts at yaw 0; the robot's roll and
+    pitch after a stop are left as they are). The caudal controller starts its sweep at the
+    fin's current angle, as a model's does. The initial flipper angles are whatever the robot
+    has: the EEA does not see them; they are returned (snapped to the models' grid) for the
+    report's angle errors, as :class:`eea.target.Target` returns the ones it drew.
+
+    Attributes:
+        morphology, faults: the true damaged robot's (the EEA's OBJ_FIT reports use them only).
+        starts: per experiment, the robot's position ``(3,)`` at its start (units, world frame).
+        true_angles: per experiment, the flipper angles it started from (rad).
+    """
+
+    def __init__(self, mission: _Mission, damage: str, steps: int, stop_max_s: float, params=None):
+        preset = get_damage(damage)
+        self.mission, self.damage, self.steps, self.stop_max_s = mission, damage, int(steps), float(stop_max_s)
+        self.morphology, self.faults = preset.apply(), preset.faults
+        self.params = params
+        self.starts: list[np.ndarray] = []
+        self.true_angles: list[np.ndarray] = []
+
+    def perform(self, action) -> tuple[np.ndarray, np.ndarray]:
+        """Run the servo command ``action`` ``(3,)`` (rev/s, rev/s, Hz) in the mission's world now.
+
+        Returns:
+            ``(imu_log (steps, 3) deg, true_angles (3,) rad)``.
+        """
+        act = np.asarray(action, dtype=np.float64)
+        if act.shape != (3,):
+            raise ValueError(f"action must have shape (3,) (left rev/s, right rev/s, caudal Hz), got {act.shape}")
+        m, w = self.mission, self.mission.world
+        angles = w.joint_angles()[0]
+        amp = w.params.caudal_amplitude_rad
+        angles[2] = float(np.clip(angles[2], -amp, amp))
+        true = quantise_angles(angles[None])[1][0]
+        self.starts.append(m.position())
+        self.true_angles.append(true)
+        yaw0 = m.yaw_deg()
+        w._caudal_phase[0] = math.asin(float(np.clip(angles[2] / amp, -1.0, 1.0)))  # the sweep starts where the fin is
+        w.set_actions(act[None])
+        logs, done = [], 0
+        while done < self.steps:  # in control-period chunks, so the trajectory is recorded every 0.1 s
+            chunk = min(FRAME_SKIP, self.steps - done)
+            logs.append(w.run(chunk)[0])
+            done += chunk
+            m.time_s += chunk * DT_S
+            m.onset_due()
+            m._record("experiment")
+        imu = np.concatenate(logs)
+        imu[:, 2] = np.degrees(np.unwrap(np.radians(imu[:, 2] - yaw0)))
+        w.set_actions(np.zeros((1, 3)))
+        stop_robot(m, self.stop_max_s)
+        return imu, true
+
+
+# -- the new gait from the old population ---------------------------------------------------------------------
+
+
+def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: int = 0, episode_duration_s: float,
+                           episodes_per_genome: int = 1, workers: int | None = None, progress: bool = False):
+    """Evolve a gait on ``robot`` for ``generations`` more generations, starting from the final
+    NEAT population of the run in ``gait_dir`` (its latest checkpoint: genomes, species and
+    innovation state carry over; every genome is evaluated anew on ``robot``).
+
+    Returns:
+        The :class:`gait.neat_evolution.GaitResult` (no files written).
+    """
+    import neat
+
+    from gait import neat_evolution as ne
+
+    path = ne.latest_checkpoint(gait_dir)  # our own run directory: its pickle is trusted
+    population = neat.Checkpointer.restore_checkpoint(str(path))
+    population.reporters = neat.reporting.ReporterSet()
+    task = ne._make_task(robot, seed, None, episode_duration_s, ne.CLOCK_PERIOD_S, episodes_per_genome,
+                         ne.DEFAULT_ENV_ID)
+    setattr(population.config, ne.FINGERPRINT_ATTR, ne._settings(task) | {"population_size": population.config.pop_size})
+    random.seed(seed)
+    np.random.seed(seed)
+    workers = workers or 1
+    return ne._evolve(population, task, None, True, False, 1, population.generation + int(generations), workers,
+                      progress, True)
+
+
+# -- speeds, timeline ---------------------------------------------------------------------------------------------
+
+
+def span_speed(rows: list[dict], start_s: float, end_s: float | None = None) -> float | None:
+    """Displacement along the mission's heading (+y, the robot's initial forward direction) per
+    second between the trajectory samples nearest ``start_s`` and ``end_s`` (default: the last);
+    None for a span shorter than one control period."""
+    t = np.array([r["time_s"] for r in rows])
+    end_s = t[-1] if end_s is None else end_s
+    i, j = int(np.argmin(np.abs(t - start_s))), int(np.argmin(np.abs(t - end_s)))
+    if t[j] - t[i] < CONTROL_S - 1e-9:
+        return None
+    pos = np.array([[rows[k]["x"], rows[k]["y"], rows[k]["z"]] for k in (i, j)])
+    return float((pos[1] - pos[0]) @ INITIAL_HEADING / (t[j] - t[i]))
+
+
+def plot_timeline(rows: list[dict], report: dict, path) -> Path:
+    """Speed along the heading (1 s moving mean) and yaw over time, onset, alarm and new gait marked."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = np.array([r["time_s"] for r in rows])
+    speed = np.array([r["speed_along_heading"] for r in rows])
+    smooth = np.convolve(speed, np.ones(10) / 10, mode="same") if len(speed) >= 10 else speed
+    yaw = np.degrees(np.unwrap(np.radians([r["yaw_deg"] for r in rows])))
+    fig, (a, b) = plt.subplots(2, 1, figsize=(9, 5), sharex=True)
+    a.plot(t, smooth, lw=1, color="tab:blue")
+    a.set_ylabel("speed along heading\n(units/s, 1 s mean)")
+    b.plot(t, yaw, lw=1, color="tab:gray")
+    b.set_ylabel("yaw (deg)")
+    b.set_xlabel("mission time (s)")
+    for ax in (a, b):
+        for key, colour, label in (("onset_s", "tab:red", "damage"), ("alarm_s", "tab:orange", "alarm"),
+                                   ("recovered_s", "tab:green", "new gait")):
+            if report.get(key) is not None:
+                ax.axvline(report[key], color=colour, ls="--", lw=1, label=label if ax is a else None)
+        exp = t[[r["phase"] in ("experiment", "stop") for r in rows]]
+        if exp.size:
+            ax.axvspan(exp.min(), exp.max(), color="tab:orange", alpha=0.08)
+    a.legend(fontsize=8, loc="upper right")
+    a.set_title(f"mission: {report['damage']} at {report['onset_s']:g} s ({report['preset']} preset, seed {report['seed']})",
+                fontsize=9)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def _write_trajectory(rows: list[dict], path: Path) -> None:
+    cols = list(rows[0])
+    lines = [",".join(cols)] + [",".join(repr(r[c]) if isinstance(r[c], float) else str(r[c]) for c in cols)
+                                for r in rows]
+    atomic_write(path, ("\n".join(lines) + "\n").encode())
+
+
+def _write_video(frames: list[np.ndarray], stem: Path) -> str | None:
+    if not frames:
+        return None
+    import imageio.v3 as iio
+
+    from gait.video import VIDEO_FPS, video_path
+
+    path = video_path(stem)
+    if path.suffix == ".mp4":
+        iio.imwrite(path, np.stack(frames), plugin="FFMPEG", fps=VIDEO_FPS, codec="libx264", macro_block_size=8)
+    else:
+        iio.imwrite(path, np.stack(frames), duration=1000 / VIDEO_FPS, loop=0)
+    return path.name
+
+
+# -- the mission -----------------------------------------------------------------------------------------------------
+
+
+def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: float = 300.0, preset: str = "quick",
+                seed: int = 0, self_model=None, workers: int | None = None, video: bool = True,
+                oracle: bool = True, progress: bool = True) -> dict:
+    """Run a mission and write ``mission.json``, ``timeline.png``, ``trajectory.csv`` and a video in ``out_dir``.
+
+    Args:
+        damage: the damage that comes in force at ``onset_s`` (a preset, a JSON fault or
+            ``sampled:SEED``; :func:`aquafish_gym.get_damage`).
+        out_dir: the mission directory (``self_model/`` is made in it unless ``self_model``).
+        onset_s: simulated seconds before the damage (>= 0, < ``duration_s``).
+        duration_s: simulated seconds of the mission (the recovery's stops and experiments
+            included; it runs to its end even past them).
+        preset: :data:`MISSION_PRESETS`.
+        seed: seeds the start's flipper angles, the EEA runs and the gaits.
+        self_model: a directory :func:`prepare_prior` made, reused as the prior.
+        workers: evaluation processes (default 1).
+        video: write ``mission.mp4`` (or ``.gif``) from above.
+        oracle: evolve the oracle gait on the true damaged robot for ``oracle_speed``.
+        progress: progress bars.
+
+    Returns:
+        The report written as ``mission.json``.
+
+    Raises:
+        ValueError: a bad setting (named), an unusable directory, or a ``self_model`` that holds
+            no finished self-model.
+    """
+    damage = get_damage(damage).name
+    settings = mission_preset(preset)
+    check_int("seed", seed, 0)
+    onset_s = check_onset(onset_s)
+    if isinstance(duration_s, bool) or not isinstance(duration_s, (int, float)) or not math.isfinite(duration_s) \
+            or duration_s <= 0:
+        raise ValueError(f"--duration-s must be a positive number of simulated seconds, got {duration_s!r}")
+    if onset_s >= duration_s:
+        raise ValueError(f"--onset-s ({onset_s:g}) must come before the end of the mission (--duration-s {duration_s:g})")
+    if workers is not None:
+        check_int("workers", workers, 1)
+    out = check_output_dir(out_dir)
+    with run_lock(out, command="mission"):
+        prior = load_prior(self_model) if self_model is not None else \
+            prepare_prior(out / "self_model", preset, seed, workers=workers, progress=progress)
+        return _run(prior, damage, onset_s, float(duration_s), settings, preset, seed, out, workers or 1, video,
+                    oracle, progress)
+
+
+def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings: MissionPreset, preset: str, seed: int,
+         out: Path, workers: int, video: bool, oracle: bool, progress: bool) -> dict:
+    mission = _Mission(damage, onset_s, duration_s, seed, video)
+    monitor = DamageMonitor(prior.calibration)
+    monitor.update(mission.obs, {"time_s": 0.0})
+    controller, gait_start = prior.controller, 0.0
+    controller.reset()
+    alarm_s = recovered_s = None
+    compute = {"eea": 0.0, "gait": 0.0}
+    records, target = [], None
+    new_model = None
+    try:
+        while mission.time_s < duration_s - 1e-9:
+            phase = "gait" if recovered_s is None else "new_gait"
+            obs = mission.step(controller.act(mission.obs, mission.time_s - gait_start), phase)
+            if recovered_s is not None or not monitor.update(obs, {"time_s": mission.time_s}):
+                continue
+            # the alarm: stop, experiment where the robot is, rebuild the self-model, evolve a gait
+            alarm_s = mission.time_s
+            log.info("mission: alarm at %.1f s", alarm_s)
+            stop_robot(mission, settings.stop_max_s)
+            config = _eea_config(settings, damage, seed, workers)
+            records, target, new_model, compute["eea"] = _recover_model(mission, prior, config, settings, progress)
+            t0 = time.perf_counter()
+            case = PRESETS[settings.case_preset]
+            result = evolve_from_population(new_model, prior.gait_dir, case.gait_generations, seed=seed,
+                                            episode_duration_s=settings.gait_episode_s,
+                                            episodes_per_genome=case.gait_episodes, workers=workers,
+                                            progress=progress)
+            compute["gait"] = time.perf_counter() - t0
+            controller, gait_start = result.best_controller, mission.time_s
+            controller.reset()
+            recovered_s = mission.time_s
+        rows = mission.rows
+        frames = mission.frames
+    finally:
+        mission.env.close()
+
+    healthy_end = onset_s if alarm_s is None else min(onset_s, alarm_s)  # the old gait swimming, undamaged
+    speed_before = span_speed(rows, max(settings.warmup_s, healthy_end - settings.speed_span_s), healthy_end)
+    speed_damaged = span_speed(rows, onset_s, alarm_s)
+    after_start = None if recovered_s is None else recovered_s + settings.warmup_s
+    speed_after = None if after_start is None or after_start >= rows[-1]["time_s"] else span_speed(rows, after_start)
+    oracle_speed = _oracle_speed(damage, settings, seed, out, workers, progress) if oracle else None
+    space = get_model_space("morphology+servos")
+    report = {
+        "damage": damage, "seed": seed, "preset": preset, "duration_s": duration_s,
+        "heading": "world +y: the robot's initial forward direction; speeds are displacement along it per second "
+                   "(units/s, 1 unit = 8 cm)",
+        "warm_start": True,
+        "onset_s": onset_s,
+        "damage_in_force_s": next((r["time_s"] for r in rows if r["damaged"]), None),
+        "alarm_s": alarm_s, "recovered_s": recovered_s,
+        "false_alarm": alarm_s is not None and alarm_s < onset_s,
+        "target_experiments": len(records),
+        "experiment_s": (target.steps * DT_S) if target is not None else None,
+        "compute_seconds": compute["eea"] + compute["gait"],
+        "compute_seconds_eea": compute["eea"], "compute_seconds_gait": compute["gait"],
+        "speed_before": speed_before, "speed_damaged": speed_damaged, "speed_after": speed_after,
+        "oracle_speed": oracle_speed,
+        "monitor": {"lower": prior.calibration.lower, "upper": prior.calibration.upper,
+                    "window_s": prior.calibration.window_s},
+        "self_model_before": dict(zip(space.fields, np.round(space.decode(prior.genome[None])[0], 4).tolist())),
+        "self_model_after": None if not records else dict(zip(space.fields, np.round(
+            space.decode(records[-1].best_genome[None])[0], 4).tolist())),
+        "true_model": dict(zip(space.fields, np.round(space.truth(damage), 4).tolist())),
+        "experiments": [] if target is None else [
+            {"round": r.number, "action": r.action.round(4).tolist(), "start_position": s.round(4).tolist(),
+             "true_initial_angles_rad": a.round(4).tolist(), "model_fitness": r.model_fitness}
+            for r, s, a in zip(records, target.starts, target.true_angles)],
+        "self_model_dir": str(prior.directory),
+        "files": {"timeline": TIMELINE_FILE, "trajectory": TRAJECTORY_FILE},
+    }
+    _write_trajectory(rows, out / TRAJECTORY_FILE)
+    plot_timeline(rows, report, out / TIMELINE_FILE)
+    report["files"]["video"] = _write_video(frames, out / "mission") if video else None
+    atomic_write(out / MISSION_FILE, (json.dumps(report, indent=2) + "\n").encode())
+    return report
+
+
+def _recover_model(mission: _Mission, prior: Prior, config: EEAConfig, settings: MissionPreset, progress: bool):
+    """The EEA's rounds with the mission's robot as the target, warm-started at the prior's
+    model: ``(round records, the MissionTarget, the new self-model robot, wall seconds of compute)``.
+    The target's simulated seconds are not compute: they are the mission's."""
+    rng = np.random.default_rng(config.seed)
+    t0, sim_wall = time.perf_counter(), 0.0
+    with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots,
+                   params=config.sim_params, model_space=config.model_space,
+                   summary=config.behaviour_summary) as evaluator:
+        estimation = make_estimation(config, rng)
+        warm_start(estimation, prior.genome)
+        parts = RoundParts.from_config(config, rng, evaluator, estimation)
+        target = MissionTarget(mission, config.damage, config.steps, settings.stop_max_s, config.sim_params)
+        parts = dataclasses.replace(parts, target=target)
+        records, experiments = [], ()
+        for number in range(1, config.rounds + 1):
+            record = run_round(number, experiments, parts, rng)
+            experiments = record.experiments
+            records.append(record)
+            sim_wall += record.target_s
+            if progress:
+                print(f"mission: round {number}/{config.rounds} model fitness {record.model_fitness:.3f}", flush=True)
+    space = get_model_space(config.model_space)
+    values = space.decode(records[-1].best_genome[None])[0]
+    robot = Robot(aquafish_gym.Morphology.from_array(values[:9]), "none", "self-model (after the damage)",
+                  ServoFaults(speed_scale=tuple(float(g) for g in values[9:])))
+    return records, target, robot, time.perf_counter() - t0 - sim_wall
+
+
+def _oracle_speed(damage: str, settings: MissionPreset, seed: int, out: Path, workers: int, progress: bool) -> float:
+    """The oracle: a gait evolved on the true damaged robot with the same NEAT budget, its mean
+    speed along the heading on the damaged robot (distance / episode seconds, over the
+    case preset's transfer starts)."""
+    robot = gait.as_robot(damage)
+    controller = gait.evolve_or_load_gait(robot, out / "oracle_gait", **_gait_kwargs(settings, seed, workers, progress))
+    t = gait.score_transfer(controller, robot, robot, seed=seed, episodes=PRESETS[settings.case_preset].transfer_episodes,
+                            episode_duration_s=settings.gait_episode_s)
+    return float(t.target_distance / settings.gait_episode_s)

@@ -1,0 +1,63 @@
+"""``aquafish mission``: a healthy robot swims, is damaged, notices, rebuilds its self-model from
+where it stands and swims on (:mod:`aquafish.mission`)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from aquafish_gym.argtypes import add_no_progress, int_at_least, path, positive_float
+
+#: The mission presets (:data:`aquafish.mission.MISSION_PRESETS`; not imported here, to keep the
+#: command line light: a test checks they agree).
+PRESET_NAMES = ("smoke", "quick", "medium")
+
+
+def _nonnegative_float(text: str) -> float:
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds >= 0, got {text!r}") from None
+    if not math.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f"must be a finite number of seconds >= 0, got {text!r}")
+    return value
+
+
+def _mission(args: argparse.Namespace) -> int:
+    from aquafish.mission import MISSION_FILE, run_mission
+
+    report = run_mission(args.damage, args.out, onset_s=args.onset_s, duration_s=args.duration_s, preset=args.preset,
+                         seed=args.seed, self_model=args.self_model, workers=args.workers, video=not args.no_video,
+                         oracle=not args.no_oracle, progress=not args.no_progress)
+    keys = ("onset_s", "alarm_s", "recovered_s", "target_experiments", "compute_seconds", "speed_before",
+            "speed_damaged", "speed_after", "oracle_speed")
+    print(json.dumps({k: report[k] for k in keys}, indent=1))
+    print(f"wrote {Path(args.out) / MISSION_FILE}, {report['files']['timeline']}, {report['files']['trajectory']}"
+          + (f", {report['files']['video']}" if report["files"].get("video") else ""))
+    return 0
+
+
+def add_commands(sub) -> None:
+    m = sub.add_parser("mission", help="a mission: the robot swims, is damaged, notices it, runs target experiments "
+                                       "where it stands, rebuilds its self-model (warm start) and swims on "
+                                       "(aquafish.mission)")
+    m.add_argument("--damage", required=True,
+                   help="the damage at the onset: a preset name, a JSON fault inline or as FILE.json, sampled:SEED")
+    m.add_argument("--onset-s", type=_nonnegative_float, default=30.0, metavar="SECONDS",
+                   help="simulated seconds before the damage (default 30)")
+    m.add_argument("--duration-s", type=positive_float, default=300.0, metavar="SECONDS",
+                   help="simulated seconds of the mission (default 300)")
+    m.add_argument("--preset", default="quick", choices=PRESET_NAMES, help="budgets (default quick)")
+    m.add_argument("--seed", type=int_at_least(0), default=0, help="seed (default 0)")
+    m.add_argument("--out", required=True, help="mission directory")
+    m.add_argument("--self-model", type=path, default=None, metavar="DIR",
+                   help="reuse the self-model, gait and monitor calibration in DIR (an earlier mission's "
+                        "OUT/self_model); default: make them in OUT/self_model")
+    m.add_argument("--workers", type=int_at_least(1), default=None, help="evaluation processes (default 1)")
+    m.add_argument("--no-video", action="store_true", help="write no video")
+    m.add_argument("--no-oracle", action="store_true", help="skip the oracle gait (oracle_speed null)")
+    add_no_progress(m, "generation")
+    m.set_defaults(func=_mission)

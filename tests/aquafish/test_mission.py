@@ -1,0 +1,200 @@
+"""``aquafish mission``: damage noticed while swimming, target experiments where the robot stands,
+the EEA warm-started at the old self-model, a gait from the old population (aquafish.mission)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from aquafish.cli import main
+from aquafish.mission import (MISSION_PRESETS, STOP_ACTION, MissionTarget, _Mission, make_prior, run_mission,
+                              span_speed, stop_robot)
+from aquafish.mission_cli import PRESET_NAMES
+from aquafish_gym import Morphology
+from eea import EEAConfig
+from eea.encoding import get_model_space
+from eea.search.cma import CMAModelSearch
+from eea.search.lineages import Lineages, make_estimation, warm_start
+from gait.robots import Robot
+
+SPACE = get_model_space("morphology+servos")
+#: Every servo seized: the robot cannot swim, so the monitor must notice.
+ALL_SEIZED = '{"seized": [true, true, true]}'
+
+
+def _genome(damage="none"):
+    return SPACE.encode(SPACE.truth(damage)[None])[0]
+
+
+@pytest.fixture(scope="module")
+def prior_dir(tmp_path_factory):
+    """A smoke prior whose self-model is the true healthy robot (so the monitor's range is the
+    real robot's and a healthy start does not alarm): its smoke gait and calibration."""
+    d = tmp_path_factory.mktemp("prior")
+    make_prior(d, _genome(), Robot(Morphology.healthy(), "none", "healthy"), "smoke", 0, workers=1,
+               calibration_seeds=6, progress=False)
+    return d
+
+
+@pytest.fixture(scope="module")
+def smoke_mission(prior_dir, tmp_path_factory):
+    out = tmp_path_factory.mktemp("mission")
+    report = run_mission(ALL_SEIZED, out, onset_s=8.0, duration_s=30.0, preset="smoke", seed=0,
+                         self_model=prior_dir, workers=1, video=False, oracle=False, progress=False)
+    return out, report
+
+
+@pytest.mark.slow
+def test_the_smoke_mission_writes_its_report_with_sane_relations(smoke_mission):
+    out, report = smoke_mission
+    assert json.loads((out / "mission.json").read_text()) == report
+    for key in ("onset_s", "alarm_s", "recovered_s", "target_experiments", "compute_seconds", "speed_before",
+                "speed_damaged", "speed_after", "oracle_speed", "damage", "seed", "preset", "heading"):
+        assert key in report, key
+    assert report["warm_start"] is True and report["preset"] == "smoke" and report["seed"] == 0
+    assert report["alarm_s"] is not None and report["alarm_s"] > report["onset_s"]
+    assert report["recovered_s"] > report["alarm_s"]
+    assert report["target_experiments"] == EEAConfig.from_method("profile_lineages", "smoke").rounds
+    assert len(report["experiments"]) == report["target_experiments"]
+    assert report["compute_seconds"] > 0
+    assert report["speed_before"] > report["speed_damaged"]  # the seized robot slows down
+    assert (out / "timeline.png").stat().st_size > 0
+    rows = (out / "trajectory.csv").read_text().splitlines()
+    assert rows[0].startswith("time_s,x,y,z,yaw_deg,speed_along_heading,phase,damaged")
+    assert {r.split(",")[6] for r in rows[1:]} == {"gait", "stop", "experiment", "new_gait"}
+    assert float(rows[-1].split(",")[0]) == pytest.approx(30.0, abs=0.1)
+
+
+@pytest.mark.slow
+def test_the_experiments_start_where_the_robot_stopped_not_at_the_origin(smoke_mission):
+    out, report = smoke_mission
+    rows = [r.split(",") for r in (out / "trajectory.csv").read_text().splitlines()[1:]]
+    first = next(i for i, r in enumerate(rows) if r[6] == "experiment")
+    stopped = np.array([float(v) for v in rows[first - 1][1:4]])  # the last sample before it: the stop's end
+    start = np.array(report["experiments"][0]["start_position"])
+    np.testing.assert_allclose(start, stopped, atol=1e-4)
+    assert np.linalg.norm(start[:2]) > 0.5  # it swam away from the origin before the damage
+
+
+def test_target_experiments_run_in_the_mission_world_from_the_current_state():
+    mission = _Mission("none", None, 20.0, seed=3, video=False)
+    try:
+        for _ in range(30):  # swim straight for 3 s: caudal at 1 Hz
+            mission.step([0.0, 0.0, 1.0], "gait")
+        stop_robot(mission, 3.0)
+        stopped, t_stop = mission.position(), mission.time_s
+        angles = mission.world.joint_angles()[0]
+        target = MissionTarget(mission, "none", steps=50, stop_max_s=1.0)
+        imu, true = target.perform(np.array([0.2, -0.2, 0.5]))
+        np.testing.assert_allclose(target.starts[0], stopped)
+        assert np.linalg.norm(stopped[:2]) > 0.1  # not the origin
+        assert imu.shape == (50, 3) and abs(imu[0, 2]) < 5.0  # yaw relative to the start's
+        np.testing.assert_allclose(true[:2], np.mod(angles[:2], 2 * np.pi), atol=1e-5)
+        assert mission.time_s >= t_stop + 0.5 - 1e-9  # the experiment's simulated time is the mission's
+        assert [r["phase"] for r in mission.rows].count("experiment") == 5
+    finally:
+        mission.env.close()
+
+
+def test_stop_action_is_zero_pectoral_speed_and_no_caudal_sweep():
+    from aquafish_gym.env import AquaFishEnv
+
+    np.testing.assert_allclose(AquaFishEnv.servo_command(STOP_ACTION), [0.0, 0.0, 0.0])
+
+
+def test_the_warm_start_puts_the_seed_model_in_the_first_estimation_generation():
+    config = EEAConfig.from_method("profile_lineages", "smoke", model_space="morphology+servos", cma_flip_gains=1)
+    rng = np.random.default_rng(0)
+    estimation = make_estimation(config, rng)
+    assert isinstance(estimation, Lineages)
+    seed = _genome("reversed_left_pectoral")
+    warm_start(estimation, seed)
+    for member in estimation.members:
+        search = member.search
+        assert isinstance(search, CMAModelSearch)
+        search.restart()  # what the estimation phase does first
+        population = search.ask()
+        assert any((row == seed).all() for row in population)
+        assert np.abs(search._es.mean - search._best_x).max() < 0.01  # centred on it (pycma keeps the mean off the bounds)
+
+
+def test_a_cold_start_does_not_hold_the_seed_model():
+    config = EEAConfig.from_method("profile_lineages", "smoke", model_space="morphology+servos")
+    estimation = make_estimation(config, np.random.default_rng(0))
+    seed = _genome("reversed_left_pectoral")
+    assert not any((row == seed).all() for m in estimation.members for row in m.search.population)
+
+
+def test_the_ga_warm_start_and_bad_genomes():
+    config = EEAConfig.from_method("none", "smoke", model_space="morphology+servos")
+    estimation = make_estimation(config, np.random.default_rng(0))
+    seed = _genome("caudal_half")
+    warm_start(estimation, seed)
+    assert (estimation.search.ask()[0] == seed).all()
+    with pytest.raises(ValueError, match="bits"):
+        CMAModelSearch(6, np.random.default_rng(0), model_space="morphology+servos").seed_at(seed[:45])
+
+
+def test_span_speed_is_displacement_along_the_heading_per_second():
+    rows = [{"time_s": t, "x": 5.0 * t, "y": 2.0 * t, "z": 0.0} for t in np.arange(0, 10.05, 0.1)]
+    assert span_speed(rows, 2.0, 6.0) == pytest.approx(2.0)
+    assert span_speed(rows, 3.0, 3.0) is None
+
+
+def test_cli_presets_match_the_module():
+    assert sorted(PRESET_NAMES) == sorted(MISSION_PRESETS)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--damage", "no_such_damage"], "unknown damage"),
+    (["--damage", "caudal_half", "--onset-s", "-1"], "--onset-s"),
+    (["--damage", "caudal_half", "--duration-s", "0"], "--duration-s"),
+    (["--damage", "caudal_half", "--onset-s", "50", "--duration-s", "40"], "before the end of the mission"),
+    (["--damage", "caudal_half", "--preset", "huge"], "--preset"),
+    (["--damage", "caudal_half", "--seed", "-2"], "--seed"),
+])
+def test_bad_flags_are_refused_with_one_line(argv, message, tmp_path, capsys):
+    argv = ["mission", *argv, "--out", str(tmp_path / "m"), *([] if "--preset" in argv else ["--preset", "smoke"])]
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert not (tmp_path / "m").exists()
+
+
+def test_a_self_model_dir_without_a_self_model_is_refused(tmp_path, capsys):
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(SystemExit):
+        main(["mission", "--damage", "caudal_half", "--preset", "smoke", "--out", str(tmp_path / "m"),
+              "--self-model", str(tmp_path / "empty")])
+    assert "holds no finished self-model" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_the_example_runs_a_smoke_mission(tmp_path, capsys):
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location("mission_example", Path(__file__).parents[2] / "examples" / "mission.py")
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    example.main(["--preset", "smoke", "--damage", ALL_SEIZED, "--onset-s", "6", "--duration-s", "20",
+                  "--out", str(tmp_path)])
+    report = json.loads((tmp_path / "mission" / "mission.json").read_text())
+    assert report["warm_start"] is True and report["self_model_dir"] == str(tmp_path / "self_model")
+    assert "target_experiments" in capsys.readouterr().out
+
+
+def test_the_onset_follows_the_missions_clock_through_experiments():
+    mission = _Mission("reversed_left_pectoral", 1.0, 20.0, seed=0, video=False)
+    try:
+        mission.step([0.0, 0.0, 1.0], "gait")
+        target = MissionTarget(mission, "reversed_left_pectoral", steps=150, stop_max_s=0.0)
+        target.perform(np.array([0.5, 0.5, 0.0]))  # 1.5 s on the world directly: the env's steps do not advance
+        assert mission.damaged
+        first = next(r for r in mission.rows if r["damaged"])
+        assert first["time_s"] == pytest.approx(1.0) and first["phase"] == "experiment"
+        np.testing.assert_allclose(mission.world.speed_scale[0], [-1.0, 1.0, 1.0])
+    finally:
+        mission.env.close()
