@@ -2,8 +2,9 @@
 it stands, and swims on (``aquafish mission``; docs/main_job.md, "Missions").
 
 Before the mission (:func:`prepare_prior`, reused from ``--self-model DIR``): the healthy
-robot's self-model (the case study's self-model EEA, :func:`aquafish.case_study.model_fields`,
-at the preset's budget on damage ``none``), its NEAT gait evolved on the self-model robot
+robot's self-model (its design by default; or, with ``prior_source="eea"``, the case study's
+self-model EEA, :func:`aquafish.case_study.model_fields`, at the preset's budget on damage
+``none``), its NEAT gait evolved on the self-model robot
 (the run directory keeps its checkpoints, so the final population is kept) and the damage
 monitor's calibration of that gait on the self-model (:mod:`aquafish.monitor`, saved beside
 the self-model as ``monitor_calibration.json``). That is all the robot knows: the only prior.
@@ -51,7 +52,7 @@ import numpy as np
 import aquafish_gym  # registers AquaFish-v0  # noqa: F401
 import eea
 import gait
-from aquafish.case_study import DEFAULT_METHOD, PRESETS, model_fields, model_robot, preset_settings
+from aquafish.case_study import DEFAULT_METHOD, DEFAULT_MODEL_SPACE, PRESETS, model_fields, model_robot, preset_settings
 from aquafish.monitor import CALIBRATION_FILE, FORWARD_SPEED_INDEX, DamageMonitor, MonitorCalibration, calibrate
 from aquafish_gym import ServoFaults, get_damage
 from aquafish_gym.checks import check_int
@@ -68,8 +69,9 @@ from eea.search.lineages import make_estimation, warm_start
 from gait.robots import Robot
 from gait.video import project
 
-__all__ = ["MISSION_FILE", "MISSION_PRESETS", "MissionPreset", "MissionTarget", "Prior", "evolve_from_population",
-           "load_prior", "make_prior", "mission_preset", "plot_timeline", "prepare_prior", "run_mission", "span_speed", "stop_robot"]
+__all__ = ["MISSION_FILE", "MISSION_PRESETS", "PRIORS", "MissionPreset", "MissionTarget", "Prior",
+           "evolve_from_population", "load_prior", "make_prior", "mission_preset", "plot_timeline", "prepare_prior",
+           "run_mission", "span_speed", "stop_robot"]
 
 log = logging.getLogger(__name__)
 
@@ -166,17 +168,37 @@ class Prior:
         return self.directory / "gait"
 
 
-def prepare_prior(directory, preset: str = "quick", seed: int = 0, *, workers: int | None = None,
-                  progress: bool = True) -> Prior:
+#: Where the self-model before the damage comes from (:func:`prepare_prior`).
+PRIORS: tuple[str, ...] = ("design", "eea")
+
+
+def prepare_prior(directory, preset: str = "quick", seed: int = 0, *, prior: str = "design",
+                  workers: int | None = None, progress: bool = True) -> Prior:
     """Make (or reuse, when finished) the healthy robot's self-model, gait and calibration in ``directory``.
 
-    ``eea/``: the self-model EEA on damage ``none`` at the preset's budget; ``gait/``: NEAT on
-    the self-model robot; ``monitor_calibration.json``: the monitor's calibration of the gait on
-    the self-model from ``calibration_seeds`` random starts. Each step is skipped when done.
+    The self-model before the damage is the robot's design (``prior="design"``, default: the
+    healthy morphology and servo gains 1, what the robot was built to; a robot is deployed
+    knowing its design, and the damage after deployment is what it must find), or one the EEA
+    builds from scratch on the healthy robot (``"eea"``: ``eea/``, the case study's self-model
+    EEA on damage ``none`` at the preset's budget; at ``quick`` it can land on a wrong servo
+    sign, and the gait evolved on it then swims worse than its calibration expects: a false
+    alarm). Then ``gait/``: NEAT on the self-model robot; ``monitor_calibration.json``: the
+    monitor's calibration of the gait on the self-model from ``calibration_seeds`` random
+    starts. Each step is skipped when done.
+
+    Raises:
+        ValueError: an unknown ``prior`` (the valid names listed), preset or bad seed, or a
+            directory that cannot be written.
     """
+    if prior not in PRIORS:
+        raise ValueError(f"unknown prior {prior!r}; valid: {', '.join(PRIORS)}")
     settings = mission_preset(preset)
     check_int("seed", seed, 0)
     out = check_output_dir(directory, "--self-model")
+    if prior == "design":
+        space = get_model_space(DEFAULT_MODEL_SPACE)
+        return make_prior(out, space.encode(space.truth("none")[None])[0], gait.as_robot("none"), preset, seed,
+                          workers=workers, progress=progress)
     config = _eea_config(settings, "none", seed, workers)
     eea.run(config, out / "eea", progress=progress)
     result = eea.load_result(out / "eea")
@@ -488,8 +510,8 @@ def _write_video(frames: list[np.ndarray], stem: Path) -> str | None:
 
 
 def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: float = 300.0, preset: str = "quick",
-                seed: int = 0, self_model=None, workers: int | None = None, video: bool = True,
-                oracle: bool = True, progress: bool = True) -> dict:
+                seed: int = 0, self_model=None, prior_source: str = "design", workers: int | None = None,
+                video: bool = True, oracle: bool = True, progress: bool = True) -> dict:
     """Run a mission and write ``mission.json``, ``timeline.png``, ``trajectory.csv`` and a video in ``out_dir``.
 
     Args:
@@ -502,6 +524,8 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         preset: :data:`MISSION_PRESETS`.
         seed: seeds the start's flipper angles, the EEA runs and the gaits.
         self_model: a directory :func:`prepare_prior` made, reused as the prior.
+        prior_source: without ``self_model``, where the self-model before the damage comes from:
+            ``"design"`` (default) or ``"eea"`` (:func:`prepare_prior`'s ``prior``).
         workers: evaluation processes (default 1).
         video: write ``mission.mp4`` (or ``.gif``) from above.
         oracle: evolve the oracle gait on the true damaged robot for ``oracle_speed``.
@@ -525,10 +549,12 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         raise ValueError(f"--onset-s ({onset_s:g}) must come before the end of the mission (--duration-s {duration_s:g})")
     if workers is not None:
         check_int("workers", workers, 1)
+    if prior_source not in PRIORS:
+        raise ValueError(f"unknown prior {prior_source!r}; valid: {', '.join(PRIORS)}")
     out = check_output_dir(out_dir)
     with run_lock(out, command="mission"):
         prior = load_prior(self_model) if self_model is not None else \
-            prepare_prior(out / "self_model", preset, seed, workers=workers, progress=progress)
+            prepare_prior(out / "self_model", preset, seed, prior=prior_source, workers=workers, progress=progress)
         return _run(prior, damage, onset_s, float(duration_s), settings, preset, seed, out, workers or 1, video,
                     oracle, progress)
 

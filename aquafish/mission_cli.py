@@ -30,7 +30,7 @@ def _mission(args: argparse.Namespace) -> int:
     from aquafish.mission import MISSION_FILE, run_mission
 
     report = run_mission(args.damage, args.out, onset_s=args.onset_s, duration_s=args.duration_s, preset=args.preset,
-                         seed=args.seed, self_model=args.self_model, workers=args.workers, video=not args.no_video,
+                         seed=args.seed, self_model=args.self_model, prior_source=args.prior, workers=args.workers, video=not args.no_video,
                          oracle=not args.no_oracle, progress=not args.no_progress)
     keys = ("onset_s", "alarm_s", "recovered_s", "target_experiments", "compute_seconds", "speed_before",
             "speed_damaged", "speed_after", "oracle_speed")
@@ -56,6 +56,9 @@ def add_commands(sub) -> None:
     m.add_argument("--self-model", type=path, default=None, metavar="DIR",
                    help="reuse the self-model, gait and monitor calibration in DIR (an earlier mission's "
                         "OUT/self_model); default: make them in OUT/self_model")
+    m.add_argument("--prior", choices=["design", "eea"], default="design",
+                   help="without --self-model, the self-model before the damage: the robot's design (default) or one "
+                        "the EEA builds on the healthy robot first (at quick it can get a servo sign wrong)")
     m.add_argument("--workers", type=int_at_least(1), default=None, help="evaluation processes (default 1)")
     m.add_argument("--no-video", action="store_true", help="write no video")
     m.add_argument("--no-oracle", action="store_true", help="skip the oracle gait (oracle_speed null)")

@@ -198,3 +198,17 @@ def test_the_onset_follows_the_missions_clock_through_experiments():
         np.testing.assert_allclose(mission.world.speed_scale[0], [-1.0, 1.0, 1.0])
     finally:
         mission.env.close()
+
+
+def test_the_design_prior_is_the_healthy_robot_and_runs_no_eea(tmp_path):
+    from aquafish.mission import prepare_prior
+
+    with pytest.raises(ValueError, match="unknown prior 'blueprint'; valid: design, eea"):
+        prepare_prior(tmp_path / "bad", "smoke", 0, prior="blueprint")
+    prior = prepare_prior(tmp_path / "design", "smoke", 0, workers=1, progress=False)
+    assert np.array_equal(prior.genome, _genome("none"))
+    values = SPACE.decode(prior.genome[None])[0]
+    assert np.allclose(values[:9], Morphology.healthy().to_array()) and values[9:].tolist() == [1.0, 1.0, 1.0]
+    assert prior.robot.damage == "none"
+    assert not (tmp_path / "design" / "eea").exists()  # no self-modeling before the mission
+    assert (tmp_path / "design" / "monitor_calibration.json").is_file()
