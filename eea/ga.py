@@ -270,7 +270,7 @@ class BitGA(TellRecord):
             ValueError: a genome of another length, or an ask pending.
         """
         if self._asked:
-            raise ValueError("seed_at before ask: the population was already asked")
+            raise ValueError("seed_at must come before ask: this generation was already asked (tell it first)")
         row = _check_bits(np.asarray(genome).reshape(1, -1), f"({self.n_bits},)", "genome")
         if row.shape[1] != self.n_bits:
             raise ValueError(f"genome must have {self.n_bits} bits, got {row.shape[1]}")
