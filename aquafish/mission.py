@@ -242,18 +242,8 @@ def load_prior(directory) -> Prior:
     genome = np.asarray(data["genome"], dtype=np.uint8)
     if genome.shape != (get_model_space("morphology+servos").n_bits,):
         raise ValueError(f"--self-model {d}: self_model.json must hold a morphology+servos model genome")
-    robot = _robot_from_dict(data["robot"])
+    robot = Robot.from_dict(data["robot"])
     return Prior(d, genome, robot, gait.load_controller(d / "gait" / "best_controller.json"), MonitorCalibration.load(d))
-
-
-def _robot_from_dict(d: dict) -> Robot:
-    """The :class:`Robot` :meth:`Robot.to_dict` described."""
-    from aquafish_gym import MORPHOLOGY_FIELDS, Morphology
-
-    faults = d.get("faults")
-    return Robot(Morphology.from_array([d["morphology"][f] for f in MORPHOLOGY_FIELDS]), d.get("damage", "none"),
-                 d.get("label", ""), None if faults is None else ServoFaults(seized=tuple(faults["seized"]),
-                                                                             speed_scale=tuple(faults["speed_scale"])))
 
 
 # -- target experiments in the mission's world ----------------------------------------------------------------

@@ -82,6 +82,19 @@ class Robot:
             d["faults"] = {"seized": list(self.faults.seized), "speed_scale": list(self.faults.speed_scale)}
         return d
 
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "Robot":
+        """The robot :meth:`to_dict` described (its inverse).
+
+        Raises:
+            KeyError: ``morphology`` or a morphology field is missing.
+            ValueError: an invalid morphology, damage or faults (as the constructor).
+        """
+        faults = d.get("faults")
+        return cls(Morphology.from_array([d["morphology"][f] for f in MORPHOLOGY_FIELDS]), d.get("damage", "none"),
+                   d.get("label", ""), None if faults is None else ServoFaults(seized=tuple(faults["seized"]),
+                                                                               speed_scale=tuple(faults["speed_scale"])))
+
 
 def as_robot(value, *, damage: str = "none") -> Robot:
     """Interpret a robot given in any of the accepted forms.

@@ -78,3 +78,12 @@ def test_robot_with_random_damage_draws_one_per_seed():
     with make_env(robot, episode_duration_s=0.1) as env:
         drawn = {env.reset(seed=s)[1]["damage"] for s in range(20)}
         assert len(drawn) > 3 and env.reset(seed=3)[1]["damage"] == env.reset(seed=3)[1]["damage"]
+
+
+@pytest.mark.parametrize("robot", [
+    Robot(Morphology.healthy(), "none"),
+    Robot(Morphology.healthy().replace(left_pectoral_y=0.5), "caudal_half", "mine"),
+    Robot(Morphology.healthy(), "none", faults=ServoFaults(seized=(False, True, False), speed_scale=(-1.0, 1.0, 0.5))),
+])
+def test_from_dict_is_the_inverse_of_to_dict_through_json(robot):
+    assert Robot.from_dict(json.loads(json.dumps(robot.to_dict()))) == robot
