@@ -25,7 +25,7 @@ the alarm the robot:
    damage (:func:`eea.search.lineages.warm_start`: every lineage's CMA-ES starts at that
    model, which its first estimation generation holds), for the preset's rounds;
 4. evolves a gait on the new self-model starting from the old gait's final NEAT population
-   (:func:`evolve_from_population`; the preset's generations), and swims on with it.
+   (:func:`gait.neat_evolution.evolve_from_population`; the preset's generations), and swims on with it.
 
 Simulated time passes in the stops and experiments (they are in the timeline); the world is
 paused while the robot computes (the EEA's estimation and exploration, the gait's evolution),
@@ -42,7 +42,6 @@ import dataclasses
 import json
 import logging
 import math
-import random
 import time
 from pathlib import Path
 
@@ -66,11 +65,12 @@ from eea.evaluation import Evaluator
 from eea.experiment import quantise_angles
 from eea.round import RoundParts, run_round
 from eea.search.lineages import make_estimation, warm_start
+from gait.neat_evolution import evolve_from_population
 from gait.robots import Robot
 from gait.video import project
 
 __all__ = ["MISSION_FILE", "MISSION_PRESETS", "PRIORS", "MissionPreset", "MissionTarget", "Prior",
-           "evolve_from_population", "load_prior", "make_prior", "mission_preset", "plot_timeline", "prepare_prior",
+           "load_prior", "make_prior", "mission_preset", "plot_timeline", "prepare_prior",
            "run_mission", "span_speed", "stop_robot"]
 
 log = logging.getLogger(__name__)
@@ -310,14 +310,10 @@ class _Mission:
 
         The env counts its onset in its own control steps, which the experiments (run on the
         world directly) do not advance; so the mission applies it by its own clock, at the first
-        0.1 s boundary at or after ``damage_onset_s``, through the env's own switch
-        (``BatchWorld.change_robot`` for a changed morphology, the faults at once)."""
+        0.1 s boundary at or after ``damage_onset_s`` (:meth:`AquaFishEnv.apply_damage_onset`)."""
         env = self.env
-        if env.onset_step is None or not env._episodes.pending.any():
-            return
-        if self.time_s >= env.onset_step * CONTROL_S - 1e-9:
-            env._damage_onsets([self.world], [slice(0, 1)], [env], env._episodes, env.onset_step)
-            self.damaged = bool(env._episodes.damaged[0])
+        if env.damage_pending and self.time_s >= env.onset_step * CONTROL_S - 1e-9:
+            self.damaged = env.apply_damage_onset()
 
     def at_rest(self) -> bool:
         w = self.world
@@ -377,7 +373,7 @@ class MissionTarget:
         self.starts.append(m.position())
         self.true_angles.append(true)
         yaw0 = m.yaw_deg()
-        w._caudal_phase[0] = math.asin(float(np.clip(angles[2] / amp, -1.0, 1.0)))  # the sweep starts where the fin is
+        w.sync_caudal_phase(0)  # the sweep starts where the fin is
         w.set_actions(act[None])
         logs, done = [], 0
         while done < self.steps:  # in control-period chunks, so the trajectory is recorded every 0.1 s
@@ -392,35 +388,6 @@ class MissionTarget:
         w.set_actions(np.zeros((1, 3)))
         stop_robot(m, self.stop_max_s)
         return imu, true
-
-
-# -- the new gait from the old population ---------------------------------------------------------------------
-
-
-def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: int = 0, episode_duration_s: float,
-                           episodes_per_genome: int = 1, workers: int | None = None, progress: bool = False):
-    """Evolve a gait on ``robot`` for ``generations`` more generations, starting from the final
-    NEAT population of the run in ``gait_dir`` (its latest checkpoint: genomes, species and
-    innovation state carry over; every genome is evaluated anew on ``robot``).
-
-    Returns:
-        The :class:`gait.neat_evolution.GaitResult` (no files written).
-    """
-    import neat
-
-    from gait import neat_evolution as ne
-
-    path = ne.latest_checkpoint(gait_dir)  # our own run directory: its pickle is trusted
-    population = neat.Checkpointer.restore_checkpoint(str(path))
-    population.reporters = neat.reporting.ReporterSet()
-    task = ne._make_task(robot, seed, None, episode_duration_s, ne.CLOCK_PERIOD_S, episodes_per_genome,
-                         ne.DEFAULT_ENV_ID)
-    setattr(population.config, ne.FINGERPRINT_ATTR, ne._settings(task) | {"population_size": population.config.pop_size})
-    random.seed(seed)
-    np.random.seed(seed)
-    workers = workers or 1
-    return ne._evolve(population, task, None, True, False, 1, population.generation + int(generations), workers,
-                      progress, True)
 
 
 # -- speeds, timeline ---------------------------------------------------------------------------------------------

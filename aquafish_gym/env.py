@@ -560,6 +560,32 @@ class AquaFishEnv(gym.Env, EzPickle):
                 episodes.damaged[i] = env.damage_changes_robot
                 episodes.pending[i] = False
 
+    @property
+    def damage_pending(self) -> bool:
+        """Whether this episode's damage is scheduled (``damage_onset_s``) and not yet in force."""
+        return self._episodes is not None and bool(self._episodes.pending[0])
+
+    def apply_damage_onset(self) -> bool:
+        """Bring a scheduled damage in force now, whatever the episode's step count.
+
+        :meth:`step` applies the damage at its onset by the env's own count of control steps.
+        A caller that also moves :attr:`world` outside :meth:`step` (a mission running target
+        experiments on the world between gait steps) keeps its own clock and calls this when
+        that clock reaches ``damage_onset_s``. The robot changes in place, in its current
+        state (:meth:`BatchWorld.change_robot`), exactly as at an onset inside :meth:`step`.
+
+        Returns:
+            Whether the damage changes the robot and is now in force (``info["damaged"]``).
+
+        Raises:
+            RuntimeError: called before :meth:`reset`.
+        """
+        if self._episodes is None:
+            raise RuntimeError(f"{self.env_id}: apply_damage_onset() needs an episode; call reset() first")
+        if self._episodes.pending[0]:
+            self._damage_onsets([self.world], [slice(0, 1)], [self], self._episodes, self.onset_step)
+        return bool(self._episodes.damaged[0])
+
     def _check_angles(self, angles) -> np.ndarray:
         arr = np.asarray(angles, dtype=np.float64)
         amp = self.params.caudal_amplitude_rad

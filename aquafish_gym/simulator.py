@@ -191,6 +191,23 @@ class BatchWorld:
         self.set_actions(np.zeros((self.n, 3)) if actions is None else actions)
         self._read_state()
 
+    def sync_caudal_phase(self, i: int | None = None) -> None:
+        """Restart the caudal sweep of robot ``i`` (every robot if None) from its fin's current angle.
+
+        The sweep is ``amplitude * sin(phase)``; this sets ``phase = asin(angle / amplitude)``
+        (the angle clipped to the amplitude), as :meth:`reset` does for the initial angles, so a
+        robot commanded anew mid-run (a mission's target experiment) sweeps on from where its fin
+        is, as a model started at that angle does. The flippers' angles are not changed.
+
+        Raises:
+            IndexError: ``i`` is not a robot of this world.
+        """
+        idx = np.arange(self.n) if i is None else np.array([int(i)])
+        if np.any((idx < 0) | (idx >= self.n)):
+            raise IndexError(f"robot index {i} out of range for a world of {self.n} robots")
+        amp = self.params.caudal_amplitude_rad
+        self._caudal_phase[idx] = np.arcsin(np.clip(self.joint_angles()[idx, 2] / amp, -1.0, 1.0))
+
     def change_robot(self, i: int, morphology, faults=None) -> None:
         """Turn robot ``i`` into another robot mid-run, in the same state (a damage's onset).
 

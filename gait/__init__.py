@@ -11,6 +11,8 @@ Public API:
     evolve_gait(morphology, *, damage, generations, population_size, seed, out_dir, workers,
                 episodes_per_genome, batched) -> GaitResult: a generation scored at once on the
                 vector env (batched, the default; gait.batch_fitness) or genome by genome
+    evolve_from_population(robot, gait_dir, generations, *, seed, episode_duration_s) -> GaitResult:
+                more generations on another robot from a run's final population
     load_controller(path) -> Controller
     score_transfer(controller, native, target, *, seed, episodes, initial_angles) -> TransferResult
     plot_transfer(results, path, titles=None) -> Path
@@ -35,7 +37,8 @@ except _PackageNotFoundError:  # run from a source tree that is not installed
 from gait.clock import CLOCK_PERIOD_S, ClockObservation, clock_features, with_clock
 from gait.controller import (ConstantController, Controller, HeadingHoldController, NEATController, RandomController,
                              SB3PolicyController, load_controller)
-from gait.neat_evolution import GaitResult, evolve_gait, evolve_or_load_gait, latest_checkpoint, load_neat_config
+from gait.neat_evolution import (GaitResult, evolve_from_population, evolve_gait, evolve_or_load_gait, latest_checkpoint,
+                                 load_neat_config)
 from gait.plots import plot_fitness_history, plot_transfer
 from gait.robots import RANDOM_DAMAGE, Robot, as_robot, parse_robot
 from gait.rollout import EPISODE_DURATION_S, Rollout, make_env, rollout
@@ -48,6 +51,6 @@ __all__ = [
     "CLOCK_PERIOD_S", "EPISODE_DURATION_S", "ClockObservation", "ConstantController", "Controller", "GaitResult",
     "HeadingHoldController", "NEATController", "RANDOM_DAMAGE", "RandomController", "Robot", "Rollout",
     "SB3PolicyController", "TransferResult", "as_robot", "clock_features",
-    "evolve_gait", "evolve_or_load_gait", "latest_checkpoint", "load_controller", "load_neat_config", "make_env", "parse_robot", "plot_fitness_history",
+    "evolve_from_population", "evolve_gait", "evolve_or_load_gait", "latest_checkpoint", "load_controller", "load_neat_config", "make_env", "parse_robot", "plot_fitness_history",
     "plot_transfer", "record_video", "rollout", "save_transfer", "score_transfer", "train_or_load_rl", "train_rl", "with_clock",
 ]

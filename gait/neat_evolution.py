@@ -571,6 +571,42 @@ def _finish(population: neat.Population, task: FitnessTask, out_dir: Path | None
     return result
 
 
+def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: int = 0, episode_duration_s: float,
+                           episodes_per_genome: int = 1, workers: int | None = None,
+                           progress: bool = False) -> GaitResult:
+    """Evolve a gait on ``robot`` for ``generations`` more generations, starting from the final
+    NEAT population of the run in ``gait_dir`` (its latest checkpoint: genomes, species and
+    innovation state carry over; every genome is evaluated anew on ``robot``). A damaged
+    robot's new gait starts from what the healthy robot's evolution found (the mission's
+    recovery) instead of from scratch.
+
+    Args:
+        robot: the robot the gait is evolved on (a :class:`~gait.robots.Robot`).
+        gait_dir: a finished or interrupted run directory of :func:`evolve_gait`; its
+            checkpoint is unpickled, so it must be a directory you trust like code.
+        generations: generations to run beyond the checkpoint's (>= 1).
+        seed, episode_duration_s, episodes_per_genome: the fitness task, as :func:`evolve_gait`.
+        workers: evaluation processes (default 1).
+
+    Returns:
+        The :class:`GaitResult`; nothing is written (``out_dir`` is None).
+
+    Raises:
+        ValueError: no checkpoint in ``gait_dir``, ``generations`` < 1, or a bad task setting.
+    """
+    generations = check_int("generations", generations, 1)
+    path = latest_checkpoint(gait_dir)
+    population = neat.Checkpointer.restore_checkpoint(str(path))
+    population.reporters = neat.reporting.ReporterSet()
+    task = _make_task(as_robot(robot), seed, None, episode_duration_s, CLOCK_PERIOD_S, episodes_per_genome,
+                      DEFAULT_ENV_ID)
+    setattr(population.config, FINGERPRINT_ATTR, _settings(task) | {"population_size": population.config.pop_size})
+    random.seed(seed)
+    np.random.seed(seed)
+    return _evolve(population, task, None, True, False, 1, population.generation + generations, workers or 1,
+                   progress, True)
+
+
 def evolve_or_load_gait(morphology, out_dir, **kwargs) -> NEATController:
     """The best controller of a NEAT run in ``out_dir``, evolving it only if it is not finished.
 

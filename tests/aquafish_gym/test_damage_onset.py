@@ -249,3 +249,42 @@ def test_vector_env_switches_per_sub_env_and_autoreset_restarts_healthy():
     for got, want in zip(flags, expected):
         np.testing.assert_array_equal(got, want)
     venv.close()
+
+
+def test_apply_damage_onset_switches_the_robot_as_an_onset_inside_step_does():
+    """A caller with its own clock (a mission) brings the damage in force at the same step as
+    ``step`` would: the observations then agree to the last bit."""
+    kwargs = dict(damage="left_pectoral_missing", episode_duration_s=1.2)
+    by_step = gym.make("AquaFish-v0", damage_onset_s=0.3, **kwargs).unwrapped  # the 3rd step switches it
+    by_call = gym.make("AquaFish-v0", damage_onset_s=100.0, **kwargs).unwrapped
+    with pytest.raises(RuntimeError, match="reset"):
+        by_call.apply_damage_onset()
+    for env in (by_step, by_call):
+        env.reset(seed=2)
+    assert by_call.damage_pending and by_step.damage_pending
+    for k, action in enumerate(ACTIONS[:8]):
+        obs_a = by_step.step(action)[0]
+        obs_b = by_call.step(action)[0]
+        if k == 2:  # the 3rd step's end: step() switched by_step; the call switches by_call
+            assert not by_step.damage_pending and by_call.damage_pending
+            assert by_call.apply_damage_onset() is True
+            assert not by_call.damage_pending
+        np.testing.assert_array_equal(obs_b, obs_a, err_msg=f"step {k}")
+    assert by_call.apply_damage_onset() is True  # once in force, calling again changes nothing
+
+
+def test_sync_caudal_phase_restarts_the_sweep_at_the_fins_angle():
+    """phase = asin(angle / amplitude): a fin held at half the amplitude is at phase pi/6, one
+    at -amplitude at -pi/2; only the robot named is changed."""
+    world = BatchWorld(np.asarray(Morphology.healthy().to_array())[None, :].repeat(2, 0))
+    amp = world.params.caudal_amplitude_rad
+    world.reset(np.array([[0.0, 0.0, 0.5 * amp], [0.0, 0.0, -amp]]))
+    world._caudal_phase[:] = 0.0  # as if the sweep had run elsewhere
+    world.sync_caudal_phase(0)
+    np.testing.assert_allclose(world._caudal_phase, [math.asin(world.joint_angles()[0, 2] / amp), 0.0])
+    assert abs(world._caudal_phase[0] - math.pi / 6) < 0.02  # the joint holds about half the amplitude
+    world.sync_caudal_phase()
+    assert abs(world._caudal_phase[1] + math.pi / 2) < 0.1
+    with pytest.raises(IndexError, match="2 robots"):
+        world.sync_caudal_phase(2)
+    world.close()

@@ -191,3 +191,26 @@ def test_a_neat_checkpoint_is_unpickled_only_in_a_run_directory_whose_manifest_m
     with pytest.raises(ValueError, match="fitness_settings.json"):
         evolve_gait(None, generations=2, out_dir=tmp_path / "run", resume=checkpoint, **kw)
     assert not marker.exists()
+
+
+def test_evolve_from_population_continues_a_runs_final_population_on_another_robot(tmp_path):
+    """The checkpoint's generation count carries on (1 + 1 = 2), the fitness is the new robot's
+    (the best controller's rollout on it gives the result's rollout), nothing is written."""
+    from gait import evolve_from_population, evolve_gait, rollout
+    from gait.robots import as_robot
+
+    kw = dict(seed=3, episode_duration_s=0.5)
+    evolve_gait(None, generations=1, population_size=4, workers=1, checkpoint_every=1, progress=False,
+                out_dir=tmp_path / "run", **kw)
+    before = sorted(p.name for p in (tmp_path / "run").rglob("*"))
+    damaged = as_robot("reversed_left_pectoral")
+    result = evolve_from_population(damaged, tmp_path / "run", 1, **kw)
+    assert result.generations == 2 and [h["generation"] for h in result.history] == [1]
+    assert result.robot == damaged and result.out_dir is None
+    again = rollout(result.best_controller, damaged, seed=3, episode_duration_s=0.5)
+    assert again.distance == result.best_rollout.distance
+    assert sorted(p.name for p in (tmp_path / "run").rglob("*")) == before
+    with pytest.raises(ValueError, match="generations"):
+        evolve_from_population(damaged, tmp_path / "run", 0, **kw)
+    with pytest.raises(ValueError, match="checkpoint"):
+        evolve_from_population(damaged, tmp_path / "empty", 1, **kw)
