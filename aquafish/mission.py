@@ -25,7 +25,13 @@ the alarm the robot:
    damage (:func:`eea.search.lineages.warm_start`: every lineage's CMA-ES starts at that
    model, which its first estimation generation holds), for the preset's rounds;
 4. evolves a gait on the new self-model starting from the old gait's final NEAT population
-   (:func:`gait.neat_evolution.evolve_from_population`; the preset's generations), and swims on with it.
+   (:func:`gait.neat_evolution.evolve_from_population`; the preset's generations), and swims on with it;
+5. re-arms the monitor: the new gait's healthy range on the new self-model
+   (:func:`aquafish.monitor.calibrate`, the prior's calibration seeds), so a recovery that left
+   the model wrong, or a second damage, raises another alarm and another recovery, warm-started
+   at the latest self-model (at most :attr:`MissionPreset.max_recoveries` in all; the last
+   recovery is not re-armed). ``mission.json`` lists them in ``recoveries``; ``alarm_s`` and
+   ``recovered_s`` are the first's, ``speed_after`` is measured on the final gait.
 
 Simulated time passes in the stops and experiments (they are in the timeline); the world is
 paused while the robot computes (the EEA's estimation and exploration, the gait's evolution),
@@ -99,6 +105,8 @@ class MissionPreset:
         window_s, warmup_s: the monitor's window and warm-up (:class:`MonitorCalibration`).
         stop_max_s: the longest stop (s) before an experiment is run anyway.
         speed_span_s: seconds before the onset over which ``speed_before`` is measured.
+        max_recoveries: alarms the mission acts on; after each recovery but the last the
+            monitor is re-armed with the new gait's range on the new self-model.
     """
 
     case_preset: str
@@ -109,6 +117,7 @@ class MissionPreset:
     warmup_s: float = 6.0
     stop_max_s: float = 5.0
     speed_span_s: float = 20.0
+    max_recoveries: int = 3
 
 
 MISSION_PRESETS: dict[str, MissionPreset] = {
@@ -217,10 +226,7 @@ def make_prior(directory, genome, robot: Robot, preset: str = "quick", seed: int
     gait.evolve_or_load_gait(robot, out / "gait", **_gait_kwargs(settings, seed, workers, progress))
     if not (out / CALIBRATION_FILE).is_file():
         controller = gait.load_controller(out / "gait" / "best_controller.json")
-        n = calibration_seeds or settings.calibration_seeds
-        cal = calibrate(controller, robot, seeds=range(1000, 1000 + n), window_s=settings.window_s,
-                        warmup_s=settings.warmup_s, episode_duration_s=settings.calibration_episode_s)
-        cal.save(out / CALIBRATION_FILE)
+        _calibrate(controller, robot, settings, calibration_seeds).save(out / CALIBRATION_FILE)
     genome = np.asarray(genome, dtype=np.uint8)
     atomic_write(out / "self_model.json", (json.dumps({"genome": genome.tolist(), "robot": robot.to_dict()}) + "\n").encode())
     return Prior(out, genome, robot, gait.load_controller(out / "gait" / "best_controller.json"),
@@ -523,41 +529,54 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     monitor.update(mission.obs, {"time_s": 0.0})
     controller, gait_start = prior.controller, 0.0
     controller.reset()
-    alarm_s = recovered_s = None
-    compute = {"eea": 0.0, "gait": 0.0}
-    records, target = [], None
-    new_model = None
+    genome = prior.genome  # the current self-model: the design's (or the EEA's), then each recovery's
+    recoveries: list[dict] = []  # one per alarm: when, what it cost, the model it found
     try:
         while mission.time_s < duration_s - 1e-9:
-            phase = "gait" if recovered_s is None else "new_gait"
+            phase = "gait" if not recoveries else "new_gait"
             obs = mission.step(controller.act(mission.obs, mission.time_s - gait_start), phase)
-            if recovered_s is not None or not monitor.update(obs, {"time_s": mission.time_s}):
+            if monitor is None or not monitor.update(obs, {"time_s": mission.time_s}):
                 continue
             # the alarm: stop, experiment where the robot is, rebuild the self-model, evolve a gait
             alarm_s = mission.time_s
             log.info("mission: alarm at %.1f s", alarm_s)
             stop_robot(mission, settings.stop_max_s)
             config = _eea_config(settings, damage, seed, workers)
-            records, target, new_model, compute["eea"] = _recover_model(mission, prior, config, settings, progress)
+            records, target, new_model, eea_s = _recover_model(mission, genome, config, settings, progress)
+            genome = records[-1].best_genome
             t0 = time.perf_counter()
             case = PRESETS[settings.case_preset]
             result = evolve_from_population(new_model, prior.gait_dir, case.gait_generations, seed=seed,
                                             episode_duration_s=settings.gait_episode_s,
                                             episodes_per_genome=case.gait_episodes, workers=workers,
                                             progress=progress)
-            compute["gait"] = time.perf_counter() - t0
+            gait_s = time.perf_counter() - t0
             controller, gait_start = result.best_controller, mission.time_s
             controller.reset()
-            recovered_s = mission.time_s
+            # re-arm: the new gait's healthy range on the new self-model (computed while it swims)
+            t0 = time.perf_counter()
+            monitor = None
+            if len(recoveries) + 1 < settings.max_recoveries:
+                monitor = DamageMonitor(_calibrate(controller, new_model, settings))
+                monitor.update(mission.obs, {"time_s": mission.time_s})
+            recoveries.append({"alarm_s": alarm_s, "recovered_s": mission.time_s,
+                               "target_experiments": len(records), "compute_seconds": eea_s + gait_s,
+                               "compute_seconds_eea": eea_s, "compute_seconds_gait": gait_s,
+                               "compute_seconds_monitor": time.perf_counter() - t0, "rearmed": monitor is not None,
+                               "self_model": _model_dict(genome), "experiment_s": target.steps * DT_S,
+                               "experiments": _experiments(records, target)})
         rows = mission.rows
         frames = mission.frames
     finally:
         mission.env.close()
 
+    first = recoveries[0] if recoveries else {}
+    alarm_s, recovered_s = first.get("alarm_s"), first.get("recovered_s")
     healthy_end = onset_s if alarm_s is None else min(onset_s, alarm_s)  # the old gait swimming, undamaged
     speed_before = span_speed(rows, max(settings.warmup_s, healthy_end - settings.speed_span_s), healthy_end)
     speed_damaged = span_speed(rows, onset_s, alarm_s)
-    after_start = None if recovered_s is None else recovered_s + settings.warmup_s
+    final_gait_s = recoveries[-1]["recovered_s"] if recoveries else None  # the gait the robot ends with
+    after_start = None if final_gait_s is None else final_gait_s + settings.warmup_s
     speed_after = None if after_start is None or after_start >= rows[-1]["time_s"] else span_speed(rows, after_start)
     oracle_speed = _oracle_speed(damage, settings, seed, out, workers, progress) if oracle else None
     space = get_model_space("morphology+servos")
@@ -568,24 +587,22 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         "warm_start": True,
         "onset_s": onset_s,
         "damage_in_force_s": next((r["time_s"] for r in rows if r["damaged"]), None),
-        "alarm_s": alarm_s, "recovered_s": recovered_s,
+        "alarm_s": alarm_s, "recovered_s": recovered_s, "final_gait_s": final_gait_s,
         "false_alarm": alarm_s is not None and alarm_s < onset_s,
-        "target_experiments": len(records),
-        "experiment_s": (target.steps * DT_S) if target is not None else None,
-        "compute_seconds": compute["eea"] + compute["gait"],
-        "compute_seconds_eea": compute["eea"], "compute_seconds_gait": compute["gait"],
+        "target_experiments": first.get("target_experiments", 0),
+        "experiment_s": first.get("experiment_s"),
+        "compute_seconds": first.get("compute_seconds", 0.0),
+        "compute_seconds_eea": first.get("compute_seconds_eea", 0.0),
+        "compute_seconds_gait": first.get("compute_seconds_gait", 0.0),
+        "recoveries": recoveries,
         "speed_before": speed_before, "speed_damaged": speed_damaged, "speed_after": speed_after,
         "oracle_speed": oracle_speed,
         "monitor": {"lower": prior.calibration.lower, "upper": prior.calibration.upper,
                     "window_s": prior.calibration.window_s},
-        "self_model_before": dict(zip(space.fields, np.round(space.decode(prior.genome[None])[0], 4).tolist())),
-        "self_model_after": None if not records else dict(zip(space.fields, np.round(
-            space.decode(records[-1].best_genome[None])[0], 4).tolist())),
+        "self_model_before": _model_dict(prior.genome),
+        "self_model_after": first.get("self_model"),
         "true_model": dict(zip(space.fields, np.round(space.truth(damage), 4).tolist())),
-        "experiments": [] if target is None else [
-            {"round": r.number, "action": r.action.round(4).tolist(), "start_position": s.round(4).tolist(),
-             "true_initial_angles_rad": a.round(4).tolist(), "model_fitness": r.model_fitness}
-            for r, s, a in zip(records, target.starts, target.true_angles)],
+        "experiments": first.get("experiments", []),
         "self_model_dir": str(prior.directory),
         "files": {"timeline": TIMELINE_FILE, "trajectory": TRAJECTORY_FILE},
     }
@@ -596,9 +613,31 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     return report
 
 
-def _recover_model(mission: _Mission, prior: Prior, config: EEAConfig, settings: MissionPreset, progress: bool):
-    """The EEA's rounds with the mission's robot as the target, warm-started at the prior's
-    model: ``(round records, the MissionTarget, the new self-model robot, wall seconds of compute)``.
+def _experiments(records, target: MissionTarget) -> list[dict]:
+    """A recovery's target experiments for the report: round, action, where and from which
+    flipper angles the robot started it, the round's MOD_FIT."""
+    return [{"round": r.number, "action": r.action.round(4).tolist(), "start_position": s.round(4).tolist(),
+             "true_initial_angles_rad": a.round(4).tolist(), "model_fitness": r.model_fitness}
+            for r, s, a in zip(records, target.starts, target.true_angles)]
+
+
+def _model_dict(genome: np.ndarray) -> dict[str, float]:
+    """A ``morphology+servos`` model genome as ``{field: value}`` (simulator units, gains)."""
+    space = get_model_space("morphology+servos")
+    return dict(zip(space.fields, np.round(space.decode(np.asarray(genome)[None])[0], 4).tolist()))
+
+
+def _calibrate(controller, robot: Robot, settings: MissionPreset, seeds: int | None = None) -> MonitorCalibration:
+    """The monitor's healthy range of ``controller`` on the self-model ``robot``: ``seeds`` (default
+    the preset's) healthy episodes from seeds 1000, 1001, ..."""
+    n = seeds or settings.calibration_seeds
+    return calibrate(controller, robot, seeds=range(1000, 1000 + n), window_s=settings.window_s,
+                     warmup_s=settings.warmup_s, episode_duration_s=settings.calibration_episode_s)
+
+
+def _recover_model(mission: _Mission, genome: np.ndarray, config: EEAConfig, settings: MissionPreset, progress: bool):
+    """The EEA's rounds with the mission's robot as the target, warm-started at the current
+    self-model ``genome``: ``(round records, the MissionTarget, the new self-model robot, wall seconds of compute)``.
     The target's simulated seconds are not compute: they are the mission's."""
     rng = np.random.default_rng(config.seed)
     t0, sim_wall = time.perf_counter(), 0.0
@@ -606,7 +645,7 @@ def _recover_model(mission: _Mission, prior: Prior, config: EEAConfig, settings:
                    params=config.sim_params, model_space=config.model_space,
                    summary=config.behaviour_summary) as evaluator:
         estimation = make_estimation(config, rng)
-        warm_start(estimation, prior.genome)
+        warm_start(estimation, genome)
         parts = RoundParts.from_config(config, rng, evaluator, estimation)
         target = MissionTarget(mission, config.damage, config.steps, settings.stop_max_s, config.sim_params)
         parts = dataclasses.replace(parts, target=target)
