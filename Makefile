@@ -5,10 +5,11 @@ PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+DOCS_STAMP := $(VENV)/.installed-docs
 NATIVE_SOURCES := setup.py aquafish_gym/native/aquafish_step.cpp aquafish_gym/native/pybullet_abi.h \
                   aquafish_gym/native/build.py
 
-.PHONY: demo test test-all bench install native doctor clean
+.PHONY: demo test test-all bench docs install native doctor clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -39,5 +40,16 @@ test-all: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python -m aquafish.benchmarks.sim_throughput
 
+# The API reference reads the source without importing it, so only the [docs] extra's own
+# requirements are installed (read from pyproject.toml), not the project and its dependencies.
+$(DOCS_STAMP): $(BIN)/python pyproject.toml
+	$(BIN)/python -c 'import tomllib; print("\n".join(tomllib.load(open("pyproject.toml", "rb"))["project"]["optional-dependencies"]["docs"]))' > $(VENV)/docs-requirements.txt
+	$(BIN)/python -m pip install --quiet -r $(VENV)/docs-requirements.txt
+	touch $(DOCS_STAMP)
+
+# The site from docs/ and the docstrings (mkdocs.yml) into site/; --strict: a broken link fails.
+docs: $(DOCS_STAMP)
+	$(BIN)/mkdocs build --strict --site-dir site
+
 clean:
-	rm -rf $(VENV) build demo_out .pytest_cache aquafish_gym/native/_aquafish_step.so aquafish_gym/native/include
+	rm -rf $(VENV) build site demo_out .pytest_cache aquafish_gym/native/_aquafish_step.so aquafish_gym/native/include

@@ -406,7 +406,8 @@ def calibrate(controller, robot="healthy", seeds: Iterable[int] = range(12), *, 
         window_s: seconds per window (> 0, at least one control period).
         warmup_s: seconds before the first window (>= 0).
         episode_duration_s: simulated seconds per episode; at least ``warmup_s + window_s``.
-        quantile, margin: as :func:`healthy_range`.
+        quantile: as :func:`healthy_range`.
+        margin: as :func:`healthy_range`.
 
     Returns:
         The :class:`MonitorCalibration`.

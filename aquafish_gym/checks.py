@@ -15,7 +15,8 @@ def check_int(name: str, value, minimum: int | None = None, maximum: int | None 
     Args:
         name: how the message names the argument (e.g. ``"steps"``, ``"EEAConfig.rounds"``).
         value: the argument; ``int`` and NumPy integers are accepted.
-        minimum, maximum: inclusive bounds (None: unbounded).
+        minimum: inclusive lower bound (None: unbounded).
+        maximum: inclusive upper bound (None: unbounded).
 
     Returns:
         ``int(value)``.

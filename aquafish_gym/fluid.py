@@ -151,7 +151,10 @@ def box_drag(
         angular_velocity: ``(..., 3)`` world angular velocity (rad/s).
         box_offset: ``(..., 3)`` box centre relative to the centre of mass, link frame.
         axis_areas: ``(..., 3)`` area of the pair of faces normal to x, y, z (units^2).
-        drag_coefficient, fluid_density, drag_law, water_current: as :func:`drag_wrench`.
+        drag_coefficient: as :func:`drag_wrench`.
+        fluid_density: as :func:`drag_wrench`.
+        drag_law: as :func:`drag_wrench`.
+        water_current: as :func:`drag_wrench`.
 
     Returns:
         ``force (..., 3)`` and ``torque (..., 3)`` about the centre of mass, both in the

@@ -87,7 +87,8 @@ def capsule_slices(radius: float, cylinder_length: float, n_cylinder: int = 6, n
     Args:
         radius: r (units).
         cylinder_length: L, the straight part (units); the caps' centres are at ``+-L/2``.
-        n_cylinder, n_cap: nodes on the cylinder and on each cap.
+        n_cylinder: nodes on the cylinder.
+        n_cap: nodes on each cap.
 
     Returns:
         ``y (K,)`` axial positions (units, from the capsule's centre), ``rho (K,)`` disc
@@ -115,7 +116,9 @@ def submerged_slices(rotation: np.ndarray, centre_z: np.ndarray, surface_z, y, r
         rotation: ``(..., 3, 3)`` body-to-world rotation.
         centre_z: ``(...)`` world height of each capsule's centre (units).
         surface_z: ``(...)`` or scalar world height of the free surface (units).
-        y, rho, w: ``(K,)`` the slices of :func:`capsule_slices`.
+        y: ``(K,)`` axial positions, from :func:`capsule_slices`.
+        rho: ``(K,)`` disc radii, from :func:`capsule_slices`.
+        w: ``(K,)`` quadrature weights, from :func:`capsule_slices`.
 
     Returns:
         ``volume (...)`` (units^3), ``moment (..., 3)`` the first moment of the submerged
@@ -155,7 +158,9 @@ def hydrostatic_wrench(rotation: np.ndarray, centre_z: np.ndarray, surface_z, co
         com_offset: ``(..., 3)`` centre of mass relative to the capsule's centre, body frame.
         weight: ``(...)`` m g of the body (force units).
         rho_g: rho g of the water (force units per units^3).
-        y, rho, w: the slices of :func:`capsule_slices`.
+        y: ``(K,)`` axial positions, from :func:`capsule_slices`.
+        rho: ``(K,)`` disc radii, from :func:`capsule_slices`.
+        w: ``(K,)`` quadrature weights, from :func:`capsule_slices`.
 
     Returns:
         ``force (..., 3)`` (body frame, at the centre of mass), ``torque (..., 3)`` (body

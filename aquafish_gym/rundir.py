@@ -442,7 +442,8 @@ def check_fingerprint(where: str | os.PathLike, recorded: Mapping, wanted: Mappi
 
     Args:
         where: the directory or file whose output was made with ``recorded``.
-        recorded, wanted: the fingerprints.
+        recorded: the fingerprint the output was made with.
+        wanted: the fingerprint asked for now.
         fix: what the user can do (e.g. ``"use another --out or the same settings"``).
     """
     diff = differences(recorded, wanted)

@@ -84,7 +84,8 @@ def angle_distance(a, b, period: float | None = TWO_PI) -> np.ndarray:
     (inference error is measured beside OBJ_FIT).
 
     Args:
-        a, b: angles of any broadcastable shapes (radians unless ``period`` says otherwise).
+        a: angles of any shape (radians unless ``period`` says otherwise).
+        b: angles of a shape broadcastable with ``a``'s, in the same unit.
         period: the circle's period (default 2 pi), or None for the caudal fin's line.
 
     Returns:

@@ -90,7 +90,8 @@ def angle_errors_deg(angles, true_angles) -> np.ndarray:
     """Per-flipper inference error of initial angles against the true ones.
 
     Args:
-        angles, true_angles: ``(n, 3)`` initial angles (rad; left, right pectoral, caudal).
+        angles: ``(n, 3)`` initial angles (rad; left, right pectoral, caudal).
+        true_angles: ``(n, 3)`` the true ones, likewise.
 
     Returns:
         ``(n, 3)`` degrees: the short way round the circle for the pectorals (at most 180),

@@ -375,7 +375,8 @@ class SB3PolicyController:
         Args:
             path: the ``model.zip``.
             algo: its algorithm.
-            clock_period_s, deterministic: as the constructor.
+            clock_period_s: as the constructor.
+            deterministic: as the constructor.
             meta: the sidecar ``model.json`` (:func:`sb3_sidecar`) as a dict (default ``{}``).
 
         Raises:

@@ -318,11 +318,17 @@ def train_or_load_rl(algo: str, morphology, timesteps: int | None, seed: int, ou
     reuses its policies (the RL counterpart of :func:`gait.evolve_or_load_gait`).
 
     Args:
-        algo, morphology, timesteps, seed, out_dir, **kwargs: as :func:`train_rl`.
+        algo: as :func:`train_rl`.
+        morphology: as :func:`train_rl`.
+        timesteps: as :func:`train_rl`.
+        seed: as :func:`train_rl`.
+        out_dir: as :func:`train_rl`.
+        **kwargs: as :func:`train_rl`.
 
     Raises:
-        As :func:`train_rl` (only when training); :class:`~aquafish_gym.rundir.MismatchError`
-        if the finished model was trained with other settings (the fields are named).
+        MismatchError: if the finished model was trained with other settings (the fields are
+            named; :class:`~aquafish_gym.rundir.MismatchError`). When training, what
+            :func:`train_rl` raises.
     """
     model_path = check_output_dir(out_dir) / SB3_MODEL_FILE
     if sb3_sidecar(model_path).is_file():

@@ -205,12 +205,14 @@ def make_clock_vec_env(robot: Robot | Any = None, num_envs: int = 1, *, seed: in
     seed=seed, monitor_dir=...)`` gives, on one vector env.
 
     Args:
-        robot, num_envs, **kwargs: as :class:`ClockVecEnv`.
+        robot: as :class:`ClockVecEnv`.
+        num_envs: as :class:`ClockVecEnv`.
         seed: the first reset seeds sub-env i with ``seed + i`` (None: fresh entropy).
         monitor_dir: directory of the episode log ``monitor.csv`` (return ``r``, length
             ``l``, wall time ``t`` in s; :func:`stable_baselines3.common.monitor.load_results`
             reads it), or None for none. ``VecMonitor`` sums returns in float32 (``Monitor``
             sums in float64 and rounds to 6 decimals).
+        **kwargs: as :class:`ClockVecEnv`.
 
     Raises:
         ValueError: as :class:`ClockVecEnv`.

@@ -260,8 +260,9 @@ class NativeStep:
 
         Args:
             steps: physics steps of 0.01 s.
-            caudal_angle, caudal_velocity: ``(steps, K)`` the caudal servo's target angle
-                (rad) and velocity (rad/s) of the K oscillating robots at every step.
+            caudal_angle: ``(steps, K)`` the caudal servo's target angle (rad) of the K
+                oscillating robots at every step.
+            caudal_velocity: ``(steps, K)`` its target velocity (rad/s).
             oscillating: ``(K,)`` their indices.
             log: return the body orientation after every step.
 

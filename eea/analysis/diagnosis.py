@@ -208,7 +208,8 @@ def median_error_deg(angles, true_angles) -> np.ndarray:
     """Median initial-angle error per flipper over experiments.
 
     Args:
-        angles, true_angles: ``(E, 3)`` initial angles (rad; left, right pectoral, caudal), E >= 1.
+        angles: ``(E, 3)`` initial angles (rad; left, right pectoral, caudal), E >= 1.
+        true_angles: ``(E, 3)`` the true ones, likewise.
 
     Returns:
         ``(3,)`` degrees: the median over the E experiments of the distance, the short way

@@ -109,7 +109,8 @@ def welch_p_value(a, b) -> float:
     """Two-sided p-value of Welch's t-test that samples ``a`` and ``b`` have equal means.
 
     Args:
-        a, b: ``(n,)`` and ``(m,)`` samples (e.g. final-round OBJ_FIT of replicate runs).
+        a: ``(n,)`` samples (e.g. final-round OBJ_FIT of replicate runs).
+        b: ``(m,)`` samples, likewise.
 
     Returns:
         The p-value in [0, 1]; NaN if either sample has fewer than 2 values or both have

@@ -168,8 +168,11 @@ class Lineages:
             experiments: the E >= 1 recorded experiments, newest last; the ones a lineage has
                 not seen yet (the newest) join its own experiments with their fresh contexts.
             strategy: the lineages' :class:`LineageStrategies` (member i serves lineage i).
-            evaluator, rng, generations, on_generation: as :meth:`Estimation.run`
-                (``on_generation`` is called for every lineage's generations in turn).
+            evaluator: as :meth:`Estimation.run`.
+            rng: as :meth:`Estimation.run`.
+            generations: as :meth:`Estimation.run`.
+            on_generation: as :meth:`Estimation.run`; called for every lineage's generations
+                in turn.
 
         Returns:
             The :class:`~eea.estimation.EstimationResult` of the selected model: the
