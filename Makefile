@@ -29,7 +29,7 @@ doctor: $(STAMP)
 	$(BIN)/aquafish doctor
 
 demo: $(STAMP)
-	$(BIN)/aquafish case-study --preset quick --damage reversed_left_pectoral --seed 0 --out demo_out
+	$(BIN)/aquafish case-study --budget quick --damage reversed_left_pectoral --seed 0 --out demo_out
 
 test: $(STAMP)
 	AQUAFISH_REQUIRE_NATIVE=1 $(BIN)/python -m pytest -n 2 -q

@@ -7,10 +7,11 @@ import argparse
 import json
 from pathlib import Path
 
-from aquafish_gym.argtypes import add_no_progress, int_at_least, path, positive_float
+from aquafish_gym.argtypes import add_alias, add_no_progress, add_workers, int_at_least, path, positive_float
 
-#: The mission presets (:data:`aquafish.mission.MISSION_PRESETS`; not imported here, to keep the
-#: command line light: a test checks they agree).
+#: The mission budgets (:data:`aquafish.mission.MISSION_PRESETS`; not imported here, to keep the
+#: command line light: a test checks they agree). Each is the case-study budget of the same name
+#: (:attr:`aquafish.mission.MissionPreset.case_preset`) with the monitor's and the episodes' settings.
 PRESET_NAMES = ("smoke", "quick", "medium")
 
 
@@ -29,7 +30,7 @@ def _nonnegative_float(text: str) -> float:
 def _mission(args: argparse.Namespace) -> int:
     from aquafish.mission import MISSION_FILE, run_mission
 
-    report = run_mission(args.damage, args.out, onset_s=args.onset_s, duration_s=args.duration_s, preset=args.preset,
+    report = run_mission(args.damage, args.out, onset_s=args.onset_s, duration_s=args.duration_s, preset=args.budget,
                          seed=args.seed, self_model=args.self_model, prior_source=args.prior, workers=args.workers, video=not args.no_video,
                          oracle=not args.no_oracle, progress=not args.no_progress)
     keys = ("onset_s", "alarm_s", "recovered_s", "target_experiments", "compute_seconds", "speed_before",
@@ -49,17 +50,22 @@ def add_commands(sub) -> None:
     m.add_argument("--onset-s", type=_nonnegative_float, default=30.0, metavar="SECONDS",
                    help="simulated seconds before the damage (default 30)")
     m.add_argument("--duration-s", type=positive_float, default=300.0, metavar="SECONDS",
-                   help="simulated seconds of the mission (default 300)")
-    m.add_argument("--preset", default="quick", choices=PRESET_NAMES, help="budgets (default quick)")
+                   help="simulated seconds of the whole mission, the one episode the robot swims; not the "
+                        "length of the episodes its gaits are evolved on, which the budget sets (default 300)")
+    add_alias(m, m.add_argument("--budget", default="quick", choices=PRESET_NAMES,
+                                help="the mission's budget (aquafish.mission.MISSION_PRESETS): its self-model EEA and "
+                                     "gait evolution get the aquafish case-study --budget of the same name; it also "
+                                     "sets the gait episodes' length and the monitor's calibration (default: quick)"),
+              "--preset")
     m.add_argument("--seed", type=int_at_least(0), default=0, help="seed (default 0)")
-    m.add_argument("--out", required=True, help="mission directory")
+    m.add_argument("--out", required=True, type=path, help="mission directory")
     m.add_argument("--self-model", type=path, default=None, metavar="DIR",
                    help="reuse the self-model, gait and monitor calibration in DIR (an earlier mission's "
                         "OUT/self_model); default: make them in OUT/self_model")
     m.add_argument("--prior", choices=["design", "eea"], default="design",
                    help="without --self-model, the self-model before the damage: the robot's design (default) or one "
                         "the EEA builds on the healthy robot first (at quick it can get a servo sign wrong)")
-    m.add_argument("--workers", type=int_at_least(1), default=None, help="evaluation processes (default 1)")
+    add_workers(m, None, "1")
     m.add_argument("--no-video", action="store_true", help="write no video")
     m.add_argument("--no-oracle", action="store_true", help="skip the oracle gait (oracle_speed null)")
     add_no_progress(m, "generation")

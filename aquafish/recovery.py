@@ -155,7 +155,7 @@ def merge_manifest(out: Path, spec: RecoverySpec) -> RecoverySpec:
     if path.is_file():
         recorded = read_json(path)
         check_fingerprint(out, {k: recorded[k] for k in spec.settings() if k in recorded}, spec.settings(),
-                          "use another --out, or the preset and --episode-duration it was run with")
+                          "use another --out, or the --budget and --episode-duration-s it was run with")
         damages = tuple(dict.fromkeys([*recorded.get("damages", []), *spec.damages]))
         seeds = tuple(sorted({*recorded.get("seeds", []), *spec.seeds}))
         merged = dataclasses.replace(spec, damages=damages, seeds=seeds)

@@ -6,14 +6,16 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from aquafish_gym.argtypes import add_no_progress, csv_list, damage_list, int_at_least, positive_float
+from aquafish.studies_cli import CASE_STUDY_BUDGETS
+from aquafish_gym.argtypes import (add_alias, add_episode_duration, add_no_progress, add_processes, add_workers, csv_list,
+                                   damage_list, int_at_least, path)
 
 
 def _recovery(args: argparse.Namespace) -> int:
     from aquafish.recovery import SUMMARY_MD, run_recovery
 
-    summary = run_recovery(args.out, preset=args.preset, damages=args.damages, seeds=args.seeds,
-                           episode_duration_s=args.episode_duration, processes=args.processes, workers=args.workers,
+    summary = run_recovery(args.out, preset=args.budget, damages=args.damages, seeds=args.seeds,
+                           episode_duration_s=args.episode_duration_s, processes=args.processes, workers=args.workers,
                            backend=args.backend, address=args.address, progress=not args.no_progress,
                            all_rows=args.all_rows)
     print((Path(args.out) / SUMMARY_MD).read_text())
@@ -29,15 +31,16 @@ def add_commands(sub) -> None:
                    help="comma-separated damages (default: every preset but none): preset names, JSON faults "
                         "inline or as FILE.json (keys scale, seized, gains), sampled:SEED")
     r.add_argument("--seeds", type=csv_list(int_at_least(0)), default=(0,), help="comma-separated case-study seeds (default 0)")
-    r.add_argument("--preset", default="quick", choices=["smoke", "quick", "medium", "paper"],
-                   help="the case-study preset of every cell (default quick)")
-    r.add_argument("--episode-duration", type=positive_float, default=None, metavar="SECONDS",
-                   help="simulated seconds of every episode (default: the preset's, 20 s)")
-    r.add_argument("--out", required=True, help="benchmark directory (finished cells and shared rows are reused)")
-    r.add_argument("--processes", type=int_at_least(1), default=1,
-                   help="cells at once on the local backend (default 1; above 1 each cell evaluates serially)")
-    r.add_argument("--workers", type=int_at_least(1), default=None,
-                   help="evaluation processes of a cell when cells run one at a time (default: all cores)")
+    add_alias(r, r.add_argument("--budget", default="quick", choices=CASE_STUDY_BUDGETS,
+                                help="the budget of every cell's case study, as aquafish case-study --budget: "
+                                     "smoke, quick, medium or paper (default: quick)"),
+              "--preset")
+    add_alias(r, add_episode_duration(r, None, "the budget's, 20 s", note="every cell's gait evolution and transfer"),
+              "--episode-duration")
+    r.add_argument("--out", required=True, type=path,
+                   help="benchmark directory (finished cells and shared rows are reused)")
+    add_processes(r, 1, note="case-study cells on the local backend; above 1 each cell evaluates serially")
+    add_workers(r, None, "all cores", note="a cell's; 1 when cells run at once")
     r.add_argument("--all-rows", action="store_true",
                    help="run every row on every cell (default: the self-models, their gaits and PPO only where the "
                         "damage breaks the healthy gait; the recovery rates count those cells only)")

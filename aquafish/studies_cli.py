@@ -6,12 +6,21 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from aquafish_gym.argtypes import add_no_progress, csv_list, damage_list, int_at_least, positive_float
+from aquafish_gym.argtypes import (add_alias, add_episode_duration, add_no_progress, add_processes, add_workers, csv_list,
+                                   damage_list, int_at_least, path)
 from aquafish_gym.rundir import check_output_dir, check_output_file, run_lock
 from eea.cli import add_config_flags, config_fields, config_flag_names, given_flags
 from eea import INFERENCE_NAMES, MODEL_SPACES, EEAConfig
 from eea.methods import BEST_METHOD, METHODS, PAPER_METHODS
 
+
+#: The case-study budgets (:data:`aquafish.case_study.PRESETS`, spelled out: importing it here
+#: would cost every command its imports; tests/aquafish/test_cli_flags.py checks they agree).
+CASE_STUDY_BUDGETS = ("smoke", "quick", "medium", "paper")
+#: ``--budget`` of the commands that run case studies (case-study, recovery).
+CASE_STUDY_BUDGET_HELP = ("the case study's budget (aquafish.case_study.PRESETS): smoke (a pipeline check), quick "
+                          "(~15 min on 2 cores), medium (~1 h) or paper (the paper's settings); its EEA runs get the "
+                          "aquafish eea --budget of the same name")
 
 #: EEA settings that are no flags of ``aquafish study``: the study sets them per run
 #: (``--methods``, ``--durations``, ``--replicates``, ``--first-seed`` give inference, duration
@@ -25,9 +34,9 @@ def _case_study(args: argparse.Namespace) -> int:
     from aquafish.case_study import run_case_study
 
     check_output_dir(args.out)
-    report = run_case_study(args.preset, args.damage, args.seed, args.out, method=args.method,
+    report = run_case_study(args.budget, args.damage, args.seed, args.out, method=args.method,
                             model_space=args.model_space, behaviour_summary=args.behaviour_summary,
-                            episode_duration_s=args.episode_duration,
+                            episode_duration_s=args.episode_duration_s,
                             video=args.video, workers=args.workers, progress=not args.no_progress)
     print((Path(args.out) / "report.md").read_text())
     video = f", {report['video']}" if report.get("video") else ""
@@ -51,8 +60,8 @@ def _study(args: argparse.Namespace) -> int:
 def _plot(args: argparse.Namespace) -> int:
     from eea.analysis.plot import plot_runs
 
-    out = Path(args.output) if args.output is not None else Path(args.dirs[0]) / "objective_fitness.png"
-    check_output_file(out, "--output")
+    out = Path(args.out) if args.out is not None else Path(args.dirs[0]) / "objective_fitness.png"
+    check_output_file(out, "--out")
     print(plot_runs(args.dirs, out))
     print(f"wrote {out}")
     return 0
@@ -62,8 +71,8 @@ def _compare(args: argparse.Namespace) -> int:
     from eea.analysis.compare import compare_variants, comparison_table, parse_variant, plot_variants
     from eea.analysis.plot import find_runs
 
-    if args.output is not None:
-        check_output_file(args.output, "--output")
+    if args.out is not None:
+        check_output_file(args.out, "--out")
     variants: dict[str, list] = {}
     for label, path in map(parse_variant, args.variants):  # a label given again: more of its runs
         variants.setdefault(label, []).append(path)
@@ -73,8 +82,8 @@ def _compare(args: argparse.Namespace) -> int:
     left_out = {label: s.left_out for label, s in summary.items() if s.left_out}
     if left_out:
         print("runs left out (round not finished): " + ", ".join(f"{k} {v}" for k, v in left_out.items()))
-    if args.output:
-        print(f"wrote {plot_variants(summary, args.output)}")
+    if args.out:
+        print(f"wrote {plot_variants(summary, args.out)}")
     return 0
 
 
@@ -136,8 +145,9 @@ def _damages(args: argparse.Namespace) -> int:
 
 def add_commands(sub) -> None:
     c = sub.add_parser("case-study", help="damage-recovery case study (paper section 5): self-model, evolve gaits, transfer")
-    c.add_argument("--preset", default="quick", choices=["smoke", "quick", "medium", "paper"],
-                   help="smoke (a pipeline check), quick (~15 min on 2 cores), medium (~1 h) or the paper's settings")
+    add_alias(c, c.add_argument("--budget", default="quick", choices=CASE_STUDY_BUDGETS,
+                                help=f"{CASE_STUDY_BUDGET_HELP} (default: quick)"),
+              "--preset")
     c.add_argument("--method", default=BEST_METHOD, choices=list(METHODS),
                    help=f"the self-model's method (default {BEST_METHOD}, the best; eea.methods); unless the "
                         "self-model is out_of_band in morphology, the paper's out_of_band run in morphology is a "
@@ -150,9 +160,9 @@ def add_commands(sub) -> None:
                    help="the self-model's behaviour summary (default signed_dft: the zero-frequency term keeps its "
                         "sign, so a reversed left servo and a reversed right one differ); the other rows keep the "
                         "paper's dft")
-    c.add_argument("--episode-duration", type=positive_float, default=None, metavar="SECONDS",
-                   help="simulated seconds of every gait-evolution, transfer and video episode (default: the "
-                        "preset's, 20 s as in the paper; over 60 s a veering gait loses distance)")
+    add_alias(c, add_episode_duration(c, None, "the budget's, 20 s as in the paper; over 60 s a veering gait loses "
+                                              "distance", note="gait evolution, transfer and video"),
+              "--episode-duration")
     c.add_argument("--video", action=argparse.BooleanOptionalAction, default=True,
                    help="write recovery.mp4 (recovery.gif without imageio-ffmpeg): the damaged robot from above "
                         "under the healthy, self-model and oracle gaits (default: on)")
@@ -160,8 +170,9 @@ def add_commands(sub) -> None:
                    help="damage of the target robot: a preset name (aquafish damages --list), a JSON fault inline or "
                         "as FILE.json (keys scale, seized, gains) or sampled:SEED (default left_pectoral_half)")
     c.add_argument("--seed", type=int_at_least(0), default=0, help="seeds every run (default 0)")
-    c.add_argument("--out", default="case_study_out", help="output directory (finished steps are reused)")
-    c.add_argument("--workers", type=int_at_least(1), default=None, help="processes for evaluation (default: all cores)")
+    c.add_argument("--out", type=path, default="case_study_out",
+                   help="output directory (finished steps are reused; default case_study_out)")
+    add_workers(c, None, "all cores")
     add_no_progress(c, "round, generation or training chunk")
     c.set_defaults(func=_case_study)
 
@@ -174,21 +185,22 @@ def add_commands(sub) -> None:
                    help="seeds S..S+N-1 per (condition, duration), S the --first-seed")
     s.add_argument("--first-seed", type=int_at_least(0), default=0,
                    help="the first seed S (default 0); shards of one study's seeds can share its --out")
-    s.add_argument("--out", required=True, help="study directory")
+    s.add_argument("--out", required=True, type=path, help="study directory")
     s.add_argument("--backend", choices=["local", "ray"], default="local", help="local process pool or Ray tasks")
     s.add_argument("--address", default=None,
                    help="Ray cluster address (ray.init: 'auto', HOST:PORT or ray://HOST:PORT; default: start a local "
                         "Ray). A token-authenticated cluster (Ray's RAY_AUTH_MODE=token) needs RAY_AUTH_MODE=token and "
                         "its token in RAY_AUTH_TOKEN (or RAY_AUTH_TOKEN_PATH, or ~/.ray/auth_token) in this "
                         "command's environment")
-    s.add_argument("--processes", type=int_at_least(1), default=None, help="local pool size (default: all cores)")
+    add_processes(s, None, "all cores", note="the local backend's process pool; each run evaluates serially")
     add_config_flags(s, exclude=STUDY_EXCLUDED)
     add_no_progress(s, "finished run")
     s.set_defaults(func=_study)
 
     p = sub.add_parser("plot", help="plot mean objective fitness vs round per condition and duration (Figures 5-10)")
     p.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
-    p.add_argument("--output", "-o", default=None, help="PNG path (default: FIRST_DIR/objective_fitness.png)")
+    add_alias(p, p.add_argument("--out", "-o", type=path, default=None,
+                                help="PNG path (default: FIRST_DIR/objective_fitness.png)"), "--output")
     p.set_defaults(func=_plot)
 
     m = sub.add_parser("compare", help="variants on the same seeds: final OBJ_FIT, Welch's p against a baseline, "
@@ -200,7 +212,8 @@ def add_commands(sub) -> None:
     m.add_argument("--rounds", type=int_at_least(1), default=None,
                    help="round compared (default: the shortest planned run); runs short of it are left out")
     m.add_argument("--level", type=float, default=0.9, help="OBJ_FIT level whose first round is reported (default 0.9)")
-    m.add_argument("--output", "-o", default=None, help="also draw the mean curves to this PNG")
+    add_alias(m, m.add_argument("--out", "-o", type=path, default=None, help="also draw the mean curves to this PNG"),
+              "--output")
     m.set_defaults(func=_compare)
 
     d = sub.add_parser("diagnose", help="search, inference or identifiability failure? MOD_FIT of the final and the "
@@ -211,7 +224,7 @@ def add_commands(sub) -> None:
                                         "(better); the median angle error of the run's final inferred angles and "
                                         "of the truth's own fitted ones (err run, err floor; degrees) (eea.analysis.diagnosis)")
     d.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
-    d.add_argument("--workers", type=int_at_least(1), default=1, help="simulation processes (default: 1)")
+    add_workers(d, 1, note="the simulations that diagnose each run")
     d.add_argument("--profile-generations", type=int_at_least(1), default=40,
                    help="generations of the per-model angle fit of both models (eea.inference.profile.Profile.fit; default: 40)")
     d.add_argument("--refine", type=int_at_least(0), default=0,
@@ -225,7 +238,7 @@ def add_commands(sub) -> None:
                                        "presets and sampled faults")
     t.add_argument("--list", action="store_true",
                    help="print the presets and what sampled:SEED gives for seeds 0-9, and exit (writes nothing)")
-    t.add_argument("--out", default=None, help="output directory (gaits are evolved once and reused; required "
+    t.add_argument("--out", type=path, default=None, help="output directory (gaits are evolved once and reused; required "
                                                "unless --list)")
     t.add_argument("--damages", type=damage_list, default=None,
                    help="comma-separated damages (default: every preset but none): preset names, JSON faults "
@@ -236,14 +249,14 @@ def add_commands(sub) -> None:
     t.add_argument("--starts", type=int_at_least(1), default=10, help="fresh starts per gait and robot (default 10)")
     t.add_argument("--seed", type=int_at_least(0), default=0, help="NEAT seed and first training start (default 0)")
     t.add_argument("--eval-seed", type=int_at_least(0), default=1000, help="seed of the first fresh start (default 1000)")
-    t.add_argument("--workers", type=int_at_least(1), default=1, help="NEAT evaluation processes (default 1)")
+    add_workers(t, 1, note="each gait's NEAT evaluations")
     t.add_argument("--verbose", action="store_true", help="NEAT's per-generation report")
     add_no_progress(t, "generation")
     t.set_defaults(func=_damages)
 
     b = sub.add_parser("baselines", help="random policy, NEAT and PPO on every task of the env family "
                                          "(aquafish.task_table)")
-    b.add_argument("--out", required=True, help="output directory (learners are trained once and reused)")
+    b.add_argument("--out", required=True, type=path, help="output directory (learners are trained once and reused)")
     b.add_argument("--envs", type=csv_list(str), default=None, help="task ids (default: every registered task)")
     b.add_argument("--neat-generations", type=int_at_least(1), default=10, help="NEAT generations per task (default 10)")
     b.add_argument("--neat-population", type=int_at_least(2), default=30, help="NEAT genomes per generation (default 30)")
@@ -252,6 +265,6 @@ def add_commands(sub) -> None:
     b.add_argument("--starts", type=int_at_least(1), default=10, help="fresh starts per task and learner (default 10)")
     b.add_argument("--seed", type=int_at_least(0), default=0, help="training seed (default 0)")
     b.add_argument("--eval-seed", type=int_at_least(0), default=1000, help="seed of the first fresh start (default 1000)")
-    b.add_argument("--workers", type=int_at_least(1), default=1, help="NEAT evaluation processes (default 1)")
+    add_workers(b, 1, note="each NEAT run's evaluations")
     add_no_progress(b, "generation or training chunk")
     b.set_defaults(func=_baselines)

@@ -8,7 +8,17 @@ import argparse
 import math
 from pathlib import Path
 
-__all__ = ["add_no_progress", "csv_list", "damage_list", "int_at_least", "path", "positive_float"]
+__all__ = ["EPISODE_DURATION_HELP", "PROCESSES_HELP", "WORKERS_HELP", "add_alias", "add_episode_duration",
+           "add_no_progress", "add_processes", "add_workers", "csv_list", "damage_list", "int_at_least", "path",
+           "positive_float"]
+
+#: How every command's ``--workers`` help begins: processes that evaluate in parallel within one
+#: run (a run's population, a case study's steps); ``--processes`` is the other count.
+WORKERS_HELP = "evaluation processes inside one run"
+#: How every command's ``--processes`` help begins: whole runs (study runs, recovery cells) at once.
+PROCESSES_HELP = "runs at once"
+#: How every command's ``--episode-duration-s`` help begins (the length of a gait's episodes).
+EPISODE_DURATION_HELP = "simulated seconds of every episode"
 
 
 def int_at_least(minimum: int):
@@ -103,7 +113,7 @@ def damage_list(text: str) -> tuple[str, ...]:
     return values
 
 
-def add_no_progress(parser: argparse.ArgumentParser, unit: str) -> None:
+def add_no_progress(parser: argparse.ArgumentParser, unit: str) -> argparse.Action:
     """Add ``--no-progress`` to a long-running command's parser (every one has it, under this one
     name): no progress display at all (:func:`aquafish_gym.progress.progress_bar`).
 
@@ -111,6 +121,67 @@ def add_no_progress(parser: argparse.ArgumentParser, unit: str) -> None:
         parser: the (sub-)command's parser.
         unit: what one line of progress reports when standard error is not a terminal
             (``"round"``, ``"generation"``, ...).
+
+    Returns:
+        The argparse action.
     """
-    parser.add_argument("--no-progress", action="store_true",
-                        help=f"no progress (default: a bar on a terminal, one line per {unit} otherwise)")
+    return parser.add_argument("--no-progress", action="store_true",
+                               help=f"no progress (default: a bar on a terminal, one line per {unit} otherwise)")
+
+
+def _help(lead: str, note: str, default, default_text: str | None) -> str:
+    return lead + (f" ({note})" if note else "") + f" (default: {default if default_text is None else default_text})"
+
+
+def add_workers(parser: argparse.ArgumentParser, default: int | None, default_text: str | None = None,
+                note: str = "") -> argparse.Action:
+    """Add ``--workers N`` (:data:`WORKERS_HELP`, an int >= 1) to a command's parser.
+
+    Args:
+        parser: the (sub-)command's parser.
+        default: the value when not given (None: the command's own choice, e.g. all cores).
+        default_text: how the help names the default (default: ``default``).
+        note: what is evaluated, said after :data:`WORKERS_HELP`.
+
+    Returns:
+        The argparse action.
+    """
+    return parser.add_argument("--workers", type=int_at_least(1), default=default,
+                               help=_help(WORKERS_HELP, note, default, default_text))
+
+
+def add_processes(parser: argparse.ArgumentParser, default: int | None, default_text: str | None = None,
+                  note: str = "") -> argparse.Action:
+    """Add ``--processes N`` (:data:`PROCESSES_HELP`, an int >= 1) to a command's parser; the
+    arguments and the return value are :func:`add_workers`'."""
+    return parser.add_argument("--processes", type=int_at_least(1), default=default,
+                               help=_help(PROCESSES_HELP, note, default, default_text))
+
+
+def add_episode_duration(parser: argparse.ArgumentParser, default: float | None, default_text: str | None = None,
+                         note: str = "") -> argparse.Action:
+    """Add ``--episode-duration-s SECONDS`` (:data:`EPISODE_DURATION_HELP`, a finite number > 0)
+    to a command's parser; the arguments and the return value are :func:`add_workers`'."""
+    return parser.add_argument("--episode-duration-s", type=positive_float, default=default, metavar="SECONDS",
+                               help=_help(EPISODE_DURATION_HELP, note, default, default_text))
+
+
+def add_alias(parser: argparse.ArgumentParser, action: argparse.Action, *old: str) -> None:
+    """Accept ``old`` spellings of ``action``'s flag, so that published commands keep working.
+
+    An old spelling stores into the same attribute with the same type and choices (a
+    ``store_true`` flag stays one), is not listed in ``--help`` and sets no default; the
+    canonical flag's help names it.
+
+    Args:
+        parser: the (sub-)command's parser that holds ``action``.
+        action: the canonical flag (what ``parser.add_argument`` returned).
+        old: the old option strings, e.g. ``"--preset"``.
+    """
+    if isinstance(action, argparse._StoreTrueAction):
+        kwargs = dict(action="store_true")
+    else:
+        kwargs = dict(type=action.type, choices=action.choices, metavar=action.metavar, nargs=action.nargs)
+    parser.add_argument(*old, dest=action.dest, default=argparse.SUPPRESS, help=argparse.SUPPRESS, **kwargs)
+    if action.help not in (None, argparse.SUPPRESS):
+        action.help = f"{action.help} (old name: {', '.join(old)})"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from aquafish_gym.argtypes import csv_list, damage_list, positive_float
+from aquafish_gym.argtypes import add_alias, add_episode_duration, csv_list, damage_list, path
 
 
 def _swim(args: argparse.Namespace) -> int:
@@ -18,13 +18,13 @@ def _swim(args: argparse.Namespace) -> int:
     if len(action) != 3:
         raise ValueError(f"--action needs 3 comma-separated numbers (left rev/s, right rev/s, caudal Hz), got {len(action)}")
     # the trajectory: one (robots, 2) sample of ~150 bytes per 0.1 s, plus 16 bytes per robot
-    check_memory(f"--duration {args.duration:g}", args.duration / 0.1 * (150 + 16 * len(damages)),
-                 "give a shorter --duration")
+    check_memory(f"--episode-duration-s {args.episode_duration_s:g}",
+                 args.episode_duration_s / 0.1 * (150 + 16 * len(damages)), "give a shorter --episode-duration-s")
     check_output_dir(args.out)
-    traj = swim_trajectories(damages, action, args.duration)
+    traj = swim_trajectories(damages, action, args.episode_duration_s)
     labels = ["healthy" if d == "none" else d for d in damages]
     path = plot_trajectories(traj, labels, Path(args.out) / "trajectories.png",
-                             title=f"fixed gait {tuple(action)} (rev/s, rev/s, Hz), {args.duration:g} s")
+                             title=f"fixed gait {tuple(action)} (rev/s, rev/s, Hz), {args.episode_duration_s:g} s")
     for label, t in zip(labels, traj):
         print(f"{label:>24}: end at x={t[-1, 0]:+.2f}, y={t[-1, 1]:+.2f} units")
     print(f"wrote {path}")
@@ -61,8 +61,8 @@ def add_commands(sub) -> None:
     p.add_argument("--action", type=csv_list(float), default=(-0.5, -0.5, 1.0),
                    help="servo command: left rev/s, right rev/s, caudal Hz (default -0.5,-0.5,1.0: both paddles "
                         "pushing backwards under water, the tail at 1 Hz)")
-    p.add_argument("--duration", type=positive_float, default=20.0, help="seconds of simulated swimming (default 20)")
-    p.add_argument("--out", default="demo_out", help="output directory")
+    add_alias(p, add_episode_duration(p, 20.0, "20", note="the one swim of each robot"), "--duration")
+    p.add_argument("--out", type=path, default="demo_out", help="output directory (default demo_out)")
     p.set_defaults(func=_swim)
 
     e = sub.add_parser("envs", help="list the registered Gymnasium tasks (gym.make ids), one line each")

@@ -171,7 +171,7 @@ def _check_creatable(path: Path, existing: Path, flag: str) -> None:
     _check_names(path, existing, flag)
 
 
-def check_output_file(path: str | os.PathLike, flag: str = "--output") -> Path:
+def check_output_file(path: str | os.PathLike, flag: str = "--out") -> Path:
     """Check, without creating anything, that the file ``path`` can be written.
 
     Its directory must be (or be creatable as) a writable directory, and ``path`` must not be

@@ -32,8 +32,11 @@ _CHOICES = {"inference": INFERENCE_NAMES, "estimation_search": ESTIMATION_SEARCH
             "behaviour_summary": SUMMARIES}
 
 
-#: Flag parsers of fields whose value is not their default's type.
-_TYPES = {"waterline": argtypes.waterline}
+#: Flag parsers of fields whose value is not their default's type, and of the fields every
+#: command's flag of the same name parses alike (``--seed``, ``--workers``).
+_TYPES = {"waterline": argtypes.waterline, "seed": argtypes.int_at_least(0), "workers": argtypes.int_at_least(1)}
+#: Help of the flags every command shares, where the field's own help says it otherwise.
+_HELP = {"workers": f"{argtypes.WORKERS_HELP} (simulations; 1 = serial; never changes results)"}
 
 
 def config_flag_names(exclude: Iterable[str] = ()) -> tuple[str, ...]:
@@ -83,7 +86,7 @@ def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = (
         flags = (f"--{name.replace('_', '-')}", *_SHORT_FLAGS.get(name, ()))
         parser.add_argument(*flags, type=_TYPES.get(name, type(default)), default=argparse.SUPPRESS, dest=name,
                             choices=_CHOICES.get(name),
-                            help=f"{FIELD_HELP[name]} (default: {default})")
+                            help=f"{_HELP.get(name, FIELD_HELP[name])} (default: {default})")
     parser.add_argument("--budget", choices=list(BUDGETS), default="paper",
                         help="how much search each round gets (eea.methods.BUDGETS): smoke, quick, reduced (the "
                              "studies' setting), medium or paper (the default); flags given explicitly override it")
@@ -144,7 +147,7 @@ def add_commands(subparsers) -> None:
     eea = subparsers.add_parser("eea", help="run (or resume) the self-modeling EEA",
                                 description="Run the Estimation-Exploration Algorithm on the simulated damaged "
                                             "robot (paper sections 3.2-3.4, 4); resumes DIR if it holds the same run.")
-    eea.add_argument("--out", required=True, metavar="DIR", help="run directory (config.json, rounds.csv, state.pkl); its checkpoint state.pkl is a pickle, "
+    eea.add_argument("--out", required=True, type=argtypes.path, metavar="DIR", help="run directory (config.json, rounds.csv, state.pkl); its checkpoint state.pkl is a pickle, "
                           "so a run directory is trusted like code: resume only your own or trusted ones")
     argtypes.add_no_progress(eea, "round")
     add_config_flags(eea)

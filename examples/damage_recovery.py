@@ -1,6 +1,6 @@
 """Damage recovery through the Python API (paper section 5): self-model, evolve gaits, transfer, video.
 
-    python examples/damage_recovery.py [--preset quick] [--damage NAME] [--episode-duration 60] [--out DIR]
+    python examples/damage_recovery.py [--budget quick] [--damage NAME] [--episode-duration-s 60] [--out DIR]
 
 The steps of ``aquafish case-study`` (which also writes the report, figures and PPO rows) with a preset's budget. The
 self-model holds a gain per servo (its gait's robot has them as ``ServoFaults``); ``robust``: random damages.
@@ -18,14 +18,14 @@ from gait.video import record_video
 
 def main(argv=None) -> None:  # a function under the __main__ guard: worker processes are spawned
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", default="quick", choices=sorted(PRESETS))
+    parser.add_argument("--budget", "--preset", default="quick", choices=sorted(PRESETS))  # --preset: the old name
     parser.add_argument("--damage", default="reversed_left_pectoral")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--episode-duration", type=float, default=20.0, help="seconds per episode")
+    parser.add_argument("--episode-duration-s", "--episode-duration", type=float, default=20.0, help="seconds per episode")
     parser.add_argument("--out", type=Path, default=Path("recovery_out"))
     parser.add_argument("--workers", type=int, default=None)  # processes (default: all cores)
     args = parser.parse_args(argv)
-    s, seconds, seed, workers = PRESETS[args.preset], args.episode_duration, args.seed, args.workers
+    s, seconds, seed, workers = PRESETS[args.budget], args.episode_duration_s, args.seed, args.workers
 
     # 1. the damaged robot self-models: plain EEA (the paper's 9 dimensions) and the case study's self-model
     robots = {"healthy": gait.Robot(Morphology.healthy()), "robust": gait.Robot(Morphology.healthy(), "random")}

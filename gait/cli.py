@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from aquafish_gym.argtypes import add_no_progress, int_at_least, path, positive_float
+from aquafish_gym.argtypes import add_alias, add_episode_duration, add_no_progress, add_workers, int_at_least, path
 from aquafish_gym.rundir import check_output_dir
 
 #: gait.controller.SB3_ALGOS, spelled out: importing gait here would cost every command 0.6 s
@@ -34,18 +34,17 @@ def add_commands(subparsers) -> None:
     p.add_argument("--population-size", type=int_at_least(2), default=None, help="genomes per generation (default: the config's, 50)")
     p.add_argument("--seed", type=int_at_least(0), default=0, help="seeds NEAT and the fitness episode's initial flipper angles (default 0)")
     p.add_argument("--out", type=path, default=Path("runs/gait"), help="output directory (default runs/gait)")
-    p.add_argument("--workers", type=int_at_least(1), default=os.cpu_count(), help="evaluation processes (default: all CPUs)")
+    add_workers(p, os.cpu_count(), "all cores")
     p.add_argument("--config", type=path, default=None, help="NEAT INI file (default gait/neat_config.ini)")
     p.add_argument("--resume", default=None, help="checkpoint file (in checkpoints/ of a run directory with its fitness_settings.json) to "
                         "continue from, or 'latest' (in --out). A run directory is trusted like code: its "
                         "checkpoints are pickles, so resume only runs you made or trust")
-    p.add_argument("--episode-duration-s", type=positive_float, default=20.0, help="simulated seconds per evaluation (default 20)")
+    add_episode_duration(p, 20.0, "20", note="each genome's evaluation")
     p.add_argument("--episodes-per-genome", type=int_at_least(1), default=1,
                    help="episodes per evaluation from different initial angles (seeds seed, seed+1, ...); fitness is their mean (default 1)")
     p.add_argument("--checkpoint-every", type=int_at_least(1), default=5, help="generations between checkpoints (default 5)")
     p.add_argument("--verbose", action="store_true", help="NEAT's per-generation report (species, fitness statistics)")
-    add_no_progress(p, "generation")
-    p.add_argument("--quiet", action="store_true", dest="no_progress", help=argparse.SUPPRESS)  # the old name
+    add_alias(p, add_no_progress(p, "generation"), "--quiet")
     p.set_defaults(func=run_gait)
 
     p = subparsers.add_parser("transfer", help="score controllers on their native robot and on a target (Figure 12)",
@@ -75,7 +74,7 @@ def add_commands(subparsers) -> None:
     p.add_argument("--seed", type=int_at_least(0), default=0, help="training seed (default 0)")
     p.add_argument("--out", type=path, default=Path("runs/rl"), help="output directory (default runs/rl)")
     p.add_argument("--hyperparams", type=path, default=None, help="RL-Zoo-style YAML (default gait/rl_hyperparams.yml)")
-    p.add_argument("--episode-duration-s", type=positive_float, default=20.0, help="simulated seconds per training episode (default 20)")
+    add_episode_duration(p, 20.0, "20", note="each training episode")
     p.add_argument("--num-threads", type=int_at_least(1), default=1, help="torch CPU threads (default 1)")
     p.add_argument("--verbose", type=int, default=0, choices=(0, 1, 2), help="SB3 verbosity (default 0)")
     add_no_progress(p, "rollout")

@@ -1,6 +1,6 @@
 """Where a case study's wall time goes, stage by stage (self-model EEA runs, gaits, PPO, transfer, video).
 
-``python -m aquafish.benchmarks.case_study_stages --preset quick --damage reversed_left_pectoral
+``python -m aquafish.benchmarks.case_study_stages --budget quick --damage reversed_left_pectoral
 --seed 0 --out runs/stages`` (``aquafish bench case_study_stages ...``) runs the case study
 (:func:`aquafish.case_study.run_case_study`) and prints the wall seconds of each stage from its
 report's ``stage_seconds``, with each stage's share of the whole. ``--report PATH`` tabulates
@@ -18,6 +18,8 @@ import json
 import os
 import platform
 from pathlib import Path
+
+from aquafish_gym.argtypes import add_alias, int_at_least, path
 
 __all__ = ["main", "stage_table"]
 
@@ -53,10 +55,11 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     from aquafish.case_study import PRESETS, run_case_study
 
     parser = parser_class(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", choices=sorted(PRESETS), default="quick")
+    add_alias(parser, parser.add_argument("--budget", choices=sorted(PRESETS), default="quick",
+                                          help="the case study's budget (default: quick)"), "--preset")
     parser.add_argument("--damage", default="reversed_left_pectoral")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", help="case-study directory (a fresh one times every stage)")
+    parser.add_argument("--seed", type=int_at_least(0), default=0)
+    parser.add_argument("--out", type=path, help="case-study directory (a fresh one times every stage)")
     parser.add_argument("--report", help="tabulate this report.json instead of running a case study")
     args = parser.parse_args(argv)
     if (args.out is None) == (args.report is None):
@@ -64,7 +67,7 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     if args.report is not None:
         report = json.loads(Path(args.report).read_text())
     else:
-        report = run_case_study(args.preset, args.damage, args.seed, args.out, progress=False)
+        report = run_case_study(args.budget, args.damage, args.seed, args.out, progress=False)
     print(f"case study {report['preset']!r}, {report['damage']}, seed {report['seed']}; "
           f"{platform.node()}, {os.cpu_count()} CPUs")
     print(stage_table(report))

@@ -26,6 +26,7 @@ import time
 import numpy as np
 
 from aquafish.monitor import DamageMonitor, calibrate, forward_speeds
+from aquafish_gym.argtypes import path
 
 #: The preset damages measured (every preset but ``none``).
 DAMAGES = ("reversed_left_pectoral", "weak_right_pectoral", "seized_left_pectoral", "left_pectoral_missing",
@@ -63,7 +64,7 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     parser.add_argument("--mission-seeds", default="20000,20001,20002")
     parser.add_argument("--onset", type=float, default=30.0)
     parser.add_argument("--after", type=float, default=15.0, help="seconds swum after the onset (default 15)")
-    parser.add_argument("--out", default=None, help="also write the results as JSON to this file")
+    parser.add_argument("--out", type=path, default=None, help="also write the results as JSON to this file")
     args = parser.parse_args(argv)
     t0 = time.perf_counter()
     controller = load_controller(args.controller)

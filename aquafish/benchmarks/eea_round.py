@@ -61,15 +61,16 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     parser.add_argument("--workers", default="1,2", help="comma-separated worker counts")
     parser.add_argument("--inference", default="out_of_band")
     parser.add_argument("--experiments", type=int, default=10, help="experiments recorded before the round")
-    parser.add_argument("--duration", type=float, default=1.28, help="experiment length (s)")
+    parser.add_argument("--duration-s", "--duration", type=float, default=1.28,
+                        help="experiment length (s), as aquafish eea's --duration-s")
     args = parser.parse_args(argv)
     print(f"machine: {platform.processor() or platform.machine()}, {platform.python_implementation()} "
           f"{platform.python_version()}; one round, {args.experiments} experiments recorded, "
-          f"{args.duration} s, inference {args.inference}, paper settings (25 x 25 exploration, 25 x 100 estimation)")
+          f"{args.duration_s} s, inference {args.inference}, paper settings (25 x 25 exploration, 25 x 100 estimation)")
     print(f"{'workers':>7} {'wall s':>8} {'explore s':>9} {'estimate s':>10} {'simulations':>11} {'sims/s':>8} "
           f"{'robot-steps/s':>13}")
     for workers in (int(w) for w in args.workers.split(",")):
-        config = EEAConfig(inference=args.inference, duration_s=args.duration, workers=workers)
+        config = EEAConfig(inference=args.inference, duration_s=args.duration_s, workers=workers)
         r = time_round(config, args.experiments)
         rate = r["simulations"] / r["wall_s"]
         print(f"{workers:>7} {r['wall_s']:>8.1f} {r['exploration_s']:>9.1f} {r['estimation_s']:>10.1f} "

@@ -1,7 +1,7 @@
 """NEAT generations per second: a generation on single envs genome by genome vs at once on the vector env.
 
 Runs NEAT (``neat.Population`` on ``gait/neat_config.ini``, as :func:`gait.evolve_gait` does,
-without its files and reporters) at a case-study preset's NEAT settings (``--preset``,
+without its files and reporters) at a case-study preset's NEAT settings (``--budget``,
 default ``quick``: its ``gait_population`` genomes x ``gait_episodes`` starts, 20 s
 episodes, healthy robot, seed 0) for ``--generations`` generations with each evaluator:
 
@@ -21,7 +21,7 @@ pool's start-up is left out); the ratio of generations per second to in-process 
 and the largest difference of any genome's fitness from ``single``'s (the same genomes
 evolve; round-off only).
 
-    python -m aquafish.benchmarks.neat_generation [--preset quick] [--generations 3] [--repeats 3] [--workers 1,2]
+    python -m aquafish.benchmarks.neat_generation [--budget quick] [--generations 3] [--repeats 3] [--workers 1,2]
 """
 
 from __future__ import annotations
@@ -38,6 +38,7 @@ import neat
 import numpy as np
 
 from aquafish.case_study import PRESETS
+from aquafish_gym.argtypes import add_alias
 from gait.batch_fitness import BatchEvaluator
 from gait.neat_evolution import FitnessTask, evaluate_genome, load_neat_config, set_num_inputs
 from gait.neat_progress import PoolEvaluator
@@ -99,14 +100,16 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     ``aquafish bench`` passes its own (one-line usage errors, see :mod:`aquafish.bench_cli`).
     """
     parser = parser_class(prog=prog, description=__doc__.splitlines()[0])
-    parser.add_argument("--preset", choices=sorted(PRESETS), default="quick")
+    add_alias(parser, parser.add_argument("--budget", choices=sorted(PRESETS), default="quick",
+                                          help="the case-study budget whose NEAT settings are timed (default: quick)"),
+              "--preset")
     parser.add_argument("--generations", type=int, default=3, help="per run (>= 2; the first is not timed)")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--workers", type=_workers, default=[1, 2], help="comma-separated process counts")
     args = parser.parse_args(argv)
     if args.generations < 2 or args.repeats < 1:
         parser.error("--generations must be >= 2 and --repeats >= 1")
-    preset = PRESETS[args.preset]
+    preset = PRESETS[args.budget]
     task = FitnessTask(as_robot("healthy"), SEED, episodes=preset.gait_episodes)
     evaluate = functools.partial(evaluate_genome, task=task)
     modes = {"single, in-process": lambda: _serial(task)}
@@ -122,7 +125,7 @@ def main(argv: list[str] | None = None, prog: str | None = None,
             runs[name].append((rate, cpu))
     reference = "single, in-process"
     base = statistics.median(r for r, _ in runs[reference])
-    print(f"NEAT at preset {args.preset!r}: {preset.gait_population} genomes x {preset.gait_episodes} starts, "
+    print(f"NEAT at budget {args.budget!r}: {preset.gait_population} genomes x {preset.gait_episodes} starts, "
           f"20 s episodes, {args.generations} generations ({args.generations - 1} timed), median of "
           f"{args.repeats}, {os.cpu_count()} CPUs")
     print(f"{'evaluator':<24} {'generations/s':>14} {'s/generation':>13} {'CPU s/generation':>17} {'ratio':>7} "

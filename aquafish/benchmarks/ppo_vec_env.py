@@ -28,6 +28,8 @@ import time
 
 import numpy as np
 
+from aquafish_gym.argtypes import int_at_least
+
 
 def _timed(venv):
     """``venv`` in a ``VecEnvWrapper`` that adds the wall seconds of ``reset``/``step_wait`` to ``.env_s``."""
@@ -99,7 +101,7 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     parser.add_argument("--timesteps", type=int, default=8192, help="env steps of PPO per run")
     parser.add_argument("--num-threads", type=int, default=1, help="torch CPU threads")
     parser.add_argument("--repeats", type=int, default=1, help="interleaved runs per stack (the median is shown)")
-    parser.add_argument("--seed", type=int, default=0, help="SB3's seed (both stacks)")
+    parser.add_argument("--seed", type=int_at_least(0), default=0, help="SB3's seed (both stacks)")
     parser.add_argument("--n-envs", type=int, default=None, help="override the YAML's n_envs")
     parser.add_argument("--n-steps", type=int, default=None, help="override the YAML's n_steps (per env)")
     args = parser.parse_args(argv)

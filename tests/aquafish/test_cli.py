@@ -104,7 +104,7 @@ def test_study_command_line_of_the_readme(monkeypatch, tmp_path):
     assert main(argv) == 0
     spec, out, kw = specs[0]
     assert (spec.conditions, spec.durations_s, spec.replicates, out) == (("known", "none", "in_band", "out_of_band"),
-                                                                          (1.28,), 5, str(tmp_path))
+                                                                          (1.28,), 5, tmp_path)
     assert list(spec.seeds) == [10, 11, 12, 13, 14]
     from eea.config import EEAConfig
 

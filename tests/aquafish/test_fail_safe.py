@@ -436,7 +436,9 @@ def test_checkpoints_are_neat_pythons_format_with_the_fingerprint(made):
     (["swim", "--duration", "-3"], ["--duration", "> 0"]),
     (["swim", "--duration", "nan"], ["--duration", "finite"]),
     (["swim", "--duration", "inf"], ["--duration", "finite"]),
-    (["swim", "--duration", "1e9"], ["--duration 1e+09", "memory"]),
+    (["swim", "--episode-duration-s", "0"], ["--episode-duration-s", "> 0"]),
+    (["swim", "--episode-duration-s", "1e9"], ["--episode-duration-s 1e+09", "memory"]),
+    (["swim", "--duration", "1e9"], ["--episode-duration-s 1e+09", "memory"]),  # the old name
     (["study", "--out", "o", "--processes", "0"], ["--processes", ">= 1"]),
     (["gait", "--out", "o", "--population-size", "1000000000"], ["1000000000", "memory", "--population-size"]),
     (["gait", "--out", "o", "--episode-duration-s", "1e12"], ["memory", "--episode-duration-s"]),
