@@ -585,7 +585,9 @@ def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: in
         gait_dir: a finished or interrupted run directory of :func:`evolve_gait`; its
             checkpoint is unpickled, so it must be a directory you trust like code.
         generations: generations to run beyond the checkpoint's (>= 1).
-        seed, episode_duration_s, episodes_per_genome: the fitness task, as :func:`evolve_gait`.
+        seed: the fitness task's seed, as :func:`evolve_gait`.
+        episode_duration_s: simulated seconds of every episode, as :func:`evolve_gait`.
+        episodes_per_genome: episodes a genome is scored on, as :func:`evolve_gait`.
         workers: evaluation processes (default 1).
 
     Returns:
