@@ -5,7 +5,7 @@ in Self-Modeling Aquatic Robots" (ERLARS 2013), sections 3.2-3.4 and 4. The algo
 pure NumPy; it takes the robot's constants (morphology fields and bounds, servo ranges, the
 caudal sweep) from ``aquafish_gym`` and simulates only through ``aquafish_gym.simulate_batch``.
 
-The layout (issue 40; ``tests/eea/test_layering.py`` checks it)::
+The layout (``tests/eea/test_layering.py`` checks it)::
 
     eea/                     the paper's core, at the top
       encoding.py              45-bit model and 18-bit action genomes (3.2, Figure 4); the model

@@ -17,7 +17,7 @@ unread.
 Classes are pickled by module path. Modules that moved keep loading through
 :data:`MODULE_RENAMES`, which :class:`RenamingUnpickler` applies: the CMA-ES search is pickled
 whole inside the checkpoint (:meth:`eea.search.cma.CMAModelSearch.state_dict`), and checkpoints
-written before issue 40 name it ``eea.cma_search.CMAModelSearch``.
+written before the package split name it ``eea.cma_search.CMAModelSearch``.
 """
 
 from __future__ import annotations
@@ -38,8 +38,8 @@ STATE_FILE = "state.pkl"
 CONFIG_FILE = "config.json"
 _VERSION = 1
 
-#: Old module path -> new, for classes pickled before their module moved (issue 40 made
-#: :mod:`eea.search` and :mod:`eea.inference` packages). Every name a moved module defined is
+#: Old module path -> new, for classes pickled before their module moved (when
+#: :mod:`eea.search` and :mod:`eea.inference` became packages). Every name a moved module defined is
 #: found in its new module (``eea.search.registry`` re-exports ``ModelGA``). ``eea.inference``
 #: kept its path: it is now a package that re-exports the paper's strategies.
 MODULE_RENAMES: dict[str, str] = {

@@ -57,7 +57,7 @@ MODEL_SPACE_NAMES: tuple[str, ...] = tuple(MODEL_SPACES)
 #: the stopping criterion (a finished run can be extended to more rounds).
 RESULT_NEUTRAL_FIELDS: tuple[str, ...] = ("workers", "max_batch_robots", "rounds")
 
-#: Fields of retired variants (issue 40 and later; docs/studies/retired_variants.md) and the default
+#: Fields of retired variants (docs/studies/retired_variants.md) and the default
 #: each had: a ``config.json`` written before holds them, and loads (:meth:`EEAConfig.from_dict`)
 #: if each has its default, i.e. the run did not use the retired variant.
 RETIRED_FIELDS: dict[str, object] = {

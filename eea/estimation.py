@@ -199,7 +199,7 @@ class Estimation:
         Raises:
             ValueError: on an unknown search or an invalid state.
         """
-        search = state["search"] if "search" in state else state["ga"]  # "ga": checkpoints before issue 12
+        search = state["search"] if "search" in state else state["ga"]  # "ga": checkpoints from before the CMA-ES search
         estimation = cls(model_search_from_state(search, rng))
         estimation._genomes, estimation._fitness = state["genomes"], state["fitness"]
         estimation._round = dict(state.get("round", {}))  # absent in checkpoints before exploration_diversity

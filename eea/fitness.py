@@ -69,7 +69,7 @@ def robust_action_fitness(summaries, max_coefficient: float = MAX_COEFFICIENT):
     disagreement of a model with itself caused by the angles alone). The spread is the
     candidate models' own: when they all share a wrong, large flipper, moving it is penalised
     although it would expose the error (study record, "Two lineages from round 1"; a weight
-    on the spread was retired in issue 40, docs/studies/retired_variants.md).
+    on the spread was retired, docs/studies/retired_variants.md).
 
     Args:
         summaries: ``(K, M, 3, F)`` summaries of M models from K angle sets under one

@@ -17,7 +17,7 @@ ROOT = Path(__file__).parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 #: Records of retired variants name commands that ran at an older commit (they say which).
 HISTORICAL = {ROOT / "docs/studies/retired_variants.md"}
-#: Commits at which retired fields last ran, where not issue 40's 82b7524: a page that shows
+#: Commits at which retired fields last ran, where not the retirement's 82b7524: a page that shows
 #: such a field's flag must name its commit.
 RETIRED_FIELD_COMMITS = {"cma_global_flip": "eac968c"}
 #: Retired sub-commands, by the commit they last ran at: a page that shows one must name it.

@@ -32,3 +32,15 @@ def test_the_project_names_its_urls_and_version():
     project = PYPROJECT["project"]
     assert {"Homepage", "Documentation", "Issues"} <= set(project["urls"])
     assert project["name"] == "aquafish" and project["version"]
+
+
+def test_the_packages_and_tests_hold_no_issue_numbers():
+    """The code speaks for itself: why a thing is so is said in words or by a docs link, not
+    by the number of the tracker issue that asked for it."""
+    import re
+
+    pattern = re.compile(r"\bissues? #?\d+", re.IGNORECASE)
+    hits = [f"{path.relative_to(ROOT)}:{n}" for top in ("aquafish_gym", "eea", "gait", "aquafish", "tests")
+            for path in sorted((ROOT / top).rglob("*.py"))
+            for n, line in enumerate(path.read_text().splitlines(), 1) if pattern.search(line)]
+    assert not hits, f"issue numbers in: {hits}"

@@ -1,4 +1,4 @@
-"""Compare EEA variants on the same seeds: the table of issue 14's evidence.
+"""Compare EEA variants on the same seeds: the table a study's claims rest on.
 
 :mod:`eea.analysis.plot` groups runs by (inference, duration), the paper's figure layout. Comparing
 *variants* (the same inference with another search, refinement or exploration setting)
@@ -146,7 +146,7 @@ def comparison_table(summary: dict[str, VariantSummary], baseline: str | None = 
     Columns: variant; seeds; final OBJ_FIT mean ± std (ddof 0) and per seed; Welch's
     two-sided p (:func:`eea.analysis.plot.welch_p_value`) against ``baseline`` on the seeds both ran
     (their number in brackets; "-" for the baseline itself or when undefined); runs that
-    reach the level, and their median first round; runs ending >= 0.95 (issue 14's goal);
+    reach the level, and their median first round; runs ending >= 0.95;
     median angle error L / R / C (degrees); simulations per round.
 
     Args:

@@ -1,4 +1,4 @@
-"""The equal angle fit that picks one model among candidates (not the paper's; issue 14).
+"""The equal angle fit that picks one model among candidates (not the paper's).
 
 Every candidate model gets its own initial angles fitted for every experiment, equally hard
 for all (:meth:`eea.inference.profile.Profile.fit` from random starts, then

@@ -472,5 +472,5 @@ class CMAModelSearch(TellRecord):
         if not hasattr(search, "global_keep"):  # checkpoints written before the kept global lineage
             search.global_keep, search._global_best_x, search._global_restarts = 0, None, 0
         for retired in ("global_period", "global_first_round", "_restarts", "_incumbent", "_local_best_x"):
-            search.__dict__.pop(retired, None)  # checkpoints written before issue 40 retired global restarts
+            search.__dict__.pop(retired, None)  # checkpoints written before global restarts were retired
         return search

@@ -1,4 +1,4 @@
-"""Independent estimation lineages that share each round's experiment (not the paper's; issue 14).
+"""Independent estimation lineages that share each round's experiment (not the paper's).
 
 Under unknown initial angles a run of the EEA settles early in one basin of MOD_FIT and the
 basin decides where it ends (docs/studies.md, "Two estimation lineages: where it stands").

@@ -1,4 +1,4 @@
-"""Every command fails safe (issue 43): one clear line, exit status 2, no traceback, nothing
+"""Every command fails safe: one clear line, exit status 2, no traceback, nothing
 half-written, and a run directory that cannot be mislabelled.
 
 One regression test (or parametrised family) per root cause of the issue:

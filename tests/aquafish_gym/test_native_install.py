@@ -1,4 +1,4 @@
-"""Installing the compiled step (issue 42): the PyBullet version guard, the fallback message, `aquafish doctor`.
+"""Installing the compiled step: the PyBullet version guard, the fallback message, `aquafish doctor`.
 
 These run whether or not the step is built (test_native.py needs it built).
 """

@@ -1,4 +1,4 @@
-"""Checkpoints written before issue 40 reshaped :mod:`eea` (retired variants, subpackages) still
+"""Checkpoints written before the reshaping of :mod:`eea` (retired variants, subpackages) still
 resume, and the resumed run gives the golden rows bit for bit.
 
 ``tests/eea/data/checkpoints_before_issue40/`` holds two tiny runs stopped after round 2 of 3,

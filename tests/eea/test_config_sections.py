@@ -1,4 +1,4 @@
-"""The sections of EEAConfig (issue 40, item 4): each component owns a frozen settings class
+"""The sections of EEAConfig: each component owns a frozen settings class
 next to its code that validates its own fields; the flat config builds them, keeps their
 normalised values and checks only what spans sections."""
 

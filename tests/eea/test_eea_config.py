@@ -93,7 +93,7 @@ def test_budgets_and_methods_are_independent_axes_and_fields_win():
 def test_a_config_written_before_issue_40_loads_unless_it_used_a_retired_variant():
     from eea.config import RETIRED_FIELDS
 
-    old = {**EEAConfig(workers=1).to_dict(), **RETIRED_FIELDS}          # config.json of a run before issue 40
+    old = {**EEAConfig(workers=1).to_dict(), **RETIRED_FIELDS}          # config.json of a run before the retirement
     assert EEAConfig.from_dict(old) == EEAConfig(workers=1)
     assert not set(RETIRED_FIELDS) & set(EEAConfig().to_dict())
     with pytest.raises(ValueError, match=r"EEAConfig.profile_scan = 1: this run used a retired variant"):

@@ -2,7 +2,7 @@
 the ``library`` preset and the best method, the ``lineages`` preset.
 
 The files in ``tests/eea/test_golden_rounds/`` were recorded on main before the EEA's
-composition was reshaped (issue 12) and must stay identical, except the ``wall_seconds``
+composition was reshaped and must stay identical, except the ``wall_seconds``
 column: every text field and integer byte for byte, every real number to 1e-12 relative
 (:func:`_same_rounds`; the last bit of a NumPy sum can differ between machines, by the CPU's
 SIMD paths: one action fitness came out 0.011514829633879634 against ...963 on another machine,
@@ -35,7 +35,7 @@ VARIANTS = {
 #: Not the paper's, CMA-ES only (the global share and the carried covariance are CMA-ES
 #: options): the best method in one lineage, once the ``library`` preset (population 10, the
 #: smallest its global share of 8 allows; docs/self_modeling.md). The options once measured on top of it were
-#: retired in issue 40 with their golden file (docs/studies/retired_variants.md).
+#: retired with their golden file (docs/studies/retired_variants.md).
 LIBRARY = {k: v for k, v in method_fields("profile_lineages").items() if k not in ("lineages", "cma_global_keep")}
 CMA_VARIANTS = {
     "library": dict(LIBRARY, estimation_population=10),
@@ -91,7 +91,7 @@ def test_rounds_csv_matches_the_recorded_run(tmp_path, tiny_config, file_regress
                         file_regression, f"{variant}_{search}")
 
 
-#: The surface swimmer (the default physics since issue 39; the runs above pin deep water, the
+#: The surface swimmer (the default physics; the runs above pin deep water, the
 #: physics they were recorded in): the paper's four strategies, recorded when it landed.
 SURFACE_VARIANTS = ("known", "none", "in_band", "out_of_band")
 
@@ -111,8 +111,8 @@ def test_library_rounds_csv_matches_the_recorded_run(tmp_path, tiny_config, file
 
 
 def test_lineages_rounds_and_lineages_csv_match_the_recorded_run(tmp_path, tiny_config, file_regression):
-    """The best method (the ``lineages`` preset, issue 14): its ``rounds.csv`` and its
-    ``lineages.csv`` (recorded before issue 40 split :mod:`eea` into subpackages)."""
+    """The best method (the ``lineages`` preset): its ``rounds.csv`` and its
+    ``lineages.csv`` (recorded before :mod:`eea` was split into subpackages)."""
     config = tiny_config(rounds=3, seed=7, **dict(method_fields("profile_lineages"), estimation_population=10))
     _check_recorded_run(tmp_path, config, file_regression, "lineages_cma")
     lineages = (tmp_path / "lineages.csv").read_text()

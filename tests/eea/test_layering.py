@@ -1,4 +1,4 @@
-"""The layering of :mod:`eea` (issue 40), checked by parsing every module's imports with ``ast``.
+"""The layering of :mod:`eea`, checked by parsing every module's imports with ``ast``.
 
 The layout (the map is in ``eea/__init__.py``)::
 
@@ -207,7 +207,7 @@ def _closure(module: str) -> set[str]:
 
 
 def test_the_config_sections_do_not_import_the_config():
-    """Issue 40, item 4: each component's settings section lives next to its code and
+    """Each component's settings section lives next to its code and
     validates itself; :mod:`eea.config` imports the sections, never the other way round."""
     from eea.config import SECTIONS
 

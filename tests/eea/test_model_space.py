@@ -1,4 +1,4 @@
-"""The ``morphology+servos`` model space (issue 41, item 1): servo gains in the self-model.
+"""The ``morphology+servos`` model space: servo gains in the self-model.
 
 The encoding of the gains, their exactness for every damage preset, OBJ_FIT over 12 values,
 the evaluator simulating each model with its own gains (the truth reproduces a reversed

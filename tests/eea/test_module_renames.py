@@ -1,4 +1,4 @@
-"""The modules issue 40 moved into :mod:`eea.search` and :mod:`eea.inference` leave no shim at
+"""The modules moved into :mod:`eea.search` and :mod:`eea.inference` leave no shim at
 their old paths, and pickles naming the old paths still load through
 :data:`eea.checkpoint.MODULE_RENAMES` (the checkpoints of ``tests/eea/data`` are checked end to
 end by ``test_checkpoint_compat.py``)."""
