@@ -1,13 +1,14 @@
 """``aquafish mission``: damage noticed while swimming, target experiments where the robot stands,
 the EEA warm-started at the old self-model, a gait from the old population (aquafish.mission)."""
 
+import dataclasses
 import json
 
 import numpy as np
 import pytest
 
 from aquafish.cli import main
-from aquafish.mission import (MISSION_PRESETS, STOP_ACTION, MissionTarget, _Mission, make_prior, run_mission,
+from aquafish.mission import (MISSION_PRESETS, RECOVERY_SEARCHES, STOP_ACTION, MissionTarget, _Mission, make_prior, run_mission,
                               span_speed, stop_robot)
 from aquafish.mission_cli import PRESET_NAMES
 from aquafish_gym import Morphology
@@ -157,6 +158,31 @@ def test_span_speed_is_displacement_along_the_heading_per_second():
 
 def test_cli_presets_match_the_module():
     assert sorted(PRESET_NAMES) == sorted(MISSION_PRESETS)
+    choices = {a.dest: a.choices for a in _mission_parser()._actions}
+    assert sorted(choices["recovery_search"]) == sorted(RECOVERY_SEARCHES)
+
+
+def _mission_parser():
+    import argparse
+
+    from aquafish import mission_cli
+
+    sub = argparse.ArgumentParser().add_subparsers()
+    mission_cli.add_commands(sub)
+    return sub.choices["mission"]
+
+
+def test_the_recovery_searches_are_the_case_studys_eea_and_its_lean_variant():
+    from aquafish.mission import _eea_config
+
+    quick = MISSION_PRESETS["quick"]
+    full, lean = (_eea_config(quick, "reversed_left_pectoral", 0, 1, s) for s in ("full", "lean"))
+    assert full == EEAConfig.from_method("profile_lineages", "quick", damage="reversed_left_pectoral", seed=0,
+                                         workers=1, model_space="morphology+servos", behaviour_summary="signed_dft",
+                                         cma_flip_gains=1)
+    assert (lean.lineages, lean.profile_refine, lean.profile_library, lean.exploration_angles,
+            lean.estimation_generations) == (1, 0, 0, 2, 15)
+    assert dataclasses.replace(lean, **{k: getattr(full, k) for k in RECOVERY_SEARCHES["lean"]}) == full
 
 
 @pytest.mark.parametrize("argv, message", [
