@@ -12,6 +12,11 @@ that cannot fit in memory ends the command with one line on standard error,
 ``aquafish COMMAND: error: ...`` naming the flag or the path, what was wrong and what to
 do, and exit status 2, without a traceback. ``--debug`` (before or after the command)
 re-raises instead, to show the traceback.
+
+A command with ``--config FILE`` (:func:`aquafish_gym.argtypes.add_config_option`) reads its
+settings from that TOML file too, the flags given overriding it (:mod:`aquafish.config_file`):
+:func:`main` applies the file while it parses the command line, and after the command succeeds
+records it in the command's output directory.
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ import zlib
 from concurrent.futures.process import BrokenProcessPool
 
 import aquafish
+from aquafish.config_file import parse_command_line, write_record
 
 #: Modules that contribute sub-commands, in help order.
 COMMAND_MODULES = ("aquafish_gym.cli", "aquafish.bench_cli", "eea.cli", "gait.cli", "aquafish.studies_cli",
@@ -106,16 +112,22 @@ def describe_error(err: BaseException) -> str:
 def main(argv: list[str] | None = None) -> int:
     """Run ``aquafish ARGV``; return the command's exit status (0).
 
+    A config file (``--config FILE``) is applied while ``ARGV`` is parsed
+    (:func:`aquafish.config_file.parse_command_line`) and, once the command succeeded, recorded
+    in its output directory (:func:`aquafish.config_file.write_record`).
+
     Raises:
         SystemExit: status 2 after a one-line error on standard error (a usage error, or an
             error of :data:`EXPECTED_ERRORS` raised by the command), status 130 after an
             interrupt, status 0 after ``--help`` or ``--version``.
     """
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, config = parse_command_line(parser, sys.argv[1:] if argv is None else argv)
     debug = args.debug or getattr(args, "debug_command", False) or os.environ.get("AQUAFISH_DEBUG") == "1"
     try:
         result = args.func(args)
+        if config is not None and not result:
+            write_record(parser, args, config)
     except KeyboardInterrupt:
         if debug:
             raise

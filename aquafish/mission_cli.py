@@ -7,7 +7,8 @@ import argparse
 import json
 from pathlib import Path
 
-from aquafish_gym.argtypes import add_alias, add_no_progress, add_workers, int_at_least, path, positive_float
+from aquafish_gym.argtypes import (add_alias, add_config_option, add_no_progress, add_workers, int_at_least, path,
+                                   positive_float)
 
 #: The mission budgets (:data:`aquafish.mission.MISSION_PRESETS`; not imported here, to keep the
 #: command line light: a test checks they agree). Each is the case-study budget of the same name
@@ -77,4 +78,5 @@ def add_commands(sub) -> None:
     m.add_argument("--no-video", action="store_true", help="write no video")
     m.add_argument("--no-oracle", action="store_true", help="skip the oracle gait (oracle_speed null)")
     add_no_progress(m, "generation")
+    add_config_option(m)
     m.set_defaults(func=_mission)

@@ -7,8 +7,8 @@ import argparse
 from pathlib import Path
 
 from aquafish.studies_cli import CASE_STUDY_BUDGETS
-from aquafish_gym.argtypes import (add_alias, add_episode_duration, add_no_progress, add_processes, add_workers, csv_list,
-                                   damage_list, int_at_least, path)
+from aquafish_gym.argtypes import (add_alias, add_config_option, add_episode_duration, add_no_progress, add_processes,
+                                   add_workers, csv_list, damage_list, int_at_least, path)
 
 
 def _recovery(args: argparse.Namespace) -> int:
@@ -48,4 +48,5 @@ def add_commands(sub) -> None:
     r.add_argument("--address", default=None,
                    help="Ray cluster address (as for aquafish study --address; default: start a local Ray)")
     add_no_progress(r, "cell")
+    add_config_option(r)
     r.set_defaults(func=_recovery)

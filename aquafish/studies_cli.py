@@ -6,8 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from aquafish_gym.argtypes import (add_alias, add_episode_duration, add_no_progress, add_processes, add_workers, csv_list,
-                                   damage_list, int_at_least, path)
+from aquafish_gym.argtypes import (add_alias, add_config_option, add_episode_duration, add_no_progress, add_processes,
+                                   add_workers, csv_list, damage_list, int_at_least, path)
 from aquafish_gym.rundir import check_output_dir, check_output_file, run_lock
 from eea.cli import add_config_flags, config_fields, config_flag_names, given_flags
 from eea import INFERENCE_NAMES, MODEL_SPACES, EEAConfig
@@ -174,6 +174,7 @@ def add_commands(sub) -> None:
                    help="output directory (finished steps are reused; default case_study_out)")
     add_workers(c, None, "all cores")
     add_no_progress(c, "round, generation or training chunk")
+    add_config_option(c)
     c.set_defaults(func=_case_study)
 
     s = sub.add_parser("study", help="many resumable EEA runs: conditions x durations x replicates (Figures 5-10)")
@@ -193,6 +194,7 @@ def add_commands(sub) -> None:
                         "its token in RAY_AUTH_TOKEN (or RAY_AUTH_TOKEN_PATH, or ~/.ray/auth_token) in this "
                         "command's environment")
     add_processes(s, None, "all cores", note="the local backend's process pool; each run evaluates serially")
+    add_config_option(s)
     add_config_flags(s, exclude=STUDY_EXCLUDED)
     add_no_progress(s, "finished run")
     s.set_defaults(func=_study)
@@ -252,6 +254,7 @@ def add_commands(sub) -> None:
     add_workers(t, 1, note="each gait's NEAT evaluations")
     t.add_argument("--verbose", action="store_true", help="NEAT's per-generation report")
     add_no_progress(t, "generation")
+    add_config_option(t)
     t.set_defaults(func=_damages)
 
     b = sub.add_parser("baselines", help="random policy, NEAT and PPO on every task of the env family "
@@ -267,4 +270,5 @@ def add_commands(sub) -> None:
     b.add_argument("--eval-seed", type=int_at_least(0), default=1000, help="seed of the first fresh start (default 1000)")
     add_workers(b, 1, note="each NEAT run's evaluations")
     add_no_progress(b, "generation or training chunk")
+    add_config_option(b)
     b.set_defaults(func=_baselines)

@@ -8,9 +8,9 @@ import argparse
 import math
 from pathlib import Path
 
-__all__ = ["EPISODE_DURATION_HELP", "PROCESSES_HELP", "WORKERS_HELP", "add_alias", "add_episode_duration",
-           "add_no_progress", "add_processes", "add_workers", "csv_list", "damage_list", "int_at_least", "path",
-           "positive_float"]
+__all__ = ["CONFIG_HELP", "EPISODE_DURATION_HELP", "PROCESSES_HELP", "WORKERS_HELP", "add_alias", "add_config_option",
+           "add_episode_duration", "add_no_progress", "add_processes", "add_workers", "csv_list", "damage_list",
+           "int_at_least", "is_comma_separated", "path", "positive_float"]
 
 #: How every command's ``--workers`` help begins: processes that evaluate in parallel within one
 #: run (a run's population, a case study's steps); ``--processes`` is the other count.
@@ -19,6 +19,8 @@ WORKERS_HELP = "evaluation processes inside one run"
 PROCESSES_HELP = "runs at once"
 #: How every command's ``--episode-duration-s`` help begins (the length of a gait's episodes).
 EPISODE_DURATION_HELP = "simulated seconds of every episode"
+#: How every command's ``--config`` help begins (:func:`add_config_option`).
+CONFIG_HELP = "a TOML file of this command's settings"
 
 
 def int_at_least(minimum: int):
@@ -87,6 +89,7 @@ def csv_list(kind=str, choices=None):
         return values
 
     parse.__name__ = f"comma-separated {kind.__name__} list"
+    parse.comma_separated = True
     return parse
 
 
@@ -113,6 +116,22 @@ def damage_list(text: str) -> tuple[str, ...]:
     return values
 
 
+damage_list.comma_separated = True
+
+
+def is_comma_separated(kind) -> bool:
+    """Is ``kind`` an argparse ``type`` that parses a comma-separated list (:func:`csv_list`,
+    :func:`damage_list`)? A config file gives such a flag a TOML list (its items joined by commas).
+
+    Args:
+        kind: a flag's ``type`` (any callable, or None).
+
+    Returns:
+        True for a comma-separated list's type.
+    """
+    return bool(getattr(kind, "comma_separated", False))
+
+
 def add_no_progress(parser: argparse.ArgumentParser, unit: str) -> argparse.Action:
     """Add ``--no-progress`` to a long-running command's parser (every one has it, under this one
     name): no progress display at all (:func:`aquafish_gym.progress.progress_bar`).
@@ -127,6 +146,27 @@ def add_no_progress(parser: argparse.ArgumentParser, unit: str) -> argparse.Acti
     """
     return parser.add_argument("--no-progress", action="store_true",
                                help=f"no progress (default: a bar on a terminal, one line per {unit} otherwise)")
+
+
+def add_config_option(parser: argparse.ArgumentParser) -> argparse.Action:
+    """Add ``--config FILE`` to a command's parser: a TOML file whose keys are the command's long
+    flags without the dashes (``estimation_generations = 15``), read as if its flags came first
+    on the command line, so that the flags given override it.
+
+    The flag only declares the option (stored as ``config_file``); :func:`aquafish.cli.main`
+    reads the file and applies it (:mod:`aquafish.config_file`) before the command line is
+    parsed, for every command whose parser has it.
+
+    Args:
+        parser: the (sub-)command's parser.
+
+    Returns:
+        The argparse action.
+    """
+    return parser.add_argument("--config", type=path, default=None, dest="config_file", metavar="FILE",
+                               help=f"{CONFIG_HELP}: one key per long flag, without the dashes (seed = 3, "
+                                    "estimation_generations = 15, damages = [\"a\", \"b\"], no_progress = true); "
+                                    "flags given on the command line override it")
 
 
 def _help(lead: str, note: str, default, default_text: str | None) -> str:

@@ -150,5 +150,6 @@ def add_commands(subparsers) -> None:
     eea.add_argument("--out", required=True, type=argtypes.path, metavar="DIR", help="run directory (config.json, rounds.csv, state.pkl); its checkpoint state.pkl is a pickle, "
                           "so a run directory is trusted like code: resume only your own or trusted ones")
     argtypes.add_no_progress(eea, "round")
+    argtypes.add_config_option(eea)
     add_config_flags(eea)
     eea.set_defaults(func=_run_eea)

@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from aquafish_gym.argtypes import add_alias, add_episode_duration, add_no_progress, add_workers, int_at_least, path
+from aquafish_gym.argtypes import (add_alias, add_config_option, add_episode_duration, add_no_progress, add_workers,
+                                   int_at_least, path)
 from aquafish_gym.rundir import check_output_dir
 
 #: gait.controller.SB3_ALGOS, spelled out: importing gait here would cost every command 0.6 s
@@ -35,6 +36,7 @@ def add_commands(subparsers) -> None:
     p.add_argument("--seed", type=int_at_least(0), default=0, help="seeds NEAT and the fitness episode's initial flipper angles (default 0)")
     p.add_argument("--out", type=path, default=Path("runs/gait"), help="output directory (default runs/gait)")
     add_workers(p, os.cpu_count(), "all cores")
+    # not add_config_option: --config has named NEAT's INI file since the first gait runs
     p.add_argument("--config", type=path, default=None, help="NEAT INI file (default gait/neat_config.ini)")
     p.add_argument("--resume", default=None, help="checkpoint file (in checkpoints/ of a run directory with its fitness_settings.json) to "
                         "continue from, or 'latest' (in --out). A run directory is trusted like code: its "
@@ -78,6 +80,7 @@ def add_commands(subparsers) -> None:
     p.add_argument("--num-threads", type=int_at_least(1), default=1, help="torch CPU threads (default 1)")
     p.add_argument("--verbose", type=int, default=0, choices=(0, 1, 2), help="SB3 verbosity (default 0)")
     add_no_progress(p, "rollout")
+    add_config_option(p)
     p.set_defaults(func=run_rl)
 
 

@@ -30,6 +30,7 @@ def _is_cli(module: str) -> bool:
 #: Public by name but not the API, with the reason (the ``cli`` modules are left out by name).
 NOT_API = {
     "aquafish_gym.argtypes": "argparse types of the command lines",
+    "aquafish.config_file": "the command line's --config files (docs/main_job.md, Config files)",
     "aquafish_gym.native.build": "the build script of the compiled step (setup.py runs it)",
     "aquafish.benchmarks": "benchmark scripts, run as python -m aquafish.benchmarks.<name>",
 }

@@ -1,7 +1,9 @@
 """Every ``aquafish`` command shown in the README and docs parses with today's command line.
 
 A command in a fenced ``bash`` block (continuation lines joined) is parsed by
-:func:`aquafish.cli.build_parser`, not run: a renamed or retired flag fails here.
+:func:`aquafish.cli.build_parser`, not run: a renamed or retired flag fails here. A config file
+it names (``--config examples/...toml``, from the repository's root) is applied as ``aquafish``
+applies it, so its keys and values are checked too.
 """
 
 import re
@@ -11,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from aquafish.cli import build_parser
+from aquafish.config_file import parse_command_line
 from eea.config import RETIRED_FIELDS
 
 ROOT = Path(__file__).parents[1]
@@ -44,9 +47,10 @@ def _commands():
 
 
 @pytest.mark.parametrize("command", list(_commands()))
-def test_documented_command_parses(command):
+def test_documented_command_parses(command, monkeypatch):
     argv = shlex.split(command)[1:]
     argv = ["1" if re.fullmatch(r"[A-Z]", a) else a for a in argv if a not in ("&", "&&")]  # placeholders: S, N
-    if argv[0] == "study" and "--out" not in argv:
+    if argv[0] == "study" and "--out" not in argv and "--config" not in argv:
         argv += ["--out", "x"]
-    build_parser().parse_args(argv)
+    monkeypatch.chdir(ROOT)  # a config file's path is relative to the repository's root
+    parse_command_line(build_parser(), argv)
