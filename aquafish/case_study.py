@@ -20,8 +20,9 @@
    starts, for ``episode_duration_s`` simulated seconds (gait evolution too; 20 s, the
    paper's, by default; the surface swimmer's veering costs distance over 60 s).
 5. ``report.md`` / ``report.json``, the figures and ``recovery.mp4`` (a video of the damaged
-   robot under the healthy, self-model and oracle gaits from above, trajectories traced;
-   ``recovery.gif`` without imageio's ffmpeg plugin, :mod:`gait.video`) are written to the
+   robot under the healthy, self-model and oracle gaits from above, 1280 x 720 at 2x real
+   time, flippers and paths drawn; ``recovery.gif`` without imageio's ffmpeg plugin,
+   :mod:`gait.video`) are written to the
    output directory. The controllers have stable keys (:data:`CONTROLLER_KEYS`), and
    :func:`verdict` says whether the damage breaks the healthy gait, how much of the oracle
    the self-model gait recovers, and which rows recover.
@@ -663,6 +664,6 @@ def render_report(report: dict) -> str:
         lines += ["", f"Left out: {what}."]
     if report.get("video"):
         lines += ["", f"Video: [{report['video']}]({report['video']}), the damaged robot from above under the healthy, "
-                  "self-model and oracle gaits (first start), trajectories traced."]
+                  "self-model and oracle gaits (first start), flippers and paths drawn, 2x real time."]
     lines += ["", f"Wall time: {report['wall_seconds'] / 60:.1f} min.", ""]
     return "\n".join(lines)

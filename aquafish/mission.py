@@ -58,6 +58,7 @@ import aquafish_gym  # registers AquaFish-v0  # noqa: F401
 import eea
 import gait
 from aquafish.case_study import DEFAULT_METHOD, DEFAULT_MODEL_SPACE, PRESETS, model_fields, model_robot, preset_settings
+from aquafish.mission_video import ANGLE_COLUMNS, write_mission_video
 from aquafish.monitor import CALIBRATION_FILE, FORWARD_SPEED_INDEX, DamageMonitor, MonitorCalibration, calibrate
 from aquafish_gym import ServoFaults, get_damage
 from aquafish_gym.checks import check_int
@@ -73,7 +74,6 @@ from eea.round import RoundParts, run_round
 from eea.search.lineages import make_estimation, warm_start
 from gait.neat_evolution import evolve_from_population
 from gait.robots import Robot
-from gait.video import project
 
 __all__ = ["MISSION_FILE", "MISSION_PRESETS", "PRIORS", "RECOVERY_SEARCHES", "MissionPreset", "MissionTarget", "Prior",
            "load_prior", "make_prior", "mission_preset", "plot_timeline", "prepare_prior",
@@ -269,20 +269,16 @@ def load_prior(directory) -> Prior:
 
 
 class _Mission:
-    """The mission's world and its record: the env (never reset after the start), the clock,
-    the trajectory, frames for the video."""
+    """The mission's world and its record: the env (never reset after the start, never
+    rendered), the clock and the trajectory (every control step: what the video is drawn from)."""
 
-    def __init__(self, damage: str, onset_s: float, duration_s: float, seed: int, video: bool):
-        env_kwargs = dict(damage=damage, damage_onset_s=onset_s, episode_duration_s=10 * duration_s + 1000.0)
-        if video:
-            env_kwargs |= dict(render_mode="rgb_array", camera="top", camera_distance=7.0, width=200, height=200)
-        self.env = gym.make("AquaFish-v0", **env_kwargs).unwrapped
+    def __init__(self, damage: str, onset_s: float, duration_s: float, seed: int):
+        self.env = gym.make("AquaFish-v0", damage=damage, damage_onset_s=onset_s,
+                            episode_duration_s=10 * duration_s + 1000.0).unwrapped
         self.obs, info = self.env.reset(seed=seed)
         self.time_s = 0.0
         self.damaged = bool(info["damaged"])
         self.rows: list[dict] = []
-        self.frames: list[np.ndarray] = []
-        self.video = video
         self._record("gait")
 
     @property
@@ -298,22 +294,10 @@ class _Mission:
     def _record(self, phase: str) -> None:
         x, y, z = (float(v) for v in self.position())
         v = self.world.linear_velocity[0, 0]
-        self.rows.append({"time_s": round(self.time_s, 6), "x": x, "y": y, "z": z, "yaw_deg": self.yaw_deg(),
-                          "speed_along_heading": float(v @ INITIAL_HEADING), "phase": phase,
-                          "damaged": int(self.damaged)})
-        if self.video and len(self.rows) % 10 == 1:
-            self.frames.append(self._frame(phase))
-
-    def _frame(self, phase: str) -> np.ndarray:
-        frame = self.env.render()
-        view, proj = self.env.camera_matrices()
-        path = np.array([[r["x"], r["y"], r["z"]] for r in self.rows]) + self.world.home[0]
-        px = project(path, view, proj, frame.shape[1], frame.shape[0]).round().astype(int)
-        ok = (px[:, 0] >= 0) & (px[:, 0] < frame.shape[1]) & (px[:, 1] >= 0) & (px[:, 1] < frame.shape[0])
-        frame[px[ok, 1], px[ok, 0]] = (30, 90, 200)
-        colour = {"gait": (40, 160, 40), "stop": (200, 150, 0), "experiment": (200, 40, 40), "new_gait": (40, 40, 200)}
-        frame[:6, :] = colour[phase]  # a bar at the top: the phase
-        return frame
+        row = {"time_s": round(self.time_s, 6), "x": x, "y": y, "z": z, "yaw_deg": self.yaw_deg(),
+               "speed_along_heading": float(v @ INITIAL_HEADING), "phase": phase, "damaged": int(self.damaged)}
+        row.update(zip(ANGLE_COLUMNS, (float(a) for a in self.world.joint_angles()[0])))
+        self.rows.append(row)
 
     def step(self, action, phase: str):
         """One control step of the env (0.1 s) with ``action`` in [-1, 1]^3."""
@@ -467,21 +451,6 @@ def _write_trajectory(rows: list[dict], path: Path) -> None:
     atomic_write(path, ("\n".join(lines) + "\n").encode())
 
 
-def _write_video(frames: list[np.ndarray], stem: Path) -> str | None:
-    if not frames:
-        return None
-    import imageio.v3 as iio
-
-    from gait.video import VIDEO_FPS, video_path
-
-    path = video_path(stem)
-    if path.suffix == ".mp4":
-        iio.imwrite(path, np.stack(frames), plugin="FFMPEG", fps=VIDEO_FPS, codec="libx264", macro_block_size=8)
-    else:
-        iio.imwrite(path, np.stack(frames), duration=1000 / VIDEO_FPS, loop=0)
-    return path.name
-
-
 # -- the mission -----------------------------------------------------------------------------------------------------
 
 
@@ -507,7 +476,8 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         recovery_search: the recovery's self-model search, a key of :data:`RECOVERY_SEARCHES`.
         warm_start: start the recovery's EEA at the current self-model (default); False starts
             it from a random population, as the case study does (the comparison's baseline).
-        video: write ``mission.mp4`` (or ``.gif``) from above.
+        video: write ``mission.mp4`` (or ``.gif``), drawn from the trajectory after the mission
+            (:func:`aquafish.mission_video.write_mission_video`).
         oracle: evolve the oracle gait on the true damaged robot for ``oracle_speed``.
         progress: progress bars.
 
@@ -544,7 +514,7 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
 def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings: MissionPreset, preset: str, seed: int,
          out: Path, workers: int, video: bool, oracle: bool, progress: bool, search: str = "full",
          warm: bool = True) -> dict:
-    mission = _Mission(damage, onset_s, duration_s, seed, video)
+    mission = _Mission(damage, onset_s, duration_s, seed)
     monitor = DamageMonitor(prior.calibration)
     monitor.update(mission.obs, {"time_s": 0.0})
     controller, gait_start = prior.controller, 0.0
@@ -587,7 +557,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
                                "self_model": _model_dict(genome), "experiment_s": target.steps * DT_S,
                                "experiments": _experiments(records, target)})
         rows = mission.rows
-        frames = mission.frames
+        sizes = (mission.env.base_morphology.to_array(), mission.env.morphology.to_array())  # before, after the onset
     finally:
         mission.env.close()
 
@@ -629,7 +599,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     }
     _write_trajectory(rows, out / TRAJECTORY_FILE)
     plot_timeline(rows, report, out / TIMELINE_FILE)
-    report["files"]["video"] = _write_video(frames, out / "mission") if video else None
+    report["files"]["video"] = write_mission_video(rows, report, out / "mission", *sizes).name if video else None
     atomic_write(out / MISSION_FILE, (json.dumps(report, indent=2) + "\n").encode())
     return report
 

@@ -20,7 +20,8 @@ Public API:
     train_rl(algo, morphology, timesteps, seed, out_dir) -> Path      (needs the [rl] extra)
     train_or_load_rl(...) -> Path: train_rl unless out_dir holds a finished run
     record_video(controllers, robot, path, *, seed, episode_duration_s) -> Path: controllers side
-        by side from above, trajectories traced (mp4, or GIF without imageio-ffmpeg)
+        by side from above, drawn from their recorded state at 1280 x 720 (gait.video_frames):
+        flippers turning, flipper dials, paths (mp4, or GIF without imageio-ffmpeg)
 
 A :class:`Robot` may carry ``faults`` (``ServoFaults``, e.g. a self-model's servo gains) and
 ``damage="random"`` (:data:`RANDOM_DAMAGE`: a damage preset drawn per episode).

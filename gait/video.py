@@ -1,29 +1,43 @@
-"""A video of controllers swimming side by side, seen from above, with their trajectories traced.
+"""Videos of swimming robots from above: controllers side by side (the case study's recovery
+video), and the writer the mission's video shares.
 
 :func:`record_video` runs every controller on the same robot from the same start (one
-AquaFish-v0 episode each, in lockstep) with ``render_mode="rgb_array"`` and the ``"top"``
-camera (straight down, following the robot, the initial heading up the frame). Each frame
-shows one panel per controller: the rendered robot, the path it has swum so far (projected
-with the camera's matrices, :meth:`aquafish_gym.env.AquaFishEnv.camera_matrices`), and the
-distance so far. Frames are written with imageio: an mp4 (H.264) when imageio's ffmpeg
+AquaFish-v0 episode each, in lockstep, no rendering), records each robot's position, yaw and
+flipper angles every control step, and draws the frames from that record with
+:class:`gait.video_frames.FrameRenderer` (1280 x 720 px, one panel per controller: the robot
+from above with its flippers turning, its path, one dial per flipper, its distance so far).
+The env's own renderer (PyBullet's TinyRenderer, ``render_mode="rgb_array"``) needs the live
+world and, at 1280 x 720, takes longer per frame than this drawing to show a grey capsule
+with red boxes; a drawing from the record also lets the mission write its video afterwards.
+
+:func:`write_frames` writes frames as they are drawn: an mp4 (H.264) when imageio's ffmpeg
 plugin is installed (the ``[video]`` extra, ``imageio-ffmpeg``), else an animated GIF
-(Pillow). Keep videos small: ``frame_every`` control steps per frame, ``panel_px`` pixels per
-panel.
+(Pillow) of at most :data:`GIF_MAX_FRAMES` frames (every k-th frame, each shown k times
+longer: the same speed-up).
 """
 
 from __future__ import annotations
 
 import importlib.util
+import math
 from pathlib import Path
 from typing import Mapping
 
 import numpy as np
 
+from aquafish_gym.env import FRAME_SKIP
+from aquafish_gym.params import DT_S
 from gait.controller import Controller
 from gait.rollout import EPISODE_DURATION_S, make_env
+from gait.video_frames import FrameRenderer, SwimTrack, check_frame_size
 
-#: Playback rate of the video (frames per second).
-VIDEO_FPS = 10
+#: Playback rate of the case study's video (frames per second): with a frame every control
+#: step (0.1 s simulated) it runs at 2x real time.
+VIDEO_FPS = 20
+#: Simulated seconds per control step.
+CONTROL_S = FRAME_SKIP * DT_S
+#: A GIF holds at most this many frames (a 1280 x 720 GIF frame is ~100-300 kB).
+GIF_MAX_FRAMES = 150
 
 
 def mp4_available() -> bool:
@@ -32,106 +46,170 @@ def mp4_available() -> bool:
 
 
 def video_path(stem) -> Path:
-    """``stem`` with the suffix :func:`record_video` writes here: ``.mp4``, or ``.gif`` without an encoder."""
+    """``stem`` with the suffix :func:`write_frames` writes here: ``.mp4``, or ``.gif`` without an encoder."""
     return Path(stem).with_suffix(".mp4" if mp4_available() else ".gif")
 
 
 def project(points: np.ndarray, view: np.ndarray, proj: np.ndarray, width: int, height: int) -> np.ndarray:
     """Pixel coordinates ``(n, 2)`` (column, row; row 0 at the top) of world points ``(n, 3)``
-    under the ``(4, 4)`` view and projection matrices (column-vector convention)."""
+    under the ``(4, 4)`` view and projection matrices (column-vector convention) of
+    :meth:`aquafish_gym.env.AquaFishEnv.camera_matrices`."""
     h = np.c_[np.asarray(points, dtype=np.float64), np.ones(len(points))] @ (proj @ view).T
     ndc = h[:, :3] / h[:, 3:4]
     return np.c_[(ndc[:, 0] + 1) * 0.5 * width, (1 - ndc[:, 1]) * 0.5 * height]
 
 
-def record_video(controllers: Mapping[str, Controller], robot, path, *, seed: int = 0,
-                 episode_duration_s: float = EPISODE_DURATION_S, frame_every: int = 5, panel_px: int = 160,
-                 camera_distance: float = 7.0, title: str | None = None) -> Path:
-    """Write a video of ``controllers`` (label -> controller) swimming ``robot`` from above.
+def check_fps(fps) -> float:
+    """``fps`` (video frames per second) as a float.
 
-    Args:
-        controllers: one panel per entry, in order; the labels title the panels.
-        robot: the robot they all swim (anything :func:`gait.robots.as_robot` takes).
-        path: output file; its suffix is replaced by :func:`video_path`'s (``.mp4`` or ``.gif``).
-        seed: ``reset(seed=)`` of every episode (the same initial flipper angles for all).
-        episode_duration_s: simulated seconds.
-        frame_every: control steps (0.1 s each) per video frame; played at :data:`VIDEO_FPS`.
-        panel_px: width and height of each panel's render (pixels).
-        camera_distance: height of the camera above the robot (units; 7 shows about 8 units across).
-        title: a line above the panels.
+    Raises:
+        ValueError: not a positive finite number.
+    """
+    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not math.isfinite(fps) or fps <= 0:
+        raise ValueError(f"fps must be a positive number of video frames per second, got {fps!r}")
+    return float(fps)
+
+
+def frame_indices(time_s, seconds_per_frame: float) -> np.ndarray:
+    """Sample indices of a video with a frame every ``seconds_per_frame`` simulated seconds:
+    for every multiple of it up to the last sample, the first sample at or after it, and the
+    last sample (``(n_frames,)`` int, increasing).
+
+    Raises:
+        ValueError: ``time_s`` is not a non-empty non-decreasing ``(T,)`` array, or
+            ``seconds_per_frame`` is not positive.
+    """
+    t = np.asarray(time_s, dtype=np.float64)
+    if t.ndim != 1 or t.size == 0 or np.any(np.diff(t) < 0):
+        raise ValueError(f"time_s must be a non-empty non-decreasing (T,) array, got shape {t.shape}")
+    if isinstance(seconds_per_frame, bool) or not isinstance(seconds_per_frame, (int, float)) \
+            or not math.isfinite(seconds_per_frame) or seconds_per_frame <= 0:
+        raise ValueError(f"seconds_per_frame must be a positive number of simulated seconds, got {seconds_per_frame!r}")
+    marks = t[0] + np.arange(0.0, t[-1] - t[0] + 1e-9, seconds_per_frame)
+    idx = np.minimum(np.searchsorted(t, marks - 1e-9), t.size - 1)
+    return np.unique(np.r_[idx, t.size - 1])
+
+
+def write_frames(renderer: FrameRenderer, indices, path, fps: float) -> Path:
+    """Draw ``renderer``'s frames at sample ``indices`` and write them at ``fps`` to ``path``
+    (its suffix replaced by :func:`video_path`'s), streaming (no frame list in memory for an
+    mp4). A GIF keeps every k-th frame (at most :data:`GIF_MAX_FRAMES`) at ``fps / k``.
+    Written to a ``.partial`` name first, so a video with the final name is complete.
 
     Returns:
         The path written.
 
     Raises:
-        ValueError: no controllers, or an invalid robot, seed or duration.
+        ValueError: no indices or a non-positive ``fps``.
     """
-    import imageio.v3 as iio
-    import matplotlib
+    import imageio.v2 as imageio
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    if not controllers:
-        raise ValueError("record_video needs at least one controller")
-    if int(frame_every) < 1:
-        raise ValueError(f"frame_every must be >= 1, got {frame_every!r}")
+    indices = np.asarray(indices, dtype=int)
+    if indices.ndim != 1 or indices.size == 0:
+        raise ValueError("write_frames needs at least one frame index")
+    fps = check_fps(fps)
     path = video_path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    labels = list(controllers)
-    envs = [make_env(robot, episode_duration_s=episode_duration_s, render_mode="rgb_array", camera="top",
-                     camera_distance=camera_distance, width=panel_px, height=panel_px) for _ in labels]
-    # a figure whose pixel size is a multiple of 16 (H.264 macro blocks)
-    dpi = 80
-    width_px = int(np.ceil(len(labels) * (panel_px + 16) / 16) * 16)
-    height_px = int(np.ceil((panel_px + 48) / 16) * 16)
-    fig, axes = plt.subplots(1, len(labels), figsize=(width_px / dpi, height_px / dpi), dpi=dpi, squeeze=False)
-    axes = axes[0]
-    if title:
-        fig.suptitle(title, fontsize=8)
-    frames = []
+    partial = path.with_name(path.stem + ".partial" + path.suffix)
     try:
-        state = []
-        for env, label in zip(envs, labels):
-            controllers[label].reset()
-            obs, info = env.reset(seed=int(seed))
-            state.append([obs, info, [(info["x_position"], info["y_position"], info["z_position"])]])
-        step, done = 0, False
-        while not done:
-            if step % int(frame_every) == 0:
-                frames.append(_frame(fig, axes, envs, labels, state, panel_px))
-            for env, label, s in zip(envs, labels, state):
-                obs, _, terminated, truncated, info = env.step(controllers[label].act(s[0], s[1]["time_s"]))
-                s[0], s[1] = obs, info
-                s[2].append((info["x_position"], info["y_position"], info["z_position"]))
-                done = done or terminated or truncated
-            step += 1
-        frames.append(_frame(fig, axes, envs, labels, state, panel_px))
+        if path.suffix == ".mp4":
+            with imageio.get_writer(partial, format="FFMPEG", mode="I", fps=fps, codec="libx264", quality=5,
+                                    macro_block_size=16, pixelformat="yuv420p", ffmpeg_log_level="error") as writer:
+                for k in indices:
+                    writer.append_data(renderer.draw(int(k), rgba=True))  # ffmpeg takes RGBA as it is
+        else:
+            _write_gif(renderer, indices, partial, fps)
+        partial.replace(path)
     finally:
-        plt.close(fig)
-        for env in envs:
-            env.close()
-    if path.suffix == ".mp4":
-        iio.imwrite(path, np.stack(frames), plugin="FFMPEG", fps=VIDEO_FPS, codec="libx264", macro_block_size=16)
-    else:
-        iio.imwrite(path, np.stack(frames), duration=1000 / VIDEO_FPS, loop=0)
+        partial.unlink(missing_ok=True)
     return path
 
 
-def _frame(fig, axes, envs, labels, state, panel_px: int) -> np.ndarray:
-    """Draw one frame: every panel's render, its traced path and distance; return ``(H, W, 3)`` uint8."""
-    for ax, env, label, (_, info, path) in zip(axes, envs, labels, state):
-        ax.clear()
-        ax.imshow(env.render(), interpolation="nearest")
-        view, proj = env.unwrapped.camera_matrices()
-        px = project(np.asarray(path), view, proj, panel_px, panel_px)
-        ax.plot(px[:, 0], px[:, 1], color="tab:blue", lw=1.2)
-        ax.set_xlim(0, panel_px)
-        ax.set_ylim(panel_px, 0)
-        ax.set_axis_off()
-        ax.set_title(f"{label}\n{info['time_s']:.0f} s, {info['distance']:.1f} units", fontsize=7)
-    fig.canvas.draw()
-    return np.asarray(fig.canvas.buffer_rgba())[:, :, :3].copy()
+def _write_gif(renderer: FrameRenderer, indices: np.ndarray, path: Path, fps: float) -> None:
+    """Every k-th frame (at most :data:`GIF_MAX_FRAMES`), each shown k / ``fps`` s, 255 colours."""
+    from PIL import Image
+
+    step = math.ceil(indices.size / GIF_MAX_FRAMES)
+    pages = (Image.fromarray(renderer.draw(int(k))).quantize(255, method=Image.Quantize.FASTOCTREE)
+             for k in indices[::step])
+    first = next(pages)
+    first.save(path, format="GIF", save_all=True, append_images=pages, duration=round(1000 * step / fps), loop=0)
 
 
-__all__ = ["VIDEO_FPS", "mp4_available", "project", "record_video", "video_path"]
+def record_video(controllers: Mapping[str, Controller], robot, path, *, seed: int = 0,
+                 episode_duration_s: float = EPISODE_DURATION_S, frame_every: int = 1, fps: float = VIDEO_FPS,
+                 size: tuple[int, int] = (1280, 720), title: str | None = None) -> Path:
+    """Write a video of ``controllers`` (label -> controller) swimming ``robot``, seen from above.
+
+    Args:
+        controllers: one panel per entry, left to right; the labels title the panels.
+        robot: the robot they all swim (anything :func:`gait.robots.as_robot` takes).
+        path: output file; its suffix is replaced by :func:`video_path`'s (``.mp4`` or ``.gif``).
+        seed: ``reset(seed=)`` of every episode (the same initial flipper angles for all).
+        episode_duration_s: simulated seconds.
+        frame_every: control steps (0.1 s each) per video frame.
+        fps: playback frames per second; the video runs at ``frame_every * 0.1 * fps`` x real
+            time (2x by default), stated on every frame.
+        size: ``(width, height)`` of a frame (pixels, multiples of 16).
+        title: the header's first line.
+
+    Returns:
+        The path written.
+
+    Raises:
+        ValueError: no controllers, a bad ``frame_every``, ``fps`` or ``size``, or an invalid
+            robot, seed or duration.
+    """
+    if not controllers:
+        raise ValueError("record_video needs at least one controller")
+    if isinstance(frame_every, bool) or not isinstance(frame_every, (int, np.integer)) or frame_every < 1:
+        raise ValueError(f"frame_every must be an integer >= 1 (control steps per frame), got {frame_every!r}")
+    fps = check_fps(fps)
+    size = check_frame_size(size)
+    labels = list(controllers)
+    tracks = _swim(controllers, robot, seed, episode_duration_s)
+    seconds_per_frame = int(frame_every) * CONTROL_S
+    with FrameRenderer(tracks, title=title or f"{len(labels)} gaits from above", speedup=seconds_per_frame * fps,
+                       size=size) as renderer:
+        return write_frames(renderer, frame_indices(tracks[0].time_s, seconds_per_frame), path, fps)
+
+
+def _swim(controllers: Mapping[str, Controller], robot, seed: int, episode_duration_s: float) -> list[SwimTrack]:
+    """Run every controller for one episode in lockstep; its record every control step."""
+    labels = list(controllers)
+    envs = [make_env(robot, episode_duration_s=episode_duration_s) for _ in labels]
+    records: list[list[tuple]] = [[] for _ in labels]
+    try:
+        obs = []
+        for env, label, rec in zip(envs, labels, records):
+            controllers[label].reset()
+            o, info = env.reset(seed=int(seed))
+            obs.append([o, info])
+            rec.append(_state(env, info))
+        done = False
+        while not done:
+            for env, label, s, rec in zip(envs, labels, obs, records):
+                o, _, terminated, truncated, info = env.step(controllers[label].act(s[0], s[1]["time_s"]))
+                s[0], s[1] = o, info
+                rec.append(_state(env, info))
+                done = done or terminated or truncated
+        sizes = [env.unwrapped.morphology.to_array() for env in envs]
+    finally:
+        for env in envs:
+            env.close()
+    tracks = []
+    for label, rec, size in zip(labels, records, sizes):
+        a = np.array(rec)
+        tracks.append(SwimTrack(label, a[:, 0], a[:, 1:3], a[:, 3], a[:, 4:7], size))
+    return tracks
+
+
+def _state(env, info) -> tuple:
+    """``(time_s, x, y, yaw_deg, left, right, caudal angle)`` of a single-robot env now."""
+    world = env.unwrapped.world
+    return (float(info["time_s"]), float(info["x_position"]), float(info["y_position"]),
+            float(world.imu_rpy_deg()[0, 2]), *world.joint_angles()[0].tolist())
+
+
+__all__ = ["CONTROL_S", "GIF_MAX_FRAMES", "VIDEO_FPS", "check_fps", "frame_indices", "mp4_available", "project",
+           "record_video", "video_path", "write_frames"]

@@ -4,6 +4,7 @@ the EEA warm-started at the old self-model, a gait from the old population (aqua
 import dataclasses
 import json
 
+import imageio.v3 as iio
 import numpy as np
 import pytest
 
@@ -41,7 +42,7 @@ def prior_dir(tmp_path_factory):
 def smoke_mission(prior_dir, tmp_path_factory):
     out = tmp_path_factory.mktemp("mission")
     report = run_mission(ALL_SEIZED, out, onset_s=8.0, duration_s=30.0, preset="smoke", seed=0,
-                         self_model=prior_dir, workers=1, video=False, oracle=False, progress=False)
+                         self_model=prior_dir, workers=1, video=True, oracle=False, progress=False)
     return out, report
 
 
@@ -61,7 +62,11 @@ def test_the_smoke_mission_writes_its_report_with_sane_relations(smoke_mission):
     assert report["speed_before"] > report["speed_damaged"]  # the seized robot slows down
     assert (out / "timeline.png").stat().st_size > 0
     rows = (out / "trajectory.csv").read_text().splitlines()
-    assert rows[0].startswith("time_s,x,y,z,yaw_deg,speed_along_heading,phase,damaged")
+    assert rows[0] == ("time_s,x,y,z,yaw_deg,speed_along_heading,phase,damaged,"
+                       "left_pectoral_rad,right_pectoral_rad,caudal_rad")
+    assert report["files"]["video"] in ("mission.mp4", "mission.gif")
+    video = out / report["files"]["video"]
+    assert iio.imread(video, index=0, **({"plugin": "FFMPEG"} if video.suffix == ".mp4" else {})).shape == (720, 1280, 3)
     assert {r.split(",")[6] for r in rows[1:]} == {"gait", "stop", "experiment", "new_gait"}
     assert float(rows[-1].split(",")[0]) == pytest.approx(30.0, abs=0.1)
 
@@ -92,7 +97,7 @@ def test_the_experiments_start_where_the_robot_stopped_not_at_the_origin(smoke_m
 
 
 def test_target_experiments_run_in_the_mission_world_from_the_current_state():
-    mission = _Mission("none", None, 20.0, seed=3, video=False)
+    mission = _Mission("none", None, 20.0, seed=3)
     try:
         for _ in range(30):  # swim straight for 3 s: caudal at 1 Hz
             mission.step([0.0, 0.0, 1.0], "gait")
@@ -227,7 +232,7 @@ def test_the_example_runs_a_smoke_mission(tmp_path, capsys):
 
 
 def test_the_onset_follows_the_missions_clock_through_experiments():
-    mission = _Mission("reversed_left_pectoral", 1.0, 20.0, seed=0, video=False)
+    mission = _Mission("reversed_left_pectoral", 1.0, 20.0, seed=0)
     try:
         mission.step([0.0, 0.0, 1.0], "gait")
         target = MissionTarget(mission, "reversed_left_pectoral", steps=150, stop_max_s=0.0)
