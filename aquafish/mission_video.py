@@ -65,7 +65,8 @@ def write_mission_video(rows: list[dict], report: dict, stem, healthy_sizes, dam
         rows: the trajectory (see :func:`mission_track`).
         report: the mission's report.
         stem: output path without suffix.
-        healthy_sizes, damaged_sizes: ``(9,)`` the morphology before and after the onset (units).
+        healthy_sizes: ``(9,)`` the morphology before the onset (simulator units).
+        damaged_sizes: ``(9,)`` the morphology after the onset (simulator units).
         seconds_per_frame: simulated seconds per frame.
         fps: playback frames per second.
 
