@@ -410,7 +410,7 @@ class Profile(InferenceStrategy):
         and without contender refinement:
         the first tries ``initial`` random angle sets per model and experiment (and then
         ``start``, if given). Used by :mod:`eea.analysis.diagnosis` and
-        ``examples/angle_identifiability.py``. Costs about
+        ``docs/studies/probes/angle_identifiability.py``. Costs about
         ``P E (initial + 1 + generations proposals)`` simulations.
 
         Args:

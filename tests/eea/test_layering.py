@@ -12,7 +12,7 @@ The rules:
 
 1. Nothing outside :mod:`eea.analysis` imports it, except the command-line front ends
    (``eea/cli.py``, ``aquafish/studies_cli.py``), and only inside a function (lazily, to run an
-   analysis command).
+   analysis command), and the scripts (:data:`SCRIPTS`: the examples and the study probes).
 2. The algorithm (the core, :mod:`eea.search`, :mod:`eea.inference`) imports only the
    algorithm: no analysis, and no run, checkpoint, record, replay or command-line module, with
    two named exceptions (:data:`ALLOWED_EXTRA`).
@@ -58,6 +58,8 @@ ALLOWED_EXTRA = {("search.lineages", "eea.record"), ("search.cma", "eea.checkpoi
 CORE_DEEP_IMPORTS = {("round", "eea.search.lineages")}
 #: Front ends that may import eea.analysis, lazily.
 FRONT_ENDS = {"eea/cli.py", "aquafish/studies_cli.py"}
+#: Folders of scripts (not modules of the packages), which may import eea.analysis at the top.
+SCRIPTS = ("examples", "docs/studies/probes")
 
 
 def _imports(path: Path):
@@ -77,7 +79,7 @@ def _imports(path: Path):
 
 
 def _python_files():
-    for folder in ("eea", "aquafish", "aquafish_gym", "gait", "examples"):  # aquafish/ holds aquafish/benchmarks/
+    for folder in ("eea", "aquafish", "aquafish_gym", "gait", *SCRIPTS):  # aquafish/ holds aquafish/benchmarks/
         yield from sorted((ROOT / folder).rglob("*.py"))
 
 
@@ -102,7 +104,7 @@ def test_only_the_analysis_package_and_the_front_ends_import_it():
     offenders = []
     for path in _python_files():
         rel = path.relative_to(ROOT).as_posix()
-        if rel.startswith("eea/analysis/") or rel.startswith("examples/"):
+        if rel.startswith("eea/analysis/") or any(rel.startswith(f"{folder}/") for folder in SCRIPTS):
             continue
         for name, top_level in _imports(path):
             if name == "eea.analysis" or name.startswith("eea.analysis."):

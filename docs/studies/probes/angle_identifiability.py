@@ -8,8 +8,8 @@ and 8 random models, the same in every setting (drawn from their own seed). If r
 models come as close to 1 as the truth does, the experiments cannot tell morphologies
 apart once the angles are unknown, whatever the inference.
 
-    python examples/angle_identifiability.py --duration 1.28 --actions random
-    python examples/angle_identifiability.py --duration 5.12 --actions fast   # full-speed pectorals
+    python docs/studies/probes/angle_identifiability.py --duration 1.28 --actions random
+    python docs/studies/probes/angle_identifiability.py --duration 5.12 --actions fast   # full-speed pectorals
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ x 10^4) and its local maxima: the peak at the true angles (sim = 1) and every ot
 an angle search can end in. ``--model final`` maps the run's final model instead, whose
 best angles are wherever its own peak is.
 
-    python examples/angle_landscape.py runs/reduced_profile_robust4_cma/profile/1.28s/seed4 --experiment 9
+    python docs/studies/probes/angle_landscape.py runs/reduced_profile_robust4_cma/profile/1.28s/seed4 --experiment 9
 
 Costs ``grid**2`` simulations (1296 with the default 36: about 20 s on one core).
 """

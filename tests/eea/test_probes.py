@@ -1,4 +1,4 @@
-"""examples/: the scripts the docs quote run and compute what they say."""
+"""docs/studies/probes/: the study probes the docs quote run and compute what they say."""
 
 import importlib.util
 from pathlib import Path
@@ -6,11 +6,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+PROBES = Path(__file__).resolve().parents[2] / "docs" / "studies" / "probes"
 
 
 def _load(name):
-    spec = importlib.util.spec_from_file_location(name, EXAMPLES / f"{name}.py")
+    spec = importlib.util.spec_from_file_location(name, PROBES / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module

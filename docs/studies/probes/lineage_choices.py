@@ -7,7 +7,7 @@ in ``aquafish compare``): the chosen model, the best lineage (the oracle's pick)
 lineage alone (what one of them would have ended at, on experiments chosen to split all the
 lineages' models).
 
-    python examples/lineage_choices.py runs/lph_lin2
+    python docs/studies/probes/lineage_choices.py runs/lph_lin2
 
 Reads each run's ``lineages.csv`` (or, for runs from before it existed, its checkpoint
 ``state.pkl``); no simulation.

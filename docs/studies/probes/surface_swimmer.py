@@ -8,7 +8,7 @@ damaged body's own best on the damaged robot, over 20 s and 60 s. Distances are 
 initial heading (+y), means over ``--starts`` random initial flipper angles (seeds 0, 1, ...).
 All robots of a table run in one batched world.
 
-    python examples/surface_swimmer.py [--starts 10] [--waterline 0.3 | deep] [--draft-sweep | --feedback]
+    python docs/studies/probes/surface_swimmer.py [--starts 10] [--waterline 0.3 | deep] [--draft-sweep | --feedback]
 """
 
 from __future__ import annotations

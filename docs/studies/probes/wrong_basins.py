@@ -12,7 +12,7 @@ dimensions (with the round the run's model first had such a flipper and how many
 it had one), and how many of the run's experiments left the tail still (caudal command
 below 0.05 Hz), then the mean OBJ_FIT of the runs with and without a massless flipper.
 
-    python examples/wrong_basins.py docs/results/lph_cs8_lib8
+    python docs/studies/probes/wrong_basins.py docs/results/lph_cs8_lib8
 
 Works from ``rounds.csv`` alone; no simulation.
 """

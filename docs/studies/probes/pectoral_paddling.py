@@ -6,7 +6,7 @@ its power and recovery strokes mirror each other, so its mean thrust is zero by 
 speeds on a 5 x 5 grid in [-0.5, 0.5] rev/s, 10 random starts each, 20 s, all 250 robots
 in one batch (about a minute on one core).
 
-    python examples/pectoral_paddling.py
+    python docs/studies/probes/pectoral_paddling.py
 """
 
 import numpy as np

@@ -9,7 +9,7 @@ that is the missing flipper's three dimensions, and ``1 - sim`` (eq. 2) between 
 model's responses with and without that flipper (all three dimensions set to 0) over
 ``--actions`` random actions and initial angles: how visible the difference is.
 
-    python examples/vestigial_flipper.py docs/results/lib8_left_pectoral_missing
+    python docs/studies/probes/vestigial_flipper.py docs/results/lib8_left_pectoral_missing
 
 Works from ``rounds.csv`` alone (no checkpoint). Costs ``2 * actions`` simulations per run
 (80 with the default 40: about 1 s on one core).
