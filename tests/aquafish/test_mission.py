@@ -257,3 +257,21 @@ def test_the_design_prior_is_the_healthy_robot_and_runs_no_eea(tmp_path):
     assert prior.robot.damage == "none"
     assert not (tmp_path / "design" / "eea").exists()  # no self-modeling before the mission
     assert (tmp_path / "design" / "monitor_calibration.json").is_file()
+
+
+def test_a_calibration_made_with_other_settings_is_made_anew(prior_dir):
+    """A prior whose monitor calibration came from other settings (an older preset's) is
+    recalibrated by make_prior; one with the preset's settings is reused as it is."""
+    from aquafish.monitor import CALIBRATION_FILE, MonitorCalibration
+
+    path = prior_dir / CALIBRATION_FILE
+    before, written = MonitorCalibration.load(path), path.stat().st_mtime_ns
+    make_prior(prior_dir, _genome(), Robot(Morphology.healthy(), "none", "healthy"), "smoke", 0, workers=1,
+               calibration_seeds=6, progress=False)
+    assert path.stat().st_mtime_ns == written  # the same settings: reused, not rewritten
+    make_prior(prior_dir, _genome(), Robot(Morphology.healthy(), "none", "healthy"), "smoke", 0, workers=1,
+               calibration_seeds=3, progress=False)
+    assert MonitorCalibration.load(path).episodes == 3
+    make_prior(prior_dir, _genome(), Robot(Morphology.healthy(), "none", "healthy"), "smoke", 0, workers=1,
+               calibration_seeds=6, progress=False)  # back to the fixture's, for the other tests
+    assert MonitorCalibration.load(path) == before
