@@ -40,6 +40,8 @@ COMMAND_MODULES = ("aquafish_gym.cli", "aquafish.bench_cli", "eea.cli", "gait.cl
 
 #: Exit status of a command that failed safe (bad input, unusable file, busy directory).
 EXIT_ERROR = 2
+#: Exit status when standard output was closed by its reader (128 + SIGPIPE, as a shell reports it).
+EXIT_BROKEN_PIPE = 141
 
 #: What the boundary turns into one line: bad settings and unusable files.
 EXPECTED_ERRORS = (ValueError, OSError, pickle.UnpicklingError, EOFError, csv.Error, zlib.error, MemoryError,
@@ -119,7 +121,9 @@ def main(argv: list[str] | None = None) -> int:
     Raises:
         SystemExit: status 2 after a one-line error on standard error (a usage error, or an
             error of :data:`EXPECTED_ERRORS` raised by the command), status 130 after an
-            interrupt, status 0 after ``--help`` or ``--version``.
+            interrupt, status 0 after ``--help`` or ``--version``. A closed standard output (a
+            reader such as ``head`` that stopped reading) ends the command quietly with
+            :data:`EXIT_BROKEN_PIPE`, the status a shell gives a process killed by SIGPIPE.
     """
     parser = build_parser()
     args, config = parse_command_line(parser, sys.argv[1:] if argv is None else argv)
@@ -128,6 +132,12 @@ def main(argv: list[str] | None = None) -> int:
         result = args.func(args)
         if config is not None and not result:
             write_record(parser, args, config)
+    except BrokenPipeError:
+        # the reader of standard output went away (``aquafish bench ... | head``): stop quietly, as
+        # a shell tool does on SIGPIPE; stdout is pointed at /dev/null so the interpreter's final
+        # flush does not raise again
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
     except KeyboardInterrupt:
         if debug:
             raise

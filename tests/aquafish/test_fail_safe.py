@@ -601,3 +601,33 @@ def test_a_pickled_controller_or_a_foreign_checkpoint_is_refused_unread(copy, tm
     with pytest.raises(SystemExit):
         main(["gait", "--help"])
     assert "trusted like code" in " ".join(capsys.readouterr().out.split())
+
+
+def test_a_reader_that_stops_reading_ends_the_command_quietly(tmp_path):
+    """``aquafish ... | head``: the closed pipe ends the command with the shell's SIGPIPE status
+    (141) and no traceback or error line."""
+    import subprocess
+    import sys
+
+    driver = tmp_path / "flood.py"
+    driver.write_text(
+        "import sys\n"
+        "from aquafish import cli\n"
+        "build = cli.build_parser\n"
+        "def flooding_parser():\n"
+        "    parser = build()\n"
+        "    sub = next(a for a in parser._actions if a.dest == 'command')\n"
+        "    def flood(args):\n"
+        "        for _ in range(100000):\n"
+        "            print('x' * 60)\n"
+        "        return 0\n"
+        "    sub.add_parser('flood').set_defaults(func=flood, command='flood')\n"
+        "    return parser\n"
+        "cli.build_parser = flooding_parser\n"
+        "sys.exit(cli.main(['flood']))\n")
+    reader = subprocess.Popen([sys.executable, str(driver)], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    reader.stdout.read(100)
+    reader.stdout.close()  # the reader goes away
+    stderr = reader.stderr.read().decode()
+    assert reader.wait(timeout=60) == 141, stderr
+    assert stderr == ""
