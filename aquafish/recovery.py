@@ -49,7 +49,7 @@ from aquafish.shipping import DirTask
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
-from aquafish_gym.rundir import check_fingerprint, check_output_dir, read_json, run_lock
+from aquafish_gym.rundir import FileError, check_fingerprint, check_output_dir, read_json, run_lock
 
 #: The rows of the summary, in column order (``report.json`` controller keys; the oracle,
 #: ``true_damaged``, is what every share is taken of).
@@ -301,11 +301,41 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
         reports[(report["damage"], report["seed"])] = report
         bar.update()
     bar.close()
-    summary = {"settings": manifest.to_dict(), **summarize([r for r in reports.values() if r is not None]),
-               "missing": [{"damage": d, "seed": s} for (d, s), r in reports.items() if r is None]}
+    summary = _summary(manifest, reports)
     atomic_write(out / SUMMARY_JSON, json.dumps(summary, indent=2).encode())
     atomic_write(out / SUMMARY_MD, render_summary(summary).encode())
     return summary
+
+
+def _summary(manifest: RecoverySpec, reports: dict) -> dict:
+    """``summary.json``: the settings, :func:`summarize` of the finished cells, the missing ones."""
+    return {"settings": manifest.to_dict(), **summarize([r for r in reports.values() if r is not None]),
+            "missing": [{"damage": d, "seed": s} for (d, s), r in reports.items() if r is None]}
+
+
+def summary_so_far(out_dir) -> dict:
+    """The summary of the cells finished so far in a benchmark directory, written nowhere.
+
+    It reads only: a benchmark another process is running (or one that was stopped) can be
+    looked at; its cells still to run are listed under ``missing``. :func:`render_summary`
+    gives its Markdown.
+
+    Raises:
+        ValueError: ``out_dir`` holds no recovery benchmark (no ``recovery.json``), or a finished
+            cell made with other settings (:class:`~aquafish_gym.rundir.MismatchError`).
+        FileError: a corrupt manifest or report.
+    """
+    out = Path(out_dir)
+    if not (out / MANIFEST_FILE).is_file():
+        raise ValueError(f"{out} holds no recovery benchmark (no {MANIFEST_FILE}); give the --out of an "
+                         "aquafish recovery run")
+    recorded = read_json(out / MANIFEST_FILE)
+    try:
+        manifest = RecoverySpec(recorded["preset"], float(recorded["episode_duration_s"]),
+                                tuple(recorded["damages"]), tuple(int(s) for s in recorded["seeds"]))
+    except (KeyError, TypeError, ValueError) as err:
+        raise FileError(out / MANIFEST_FILE, f"is not a recovery manifest ({type(err).__name__}: {err})") from None
+    return _summary(manifest, {cell: read_cell(out, *cell, manifest) for cell in manifest.cells()})
 
 
 # -- the summary ------------------------------------------------------------------------------------

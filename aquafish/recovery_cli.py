@@ -12,8 +12,13 @@ from aquafish_gym.argtypes import (add_alias, add_config_option, add_episode_dur
 
 
 def _recovery(args: argparse.Namespace) -> int:
-    from aquafish.recovery import SUMMARY_MD, run_recovery
+    from aquafish.recovery import SUMMARY_MD, render_summary, run_recovery, summary_so_far
 
+    if args.summary_only:
+        summary = summary_so_far(args.out)
+        print(render_summary(summary))
+        print(f"{summary['totals']['cells']} cells finished, {len(summary['missing'])} to run (nothing written)")
+        return 0
     summary = run_recovery(args.out, preset=args.budget, damages=args.damages, seeds=args.seeds,
                            episode_duration_s=args.episode_duration_s, processes=args.processes, workers=args.workers,
                            backend=args.backend, address=args.address, progress=not args.no_progress,
@@ -44,6 +49,9 @@ def add_commands(sub) -> None:
     r.add_argument("--all-rows", action="store_true",
                    help="run every row on every cell (default: the self-models, their gaits and PPO only where the "
                         "damage breaks the healthy gait; the recovery rates count those cells only)")
+    r.add_argument("--summary-only", action="store_true",
+                   help="print the summary of the cells OUT holds so far and run nothing (reads only: works while "
+                        "another process runs the benchmark)")
     r.add_argument("--backend", choices=["local", "ray"], default="local", help="local processes or Ray tasks")
     r.add_argument("--address", default=None,
                    help="Ray cluster address (as for aquafish study --address; default: start a local Ray)")

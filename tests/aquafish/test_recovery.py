@@ -168,3 +168,24 @@ def test_a_cell_whose_damage_does_not_break_the_healthy_gait_stops_at_its_triage
     assert full["controllers"]["true_damaged"] == report["controllers"]["true_damaged"]
     assert (cell / "gait_true_damaged" / "run.json").stat().st_mtime_ns == stamp
     assert {"eea_self_model", "gait_self_model", "transfer"} <= set(full["stage_seconds"])
+
+
+def test_the_summary_so_far_reads_the_finished_cells_lists_the_rest_and_writes_nothing(tmp_path, capsys):
+    from aquafish.recovery import SUMMARY_JSON, summary_so_far
+
+    with pytest.raises(ValueError, match="holds no recovery benchmark"):
+        summary_so_far(tmp_path)
+    merge_manifest(tmp_path, check_spec("smoke", ["left_pectoral_half", "sampled:3"], [0, 1]))
+    done = _report("left_pectoral_half", 1, {"healthy": 2, "plain_eea": 5, "self_model": 9, "true_damaged": 10})
+    cell_dir(tmp_path, "left_pectoral_half", 1).mkdir(parents=True)
+    (cell_dir(tmp_path, "left_pectoral_half", 1) / "report.json").write_text(json.dumps(done))
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    summary = summary_so_far(tmp_path)
+    assert [(c["damage"], c["seed"]) for c in summary["cells"]] == [("left_pectoral_half", 1)]
+    assert summary["cells"][0]["shares"]["self_model"] == pytest.approx(0.9)
+    assert summary["missing"] == [{"damage": "left_pectoral_half", "seed": 0}, {"damage": "sampled:3", "seed": 0},
+                                  {"damage": "sampled:3", "seed": 1}]
+    assert main(["recovery", "--out", str(tmp_path), "--summary-only"]) == 0
+    out = capsys.readouterr().out
+    assert "| `left_pectoral_half` | 1 | yes | 20% |" in out and "1 cells finished, 3 to run (nothing written)" in out
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before and not (tmp_path / SUMMARY_JSON).exists()
