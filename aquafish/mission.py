@@ -73,7 +73,7 @@ from eea.search.lineages import make_estimation, warm_start
 from gait.neat_evolution import evolve_from_population
 from gait.robots import Robot
 
-__all__ = ["MISSION_FILE", "MISSION_PRESETS", "PRIORS", "RECOVERY_SEARCHES", "MissionPreset", "MissionTarget", "Prior",
+__all__ = ["MISSION_FILE", "MISSION_PRESETS", "PRIORS", "MissionPreset", "MissionTarget", "Prior",
            "load_prior", "make_prior", "mission_preset", "plot_timeline", "prepare_prior",
            "run_mission", "span_speed", "stop_robot"]
 
@@ -134,23 +134,10 @@ def mission_preset(name: str) -> MissionPreset:
     return MISSION_PRESETS[name]
 
 
-#: The recovery's self-model searches (``run_mission(recovery_search=)``): ``"full"``, the case
-#: study's self-model EEA at the preset's budget; ``"lean"``, the same method with one lineage,
-#: no contender refinement, no angle library, 2 exploration angle sets and 15 estimation
-#: generations (about 7x fewer simulations a round; docs/studies/recovery.md, where from a
-#: random start it lost the servo signs on 4 of 10 seeds).
-RECOVERY_SEARCHES: dict[str, dict] = {
-    "full": {},
-    "lean": {"lineages": 1, "profile_refine": 0, "profile_library": 0, "exploration_angles": 2,
-             "estimation_generations": 15},
-}
-
-
-def _eea_config(preset: MissionPreset, damage: str, seed: int, workers: int | None, search: str = "full") -> EEAConfig:
-    """The case study's self-model EEA settings at the preset's budget, with the recovery search's changes."""
+def _eea_config(preset: MissionPreset, damage: str, seed: int, workers: int | None) -> EEAConfig:
+    """The case study's self-model EEA settings at the preset's budget."""
     return EEAConfig.from_method(DEFAULT_METHOD, PRESETS[preset.case_preset].budget, damage=damage, seed=seed,
-                                 **model_fields(), **RECOVERY_SEARCHES[search],
-                                 **({"workers": workers} if workers else {}))
+                                 **model_fields(), **({"workers": workers} if workers else {}))
 
 
 def _gait_kwargs(preset: MissionPreset, seed: int, workers: int | None, progress: bool) -> dict:
@@ -457,8 +444,7 @@ def _write_trajectory(rows: list[dict], path: Path) -> None:
 
 def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: float = 300.0, preset: str = "quick",
                 seed: int = 0, self_model=None, prior_source: str = "design", workers: int | None = None,
-                recovery_search: str = "full", warm_start: bool = True, video: bool = True, oracle: bool = True,
-                progress: bool = True) -> dict:
+                warm_start: bool = True, video: bool = True, oracle: bool = True, progress: bool = True) -> dict:
     """Run a mission and write ``mission.json``, ``timeline.png``, ``trajectory.csv`` and a video in ``out_dir``.
 
     Args:
@@ -474,7 +460,6 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         prior_source: without ``self_model``, where the self-model before the damage comes from:
             ``"design"`` (default) or ``"eea"`` (:func:`prepare_prior`'s ``prior``).
         workers: evaluation processes (default 1).
-        recovery_search: the recovery's self-model search, a key of :data:`RECOVERY_SEARCHES`.
         warm_start: start the recovery's EEA at the current self-model (default); False starts
             it from a random population, as the case study does (the comparison's baseline).
         video: write ``mission.mp4`` (or ``.gif``), drawn from the trajectory after the mission
@@ -500,8 +485,6 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         raise ValueError(f"--onset-s ({onset_s:g}) must come before the end of the mission (--duration-s {duration_s:g})")
     if workers is not None:
         check_int("workers", workers, 1)
-    if recovery_search not in RECOVERY_SEARCHES:
-        raise ValueError(f"unknown recovery search {recovery_search!r}; valid: {', '.join(RECOVERY_SEARCHES)}")
     if prior_source not in PRIORS:
         raise ValueError(f"unknown prior {prior_source!r}; valid: {', '.join(PRIORS)}")
     out = check_output_dir(out_dir)
@@ -509,12 +492,11 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         prior = load_prior(self_model) if self_model is not None else \
             prepare_prior(out / "self_model", preset, seed, prior=prior_source, workers=workers, progress=progress)
         return _run(prior, damage, onset_s, float(duration_s), settings, preset, seed, out, workers or 1, video,
-                    oracle, progress, recovery_search, bool(warm_start))
+                    oracle, progress, bool(warm_start))
 
 
 def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings: MissionPreset, preset: str, seed: int,
-         out: Path, workers: int, video: bool, oracle: bool, progress: bool, search: str = "full",
-         warm: bool = True) -> dict:
+         out: Path, workers: int, video: bool, oracle: bool, progress: bool, warm: bool = True) -> dict:
     mission = _Mission(damage, onset_s, duration_s, seed)
     monitor = DamageMonitor(prior.calibration)
     monitor.update(mission.obs, {"time_s": 0.0})
@@ -531,7 +513,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             alarm_s = mission.time_s
             log.info("mission: alarm at %.1f s", alarm_s)
             stop_robot(mission, settings.stop_max_s)
-            config = _eea_config(settings, damage, seed, workers, search)
+            config = _eea_config(settings, damage, seed, workers)
             records, target, new_model, eea_s = _recover_model(mission, prior.genome if warm else None, config,
                                                                settings, progress)
             t0 = time.perf_counter()
@@ -564,7 +546,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         "damage": damage, "seed": seed, "preset": preset, "duration_s": duration_s,
         "heading": "world +y: the robot's initial forward direction; speeds are displacement along it per second "
                    "(units/s, 1 unit = 8 cm)",
-        "warm_start": warm, "recovery_search": search,
+        "warm_start": warm,
         "onset_s": onset_s,
         "damage_in_force_s": next((r["time_s"] for r in rows if r["damaged"]), None),
         "alarm_s": alarm_s, "recovered_s": recovered_s,

@@ -33,7 +33,7 @@ def _mission(args: argparse.Namespace) -> int:
 
     report = run_mission(args.damage, args.out, onset_s=args.onset_s, duration_s=args.duration_s, preset=args.budget,
                          seed=args.seed, self_model=args.self_model, prior_source=args.prior, workers=args.workers,
-                         recovery_search=args.recovery_search, warm_start=not args.cold_start, video=not args.no_video,
+                         warm_start=not args.cold_start, video=not args.no_video,
                          oracle=not args.no_oracle, progress=not args.no_progress)
     keys = ("onset_s", "alarm_s", "recovered_s", "target_experiments", "compute_seconds", "speed_before",
             "speed_damaged", "speed_after", "oracle_speed")
@@ -67,10 +67,6 @@ def add_commands(sub) -> None:
     m.add_argument("--prior", choices=["design", "eea"], default="design",
                    help="without --self-model, the self-model before the damage: the robot's design (default) or one "
                         "the EEA builds on the healthy robot first (at quick it can get a servo sign wrong)")
-    m.add_argument("--recovery-search", choices=["full", "lean"], default="full",
-                   help="the recovery's self-model search: the case study's at the budget (full, default) or "
-                        "one lineage, no refinement or angle library, 15 estimation generations (lean; about 7x "
-                        "fewer simulations; aquafish.mission.RECOVERY_SEARCHES)")
     m.add_argument("--cold-start", action="store_true",
                    help="start the recovery's EEA from a random population, not at the self-model from before "
                         "the damage (the warm start's baseline)")

@@ -1,7 +1,6 @@
 """``aquafish mission``: damage noticed while swimming, target experiments where the robot stands,
 the EEA warm-started at the old self-model, a gait from the old population (aquafish.mission)."""
 
-import dataclasses
 import json
 
 import imageio.v3 as iio
@@ -9,7 +8,7 @@ import numpy as np
 import pytest
 
 from aquafish.cli import main
-from aquafish.mission import (MISSION_PRESETS, RECOVERY_SEARCHES, STOP_ACTION, MissionTarget, _Mission, make_prior, run_mission,
+from aquafish.mission import (MISSION_PRESETS, STOP_ACTION, MissionTarget, _Mission, make_prior, run_mission,
                               span_speed, stop_robot)
 from aquafish.mission_cli import PRESET_NAMES
 from aquafish_gym import Morphology
@@ -149,31 +148,29 @@ def test_span_speed_is_displacement_along_the_heading_per_second():
 
 def test_cli_presets_match_the_module():
     assert sorted(PRESET_NAMES) == sorted(MISSION_PRESETS)
-    choices = {a.dest: a.choices for a in _mission_parser()._actions}
-    assert sorted(choices["recovery_search"]) == sorted(RECOVERY_SEARCHES)
 
 
-def _mission_parser():
-    import argparse
-
-    from aquafish import mission_cli
-
-    sub = argparse.ArgumentParser().add_subparsers()
-    mission_cli.add_commands(sub)
-    return sub.choices["mission"]
+class _Stop(Exception):
+    pass
 
 
-def test_the_recovery_searches_are_the_case_studys_eea_and_its_lean_variant():
-    from aquafish.mission import _eea_config
+@pytest.mark.parametrize("warm", [True, False], ids=["warm", "cold"])
+def test_the_recovery_starts_at_the_prior_model_or_with_cold_start_from_scratch(prior_dir, tmp_path, monkeypatch, warm):
+    """What the recovery's EEA is seeded with: the self-model from before the damage, or
+    nothing (``--cold-start``, the warm start's baseline)."""
+    import aquafish.mission as mission_module
 
-    quick = MISSION_PRESETS["quick"]
-    full, lean = (_eea_config(quick, "reversed_left_pectoral", 0, 1, s) for s in ("full", "lean"))
-    assert full == EEAConfig.from_method("profile_lineages", "quick", damage="reversed_left_pectoral", seed=0,
-                                         workers=1, model_space="morphology+servos", behaviour_summary="signed_dft",
-                                         cma_flip_gains=1)
-    assert (lean.lineages, lean.profile_refine, lean.profile_library, lean.exploration_angles,
-            lean.estimation_generations) == (1, 0, 0, 2, 15)
-    assert dataclasses.replace(lean, **{k: getattr(full, k) for k in RECOVERY_SEARCHES["lean"]}) == full
+    seen = []
+
+    def recover(mission, genome, *args):
+        seen.append(genome)
+        raise _Stop
+
+    monkeypatch.setattr(mission_module, "_recover_model", recover)
+    with pytest.raises(_Stop):
+        run_mission(ALL_SEIZED, tmp_path / "m", onset_s=8.0, duration_s=30.0, preset="smoke", seed=0,
+                    self_model=prior_dir, workers=1, warm_start=warm, video=False, oracle=False, progress=False)
+    assert (seen[0] == _genome()).all() if warm else seen[0] is None
 
 
 @pytest.mark.parametrize("argv, message", [
