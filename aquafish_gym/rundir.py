@@ -484,7 +484,7 @@ def read_pickle(path: str | os.PathLike, *, gzipped: bool = False, what: str = "
     Only for the project's own files: unpickling runs code, so never point it at a file from
     an untrusted source. ``what`` names the kind of file and ``fix`` the remedy in the message;
     ``unpickler`` reads it (a subclass may map renamed modules in ``find_class``, as
-    :class:`eea.checkpoint.RenamingUnpickler` does).
+    :class:`eea.compat.RenamingUnpickler` does).
 
     Raises:
         FileError: the file is truncated, garbled, or pickles classes that do not exist.

@@ -14,57 +14,28 @@ A checkpoint is a pickle, and unpickling runs code: a run directory is trusted l
 checkpoint, so a ``state.pkl`` planted alone, or in a directory of another run, is refused
 unread.
 
-Classes are pickled by module path. Modules that moved keep loading through
-:data:`MODULE_RENAMES`, which :class:`RenamingUnpickler` applies: the CMA-ES search is pickled
-whole inside the checkpoint (:meth:`eea.search.cma.CMAModelSearch.state_dict`), and checkpoints
-written before the package split name it ``eea.cma_search.CMAModelSearch``.
+Classes are pickled by module path. Checkpoints written before modules moved keep loading
+through :class:`eea.compat.RenamingUnpickler` (:mod:`eea.compat` holds what lets runs written
+by earlier versions load).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import io
 import os
 import pickle
 from pathlib import Path
 
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, read_pickle
+from eea.compat import RenamingUnpickler
 
-__all__ = ["CONFIG_FILE", "MODULE_RENAMES", "STATE_FILE", "RenamingUnpickler", "RunState", "load_state", "loads", "save_state"]
+__all__ = ["CONFIG_FILE", "STATE_FILE", "RunState", "load_state", "save_state"]
 
 STATE_FILE = "state.pkl"
 #: The run's manifest (its :class:`~eea.config.EEAConfig`), beside which alone a checkpoint is read.
 CONFIG_FILE = "config.json"
 _VERSION = 1
-
-#: Old module path -> new, for classes pickled before their module moved (when
-#: :mod:`eea.search` and :mod:`eea.inference` became packages). Every name a moved module defined is
-#: found in its new module (``eea.search.registry`` re-exports ``ModelGA``). ``eea.inference``
-#: kept its path: it is now a package that re-exports the paper's strategies.
-MODULE_RENAMES: dict[str, str] = {
-    "eea.cma_search": "eea.search.cma",
-    "eea.model_search": "eea.search.registry",
-    "eea.lineages": "eea.search.lineages",
-    "eea.strategy": "eea.inference.strategy",
-    "eea.profile": "eea.inference.profile",
-    "eea.selection": "eea.inference.selection",
-}
-
-
-class RenamingUnpickler(pickle.Unpickler):
-    """A :class:`pickle.Unpickler` that looks classes of moved modules up under their new path
-    (:data:`MODULE_RENAMES`)."""
-
-    def find_class(self, module: str, name: str):
-        return super().find_class(MODULE_RENAMES.get(module, module), name)
-
-
-def loads(data: bytes):
-    """:func:`pickle.loads` through :class:`RenamingUnpickler` (for pickles nested in a
-    checkpoint, such as the CMA search's state)."""
-    return RenamingUnpickler(io.BytesIO(data)).load()
-
 
 @dataclasses.dataclass(frozen=True)
 class RunState:
@@ -129,7 +100,7 @@ def load_state(out_dir: str | os.PathLike) -> RunState | None:
     if data.get("version") != _VERSION:
         raise FileError(path, f"has checkpoint version {data.get('version')!r}, expected {_VERSION}",
                         "use the version of aquafish that wrote it, or another directory")
-    data.setdefault("inference", {})  # checkpoints written before strategies could keep state
+    data.setdefault("inference", {})  # checkpoints written before strategies could keep state (see eea.compat)
     known = {f.name for f in dataclasses.fields(RunState)}
     try:
         return RunState(**{**{k: v for k, v in data.items() if k in known}, "experiments": tuple(data["experiments"]),

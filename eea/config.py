@@ -25,6 +25,7 @@ from aquafish_gym import DT_S, SimParams, get_damage
 from aquafish_gym.params import DEFAULT_WATERLINE
 from aquafish_gym.checks import check_int
 from eea.behaviour import SUMMARIES
+from eea.compat import strip_retired
 from eea.encoding import ACTION_BITS, MODEL_SPACES
 from eea.exploration import ExplorationSettings
 from eea.ga import GASettings
@@ -32,8 +33,7 @@ from eea.inference import INFERENCE_NAMES, InBandSettings, OutOfBandSettings, Pr
 from eea.methods import budget_fields, method_fields
 from eea.search import SEARCH_NAMES, CMASettings
 
-__all__ = ["ESTIMATION_SEARCHES", "MODEL_SPACE_NAMES", "EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS",
-           "RETIRED_FIELDS", "RETIRED_VALUES", "SECTIONS"]
+__all__ = ["ESTIMATION_SEARCHES", "MODEL_SPACE_NAMES", "EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS", "SECTIONS"]
 
 #: Names of the estimation searches (:data:`eea.search.MODEL_SEARCHES`): the paper's
 #: GA and CMA-ES (:mod:`eea.search.cma`).
@@ -56,23 +56,6 @@ MODEL_SPACE_NAMES: tuple[str, ...] = tuple(MODEL_SPACES)
 #: the number of worker processes and the chunk size of simulator calls, and ``rounds``,
 #: the stopping criterion (a finished run can be extended to more rounds).
 RESULT_NEUTRAL_FIELDS: tuple[str, ...] = ("workers", "max_batch_robots", "rounds")
-
-#: Fields of retired variants (docs/studies/retired_variants.md) and the default
-#: each had: a ``config.json`` written before holds them, and loads (:meth:`EEAConfig.from_dict`)
-#: if each has its default, i.e. the run did not use the retired variant.
-RETIRED_FIELDS: dict[str, object] = {
-    "cma_global_period": 0, "cma_global_first_round": 2, "profile_contender_distance": 0.0,
-    "profile_inherit": "hamming", "profile_library_newcomers": 0, "profile_select": 0, "profile_select_refine": 30,
-    "profile_fine_steps": 0, "profile_polish": 0, "profile_scan": 0, "exploration_spread_weight": 1.0,
-    "model_similarity": "paper", "oob_experiments": "newest",
-    "cma_global_flip": 0,  # the global share started at the gain-flipped local best (measured at eac968c)
-}
-
-#: Retired values of fields that stay, by field: a ``config.json`` holding one was written by
-#: a run of a retired variant (docs/studies/retired_variants.md) and does not load.
-RETIRED_VALUES: dict[str, tuple] = {
-    "cma_flip_gains": (2,),  # the pectoral gains injected at their fault classes (last ran at eed7c8d)
-}
 
 #: One help line per field (command-line ``--help`` and documentation).
 FIELD_HELP: dict[str, str] = {
@@ -317,27 +300,18 @@ class EEAConfig:
         A dict without ``waterline`` was written before the surface swimmer became the
         default physics: it describes a deep-water run and loads as ``waterline=None``. One
         without ``model_space`` was written before servo gains could be modelled: it loads as
-        the default, ``"morphology"``. A field of :data:`RETIRED_FIELDS` at its default is
-        dropped (the run did not use the retired variant).
+        the default, ``"morphology"``. A field of :data:`eea.compat.RETIRED_FIELDS` at its
+        default is dropped (the run did not use the retired variant; :func:`eea.compat.strip_retired`).
 
         Raises:
             ValueError: on an unknown key (typos fail fast), an invalid value, a retired
                 field with another value than its default, or a value of
-                :data:`RETIRED_VALUES` (the run used a retired variant; rerun it at the commit
+                :data:`eea.compat.RETIRED_VALUES` (the run used a retired variant; rerun it at the commit
                 docs/studies/retired_variants.md names).
         """
         if "waterline" not in data:  # written before the surface swimmer: a deep-water run
             data = {**data, "waterline": None}
-        for name in set(data) & set(RETIRED_FIELDS):
-            if data[name] != RETIRED_FIELDS[name]:
-                raise ValueError(f"EEAConfig.{name} = {data[name]!r}: this run used a retired variant "
-                                 f"(docs/studies/retired_variants.md names the commit that runs it); only its "
-                                 f"default {RETIRED_FIELDS[name]!r} loads")
-        for name in set(data) & set(RETIRED_VALUES):
-            if data[name] in RETIRED_VALUES[name]:
-                raise ValueError(f"EEAConfig.{name} = {data[name]!r}: this run used a retired variant "
-                                 f"(docs/studies/retired_variants.md names the commit that runs it)")
-        return cls._from_fields({k: v for k, v in data.items() if k not in RETIRED_FIELDS})
+        return cls._from_fields(strip_retired(data))  # runs written before variants were retired
 
     @classmethod
     def _from_fields(cls, data: dict) -> "EEAConfig":

@@ -26,6 +26,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from eea.compat import upgrade_estimation_state
 from eea.diversity import diverse_ranked
 from eea.encoding import genome_keys, genomes_from_keys, model_space_of
 from eea.experiment import Experiment
@@ -199,8 +200,8 @@ class Estimation:
         Raises:
             ValueError: on an unknown search or an invalid state.
         """
-        search = state["search"] if "search" in state else state["ga"]  # "ga": checkpoints from before the CMA-ES search
-        estimation = cls(model_search_from_state(search, rng))
+        state = upgrade_estimation_state(state)  # older checkpoints: "ga" for "search", no "round"
+        estimation = cls(model_search_from_state(state["search"], rng))
         estimation._genomes, estimation._fitness = state["genomes"], state["fitness"]
-        estimation._round = dict(state.get("round", {}))  # absent in checkpoints before exploration_diversity
+        estimation._round = dict(state["round"])
         return estimation

@@ -58,7 +58,8 @@ def _check_checkpoint(out_dir: Path, config: EEAConfig, state: RunState | None) 
     copied-in or edited run is refused (naming the fields)."""
     if state is None:
         return
-    # through from_dict: a checkpoint written before the variants' retirement holds the retired fields at their defaults
+    # through from_dict: a checkpoint written before the variants' retirement holds the retired fields at their
+    # defaults (eea.compat.strip_retired drops them)
     check_fingerprint(out_dir / STATE_FILE, _fingerprint(EEAConfig.from_dict(state.config).to_dict()),
                       _fingerprint(config.to_dict()),
                       f"the checkpoint belongs to another run: {_FIX} (or delete {STATE_FILE} and "

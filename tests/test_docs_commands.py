@@ -14,7 +14,7 @@ import pytest
 
 from aquafish.cli import build_parser
 from aquafish.config_file import parse_command_line
-from eea.config import RETIRED_FIELDS
+from eea.compat import RETIRED_FIELDS
 
 ROOT = Path(__file__).parents[1]
 DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]

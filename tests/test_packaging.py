@@ -5,6 +5,7 @@ The wheel installs exactly the four packages (the benchmark scripts are
 marker (PEP 561). ``.ci/packaging`` builds the wheel itself.
 """
 
+import re
 import tomllib
 from pathlib import Path
 
@@ -44,3 +45,18 @@ def test_the_packages_and_tests_hold_no_issue_numbers():
             for path in sorted((ROOT / top).rglob("*.py"))
             for n, line in enumerate(path.read_text().splitlines(), 1) if pattern.search(line)]
     assert not hits, f"issue numbers in: {hits}"
+
+
+#: A commit hash as the docs cite one: "at eac968c", "commit eed7c8d", "commits 1a2b3c4 and ...".
+#: (A digit is required, so that English words such as "at defaced" are not taken for one.)
+COMMIT_HASH = re.compile(r"\b(?:at|commits?)\s+(?:commit\s+)?(?=[0-9a-f]*[0-9])[0-9a-f]{7,12}\b")
+
+
+def test_only_the_compatibility_module_names_commits():
+    """Which commit ran a retired variant is history: it is kept with what lets such runs load,
+    :mod:`eea.compat`, and in docs/studies/retired_variants.md, not spread through the code."""
+    allowed = ROOT / "eea" / "compat.py"
+    hits = [f"{path.relative_to(ROOT)}:{n}" for top in ("aquafish_gym", "eea", "gait", "aquafish")
+            for path in sorted((ROOT / top).rglob("*.py")) if path != allowed
+            for n, line in enumerate(path.read_text().splitlines(), 1) if COMMIT_HASH.search(line)]
+    assert not hits, f"commit hashes outside eea/compat.py in: {hits}"

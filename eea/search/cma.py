@@ -63,7 +63,7 @@ from aquafish_gym import MORPHOLOGY_BOUNDS
 from aquafish_gym.checks import check_int
 from eea.encoding import (MODEL_BITS, MODEL_FIELD_BITS, _bits_to_ints, _ints_to_bits, decode_models, encode_models,
                           get_model_space)
-from eea.checkpoint import loads
+from eea.compat import loads, upgrade_cma_search
 from eea.ga import TellRecord
 from eea.settings import ConfigSection
 
@@ -460,17 +460,8 @@ class CMAModelSearch(TellRecord):
         """
         if state.get("search") != "cma":
             raise ValueError("state is not a CMAModelSearch state_dict")
-        search = loads(state["pickle"])  # eea.checkpoint's unpickler: older checkpoints name the old module path
+        search = loads(state["pickle"])  # eea.compat's unpickler: older checkpoints name the old module path
         if not isinstance(search, cls):
             raise ValueError("state holds no CMAModelSearch")
-        if not hasattr(search, "_asked"):  # checkpoints written before ask/tell misuse was checked
-            search._asked = search._x is not None
-        if not hasattr(search, "global_share"):  # checkpoints written before the global share
-            search.global_share, search._global_es = 0, None
-        if not hasattr(search, "carry_condition"):  # checkpoints written before the carried covariance
-            search.carry_condition = 0.0
-        if not hasattr(search, "global_keep"):  # checkpoints written before the kept global lineage
-            search.global_keep, search._global_best_x, search._global_restarts = 0, None, 0
-        for retired in ("global_period", "global_first_round", "_restarts", "_incumbent", "_local_best_x"):
-            search.__dict__.pop(retired, None)  # checkpoints written before global restarts were retired
+        upgrade_cma_search(search)  # older checkpoints: attributes added or retired since
         return search

@@ -90,8 +90,8 @@ def test_budgets_and_methods_are_independent_axes_and_fields_win():
         EEAConfig.from_method("none", "reduced", round=3)
 
 
-def test_a_config_written_before_issue_40_loads_unless_it_used_a_retired_variant():
-    from eea.config import RETIRED_FIELDS
+def test_a_config_written_before_the_retirement_loads_unless_it_used_a_retired_variant():
+    from eea.compat import RETIRED_FIELDS
 
     old = {**EEAConfig(workers=1).to_dict(), **RETIRED_FIELDS}          # config.json of a run before the retirement
     assert EEAConfig.from_dict(old) == EEAConfig(workers=1)
@@ -102,14 +102,14 @@ def test_a_config_written_before_issue_40_loads_unless_it_used_a_retired_variant
         EEAConfig.from_method("profile_lineages", profile_scan=0)               # a new config cannot set one
     servos = {**EEAConfig(estimation_search="cma", model_space="morphology+servos").to_dict(), "cma_flip_gains": 2}
     with pytest.raises(ValueError, match=r"EEAConfig.cma_flip_gains = 2: this run used a retired variant"):
-        EEAConfig.from_dict(servos)                                            # the fault classes (eed7c8d)
+        EEAConfig.from_dict(servos)                                            # the fault classes
     assert EEAConfig.from_dict({**servos, "cma_flip_gains": 1}).cma_flip_gains == 1
     with pytest.raises(ValueError, match=r"EEAConfig.cma_global_flip = 1: this run used a retired variant"):
-        EEAConfig.from_dict({**servos, "cma_flip_gains": 1, "cma_global_flip": 1})  # the global flip (eac968c)
+        EEAConfig.from_dict({**servos, "cma_flip_gains": 1, "cma_global_flip": 1})  # the global flip
 
 
 def test_every_published_config_loads_or_names_its_retired_variant():
-    from eea.config import RETIRED_FIELDS, RETIRED_VALUES
+    from eea.compat import RETIRED_FIELDS, RETIRED_VALUES
 
     results = Path(__file__).parents[2] / "docs/results"
     loaded = refused = 0

@@ -1,6 +1,6 @@
 """The modules moved into :mod:`eea.search` and :mod:`eea.inference` leave no shim at
 their old paths, and pickles naming the old paths still load through
-:data:`eea.checkpoint.MODULE_RENAMES` (the checkpoints of ``tests/eea/data`` are checked end to
+:data:`eea.compat.MODULE_RENAMES` (the checkpoints of ``tests/eea/data`` are checked end to
 end by ``test_checkpoint_compat.py``)."""
 
 import importlib
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import eea
-from eea.checkpoint import MODULE_RENAMES, RenamingUnpickler, loads
+from eea.compat import MODULE_RENAMES, RenamingUnpickler, loads
 
 #: The classes and functions every moved module defined before the move (commit f83ff8c).
 BEFORE = {

@@ -1,0 +1,119 @@
+"""What lets runs written by earlier versions load: their ``config.json`` and ``state.pkl``.
+
+Every allowance for an older run's files is here, and nowhere else in the packages:
+
+* :data:`RETIRED_FIELDS`, :data:`RETIRED_VALUES` and :func:`strip_retired`: a ``config.json``
+  written before a variant was retired holds the variant's switch.
+  :meth:`eea.config.EEAConfig.from_dict` drops such a field when it has its default (the run
+  did not use the variant) and refuses the file otherwise (the run did: rerun it at the commit
+  docs/studies/retired_variants.md names, which also records what each variant was and why it
+  was retired).
+* :data:`MODULE_RENAMES`, :class:`RenamingUnpickler` and :func:`loads`: classes are pickled by
+  module path, and checkpoints written before :mod:`eea.search` and :mod:`eea.inference` became
+  packages name the old paths (:func:`eea.checkpoint.load_state` reads ``state.pkl`` through the
+  unpickler, :meth:`eea.search.cma.CMAModelSearch.from_state_dict` the search pickled inside it).
+* :func:`upgrade_cma_search` and :func:`upgrade_estimation_state`: the attributes and keys that
+  older checkpoints lack or still hold, set to what the run they describe did.
+
+This module imports nothing of :mod:`eea`, so any module may use it without an import cycle.
+"""
+
+from __future__ import annotations
+
+import io
+import pickle
+
+__all__ = ["MODULE_RENAMES", "RETIRED_FIELDS", "RETIRED_VALUES", "RenamingUnpickler", "loads", "strip_retired",
+           "upgrade_cma_search", "upgrade_estimation_state"]
+
+#: Fields of retired variants (docs/studies/retired_variants.md) and the default
+#: each had: a ``config.json`` written before holds them, and loads (:func:`strip_retired`)
+#: if each has its default, i.e. the run did not use the retired variant.
+RETIRED_FIELDS: dict[str, object] = {
+    "cma_global_period": 0, "cma_global_first_round": 2, "profile_contender_distance": 0.0,
+    "profile_inherit": "hamming", "profile_library_newcomers": 0, "profile_select": 0, "profile_select_refine": 30,
+    "profile_fine_steps": 0, "profile_polish": 0, "profile_scan": 0, "exploration_spread_weight": 1.0,
+    "model_similarity": "paper", "oob_experiments": "newest",
+    "cma_global_flip": 0,  # the global share started at the gain-flipped local best (measured at eac968c)
+}
+
+#: Retired values of fields that stay, by field: a ``config.json`` holding one was written by
+#: a run of a retired variant (docs/studies/retired_variants.md) and does not load.
+RETIRED_VALUES: dict[str, tuple] = {
+    "cma_flip_gains": (2,),  # the pectoral gains injected at their fault classes (last ran at eed7c8d)
+}
+
+
+def strip_retired(data: dict) -> dict:
+    """``data`` (a ``config.json``) without the fields of :data:`RETIRED_FIELDS`.
+
+    Raises:
+        ValueError: a retired field with another value than its default, or a value of
+            :data:`RETIRED_VALUES` (the run used a retired variant; rerun it at the commit
+            docs/studies/retired_variants.md names).
+    """
+    for name in set(data) & set(RETIRED_FIELDS):
+        if data[name] != RETIRED_FIELDS[name]:
+            raise ValueError(f"EEAConfig.{name} = {data[name]!r}: this run used a retired variant "
+                             f"(docs/studies/retired_variants.md names the commit that runs it); only its "
+                             f"default {RETIRED_FIELDS[name]!r} loads")
+    for name in set(data) & set(RETIRED_VALUES):
+        if data[name] in RETIRED_VALUES[name]:
+            raise ValueError(f"EEAConfig.{name} = {data[name]!r}: this run used a retired variant "
+                             f"(docs/studies/retired_variants.md names the commit that runs it)")
+    return {k: v for k, v in data.items() if k not in RETIRED_FIELDS}
+
+
+#: Old module path -> new, for classes pickled before their module moved (when
+#: :mod:`eea.search` and :mod:`eea.inference` became packages). Every name a moved module defined is
+#: found in its new module (``eea.search.registry`` re-exports ``ModelGA``). ``eea.inference``
+#: kept its path: it is now a package that re-exports the paper's strategies.
+MODULE_RENAMES: dict[str, str] = {
+    "eea.cma_search": "eea.search.cma",
+    "eea.model_search": "eea.search.registry",
+    "eea.lineages": "eea.search.lineages",
+    "eea.strategy": "eea.inference.strategy",
+    "eea.profile": "eea.inference.profile",
+    "eea.selection": "eea.inference.selection",
+}
+
+
+class RenamingUnpickler(pickle.Unpickler):
+    """A :class:`pickle.Unpickler` that looks classes of moved modules up under their new path
+    (:data:`MODULE_RENAMES`)."""
+
+    def find_class(self, module: str, name: str):
+        return super().find_class(MODULE_RENAMES.get(module, module), name)
+
+
+def loads(data: bytes):
+    """:func:`pickle.loads` through :class:`RenamingUnpickler` (for pickles nested in a
+    checkpoint, such as the CMA search's state)."""
+    return RenamingUnpickler(io.BytesIO(data)).load()
+
+
+def upgrade_cma_search(search) -> None:
+    """Bring a :class:`~eea.search.cma.CMAModelSearch` unpickled from an older checkpoint up to
+    date, in place: the attributes added since get the values that reproduce what it did, and
+    those of retired variants are dropped."""
+    if not hasattr(search, "_asked"):  # written before ask/tell misuse was checked
+        search._asked = search._x is not None
+    if not hasattr(search, "global_share"):  # written before the global share
+        search.global_share, search._global_es = 0, None
+    if not hasattr(search, "carry_condition"):  # written before the carried covariance
+        search.carry_condition = 0.0
+    if not hasattr(search, "global_keep"):  # written before the kept global lineage
+        search.global_keep, search._global_best_x, search._global_restarts = 0, None, 0
+    for retired in ("global_period", "global_first_round", "_restarts", "_incumbent", "_local_best_x"):
+        search.__dict__.pop(retired, None)  # written before global restarts were retired
+
+
+def upgrade_estimation_state(state: dict) -> dict:
+    """An :meth:`eea.estimation.Estimation.state_dict` of an older checkpoint in today's form:
+    its search under ``"search"`` (``"ga"`` before the CMA-ES search) and a ``"round"``
+    (absent before ``exploration_diversity``)."""
+    state = dict(state)
+    if "search" not in state:
+        state["search"] = state.pop("ga")
+    state.setdefault("round", {})
+    return state
