@@ -1,7 +1,7 @@
 """Checkpoints written before the reshaping of :mod:`eea` (retired variants, subpackages) still
 resume, and the resumed run gives the golden rows bit for bit.
 
-``tests/eea/data/checkpoints_before_issue40/`` holds two tiny runs stopped after round 2 of 3,
+``tests/eea/data/checkpoints_before_the_split/`` holds two tiny runs stopped after round 2 of 3,
 written by the code of commit eb57391 (before the change): the best method (the ``lineages``
 preset, CMA-ES) and the paper's out-of-band strategy with the GA. Their ``config.json`` and
 ``state.pkl`` carry every field of that day's :class:`~eea.config.EEAConfig`, retired ones
@@ -21,13 +21,13 @@ from eea.config import EEAConfig
 
 from test_golden_rounds import _without_wall_seconds
 
-DATA = Path(__file__).parent / "data" / "checkpoints_before_issue40"
+DATA = Path(__file__).parent / "data" / "checkpoints_before_the_split"
 GOLDEN = Path(__file__).parent / "test_golden_rounds"
 RUNS = ("lineages_cma", "out_of_band_ga")
 
 
 @pytest.mark.parametrize("name", RUNS)
-def test_a_checkpoint_written_before_issue_40_resumes_to_the_golden_rows(tmp_path, name):
+def test_a_checkpoint_written_before_the_split_resumes_to_the_golden_rows(tmp_path, name):
     out = tmp_path / name
     shutil.copytree(DATA / f"{name}_round2", out)
     config = EEAConfig.from_dict({**json.loads((out / "config.json").read_text()), "rounds": 3})
