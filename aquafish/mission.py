@@ -70,16 +70,20 @@ from eea.evaluation import Evaluator
 from eea.experiment import quantise_angles
 from eea.round import RoundParts, run_round
 from eea.search.lineages import make_estimation, warm_start
+from gait.controller import NEAT_CONTROLLER_FILE
 from gait.neat_evolution import evolve_from_population
 from gait.robots import Robot
 
-__all__ = ["MISSION_FILE", "MISSION_PRESETS", "PRIORS", "MissionPreset", "MissionTarget", "Prior",
+__all__ = ["MISSION_FILE", "MISSION_PRESETS", "PRIORS", "RECOVERED_DIR", "MissionPreset", "MissionTarget", "Prior",
            "load_prior", "make_prior", "mission_preset", "plot_timeline", "prepare_prior",
            "run_mission", "span_speed", "stop_robot"]
 
 log = logging.getLogger(__name__)
 
 MISSION_FILE, TRAJECTORY_FILE, TIMELINE_FILE = "mission.json", "trajectory.csv", "timeline.png"
+#: Where a mission with a recovery writes the robot's new self-model (``self_model.json``: the
+#: genome and the robot, as a prior's) and gait (``best_controller.json``, for ``aquafish transfer``).
+RECOVERED_DIR = "recovered"
 #: Control period of the mission (s): AquaFish-v0's.
 CONTROL_S = FRAME_SKIP * DT_S
 #: Env action that stops the robot: pectorals 0 rev/s, caudal 0 Hz (its fin held where it is).
@@ -525,6 +529,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             gait_s = time.perf_counter() - t0
             controller, gait_start = result.best_controller, mission.time_s
             controller.reset()
+            new_genome = records[-1].best_genome
             recovery = {"alarm_s": alarm_s, "recovered_s": mission.time_s, "target_experiments": len(records),
                         "compute_seconds": eea_s + gait_s, "compute_seconds_eea": eea_s,
                         "compute_seconds_gait": gait_s, "self_model": _model_dict(records[-1].best_genome),
@@ -567,6 +572,12 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         "self_model_dir": str(prior.directory),
         "files": {"timeline": TIMELINE_FILE, "trajectory": TRAJECTORY_FILE},
     }
+    if recovery:  # what the robot knows after the recovery: its new self-model and gait
+        (out / RECOVERED_DIR).mkdir(exist_ok=True)
+        atomic_write(out / RECOVERED_DIR / "self_model.json",
+                     (json.dumps({"genome": new_genome.tolist(), "robot": new_model.to_dict()}) + "\n").encode())
+        controller.save(out / RECOVERED_DIR / NEAT_CONTROLLER_FILE)
+        report["files"]["recovered"] = RECOVERED_DIR
     _write_trajectory(rows, out / TRAJECTORY_FILE)
     plot_timeline(rows, report, out / TIMELINE_FILE)
     report["files"]["video"] = write_mission_video(rows, report, out / "mission", *sizes).name if video else None

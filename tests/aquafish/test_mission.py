@@ -11,6 +11,7 @@ from aquafish.cli import main
 from aquafish.mission import (MISSION_PRESETS, STOP_ACTION, MissionTarget, _Mission, make_prior, run_mission,
                               span_speed, stop_robot)
 from aquafish.mission_cli import PRESET_NAMES
+from gait import load_controller
 from aquafish_gym import Morphology
 from eea import EEAConfig
 from eea.encoding import get_model_space
@@ -68,6 +69,12 @@ def test_the_smoke_mission_writes_its_report_with_sane_relations(smoke_mission):
     assert iio.imread(video, index=0, **({"plugin": "FFMPEG"} if video.suffix == ".mp4" else {})).shape == (720, 1280, 3)
     assert {r.split(",")[6] for r in rows[1:]} == {"gait", "stop", "experiment", "new_gait"}
     assert float(rows[-1].split(",")[0]) == pytest.approx(30.0, abs=0.1)
+    # what the robot knows afterwards: the model the report names and a gait that loads
+    saved = json.loads((out / "recovered" / "self_model.json").read_text())
+    values = SPACE.decode(np.asarray(saved["genome"], dtype=np.uint8)[None])[0]
+    assert dict(zip(SPACE.fields, np.round(values, 4).tolist())) == report["self_model_after"]
+    assert report["files"]["recovered"] == "recovered"
+    load_controller(out / "recovered")
 
 
 @pytest.mark.slow
