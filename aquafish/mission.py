@@ -55,9 +55,9 @@ import numpy as np
 import aquafish_gym  # registers AquaFish-v0  # noqa: F401
 import eea
 import gait
-from aquafish.case_study import DEFAULT_METHOD, DEFAULT_MODEL_SPACE, PRESETS, model_fields, model_robot, preset_settings
+from aquafish.case_study import DEFAULT_METHOD, DEFAULT_MODEL_SPACE, PRESETS, model_fields, model_robot
 from aquafish.mission_video import ANGLE_COLUMNS, write_mission_video
-from aquafish.monitor import CALIBRATION_FILE, FORWARD_SPEED_INDEX, DamageMonitor, MonitorCalibration, calibrate
+from aquafish.monitor import CALIBRATION_FILE, DamageMonitor, MonitorCalibration, calibrate
 from aquafish_gym import ServoFaults, get_damage
 from aquafish_gym.checks import check_int
 from aquafish_gym.env import FRAME_SKIP, INITIAL_HEADING, check_onset
