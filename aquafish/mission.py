@@ -233,7 +233,7 @@ def make_prior(directory, genome, robot: Robot, preset: str = "quick", seed: int
         controller = gait.load_controller(out / "gait" / "best_controller.json")
         _calibrate(controller, robot, settings, n).save(out / CALIBRATION_FILE)
     genome = np.asarray(genome, dtype=np.uint8)
-    atomic_write(out / "self_model.json", (json.dumps({"genome": genome.tolist(), "robot": robot.to_dict()}) + "\n").encode())
+    _write_self_model(out, genome, robot)
     return Prior(out, genome, robot, gait.load_controller(out / "gait" / "best_controller.json"),
                  MonitorCalibration.load(out))
 
@@ -532,7 +532,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             new_genome = records[-1].best_genome
             recovery = {"alarm_s": alarm_s, "recovered_s": mission.time_s, "target_experiments": len(records),
                         "compute_seconds": eea_s + gait_s, "compute_seconds_eea": eea_s,
-                        "compute_seconds_gait": gait_s, "self_model": _model_dict(records[-1].best_genome),
+                        "compute_seconds_gait": gait_s, "self_model": _model_dict(new_genome),
                         "experiment_s": target.steps * DT_S, "experiments": _experiments(records, target)}
         rows = mission.rows
         sizes = (mission.env.base_morphology.to_array(), mission.env.morphology.to_array())  # before, after the onset
@@ -574,8 +574,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     }
     if recovery:  # what the robot knows after the recovery: its new self-model and gait
         (out / RECOVERED_DIR).mkdir(exist_ok=True)
-        atomic_write(out / RECOVERED_DIR / "self_model.json",
-                     (json.dumps({"genome": new_genome.tolist(), "robot": new_model.to_dict()}) + "\n").encode())
+        _write_self_model(out / RECOVERED_DIR, new_genome, new_model)
         controller.save(out / RECOVERED_DIR / NEAT_CONTROLLER_FILE)
         report["files"]["recovered"] = RECOVERED_DIR
     _write_trajectory(rows, out / TRAJECTORY_FILE)
@@ -583,6 +582,13 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     report["files"]["video"] = write_mission_video(rows, report, out / "mission", *sizes).name if video else None
     atomic_write(out / MISSION_FILE, (json.dumps(report, indent=2) + "\n").encode())
     return report
+
+
+def _write_self_model(directory: Path, genome: np.ndarray, robot: Robot) -> None:
+    """``directory/self_model.json``: a ``morphology+servos`` genome and its robot, as a prior holds
+    them (:func:`load_prior` reads it)."""
+    atomic_write(directory / "self_model.json",
+                 (json.dumps({"genome": np.asarray(genome).tolist(), "robot": robot.to_dict()}) + "\n").encode())
 
 
 def _experiments(records, target: MissionTarget) -> list[dict]:
