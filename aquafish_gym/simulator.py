@@ -185,8 +185,7 @@ class BatchWorld:
             for j, a in zip(JOINTS, angles):
                 p.resetJointState(body, j, float(a), 0.0, physicsClientId=self.client)
         self.time_s = 0.0
-        amp = self.params.caudal_amplitude_rad
-        self._caudal_phase = np.arcsin(np.clip(self.initial_angles[:, 2] / amp, -1.0, 1.0))
+        self._caudal_phase = self._sweep_phase(self.initial_angles[:, 2])
         self.actions = np.zeros((self.n, 3))
         self.set_actions(np.zeros((self.n, 3)) if actions is None else actions)
         self._read_state()
@@ -205,8 +204,11 @@ class BatchWorld:
         idx = np.arange(self.n) if i is None else np.array([int(i)])
         if np.any((idx < 0) | (idx >= self.n)):
             raise IndexError(f"robot index {i} out of range for a world of {self.n} robots")
-        amp = self.params.caudal_amplitude_rad
-        self._caudal_phase[idx] = np.arcsin(np.clip(self.joint_angles()[idx, 2] / amp, -1.0, 1.0))
+        self._caudal_phase[idx] = self._sweep_phase(self.joint_angles()[idx, 2])
+
+    def _sweep_phase(self, caudal_angles: np.ndarray) -> np.ndarray:
+        """The caudal sweep's phase (rad) at which ``amplitude * sin(phase)`` is each fin angle (rad), clipped."""
+        return np.arcsin(np.clip(caudal_angles / self.params.caudal_amplitude_rad, -1.0, 1.0))
 
     def change_robot(self, i: int, morphology, faults=None) -> None:
         """Turn robot ``i`` into another robot mid-run, in the same state (a damage's onset).
