@@ -706,8 +706,7 @@ class AquaFishEnv(gym.Env, EzPickle):
     def camera_matrices(self) -> tuple[np.ndarray, np.ndarray]:
         """The ``(4, 4)`` view and projection matrices of the next ``render()`` (OpenGL
         convention, for column vectors): a world point ``x`` lands at normalised device
-        coordinates ``(proj @ view @ [x, 1])[:3] / w``. Used to draw on a frame (e.g. a
-        trajectory, :func:`aquafish_gym.video.project`)."""
+        coordinates ``(proj @ view @ [x, 1])[:3] / w``. :meth:`world_to_pixels` applies them."""
         c = self.world.client
         target = self._position()
         if self.camera == "top":  # straight down, the initial heading (+y) up the frame
@@ -718,6 +717,29 @@ class AquaFishEnv(gym.Env, EzPickle):
                                                        physicsClientId=c)
         proj = p.computeProjectionMatrixFOV(60.0, self.width / self.height, 0.05, 50.0, physicsClientId=c)
         return (np.asarray(view, dtype=np.float64).reshape(4, 4).T, np.asarray(proj, dtype=np.float64).reshape(4, 4).T)
+
+    def world_to_pixels(self, points) -> np.ndarray:
+        """Where world points land in the next ``render()`` frame, to draw on it (a trajectory,
+        a target).
+
+        Args:
+            points: ``(n, 3)`` world positions (simulator units).
+
+        Returns:
+            ``(n, 2)`` float64 pixel coordinates (column, row; row 0 at the top) in a frame of
+            ``width`` x ``height`` pixels; a point outside the camera's view lands outside
+            ``[0, width] x [0, height]``.
+
+        Raises:
+            ValueError: ``points`` is not an ``(n, 3)`` array of finite numbers.
+        """
+        xyz = np.asarray(points, dtype=np.float64)
+        if xyz.ndim != 2 or xyz.shape[1] != 3 or not np.all(np.isfinite(xyz)):
+            raise ValueError(f"points must be an (n, 3) array of finite world positions, got shape {xyz.shape}")
+        view, proj = self.camera_matrices()
+        h = np.c_[xyz, np.ones(len(xyz))] @ (proj @ view).T
+        ndc = h[:, :3] / h[:, 3:4]
+        return np.c_[(ndc[:, 0] + 1) * 0.5 * self.width, (1 - ndc[:, 1]) * 0.5 * self.height]
 
     def render(self):
         """``rgb_array``: the camera's ``(height, width, 3)`` uint8 frame (TinyRenderer, no

@@ -50,15 +50,6 @@ def video_path(stem) -> Path:
     return Path(stem).with_suffix(".mp4" if mp4_available() else ".gif")
 
 
-def project(points: np.ndarray, view: np.ndarray, proj: np.ndarray, width: int, height: int) -> np.ndarray:
-    """Pixel coordinates ``(n, 2)`` (column, row; row 0 at the top) of world points ``(n, 3)``
-    under the ``(4, 4)`` view and projection matrices (column-vector convention) of
-    :meth:`aquafish_gym.env.AquaFishEnv.camera_matrices`."""
-    h = np.c_[np.asarray(points, dtype=np.float64), np.ones(len(points))] @ (proj @ view).T
-    ndc = h[:, :3] / h[:, 3:4]
-    return np.c_[(ndc[:, 0] + 1) * 0.5 * width, (1 - ndc[:, 1]) * 0.5 * height]
-
-
 def check_fps(fps) -> float:
     """``fps`` (video frames per second) as a float.
 
@@ -211,5 +202,5 @@ def _state(env, info) -> tuple:
             float(world.imu_rpy_deg()[0, 2]), *world.joint_angles()[0].tolist())
 
 
-__all__ = ["CONTROL_S", "GIF_MAX_FRAMES", "VIDEO_FPS", "check_fps", "frame_indices", "mp4_available", "project",
+__all__ = ["CONTROL_S", "GIF_MAX_FRAMES", "VIDEO_FPS", "check_fps", "frame_indices", "mp4_available",
            "record_video", "video_path", "write_frames"]

@@ -55,18 +55,19 @@ def test_reward_terms_add_up_and_distance_is_their_sum():
 
 
 def test_render_top_camera_and_its_matrices_project_the_robot_to_the_frame_centre():
-    from gait.video import project
-
     env = gym.make("AquaFish-v0", render_mode="rgb_array", camera="top", camera_distance=3.0, width=64, height=64)
     _, info = env.reset(seed=0)
     frame = env.render()
     assert frame.shape == (64, 64, 3) and frame.min() < 200
-    view, proj = env.unwrapped.camera_matrices()
     pos = [info["x_position"], info["y_position"], info["z_position"]]
-    assert project(np.array([pos]), view, proj, 64, 64)[0] == pytest.approx([32, 32], abs=1e-6)
+    assert env.unwrapped.world_to_pixels([pos])[0] == pytest.approx([32, 32], abs=1e-6)
     # +y (the initial heading) is up the frame, +x to the right
-    ahead, right = project(np.array([[pos[0], pos[1] + 1, pos[2]], [pos[0] + 1, pos[1], pos[2]]]), view, proj, 64, 64)
+    ahead, right = env.unwrapped.world_to_pixels([[pos[0], pos[1] + 1, pos[2]], [pos[0] + 1, pos[1], pos[2]]])
     assert ahead[1] < 32 and ahead[0] == pytest.approx(32) and right[0] > 32
+    with pytest.raises(ValueError, match=r"\(n, 3\)"):
+        env.unwrapped.world_to_pixels([[0.0, 0.0]])
+    with pytest.raises(ValueError, match="finite"):
+        env.unwrapped.world_to_pixels([[0.0, 0.0, float("nan")]])
     env.close()
     with pytest.raises(ValueError, match="camera"):
         gym.make("AquaFish-v0", camera="side")
