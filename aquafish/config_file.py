@@ -1,8 +1,8 @@
 """Config files of the ``aquafish`` commands: ``aquafish COMMAND --config run.toml``.
 
 A command whose parser has ``--config`` (:func:`aquafish_gym.argtypes.add_config_option`:
-``eea``, ``study``, ``case-study``, ``recovery``, ``mission``, ``damages``, ``baselines``, ``rl``;
-not ``gait``, whose ``--config`` is NEAT's INI file) reads a flat TOML file whose keys are its
+``eea``, ``study``, ``case-study``, ``recovery``, ``mission``, ``damages``, ``baselines``, ``gait``
+(whose NEAT INI file is ``--neat-config``), ``rl``) reads a flat TOML file whose keys are its
 long flags without the dashes, with underscores or dashes (``estimation_generations = 15`` or
 ``"estimation-generations" = 15``); for ``aquafish recovery``::
 
@@ -127,9 +127,13 @@ def read_config(path: str | os.PathLike) -> dict:
 
     Raises:
         ConfigFileError: the file cannot be read, is no UTF-8 TOML (the message says where), or
-            holds a table (``[section]`` or ``key = {...}``; the file is flat).
+            holds a table (``[section]`` or ``key = {...}``; the file is flat), or is an ``.ini``
+            file (NEAT's, which ``aquafish gait`` takes as ``--neat-config``).
     """
     where = f"config file {os.fsdecode(path)}"
+    if Path(path).suffix.lower() == ".ini":
+        raise ConfigFileError(f"{where}: an INI file; --config takes a TOML file of the command's flags "
+                              "(NEAT's INI file is aquafish gait --neat-config)")
     try:
         with open(path, "rb") as file:
             values = tomllib.load(file)

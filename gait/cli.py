@@ -36,8 +36,8 @@ def add_commands(subparsers) -> None:
     p.add_argument("--seed", type=int_at_least(0), default=0, help="seeds NEAT and the fitness episode's initial flipper angles (default 0)")
     p.add_argument("--out", type=path, default=Path("runs/gait"), help="output directory (default runs/gait)")
     add_workers(p, os.cpu_count(), "all cores")
-    # not add_config_option: --config has named NEAT's INI file since the first gait runs
-    p.add_argument("--config", type=path, default=None, help="NEAT INI file (default gait/neat_config.ini)")
+    p.add_argument("--neat-config", type=path, default=None,
+                   help="NEAT INI file (default gait/neat_config.ini; a run's own copy is its neat_config.ini)")
     p.add_argument("--resume", default=None, help="checkpoint file (in checkpoints/ of a run directory with its fitness_settings.json) to "
                         "continue from, or 'latest' (in --out). A run directory is trusted like code: its "
                         "checkpoints are pickles, so resume only runs you made or trust")
@@ -47,6 +47,7 @@ def add_commands(subparsers) -> None:
     p.add_argument("--checkpoint-every", type=int_at_least(1), default=5, help="generations between checkpoints (default 5)")
     p.add_argument("--verbose", action="store_true", help="NEAT's per-generation report (species, fitness statistics)")
     add_alias(p, add_no_progress(p, "generation"), "--quiet")
+    add_config_option(p)
     p.set_defaults(func=run_gait)
 
     p = subparsers.add_parser("transfer", help="score controllers on their native robot and on a target (Figure 12)",
@@ -91,7 +92,7 @@ def run_gait(args: argparse.Namespace) -> int:
     resume = latest_checkpoint(args.out) if args.resume == "latest" else args.resume
     result = evolve_gait(args.morphology, damage=args.damage, generations=args.generations,
                          population_size=args.population_size, seed=args.seed, out_dir=args.out, workers=args.workers,
-                         config_path=args.config, resume=resume, episode_duration_s=args.episode_duration_s,
+                         config_path=args.neat_config, resume=resume, episode_duration_s=args.episode_duration_s,
                          episodes_per_genome=args.episodes_per_genome, checkpoint_every=args.checkpoint_every, verbose=args.verbose,
                          progress=not args.no_progress, env_id=args.env)
     score = (f"forward distance {result.best_fitness:.3f} units ({result.best_fitness * 8:.1f} cm)" if args.env == "AquaFish-v0"

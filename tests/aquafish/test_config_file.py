@@ -22,7 +22,7 @@ from eea.config import EEAConfig
 ROOT = Path(__file__).parents[2]
 #: Commands that take a config file: every long-running one (they have --no-progress) but ``gait``,
 #: whose ``--config`` is NEAT's INI file.
-WITH_CONFIG = {"eea", "study", "case-study", "recovery", "mission", "damages", "baselines", "rl"}
+WITH_CONFIG = {"eea", "study", "case-study", "recovery", "mission", "damages", "baselines", "gait", "rl"}
 
 
 def _parse(argv: list[str]) -> tuple[argparse.Namespace, object]:
@@ -64,8 +64,20 @@ def test_the_long_running_commands_take_a_config_file():
             if any(a.dest == "config_file" for a in parser._actions)}
     assert have == WITH_CONFIG
     long_running = {name for name, parser in sub.choices.items() if "--no-progress" in parser._option_string_actions}
-    assert have | {"gait"} == long_running
-    assert _command("gait")._option_string_actions["--config"].dest == "config"   # NEAT's INI file, unchanged
+    assert have == long_running
+    assert _command("gait")._option_string_actions["--neat-config"].dest == "neat_config"   # NEAT's INI file
+
+
+def test_gait_takes_neat_ini_as_neat_config_and_refuses_it_as_a_run_config(tmp_path, capsys):
+    ini = tmp_path / "neat.ini"
+    ini.write_text("[NEAT]\npop_size = 4\n")
+    args, _ = _parse(["gait", "--neat-config", ini, "--generations", "2"])
+    assert (args.neat_config, args.generations, args.config_file) == (ini, 2, None)
+    config = _write(tmp_path / "gait.toml", 'generations = 3\nseed = 2\nepisode_duration_s = 5\n')
+    args, _ = _parse(["gait", "--config", config, "--seed", "4"])
+    assert (args.generations, args.seed, args.episode_duration_s) == (3, 4, 5.0)   # the flag given wins
+    line = _error(["gait", "--config", ini], capsys)   # the old meaning of gait --config
+    assert "an INI file" in line and "--neat-config" in line
 
 
 def test_keys_are_the_canonical_long_flags():
