@@ -38,7 +38,8 @@ def time_round(config: EEAConfig, n_experiments: int, seed: int = 0) -> dict:
     """Run one round (:func:`eea.round.run_round`); return wall seconds per phase and the simulation count."""
     rng = np.random.default_rng(seed)
     with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots,
-                   model_space=config.model_space) as evaluator:
+                   params=config.sim_params, model_space=config.model_space,
+                   summary=config.behaviour_summary) as evaluator:
         parts = RoundParts.from_config(config, rng, evaluator)
         experiments = recorded_experiments(parts, n_experiments, rng)
         evaluator.simulate(np.full((config.workers, 9), 0.25), np.zeros((config.workers, 3)),

@@ -176,8 +176,8 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
     truth = space.encode(true_dims[None])
     seen = _seen(state.evaluator, result.config.steps, true_dims, result.best_model, space)
     with Evaluator(result.config.steps, workers=workers, max_batch_robots=result.config.max_batch_robots,
-                   params=result.config.sim_params,
-                   model_space=space) as ev:
+                   params=result.config.sim_params, model_space=space,
+                   summary=result.config.behaviour_summary) as ev:
         def fit(genome, angles):
             return float(model_fitness_from_similarities(ev.similarities(genome, experiments, angles))[0])
 

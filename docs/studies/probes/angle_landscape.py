@@ -58,7 +58,7 @@ def main(argv=None) -> None:
     angles[:, 0, 0] = np.mod(angles[:, 0, 0] + left.ravel(), 2 * np.pi)
     angles[:, 0, 1] = np.mod(angles[:, 0, 1] + right.ravel(), 2 * np.pi)
     with Evaluator(result.config.steps, workers=1, max_batch_robots=result.config.max_batch_robots,
-                   params=result.config.sim_params) as evaluator:
+                   params=result.config.sim_params, summary=result.config.behaviour_summary) as evaluator:
         sims = evaluator.similarities(np.repeat(encode_models(morphology[None]), n * n, axis=0), [experiment],
                                       angles)[:, 0].reshape(n, n)
     print(f"{args.run}, experiment {args.experiment}: action {np.round(experiment.action, 3)} (rev/s, rev/s, Hz), "
