@@ -174,7 +174,8 @@ class Evaluator:
             ``(P, E)`` float64 in [0, 1]; MOD_FIT (eq. 3) is its mean over E.
 
         Raises:
-            ValueError: on shape mismatches or an invalid genome or angle.
+            ValueError: on shape mismatches or an invalid genome or angle, or an experiment
+                whose summary is not this evaluator's ``summary`` of its IMU log.
         """
         genomes = np.asarray(genomes)
         p, e = len(genomes), len(experiments)
@@ -198,6 +199,7 @@ class Evaluator:
                 result[i] = cached
         if missing:
             first = np.array([rows[0] for rows in missing.values()])
+            self._check_summaries([experiments[j] for j in np.unique(first % e)])
             actions = np.stack([experiments[j].action for j in first % e])
             summaries = self._simulate_models(genomes[first // e], actions, values[first])
             targets = np.stack([experiments[j].summary for j in first % e])
@@ -206,6 +208,16 @@ class Evaluator:
                 self._similarity[key] = s
                 result[rows] = s
         return result.reshape(p, e)
+
+    def _check_summaries(self, experiments: Sequence[Experiment]) -> None:
+        """Refuse targets summarised otherwise than the models are (``summary``): a model would
+        be scored against a target it can never match (a signed run's truth below 1 at the true
+        angles)."""
+        for x in experiments:
+            if not np.array_equal(x.summary, behaviour_summary(x.imu_log, self.summary == "signed_dft")):
+                raise ValueError(f"experiment {x.index}'s summary is not the {self.summary!r} behaviour summary of "
+                                 "its IMU log: build the Evaluator with the run's behaviour summary "
+                                 f"(summary=config.behaviour_summary; valid: {', '.join(SUMMARIES)})")
 
     # -- exploration: responses to candidate actions, cached within a phase ------------
     def summaries(self, genomes, action_genomes, actions, angles) -> np.ndarray:

@@ -29,6 +29,23 @@ def test_similarities_are_eq2_against_each_experiments_target(simulator_spy, mak
             assert sims[p, e] == similarity(behaviour_summary(log[0]), exps[e].summary)
 
 
+def test_a_target_summarised_otherwise_than_the_models_is_refused(make_experiment):
+    import dataclasses
+
+    x = make_experiment(0)
+    log = x.imu_log - 10.0                                    # a negative mean: signed and plain DFT differ
+    plain = dataclasses.replace(x, imu_log=log, summary=behaviour_summary(log))
+    signed = dataclasses.replace(x, imu_log=log, summary=behaviour_summary(log, signed=True))
+    assert signed.summary[2, 0] < 0 < plain.summary[2, 0]
+    angles = np.zeros((1, 1, 3))
+    for summary, right, wrong in (("dft", plain, signed), ("signed_dft", signed, plain)):
+        with Evaluator(16, summary=summary) as ev:
+            assert ev.similarities(_genomes(1), [right], angles).shape == (1, 1)
+        with Evaluator(16, summary=summary) as ev:
+            with pytest.raises(ValueError, match=f"experiment 0's summary is not the '{summary}' behaviour summary"):
+                ev.similarities(_genomes(1), [wrong], angles)
+
+
 def test_cache_never_simulates_a_key_twice(simulator_spy, make_experiment):
     exps = [make_experiment(0), make_experiment(1)]
     genomes = _genomes(4)
