@@ -213,8 +213,9 @@ class Evaluator:
         """Refuse targets summarised otherwise than the models are (``summary``): a model would
         be scored against a target it can never match (a signed run's truth below 1 at the true
         angles)."""
-        for x in experiments:
-            if not np.array_equal(x.summary, behaviour_summary(x.imu_log, self.summary == "signed_dft")):
+        for x in experiments:  # to round-off: a checkpoint may be resumed on another machine's FFT
+            if not np.allclose(x.summary, behaviour_summary(x.imu_log, self.summary == "signed_dft"),
+                               rtol=1e-9, atol=1e-9):
                 raise ValueError(f"experiment {x.index}'s summary is not the {self.summary!r} behaviour summary of "
                                  "its IMU log: build the Evaluator with the run's behaviour summary "
                                  f"(summary=config.behaviour_summary; valid: {', '.join(SUMMARIES)})")
