@@ -2,8 +2,8 @@
 
 A run directory holds ``config.json`` (the :class:`~eea.config.EEAConfig`),
 ``rounds.csv`` (one row per round, columns :data:`ROUND_COLUMNS`) and the checkpoint
-``state.pkl``; a run with ``lineages`` >= 2 also ``lineages.csv``
-(:func:`eea.search.lineages.write_lineages`). Columns of ``rounds.csv``:
+``state.pkl``; a run with ``lineages`` >= 2 also ``lineages.csv`` (:func:`write_lineages`, from
+the history of :class:`eea.search.lineages.Lineages`). Columns of ``rounds.csv``:
 
 * ``round`` (1-based), ``objective_fitness`` (eq. 4 of the best model, an oracle),
   ``model_fitness`` (its MOD_FIT, eq. 3), ``action_fitness`` (ACT_FIT, eq. 1, of the
@@ -47,13 +47,14 @@ from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, read_json
 from eea.checkpoint import CONFIG_FILE
 from eea.config import EEAConfig
-from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, servo_gains
+from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, model_space_of, servo_gains
 from eea.experiment import FLIPPERS, angle_errors_deg
 from eea.fitness import objective_fitness
 
-__all__ = ["CONFIG_FILE", "GAIN_COLUMNS", "ROUNDS_FILE", "ROUND_COLUMNS", "RunResult", "TRUE_GAIN_COLUMNS",
-           "check_rounds", "load_result", "read_rounds", "read_config", "read_csv", "round_columns", "round_row",
-           "write_config", "write_csv", "write_rounds"]
+__all__ = ["CONFIG_FILE", "GAIN_COLUMNS", "LINEAGES_FILE", "LINEAGE_COLUMNS", "ROUNDS_FILE", "ROUND_COLUMNS",
+           "RunResult", "TRUE_GAIN_COLUMNS", "check_rounds", "lineage_columns", "load_result", "read_rounds",
+           "read_config", "read_csv", "round_columns", "round_row", "write_config", "write_csv", "write_lineages",
+           "write_rounds"]
 
 ROUNDS_FILE = "rounds.csv"
 MODEL_COLUMNS = tuple(f"model_{name}" for name in MORPHOLOGY_FIELDS)
@@ -349,3 +350,42 @@ def load_result(out_dir: str | os.PathLike) -> RunResult:
     if config is None:
         raise ValueError(f"{out_dir} is not an EEA run directory (no {CONFIG_FILE})")
     return RunResult(Path(out_dir), config, read_rounds(out_dir, config.model_space))
+
+
+#: A lineage run's per-round record of every lineage (:func:`write_lineages`): ``round``
+#: (1-based), ``lineage`` (0-based), ``chosen`` (1 if its model was the round's model, else 0),
+#: ``model_fitness`` (the lineage's own MOD_FIT, eq. 3, under its own angles),
+#: ``selection_fitness`` (MOD_FIT under the round's equal angle fit) and ``model_<field>``
+#: (its best model's 9 dimensions, simulator units, ``aquafish_gym.MORPHOLOGY_FIELDS`` order; in
+#: the ``morphology+servos`` model space also its servo gains, ``model_<servo>_gain``,
+#: :func:`lineage_columns`).
+LINEAGES_FILE = "lineages.csv"
+LINEAGE_COLUMNS: tuple[str, ...] = ("round", "lineage", "chosen", "model_fitness", "selection_fitness",
+                                    *(f"model_{name}" for name in MORPHOLOGY_FIELDS))
+
+
+def lineage_columns(model_space="morphology") -> tuple[str, ...]:
+    """The columns of ``lineages.csv`` in a model space: :data:`LINEAGE_COLUMNS`, and the servo
+    gains' ``model_<servo>_gain`` after them in ``morphology+servos``."""
+    space = get_model_space(model_space)
+    return LINEAGE_COLUMNS + (tuple(f"model_{name}" for name in SERVO_GAIN_FIELDS) if space.servos else ())
+
+
+def write_lineages(out_dir: str | os.PathLike, history: Sequence[dict]) -> None:
+    """Rewrite ``out_dir/lineages.csv`` atomically from a
+    :class:`~eea.search.lineages.Lineages` ``history`` (its ``genomes``, ``chosen``,
+    ``model_fitness`` and ``selection_fitness`` per round).
+
+    One row per round and lineage, columns :func:`lineage_columns` of the genomes' model space
+    (:data:`LINEAGE_COLUMNS` in the paper's), floats as ``repr`` (round-trip exact, as
+    ``rounds.csv``).
+    """
+    rows = []
+    space = model_space_of(history[0]["genomes"].shape[1]) if history else get_model_space("morphology")
+    for number, h in enumerate(history, start=1):
+        for lineage, values in enumerate(space.decode(h["genomes"])):
+            rows.append({"round": number, "lineage": lineage, "chosen": int(lineage == h["chosen"]),
+                         "model_fitness": float(h["model_fitness"][lineage]),
+                         "selection_fitness": float(h["selection_fitness"][lineage]),
+                         **{f"model_{name}": float(v) for name, v in zip(space.fields, values)}})
+    write_csv(Path(out_dir) / LINEAGES_FILE, lineage_columns(space), rows)

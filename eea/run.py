@@ -11,7 +11,7 @@
 
 and writes ``DIR/config.json``, ``DIR/rounds.csv`` and the checkpoint ``DIR/state.pkl``
 (see :mod:`eea.record`, :mod:`eea.checkpoint`), and a run with lineages ``DIR/lineages.csv``
-(:func:`eea.search.lineages.write_lineages`). The round itself is
+(:func:`eea.record.write_lineages`). The round itself is
 :func:`eea.round.run_round`. All randomness comes from one
 ``numpy.random.Generator`` seeded with ``config.seed``, so the same config gives the same
 rounds. Resumable: running the same command again after an interruption continues from the
@@ -32,8 +32,8 @@ from eea.checkpoint import STATE_FILE, RunState, load_state, save_state
 from eea.config import RESULT_NEUTRAL_FIELDS, EEAConfig
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
-from eea.search.lineages import Lineages, estimation_from_state, write_lineages
-from eea.record import ROUNDS_FILE, RunResult, read_config, round_row, write_config, write_rounds
+from eea.search.lineages import Lineages, estimation_from_state
+from eea.record import ROUNDS_FILE, RunResult, read_config, round_row, write_config, write_lineages, write_rounds
 from eea.round import RoundParts, run_round
 
 __all__ = ["check_run_memory", "run"]

@@ -10,7 +10,7 @@ import numpy as np
 from eea.checkpoint import load_state
 from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, model_space_of
 from eea.fitness import objective_fitness
-from eea.search.lineages import LINEAGES_FILE, lineage_columns
+from eea.record import LINEAGES_FILE, lineage_columns
 from eea.record import load_result, read_csv
 
 __all__ = ["lineage_objective_fitness"]

@@ -30,46 +30,22 @@ its MOD_FIT under the round's equal fit and whether it was chosen.
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 
-from aquafish_gym import MORPHOLOGY_FIELDS
-from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, model_space_of
+from eea.encoding import get_model_space, model_space_of
 from eea.estimation import Estimation, EstimationResult, distinct_ranked
 from eea.experiment import Context, Experiment
 from eea.inference import InferenceStrategy, make_inference
 from eea.inference.selection import select_model
-from eea.record import write_csv
 
-__all__ = ["LINEAGES_FILE", "LINEAGE_COLUMNS", "LineageStrategies", "Lineages", "SELECT_GENERATIONS",
-           "SELECT_SCAN_CYCLES", "chosen_inference_state", "estimation_from_state", "lineage_columns",
-           "make_estimation", "make_strategy", "warm_start", "write_lineages"]
+__all__ = ["LineageStrategies", "Lineages", "SELECT_GENERATIONS", "SELECT_SCAN_CYCLES", "chosen_inference_state",
+           "estimation_from_state", "make_estimation", "make_strategy", "warm_start"]
 
 #: The round's selection: generations of the equal angle fit and cycles of the per-flipper
 #: scan before the polish (:func:`eea.inference.selection.select_model`).
 SELECT_GENERATIONS, SELECT_SCAN_CYCLES = 30, 2
-
-#: A lineage run's per-round record of every lineage (:func:`write_lineages`): ``round``
-#: (1-based), ``lineage`` (0-based), ``chosen`` (1 if its model was the round's model, else 0),
-#: ``model_fitness`` (the lineage's own MOD_FIT, eq. 3, under its own angles),
-#: ``selection_fitness`` (MOD_FIT under the round's equal angle fit) and ``model_<field>``
-#: (its best model's 9 dimensions, simulator units, ``aquafish_gym.MORPHOLOGY_FIELDS`` order; in
-#: the ``morphology+servos`` model space also its servo gains, ``model_<servo>_gain``,
-#: :func:`lineage_columns`).
-LINEAGES_FILE = "lineages.csv"
-LINEAGE_COLUMNS: tuple[str, ...] = ("round", "lineage", "chosen", "model_fitness", "selection_fitness",
-                                    *(f"model_{name}" for name in MORPHOLOGY_FIELDS))
-
-
-def lineage_columns(model_space="morphology") -> tuple[str, ...]:
-    """The columns of ``lineages.csv`` in a model space: :data:`LINEAGE_COLUMNS`, and the servo
-    gains' ``model_<servo>_gain`` after them in ``morphology+servos``."""
-    space = get_model_space(model_space)
-    return LINEAGE_COLUMNS + (tuple(f"model_{name}" for name in SERVO_GAIN_FIELDS) if space.servos else ())
-
 
 class LineageStrategies:
     """One inference strategy per lineage, checkpointed together.
@@ -313,21 +289,3 @@ def chosen_inference_state(estimation_state: dict, inference_state: dict) -> dic
     if not estimation_state["history"]:
         raise ValueError("the lineage run has no finished round, so no lineage was chosen yet")
     return inference_state["lineages"][estimation_state["history"][-1]["chosen"]]
-
-
-def write_lineages(out_dir: str | os.PathLike, history: Sequence[dict]) -> None:
-    """Rewrite ``out_dir/lineages.csv`` atomically from a :class:`Lineages` ``history``.
-
-    One row per round and lineage, columns :func:`lineage_columns` of the genomes' model space
-    (:data:`LINEAGE_COLUMNS` in the paper's), floats as ``repr`` (round-trip exact, as
-    ``rounds.csv``).
-    """
-    rows = []
-    space = model_space_of(history[0]["genomes"].shape[1]) if history else get_model_space("morphology")
-    for number, h in enumerate(history, start=1):
-        for lineage, values in enumerate(space.decode(h["genomes"])):
-            rows.append({"round": number, "lineage": lineage, "chosen": int(lineage == h["chosen"]),
-                         "model_fitness": float(h["model_fitness"][lineage]),
-                         "selection_fitness": float(h["selection_fitness"][lineage]),
-                         **{f"model_{name}": float(v) for name, v in zip(space.fields, values)}})
-    write_csv(Path(out_dir) / LINEAGES_FILE, lineage_columns(space), rows)

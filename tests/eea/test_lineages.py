@@ -15,11 +15,11 @@ from eea.evaluation import Evaluator
 from eea.experiment import Context
 from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.inference import make_inference
-from eea.search.lineages import (LINEAGE_COLUMNS, LINEAGES_FILE, LineageStrategies, Lineages, chosen_inference_state,
-                          estimation_from_state, make_estimation)
+from eea.search.lineages import (LineageStrategies, Lineages, chosen_inference_state, estimation_from_state,
+                                 make_estimation)
 from eea.analysis.lineage_report import lineage_objective_fitness
 from eea.inference.profile import Profile
-from eea.record import MODEL_COLUMNS
+from eea.record import LINEAGE_COLUMNS, LINEAGES_FILE, MODEL_COLUMNS
 from eea.run import run
 
 TRUTH = encode_models(get_damage("left_pectoral_half").apply().to_array()[None])[0]

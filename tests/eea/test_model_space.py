@@ -261,7 +261,7 @@ def test_every_inference_strategy_runs_in_the_servo_space(tmp_path, tiny_config,
 def test_the_lineages_method_runs_in_the_servo_space(tmp_path, tiny_config):
     from eea.methods import method_fields
     from eea.analysis.lineage_report import lineage_objective_fitness
-    from eea.search.lineages import LINEAGES_FILE, lineage_columns
+    from eea.record import LINEAGES_FILE, lineage_columns
 
     config = tiny_config(**{**method_fields("profile_lineages"), "estimation_population": 10, "rounds": 1,
                             "model_space": "morphology+servos", "damage": "weak_right_pectoral"})
