@@ -48,7 +48,7 @@ from eea.estimation import EstimationSettings
 from eea.evaluation import RuntimeSettings
 from eea.exploration import ExplorationSettings
 from eea.ga import GASettings
-from eea.inference import INFERENCE_NAMES, INFERENCE_SETTINGS, OutOfBandSettings
+from eea.inference import INFERENCE_NAMES, INFERENCE_SETTINGS, InferenceSettings, OutOfBandSettings
 from eea.methods import budget_fields, method_fields
 from eea.search import SEARCH_NAMES, SEARCH_SETTINGS
 
@@ -329,7 +329,7 @@ class EEAConfig:
     exploration: ExplorationSettings = dataclasses.field(default_factory=ExplorationSettings)
     estimation: EstimationSettings = dataclasses.field(default_factory=EstimationSettings)
     ga: GASettings = dataclasses.field(default_factory=GASettings)
-    inference: object = dataclasses.field(default_factory=OutOfBandSettings)
+    inference: InferenceSettings = dataclasses.field(default_factory=OutOfBandSettings)
     runtime: RuntimeSettings = dataclasses.field(default_factory=RuntimeSettings)
 
     def __post_init__(self) -> None:

@@ -16,10 +16,10 @@ fittest model of its last generation.
 
 The phase also hands the exploration its candidate models (:meth:`Estimation.ranked_models`):
 the paper's are the distinct models of the last generation, best first. With a minimum
-distance (``config.exploration.diversity``, the flag ``--exploration-diversity``, not the paper's) they are picked instead from
-every model the round evaluated, best first, skipping any closer than that to one already
-picked (:func:`eea.diversity.diverse_ranked`; why: docs/self_modeling.md, "Exploration's
-candidate models").
+distance (``config.exploration.diversity``, the flag ``--exploration-diversity``, not the
+paper's) they are picked instead from every model the round evaluated, best first, skipping
+any closer than that to one already picked (:func:`eea.diversity.diverse_ranked`; why:
+docs/self_modeling.md, "Exploration's candidate models").
 """
 
 from __future__ import annotations
@@ -36,8 +36,8 @@ from eea.encoding import genome_keys, genomes_from_keys, model_space_of
 from eea.experiment import Experiment
 from eea.fitness import model_fitness_from_similarities
 from eea.inference import InferenceStrategy
-from eea.search import (SEARCH_NAMES, SEARCH_SETTINGS, GASearchSettings, ModelSearch, check_model_search,
-                        make_model_search, model_search_from_state)
+from eea.search import (SEARCH_NAMES, SEARCH_SETTINGS, GASearchSettings, ModelSearch, SearchSettings,
+                        check_model_search, make_model_search, model_search_from_state)
 
 __all__ = ["Estimation", "EstimationResult", "EstimationSettings", "distinct_ranked"]
 
@@ -63,7 +63,7 @@ class EstimationSettings:
     population: int = 25
     generations: int = 100
     lineages: int = 1
-    search: object = dataclasses.field(default_factory=GASearchSettings)
+    search: SearchSettings = dataclasses.field(default_factory=GASearchSettings)
 
     def __post_init__(self) -> None:
         check_int("EEAConfig.estimation_population", self.population, 2)

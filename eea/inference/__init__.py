@@ -26,9 +26,10 @@ This package imports only the core (never :mod:`eea.search`).
 from eea.inference.paper import (InBand, InBandSettings, Known, KnownSettings, NoInference, NoneSettings, OutOfBand,
                                  OutOfBandSettings)
 from eea.inference.profile import Profile, ProfileSettings
-from eea.inference.registry import INFERENCE_NAMES, INFERENCE_SETTINGS, INFERENCE_STRATEGIES, make_inference
+from eea.inference.registry import (INFERENCE_NAMES, INFERENCE_SETTINGS, INFERENCE_STRATEGIES, InferenceSettings,
+                                    make_inference)
 from eea.inference.strategy import Experiments, InferenceStrategy
 
 __all__ = ["Experiments", "INFERENCE_NAMES", "INFERENCE_SETTINGS", "INFERENCE_STRATEGIES", "InBand", "InBandSettings",
-           "InferenceStrategy", "Known", "KnownSettings", "NoInference", "NoneSettings", "OutOfBand",
+           "InferenceSettings", "InferenceStrategy", "Known", "KnownSettings", "NoInference", "NoneSettings", "OutOfBand",
            "OutOfBandSettings", "Profile", "ProfileSettings", "make_inference"]

@@ -34,7 +34,7 @@ from eea.inference.paper import (InBand, InBandSettings, Known, KnownSettings, N
 from eea.inference.profile import Profile, ProfileSettings
 from eea.inference.strategy import InferenceStrategy
 
-__all__ = ["INFERENCE_NAMES", "INFERENCE_SETTINGS", "INFERENCE_STRATEGIES", "make_inference"]
+__all__ = ["INFERENCE_NAMES", "INFERENCE_SETTINGS", "INFERENCE_STRATEGIES", "InferenceSettings", "make_inference"]
 
 #: Registry of strategies by name (``config.inference.name``, the flag ``--inference``).
 INFERENCE_STRATEGIES: dict[str, type[InferenceStrategy]] = {
@@ -45,6 +45,8 @@ INFERENCE_NAMES: tuple[str, ...] = tuple(INFERENCE_STRATEGIES)
 INFERENCE_SETTINGS: dict[str, type] = {
     cls.name: cls for cls in (KnownSettings, NoneSettings, InBandSettings, OutOfBandSettings, ProfileSettings)
 }
+#: The type of ``config.inference``: one strategy's settings.
+InferenceSettings = KnownSettings | NoneSettings | InBandSettings | OutOfBandSettings | ProfileSettings
 
 
 def make_inference(settings, ga=None) -> InferenceStrategy:

@@ -26,8 +26,8 @@ search's nested pickle); the lineages also import :mod:`eea.inference` and :mod:
 
 from eea.search.cma import CMAModelSearch, CMASettings
 from eea.search.model_ga import GASearchSettings, ModelGA
-from eea.search.registry import (MODEL_SEARCHES, SEARCH_NAMES, SEARCH_SETTINGS, ModelSearch, check_model_search,
-                                 make_model_search, model_search_from_state)
+from eea.search.registry import (MODEL_SEARCHES, SEARCH_NAMES, SEARCH_SETTINGS, ModelSearch, SearchSettings,
+                                 check_model_search, make_model_search, model_search_from_state)
 
 __all__ = ["CMAModelSearch", "CMASettings", "GASearchSettings", "MODEL_SEARCHES", "ModelGA", "ModelSearch",
-           "SEARCH_NAMES", "SEARCH_SETTINGS", "check_model_search", "make_model_search", "model_search_from_state"]
+           "SEARCH_NAMES", "SEARCH_SETTINGS", "SearchSettings", "check_model_search", "make_model_search", "model_search_from_state"]

@@ -27,8 +27,8 @@ import numpy as np
 from eea.search.cma import CMAModelSearch, CMASettings
 from eea.search.model_ga import GASearchSettings, ModelGA
 
-__all__ = ["MODEL_SEARCHES", "SEARCH_NAMES", "SEARCH_SETTINGS", "ModelGA", "ModelSearch", "check_model_search",
-           "make_model_search", "model_search_from_state"]
+__all__ = ["MODEL_SEARCHES", "SEARCH_NAMES", "SEARCH_SETTINGS", "ModelGA", "ModelSearch", "SearchSettings",
+           "check_model_search", "make_model_search", "model_search_from_state"]
 
 
 class ModelSearch(Protocol):
@@ -91,6 +91,8 @@ MODEL_SEARCHES: dict[str, type] = {cls.name: cls for cls in (ModelGA, CMAModelSe
 SEARCH_NAMES: tuple[str, ...] = tuple(MODEL_SEARCHES)
 #: The settings class of every search by name (``config.estimation.search`` is one of them).
 SEARCH_SETTINGS: dict[str, type] = {cls.name: cls for cls in (GASearchSettings, CMASettings)}
+#: The type of ``config.estimation.search``: one search's settings.
+SearchSettings = GASearchSettings | CMASettings
 
 
 def _search_class(name) -> type:
