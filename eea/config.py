@@ -519,7 +519,11 @@ class EEAConfig:
 
     def same_results_as(self, other: "EEAConfig") -> bool:
         """Whether two configs give the same rounds: everything but :data:`RESULT_NEUTRAL_FIELDS`
-        (``runtime``, ``rounds``) agrees."""
+        (``runtime``, ``rounds``) agrees.
+
+        Args:
+            other: the config to compare with.
+        """
         return self.result_fields() == other.result_fields()
 
     def result_fields(self) -> dict:
