@@ -330,7 +330,7 @@ def model_fields(method: str = DEFAULT_METHOD, model_space: str = DEFAULT_MODEL_
     ``morphology+servos``, ``cma_flip_gains=1`` (every restart also tries the best model with
     its pectoral gains' signs flipped; docs/self_modeling.md). The defaults give the
     self-model's: ``EEAConfig.from_method(DEFAULT_METHOD, budget, **model_fields())``."""
-    cma = EEAConfig.from_method(method).estimation_search == "cma"
+    cma = EEAConfig.from_method(method).estimation.search.name == "cma"
     flips = {"cma_flip_gains": 1} if cma and model_space != PAPER_MODEL_SPACE else {}
     return {"model_space": model_space, "behaviour_summary": behaviour_summary, **flips}
 
@@ -473,7 +473,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         "models": {
             key: {
                 "method": runs[key][0],
-                "inference": configs[key].inference,
+                "inference": configs[key].inference.name,
                 "model_space": runs[key][1],
                 "behaviour_summary": runs[key][2],
                 "morphology": _dims(models[key]),

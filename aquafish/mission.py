@@ -620,10 +620,10 @@ def _recover_model(mission: _Mission, genome: np.ndarray | None, config: EEAConf
     The target's simulated seconds are not compute: they are the mission's."""
     rng = np.random.default_rng(config.seed)
     t0, sim_wall = time.perf_counter(), 0.0
-    with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots,
+    with Evaluator(config.steps, workers=config.runtime.workers, max_batch_robots=config.runtime.max_batch_robots,
                    params=config.sim_params, model_space=config.model_space,
                    summary=config.behaviour_summary) as evaluator:
-        estimation = make_estimation(config, rng)
+        estimation = make_estimation(config.estimation, config.ga, config.model_space, rng)
         if genome is not None:
             warm_start(estimation, genome)
         parts = RoundParts.from_config(config, rng, evaluator, estimation)

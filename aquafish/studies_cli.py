@@ -10,7 +10,7 @@ from aquafish_gym.argtypes import (add_alias, add_config_option, add_episode_dur
                                    add_workers, csv_list, damage_list, int_at_least, path)
 from aquafish_gym.rundir import check_output_dir, check_output_file, run_lock
 from eea.cli import add_config_flags, config_fields, config_flag_names, given_flags
-from eea import INFERENCE_NAMES, MODEL_SPACES, EEAConfig
+from eea import INFERENCE_NAMES, MODEL_SPACES
 from eea.methods import BEST_METHOD, METHODS, PAPER_METHODS
 
 
@@ -48,7 +48,7 @@ def _study(args: argparse.Namespace) -> int:
     from aquafish.study import StudySpec, run_study
 
     names = config_flag_names(STUDY_EXCLUDED)
-    base = EEAConfig(workers=1, **config_fields(args, names))
+    base = {"workers": 1, **config_fields(args, names)}  # flat: every run keeps what its strategy and search use
     fixed = list(given_flags(args, names))  # flags given win over the methods' fields
     spec = StudySpec(args.conditions, args.durations, args.replicates, base, first_seed=args.first_seed, fixed=fixed)
     dirs = run_study(spec, args.out, backend=args.backend, address=args.address, processes=args.processes,

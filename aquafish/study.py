@@ -32,7 +32,8 @@ from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
 from aquafish_gym.rundir import FileError, check_output_dir, die_with_parent, read_json, run_lock
-from eea.config import EEAConfig
+from eea.compat import upgrade_flat_fields
+from eea.config import FLAT_DEFAULTS, EEAConfig, nest_flat
 from eea.methods import METHODS, method_fields
 from eea.record import read_rounds
 
@@ -62,33 +63,50 @@ class StudySpec:
     Attributes:
         conditions: method names (:data:`eea.methods.METHODS`, e.g. ``("out_of_band",
             "profile_lineages")``); each run is ``base`` with the method's fields, except those
-            named in ``fixed``. A name that is no method but an inference strategy (``"profile"``, in
-            studies written before methods had names) sets ``inference`` alone.
+            named in ``fixed``, by :meth:`eea.config.EEAConfig.from_flat` (a run keeps the fields
+            of ``base`` that its strategy and search use). A name that is no method but an
+            inference strategy (``"profile"``, in studies written before methods had names) sets
+            ``inference`` alone.
         durations_s: experiment durations in seconds (paper: 1.28, 2.56, 5.12, 10.24).
         replicates: seeds ``first_seed .. first_seed + replicates - 1`` per (condition,
             duration); paper: 25.
-        base: every other EEA setting (population sizes, generations, rounds, damage).
+        base: every other EEA setting by flat name (:data:`eea.config.FLAT_FIELDS`: the flags'
+            vocabulary; population sizes, generations, rounds, damage, and the settings of every
+            strategy and search, e.g. a budget's ``oob_period`` for the out-of-band runs), or an
+            :class:`~eea.config.EEAConfig` (its :meth:`~eea.config.EEAConfig.to_flat`). Held as
+            every flat field, a name left out at its default (``workers`` 1); ``study.json``
+            records it so.
         first_seed: the first seed (default 0): a study's seeds can be run in shards, e.g.
             seeds 0-9 on one machine and ``first_seed=10`` on another, into one directory.
         fixed: fields ``base`` holds that no method overrides (``aquafish study``: the flags
-            given explicitly, e.g. ``--lineages 1`` beside ``--methods profile_lineages``).
+            given explicitly, e.g. ``--lineages 1`` beside ``--methods profile_lineages``). One at
+            another value than its default must be used by some run (``--oob-period 5`` needs an
+            out-of-band condition); only the fields some method sets are kept.
 
     Raises:
         ValueError: empty lists, duplicate entries, ``replicates < 1``, ``first_seed < 0`` or
-            an invalid condition/duration (checked by building each run's :class:`EEAConfig`).
+            an invalid condition/duration (checked by building each run's :class:`EEAConfig`), an
+            unknown field in ``base`` or ``fixed``, or a field of ``fixed`` at another value than
+            its default that no run uses.
     """
 
     conditions: tuple[str, ...]
     durations_s: tuple[float, ...]
     replicates: int
-    base: EEAConfig = dataclasses.field(default_factory=lambda: EEAConfig(workers=1))
+    base: dict | EEAConfig = dataclasses.field(default_factory=lambda: {"workers": 1})
     first_seed: int = 0
     fixed: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        unknown = sorted(set(self.fixed) - set(self.base.to_dict()))
+        base = self.base.to_flat() if isinstance(self.base, EEAConfig) else dict(self.base)
+        nest_flat(base)  # unknown names fail here
+        base = {**FLAT_DEFAULTS, "workers": 1, **base}
+        # canonical values (the damage's text) of the fields a config holds; the others as given
+        object.__setattr__(self, "base", {**base, **EEAConfig.from_flat({}, optional=base).to_flat()})
+        unknown = sorted(set(self.fixed) - set(FLAT_DEFAULTS))
         if unknown:
             raise ValueError(f"fixed names unknown EEAConfig fields {unknown}")
+        given = tuple(self.fixed)
         # only a field some method sets can be overridden: the rest is dropped, so a study
         # started before methods had names (no "fixed" in its study.json) resumes with --damage D
         method_keys = {k for m in METHODS.values() for k in m.fields}
@@ -101,7 +119,11 @@ class StudySpec:
             raise ValueError(f"durations must be a non-empty list without repeats, got {self.durations_s}")
         check_int("replicates", self.replicates, 1)
         check_int("first_seed", self.first_seed, 0)
-        self.runs(Path("."))  # validates every run's config
+        used = {k for config, _ in self.runs(Path(".")) for k in config.to_flat()}  # validates every run's config
+        unused = [k for k in given if k not in used and self.base[k] != FLAT_DEFAULTS[k]]
+        if unused:
+            raise ValueError(f"no run of the study uses {', '.join(f'EEAConfig.{k} = {self.base[k]!r}' for k in unused)} "
+                             f"(a setting of a strategy or search none of its methods runs)")
 
     @property
     def seeds(self) -> range:
@@ -126,7 +148,8 @@ class StudySpec:
         for seed in self.seeds:
             for condition in self.conditions:
                 for duration in self.durations_s:
-                    config = self.base.replace(**self._method_fields(condition), duration_s=duration, seed=seed)
+                    config = EEAConfig.from_flat({"duration_s": duration, "seed": seed},
+                                                 optional={**self.base, **self._method_fields(condition)})
                     out.append((config, Path(out_dir) / condition / f"{duration:g}s" / f"seed{seed}"))
         return out
 
@@ -385,7 +408,7 @@ def _study_seeds(study: dict) -> list[int]:
 
 def _write_spec(spec: StudySpec, out_dir: Path) -> None:
     data = {"conditions": list(spec.conditions), "durations_s": list(spec.durations_s),
-            "seeds": list(spec.seeds), "base": spec.base.to_dict()}
+            "seeds": list(spec.seeds), "base": dict(spec.base)}
     if spec.fixed:  # only when set: a study.json written before still describes its study
         data["fixed"] = list(spec.fixed)
     data["base"].pop("workers", None)
@@ -393,8 +416,9 @@ def _write_spec(spec: StudySpec, out_dir: Path) -> None:
     if path.exists():
         old = read_json(path)
         try:
-            # through EEAConfig: a spec written before a field was added gets its default
-            old["base"] = EEAConfig.from_dict(old["base"]).to_dict()
+            # a spec written before a field was added gets its default (eea.compat: deep water before the
+            # surface swimmer, retired fields dropped); canonical values as StudySpec holds them
+            old["base"] = dataclasses.replace(spec, base=upgrade_flat_fields(old["base"])).base
             old["base"].pop("workers", None)
             old_seeds = _study_seeds(old)
         except (KeyError, TypeError, ValueError) as err:

@@ -22,12 +22,13 @@ The layout (``tests/eea/test_layering.py`` checks it)::
       exploration.py           the exploration phase (3.2)
       estimation.py            the estimation phase (3.2), over a model search and a strategy
       round.py                 ``run_round``: one round as one function, a frozen ``RoundRecord``
-      config.py, methods.py    ``EEAConfig``, the paper's defaults (4); named methods and budgets
+      config.py, methods.py    ``EEAConfig`` and its sections' one flat-name table, the paper's
+                               defaults (4); named methods and budgets
       run.py                   ``run(config, out_dir)``: a resumable run of rounds
       record.py                rounds.csv / config.json written and read back (``load_result``)
       checkpoint.py            the run's state.pkl
-      compat.py                what lets runs written by earlier versions load: retired fields,
-                               moved modules, older checkpoints' states
+      compat.py                what lets runs written by earlier versions load: flat configs,
+                               retired fields, moved modules, older checkpoints' states
       replay.py, cli.py        a finished run's experiments rebuilt; the ``aquafish eea`` command
       search/                  the estimation's model searches
         registry.py              the ``ModelSearch`` protocol and the searches by name

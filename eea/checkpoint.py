@@ -42,7 +42,8 @@ class RunState:
     """State of an EEA run after ``rounds_done`` finished rounds (frozen: a new one per round).
 
     Attributes:
-        config: the run's :meth:`EEAConfig.to_dict`.
+        config: the run's :meth:`EEAConfig.to_dict` (nested; flat in a checkpoint written before
+            the sections, which :meth:`EEAConfig.from_dict` reads through :mod:`eea.compat`).
         rounds_done: number of finished rounds.
         rng_state: ``numpy.random.Generator.bit_generator.state`` of the run's generator
             (empty before the first round).

@@ -1,11 +1,14 @@
 """``aquafish eea`` sub-command (argparse).
 
 ``aquafish eea --inference out_of_band --damage left_pectoral_half --duration 1.28
---rounds 25 --seed 0 --out DIR`` runs (or resumes) one EEA run; every
-:class:`~eea.config.EEAConfig` field is a flag (``--estimation-population 50``) with the
-dataclass default; ``--budget NAME`` and ``--method NAME`` apply named settings
-(:mod:`eea.methods`) that the flags given explicitly override (:func:`add_config_flags` and
-:func:`config_fields`, which ``aquafish study`` uses too)::
+--rounds 25 --seed 0 --out DIR`` runs (or resumes) one EEA run; every setting of
+:class:`~eea.config.EEAConfig` is a flag by its flat name (:data:`eea.config.FLAT_FIELDS`:
+``--estimation-population 50`` sets ``config.estimation.population``) with its default;
+``--budget NAME`` and ``--method NAME`` apply named settings (:mod:`eea.methods`) that the flags
+given explicitly override (:func:`add_config_flags` and :func:`config_fields`, which ``aquafish
+study`` uses too). A flag of a strategy or search the run does not use (``--oob-period 5``
+beside ``--inference known``) is an error at another value than its default; the same field
+from a budget is dropped (:meth:`eea.config.EEAConfig.from_flat`)::
 
     aquafish eea --method profile_lineages --budget reduced --damage caudal_half --out DIR
 
@@ -15,16 +18,15 @@ dataclass default; ``--budget NAME`` and ``--method NAME`` apply named settings
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from typing import Iterable
 
 from aquafish_gym import argtypes
 from eea.behaviour import SUMMARIES
-from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, MODEL_SPACE_NAMES, EEAConfig
+from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, FLAT_DEFAULTS, FLAT_FIELDS, MODEL_SPACE_NAMES, EEAConfig
 from eea.methods import BUDGETS, METHODS, budget_fields, method_fields
 from eea.inference import INFERENCE_NAMES
 
-__all__ = ["add_commands", "add_config_flags", "config_fields", "config_flag_names", "given_flags"]
+__all__ = ["add_commands", "add_config_flags", "config_fields", "config_flag_names", "config_from_args", "given_flags"]
 
 _SHORT_FLAGS = {"duration_s": ("--duration",)}
 #: The allowed values of the fields that take a name.
@@ -40,15 +42,16 @@ _HELP = {"workers": f"{argtypes.WORKERS_HELP} (simulations; 1 = serial; never ch
 
 
 def config_flag_names(exclude: Iterable[str] = ()) -> tuple[str, ...]:
-    """The :class:`~eea.config.EEAConfig` fields that get a flag, in field order.
+    """The flat names of :class:`~eea.config.EEAConfig` settings (:data:`eea.config.FLAT_FIELDS`)
+    that get a flag, in the table's order.
 
     Args:
-        exclude: field names to leave out (those a command sets itself).
+        exclude: flat names to leave out (those a command sets itself).
 
     Raises:
-        ValueError: a name in ``exclude`` is not an ``EEAConfig`` field.
+        ValueError: a name in ``exclude`` is not a flat name.
     """
-    names = tuple(f.name for f in dataclasses.fields(EEAConfig))
+    names = tuple(FLAT_FIELDS)
     unknown = sorted(set(exclude) - set(names))
     if unknown:
         raise ValueError(f"not EEAConfig fields: {', '.join(unknown)}")
@@ -56,11 +59,11 @@ def config_flag_names(exclude: Iterable[str] = ()) -> tuple[str, ...]:
 
 
 def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = ()) -> tuple[str, ...]:
-    """Add one flag per :class:`~eea.config.EEAConfig` field to ``parser``.
+    """Add one flag per flat name of :class:`~eea.config.EEAConfig` (:data:`eea.config.FLAT_FIELDS`) to ``parser``.
 
     Field ``estimation_population`` becomes ``--estimation-population`` (``duration_s``
-    also ``--duration``), stored under the field's name, with the field's type and
-    :data:`eea.config.FIELD_HELP` as help (which names the dataclass default); named settings
+    also ``--duration``), stored under the flat name, with the default's type and
+    :data:`eea.config.FIELD_HELP` as help (which names the default); named settings
     (``inference``, ``estimation_search``, ``model_space``) list their
     choices. Also adds ``--budget NAME`` (:data:`eea.methods.BUDGETS`, default ``paper``) and,
     when ``inference`` gets a flag, ``--method NAME`` (:data:`eea.methods.METHODS`). A flag not
@@ -80,9 +83,8 @@ def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = (
         ValueError: as :func:`config_flag_names`.
     """
     names = config_flag_names(exclude)
-    defaults = EEAConfig()
     for name in names:
-        default = getattr(defaults, name)
+        default = FLAT_DEFAULTS[name]
         flags = (f"--{name.replace('_', '-')}", *_SHORT_FLAGS.get(name, ()))
         parser.add_argument(*flags, type=_TYPES.get(name, type(default)), default=argparse.SUPPRESS, dest=name,
                             choices=_CHOICES.get(name),
@@ -98,7 +100,7 @@ def add_config_flags(parser: argparse.ArgumentParser, exclude: Iterable[str] = (
 
 
 def config_fields(args: argparse.Namespace, names: Iterable[str]) -> dict:
-    """The :class:`~eea.config.EEAConfig` fields a parsed command line sets, among ``names``.
+    """The flat :class:`~eea.config.EEAConfig` fields a parsed command line sets, among ``names``.
 
     The budget's values first, then the method's (``--method``, if given), then every flag
     given explicitly; a field set by none of them is left out (the config's default applies).
@@ -110,7 +112,8 @@ def config_fields(args: argparse.Namespace, names: Iterable[str]) -> dict:
         names: the fields that got a flag (its return value).
 
     Returns:
-        ``{field: value}`` to pass to :class:`~eea.config.EEAConfig`.
+        ``{flat name: value}``; build the config with :func:`config_from_args`, which tells the
+        flags given (explicit) from the budget's and method's values.
     """
     names = tuple(names)
     method = method_fields(args.method) if getattr(args, "method", None) else {}
@@ -120,7 +123,7 @@ def config_fields(args: argparse.Namespace, names: Iterable[str]) -> dict:
 
 
 def given_flags(args: argparse.Namespace, names: Iterable[str]) -> dict:
-    """The :class:`~eea.config.EEAConfig` fields among ``names`` whose flag the command line gave.
+    """The flat :class:`~eea.config.EEAConfig` fields among ``names`` whose flag the command line gave.
 
     A value of None is a value given (``--waterline deep`` is deep water, ``None``); a flag not
     given has no attribute on ``args`` (:func:`add_config_flags`).
@@ -132,10 +135,28 @@ def given_flags(args: argparse.Namespace, names: Iterable[str]) -> dict:
     return {n: given[n] for n in names if n in given}
 
 
+def config_from_args(args: argparse.Namespace, names: Iterable[str], **fields) -> EEAConfig:
+    """The config a parsed command line asks for: the flags given (:func:`given_flags`) and
+    ``fields`` explicit over the budget's and method's values (:func:`config_fields`), by
+    :meth:`eea.config.EEAConfig.from_flat`'s rule.
+
+    Args:
+        args: parsed by a parser that :func:`add_config_flags` set up.
+        names: the fields that got a flag.
+        **fields: flat fields the command sets itself (explicit).
+
+    Raises:
+        ValueError: as :meth:`eea.config.EEAConfig.from_flat` (e.g. a flag of a strategy the run
+            does not use).
+    """
+    names = tuple(names)
+    return EEAConfig.from_flat({**given_flags(args, names), **fields}, optional=config_fields(args, names))
+
+
 def _run_eea(args: argparse.Namespace) -> int:
     from eea.run import run
 
-    result = run(EEAConfig(**config_fields(args, config_flag_names())), args.out, progress=not args.no_progress)
+    result = run(config_from_args(args, config_flag_names()), args.out, progress=not args.no_progress)
     last = result.rounds[-1]
     print(f"{args.out}: {len(result.rounds)} rounds, objective fitness {last['objective_fitness']:.4f}, "
           f"model fitness {last['model_fitness']:.4f}, {last['simulations']} simulations")

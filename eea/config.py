@@ -1,63 +1,135 @@
 """Settings of one EEA run: :class:`EEAConfig`, with the paper's defaults (section 4).
 
-Every field is also a command-line flag of ``aquafish eea`` (``--estimation-population``
-for ``estimation_population``); :data:`FIELD_HELP` gives each one's help text. The config
-is frozen and validated on construction, so a typo or an out-of-range value fails before
-any simulation runs::
+The config nests its sections, each a frozen settings class next to its component's code that
+validates its own fields::
 
-    config = EEAConfig(inference="in_band", rounds=10, seed=3)
-    config.steps          # 128 (= duration_s / 0.01 s)
+    EEAConfig(damage, model_space, behaviour_summary, duration_s, rounds, seed, waterline,
+              exploration,   # ExplorationSettings: population, generations, models, angles, diversity
+              estimation,    # EstimationSettings: population, generations, lineages, search
+              ga,            # GASettings: shared by every GA of the run
+              inference,     # one of KnownSettings, NoneSettings, InBandSettings, OutOfBandSettings,
+                             # ProfileSettings (its ``name`` is the strategy's)
+              runtime)       # RuntimeSettings: workers, max_batch_robots (never change results)
 
-Named methods and budgets (:mod:`eea.methods`; ``--method`` and ``--budget`` on the command
-line) spell out the settings the studies use (docs/studies.md), so a run is two names instead
-of a dozen flags::
+``estimation.search`` is a :class:`~eea.search.GASearchSettings` (the paper's GA) or a
+:class:`~eea.search.CMASettings`. The settings of an inactive strategy or search do not exist in
+the object: ``config.inference.name == "out_of_band"`` says which strategy runs, and only its
+settings are there.
 
+The command-line flags (``--oob-period``), the keys of a TOML config file, the named methods and
+budgets (:mod:`eea.methods`) and every ``config.json`` written before the sections speak the
+*flat* names (``oob_period``, ``cma_sigma``); :data:`FLAT_FIELDS` is the one table that maps each
+to its place in the nested config, and :meth:`EEAConfig.from_flat` builds a config from them::
+
+    config = EEAConfig.from_flat({"inference": "in_band", "rounds": 10, "seed": 3})
+    config.inference.k_best      # 3
+    config.steps                 # 128 (= duration_s / 0.01 s)
     EEAConfig.from_method("profile_lineages", "reduced", damage="caudal_half", seed=3)
+
+The flat-name rule (:meth:`EEAConfig.from_flat`): a field of a strategy or search the config does
+not run (``oob_period`` beside ``inference="known"``) is dropped when it comes from a budget or a
+method, or has its default value; given explicitly (a flag, a keyword) at another value it is a
+:class:`ValueError` naming the field and what it needs.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-import os
+from typing import Mapping
 
 from aquafish_gym import DT_S, SimParams, get_damage
 from aquafish_gym.params import DEFAULT_WATERLINE
 from aquafish_gym.checks import check_int
 from eea.behaviour import SUMMARIES
-from eea.compat import strip_retired
+from eea.compat import upgrade_flat_config
 from eea.encoding import ACTION_BITS, MODEL_SPACES
+from eea.estimation import EstimationSettings
+from eea.evaluation import RuntimeSettings
 from eea.exploration import ExplorationSettings
 from eea.ga import GASettings
-from eea.inference import INFERENCE_NAMES, InBandSettings, OutOfBandSettings, ProfileSettings
+from eea.inference import INFERENCE_NAMES, INFERENCE_SETTINGS, InferenceSettings, OutOfBandSettings
 from eea.methods import budget_fields, method_fields
-from eea.search import SEARCH_NAMES, CMASettings
+from eea.search import SEARCH_NAMES, SEARCH_SETTINGS
 
-__all__ = ["ESTIMATION_SEARCHES", "MODEL_SPACE_NAMES", "EEAConfig", "FIELD_HELP", "RESULT_NEUTRAL_FIELDS", "SECTIONS"]
+__all__ = ["ESTIMATION_SEARCHES", "FIELD_HELP", "FLAT_DEFAULTS", "FLAT_FIELDS", "MODEL_SPACE_NAMES",
+           "RESULT_NEUTRAL_FIELDS", "SECTIONS", "VARIANT_SLOTS", "EEAConfig", "nest_flat"]
 
 #: Names of the estimation searches (:data:`eea.search.MODEL_SEARCHES`): the paper's
 #: GA and CMA-ES (:mod:`eea.search.cma`).
 ESTIMATION_SEARCHES: tuple[str, ...] = SEARCH_NAMES
 
-#: The sections of :class:`EEAConfig`, each a frozen settings class next to its component's
-#: code that validates its own fields (``config.ga`` is ``GASettings.from_config(config)``).
-#: Each class's ``CONFIG_FIELDS`` maps its fields to the config's; the config's other fields
-#: are the run's own (inference, damage, model space, summary, duration, rounds, seed, the
-#: estimation's population, generations and search, lineages, workers, chunking, waterline).
-SECTIONS: dict[str, type] = {"ga": GASettings, "cma": CMASettings, "in_band": InBandSettings,
-                             "out_of_band": OutOfBandSettings, "profile": ProfileSettings,
-                             "exploration": ExplorationSettings}
+#: The sections of :class:`EEAConfig` with a single settings class, by attribute; the two
+#: variant slots (:data:`VARIANT_SLOTS`) hold one of several classes.
+SECTIONS: dict[str, type] = {"exploration": ExplorationSettings, "estimation": EstimationSettings,
+                             "ga": GASettings, "runtime": RuntimeSettings}
+
+#: The slots that hold one of several variants, each a settings class with a ``name``: the path
+#: in the nested config, the flat name that chooses the variant, and the classes by name.
+VARIANT_SLOTS: dict[str, tuple[str, dict[str, type]]] = {
+    "inference": ("inference", INFERENCE_SETTINGS),
+    "estimation.search": ("estimation_search", SEARCH_SETTINGS),
+}
 
 #: Names of the model spaces (:data:`eea.encoding.MODEL_SPACES`): the paper's flipper
 #: dimensions, or those and one gain per servo (not the paper's).
 MODEL_SPACE_NAMES: tuple[str, ...] = tuple(MODEL_SPACES)
 
-#: Fields that never change a run's results (resuming with other values is allowed):
-#: the number of worker processes and the chunk size of simulator calls, and ``rounds``,
-#: the stopping criterion (a finished run can be extended to more rounds).
-RESULT_NEUTRAL_FIELDS: tuple[str, ...] = ("workers", "max_batch_robots", "rounds")
+#: THE mapping of the flat names (command-line flags without dashes, TOML keys, the fields of
+#: methods and budgets, the keys of a ``config.json`` written before the sections) to the nested
+#: config: flat name -> (dotted path, the variant it needs or None). A path ending in ``.name``
+#: chooses the variant of its slot (:data:`VARIANT_SLOTS`); a field that needs a variant exists
+#: only in a config that runs it.
+FLAT_FIELDS: dict[str, tuple[str, str | None]] = {
+    "inference": ("inference.name", None),
+    "damage": ("damage", None),
+    "model_space": ("model_space", None),
+    "behaviour_summary": ("behaviour_summary", None),
+    "duration_s": ("duration_s", None),
+    "rounds": ("rounds", None),
+    "seed": ("seed", None),
+    "exploration_population": ("exploration.population", None),
+    "exploration_generations": ("exploration.generations", None),
+    "exploration_models": ("exploration.models", None),
+    "exploration_angles": ("exploration.angles", None),
+    "exploration_diversity": ("exploration.diversity", None),
+    "estimation_population": ("estimation.population", None),
+    "estimation_generations": ("estimation.generations", None),
+    "estimation_search": ("estimation.search.name", None),
+    "cma_sigma": ("estimation.search.sigma", "cma"),
+    "cma_global_share": ("estimation.search.global_share", "cma"),
+    "cma_carry_condition": ("estimation.search.carry_condition", "cma"),
+    "cma_global_keep": ("estimation.search.global_keep", "cma"),
+    "cma_flip_gains": ("estimation.search.flip_gains", "cma"),
+    "lineages": ("estimation.lineages", None),
+    "crossover_rate": ("ga.crossover_rate", None),
+    "tournament_size": ("ga.tournament_size", None),
+    "mutation_bits": ("ga.mutation_bits", None),
+    "elitism": ("ga.elitism", None),
+    "k_best": ("inference.k_best", "in_band"),
+    "in_band_confidence": ("inference.confidence", "in_band"),
+    "in_band_widen": ("inference.widen", "in_band"),
+    "oob_period": ("inference.period", "out_of_band"),
+    "oob_sample": ("inference.sample", "out_of_band"),
+    "oob_population": ("inference.population", "out_of_band"),
+    "oob_generations": ("inference.generations", "out_of_band"),
+    "oob_bits": ("inference.bits", "out_of_band"),
+    "profile_proposals": ("inference.proposals", "profile"),
+    "profile_initial": ("inference.initial", "profile"),
+    "profile_refine": ("inference.refine", "profile"),
+    "profile_contenders": ("inference.contenders", "profile"),
+    "profile_library": ("inference.library", "profile"),
+    "waterline": ("waterline", None),
+    "workers": ("runtime.workers", None),
+    "max_batch_robots": ("runtime.max_batch_robots", None),
+}
 
-#: One help line per field (command-line ``--help`` and documentation).
+#: The nested keys that never change a run's results (resuming with other values is allowed):
+#: ``runtime`` (worker processes, chunk size of simulator calls) and ``rounds``, the stopping
+#: criterion (a finished run can be extended to more rounds).
+RESULT_NEUTRAL_FIELDS: tuple[str, ...] = ("runtime", "rounds")
+
+#: One help line per flat name (command-line ``--help`` and documentation).
 FIELD_HELP: dict[str, str] = {
     "inference": f"context inference strategy, one of {', '.join(INFERENCE_NAMES)} (paper 3.3, 3.4, 4)",
     "damage": "damage of the target robot (paper section 5): a preset name (aquafish_gym.DAMAGES), a JSON fault "
@@ -127,100 +199,159 @@ FIELD_HELP: dict[str, str] = {
                         "larger worlds cost more per robot-step); never changes results",
 }
 
+#: The top-level fields of :class:`EEAConfig` that are no section.
+_RUN_FIELDS = ("damage", "model_space", "behaviour_summary", "duration_s", "rounds", "seed", "waterline")
 
-def _default_workers() -> int:
-    return os.cpu_count() or 1
+
+def nest_flat(flat: Mapping, explicit: Mapping | None = None) -> dict:
+    """Flat fields (:data:`FLAT_FIELDS`) as a nested dict, each at its path, without the fields
+    of a strategy or search they do not choose (the flat-name rule of :meth:`EEAConfig.from_flat`).
+
+    Args:
+        flat: ``{flat name: value}``.
+        explicit: the fields among them given explicitly: one of an inactive strategy or search
+            at another value than its default is an error (None: none is).
+
+    Returns:
+        The nested dict, each variant slot with its ``name``: e.g. ``{"inference": {"name":
+        "out_of_band", "period": 10}}`` for ``{"oob_period": 10}``.
+
+    Raises:
+        ValueError: on a name that is not in :data:`FLAT_FIELDS` (the message lists the valid
+            names), an unknown strategy or search, or an explicit field of an inactive one.
+    """
+    unknown = sorted(set(flat) - set(FLAT_FIELDS))
+    if unknown:
+        raise ValueError(f"unknown EEAConfig keys {unknown}; valid keys: {', '.join(sorted(FLAT_FIELDS))}")
+    explicit = explicit or {}
+    chosen = {}
+    for slot, (selector, classes) in VARIANT_SLOTS.items():
+        chosen[selector] = flat.get(selector, FLAT_DEFAULTS[selector])
+        if not isinstance(chosen[selector], str) or chosen[selector] not in classes:
+            raise ValueError(f"unknown {selector} {chosen[selector]!r}; valid names: {', '.join(classes)}")
+    nested: dict = {}
+    for slot, (selector, _) in VARIANT_SLOTS.items():
+        _put(nested, f"{slot}.name", chosen[selector])
+    for name, value in flat.items():
+        path, variant = FLAT_FIELDS[name]
+        if variant is not None:
+            selector = VARIANT_SLOTS[path.rsplit(".", 1)[0]][0]
+            if chosen[selector] != variant:
+                if name in explicit and not _is_default(name, explicit[name]):
+                    raise ValueError(f"EEAConfig.{name} needs {selector}={variant!r}, got {chosen[selector]!r}")
+                continue
+        _put(nested, path, value)
+    return nested
+
+
+def _put(nested: dict, path: str, value) -> None:
+    """Set ``value`` at the dotted ``path`` of ``nested``, making the dicts on the way."""
+    *sections, field = path.split(".")
+    for section in sections:
+        nested = nested.setdefault(section, {})
+    nested[field] = value
+
+
+def _is_default(name: str, value) -> bool:
+    """Whether ``value`` is the flat field ``name``'s default (``2`` for ``2.0`` too, not ``True`` for ``1``)."""
+    default = FLAT_DEFAULTS[name]
+    return not isinstance(value, bool) and isinstance(value, (int, float)) and value == default \
+        if isinstance(default, (int, float)) else value == default
+
+
+def _section(cls: type, data, where: str):
+    """``cls(**data)``, an unknown key a ValueError naming the valid ones."""
+    if not isinstance(data, Mapping):
+        raise ValueError(f"EEAConfig.{where} must be a dict of its fields, got {data!r}")
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - names)
+    if unknown:
+        raise ValueError(f"unknown keys {unknown} in EEAConfig.{where} ({cls.__name__}); "
+                         f"valid keys: {', '.join(sorted(names)) or 'none'}")
+    return cls(**data)
+
+
+def _variant(slot: str, data):
+    """The settings of the variant ``data["name"]`` of ``slot`` (no name: the default variant)."""
+    selector, classes = VARIANT_SLOTS[slot]
+    if not isinstance(data, Mapping):
+        raise ValueError(f"EEAConfig.{slot} must be a dict of its name and fields, got {data!r}")
+    data = dict(data)
+    name = data.pop("name", FLAT_DEFAULTS[selector])
+    if not isinstance(name, str) or name not in classes:
+        raise ValueError(f"unknown {selector} {name!r}; valid names: {', '.join(classes)}")
+    return _section(classes[name], data, slot)
 
 
 @dataclasses.dataclass(frozen=True)
 class EEAConfig:
     """Frozen, validated settings of one EEA run; defaults are the paper's (section 4).
 
-    See :data:`FIELD_HELP` for each field. ``steps`` (derived) is the number of 0.01 s
-    simulation steps of every experiment.
+    :data:`FIELD_HELP` describes every setting by its flat name (:data:`FLAT_FIELDS` says where
+    it lives). ``steps`` (derived) is the number of 0.01 s simulation steps of every experiment.
+    Each section validates its own fields; the config checks its own and the rules that span
+    sections (a count at most a population, ``cma_flip_gains`` only in ``morphology+servos``, the
+    CMA-ES global share at most the population less 2, the mutation bits at most every GA's
+    genome). Build one from flat names with :meth:`from_flat`, :meth:`from_method` or
+    :meth:`replace`; from sections directly (``EEAConfig(inference=InBandSettings(k_best=2))``);
+    change a section with ``dataclasses.replace(config, inference=...)``.
 
-    The fields stay flat (``config.json`` and the command-line flags have one entry per
-    field), but each component owns its section (:data:`SECTIONS`): a frozen settings class
-    next to its code that validates its own fields, read as ``config.ga``, ``config.cma``,
-    ``config.in_band``, ``config.out_of_band``, ``config.profile`` and ``config.exploration``
-    (e.g. ``config.cma.sigma`` is ``config.cma_sigma``). The config checks its own fields and
-    the rules that span sections (a count at most a population, the CMA settings only with
-    ``estimation_search="cma"``, the mutation bits at most every GA's genome).
+    Args:
+        damage: the target's damage (``--damage``; recorded as its canonical text).
+        model_space: what a self-model holds (:data:`MODEL_SPACE_NAMES`).
+        behaviour_summary: ``dft`` or ``signed_dft`` (:data:`eea.behaviour.SUMMARIES`).
+        duration_s: seconds of every experiment, a multiple of 0.01 s, at least 2 steps.
+        rounds: EEA rounds, >= 1.
+        seed: seed of the run's one generator, >= 0.
+        waterline: the free surface's height (units), or None: deep water.
+        exploration: the exploration phase's :class:`~eea.exploration.ExplorationSettings`.
+        estimation: the estimation phase's :class:`~eea.estimation.EstimationSettings` (and its search).
+        ga: the :class:`~eea.ga.GASettings` every GA of the run shares.
+        inference: the inference strategy's settings, one of :data:`eea.inference.INFERENCE_SETTINGS`
+            (``inference.name`` is the strategy).
+        runtime: the :class:`~eea.evaluation.RuntimeSettings` (never change results).
 
     Raises:
-        ValueError: on an unknown inference strategy or damage (the message lists the valid
-            names), a duration that is not a positive multiple of 0.01 s (at least 2 steps),
-            a non-integer or out-of-range count, or a rate outside [0, 1]; a message names the
-            field as ``EEAConfig.<field>``.
+        ValueError: on an unknown damage, summary or model space (the message lists the valid
+            names), a duration that is not a positive multiple of 0.01 s (at least 2 steps), a
+            non-integer or out-of-range count, a rate outside [0, 1], a section of the wrong
+            class, or a rule across sections broken; a message names the setting by its flat
+            name as ``EEAConfig.<flat name>``.
     """
 
-    inference: str = "out_of_band"
     damage: str = "left_pectoral_half"
     model_space: str = "morphology"
     behaviour_summary: str = "dft"
     duration_s: float = 1.28
     rounds: int = 25
     seed: int = 0
-    exploration_population: int = 25
-    exploration_generations: int = 25
-    exploration_models: int = 25
-    exploration_angles: int = 0
-    exploration_diversity: float = 0.0
-    estimation_population: int = 25
-    estimation_generations: int = 100
-    estimation_search: str = "ga"
-    cma_sigma: float = 0.3
-    cma_global_share: int = 0
-    cma_carry_condition: float = 0.0
-    cma_global_keep: int = 0
-    cma_flip_gains: int = 0
-    lineages: int = 1
-    crossover_rate: float = 0.75
-    tournament_size: int = 2
-    mutation_bits: float = 1.0
-    elitism: int = 1
-    k_best: int = 3
-    in_band_confidence: float = 0.5
-    in_band_widen: float = 0.0
-    oob_period: int = 35
-    oob_sample: int = 5
-    oob_population: int = 10
-    oob_generations: int = 10
-    oob_bits: int = 8
-    profile_proposals: int = 2
-    profile_initial: int = 8
-    profile_refine: int = 0
-    profile_contenders: int = 3
-    profile_library: int = 0
-    workers: int = dataclasses.field(default_factory=_default_workers)
-    max_batch_robots: int = 64
     waterline: float | None = DEFAULT_WATERLINE
+    exploration: ExplorationSettings = dataclasses.field(default_factory=ExplorationSettings)
+    estimation: EstimationSettings = dataclasses.field(default_factory=EstimationSettings)
+    ga: GASettings = dataclasses.field(default_factory=GASettings)
+    inference: InferenceSettings = dataclasses.field(default_factory=OutOfBandSettings)
+    runtime: RuntimeSettings = dataclasses.field(default_factory=RuntimeSettings)
 
     def __post_init__(self) -> None:
         try:
             object.__setattr__(self, "waterline", SimParams(waterline=self.waterline).waterline)
         except ValueError as err:
             raise ValueError(f"EEAConfig.waterline: {err}") from None
-        if self.inference not in INFERENCE_NAMES:
-            raise ValueError(f"unknown inference {self.inference!r}; valid names: {', '.join(INFERENCE_NAMES)}")
         # the damage's canonical text (a JSON file is read once, here): config.json records the fault itself
         object.__setattr__(self, "damage", get_damage(self.damage).name)  # raises ValueError naming what is valid
         if self.behaviour_summary not in SUMMARIES:
             raise ValueError(f"unknown behaviour_summary {self.behaviour_summary!r}; valid names: {', '.join(SUMMARIES)}")
         if self.model_space not in MODEL_SPACE_NAMES:
             raise ValueError(f"unknown model_space {self.model_space!r}; valid names: {', '.join(MODEL_SPACE_NAMES)}")
-        if self.estimation_search not in ESTIMATION_SEARCHES:
-            raise ValueError(f"unknown estimation_search {self.estimation_search!r}; "
-                             f"valid names: {', '.join(ESTIMATION_SEARCHES)}")
-        minimum = {"rounds": 1, "seed": 0, "estimation_population": 2, "estimation_generations": 1, "workers": 1,
-                   "max_batch_robots": 1, "lineages": 1}
-        for name, low in minimum.items():
-            check_int(f"EEAConfig.{name}", getattr(self, name), low)
-        sections = [section.from_config(self) for section in SECTIONS.values()]  # each validates its fields
+        check_int("EEAConfig.rounds", self.rounds, 1)
+        check_int("EEAConfig.seed", self.seed, 0)
+        for name, cls in SECTIONS.items():
+            if type(getattr(self, name)) is not cls:
+                raise ValueError(f"EEAConfig.{name} must be a {cls.__name__}, got {getattr(self, name)!r}")
+        if type(self.inference) not in INFERENCE_SETTINGS.values():
+            raise ValueError(f"EEAConfig.inference must be the settings of a strategy "
+                             f"({', '.join(c.__name__ for c in INFERENCE_SETTINGS.values())}), got {self.inference!r}")
         self._check_across_sections()
-        for settings in sections:  # keep each section's normalised values (a float field as a float)
-            for name, field in settings.CONFIG_FIELDS.items():
-                object.__setattr__(self, field, getattr(settings, name))
         duration = self.duration_s
         steps = round(duration / DT_S) if isinstance(duration, (int, float)) and math.isfinite(duration) else 0
         if isinstance(duration, bool) or steps < 2 or abs(duration / DT_S - steps) > 1e-6:
@@ -230,54 +361,23 @@ class EEAConfig:
     def _check_across_sections(self) -> None:
         """The checks that span sections (or a section and the run's own fields); each section
         has checked its own fields."""
+        flat = self.to_flat()
         for name, population in (("elitism", "exploration_population"), ("elitism", "estimation_population"),
                                  ("k_best", "estimation_population"), ("oob_sample", "estimation_population"),
                                  ("elitism", "oob_population")):
-            if getattr(self, name) > getattr(self, population):
-                raise ValueError(f"EEAConfig.{name} ({getattr(self, name)}) must be <= {population} ({getattr(self, population)})")
-        for name in ("cma_global_share", "cma_carry_condition", "cma_flip_gains"):
-            if getattr(self, name) and self.estimation_search != "cma":
-                raise ValueError(f"EEAConfig.{name} > 0 needs estimation_search='cma', got {self.estimation_search!r}")
-        if self.cma_flip_gains and self.model_space != "morphology+servos":
+            if name in flat and population in flat and flat[name] > flat[population]:
+                raise ValueError(f"EEAConfig.{name} ({flat[name]}) must be <= {population} ({flat[population]})")
+        if flat.get("cma_flip_gains") and self.model_space != "morphology+servos":
             raise ValueError(f"EEAConfig.cma_flip_gains = 1 needs model_space='morphology+servos' (gains to flip), "
                              f"got {self.model_space!r}")
-        if self.cma_global_share and not 2 <= self.cma_global_share <= self.estimation_population - 2:
+        share, population = flat.get("cma_global_share", 0), self.estimation.population
+        if share and not 2 <= share <= population - 2:
             raise ValueError(f"EEAConfig.cma_global_share must be 0 or in [2, estimation_population - 2] "
-                             f"= [2, {self.estimation_population - 2}] (each CMA-ES needs 2 points), "
-                             f"got {self.cma_global_share}")
-        high = float(min(ACTION_BITS, 3 * self.oob_bits))  # every GA's genome: actions, out-of-band angles
-        if self.mutation_bits > high:
-            raise ValueError(f"EEAConfig.mutation_bits must be in [0, {high}], got {self.mutation_bits!r}")
-
-    @property
-    def ga(self) -> GASettings:
-        """The settings every GA shares (crossover_rate, tournament_size, mutation_bits, elitism)."""
-        return GASettings.from_config(self)
-
-    @property
-    def cma(self) -> CMASettings:
-        """The CMA-ES search's settings (the ``cma_*`` fields)."""
-        return CMASettings.from_config(self)
-
-    @property
-    def in_band(self) -> InBandSettings:
-        """In-band inference's settings (k_best, in_band_confidence, in_band_widen)."""
-        return InBandSettings.from_config(self)
-
-    @property
-    def out_of_band(self) -> OutOfBandSettings:
-        """Out-of-band inference's settings (the ``oob_*`` fields)."""
-        return OutOfBandSettings.from_config(self)
-
-    @property
-    def profile(self) -> ProfileSettings:
-        """Profile inference's settings (the ``profile_*`` fields)."""
-        return ProfileSettings.from_config(self)
-
-    @property
-    def exploration(self) -> ExplorationSettings:
-        """The exploration phase's settings (the ``exploration_*`` fields)."""
-        return ExplorationSettings.from_config(self)
+                             f"= [2, {population - 2}] (each CMA-ES needs 2 points), got {share}")
+        # every GA's genome: actions, and the out-of-band angles when that strategy runs
+        high = float(min(ACTION_BITS, 3 * flat.get("oob_bits", ACTION_BITS)))
+        if self.ga.mutation_bits > high:
+            raise ValueError(f"EEAConfig.mutation_bits must be in [0, {high}], got {self.ga.mutation_bits!r}")
 
     @property
     def sim_params(self) -> SimParams:
@@ -289,53 +389,161 @@ class EEAConfig:
         """Simulation steps of every experiment: ``round(duration_s / 0.01)``."""
         return round(self.duration_s / DT_S)
 
+    def to_flat(self) -> dict:
+        """The settings by flat name (:data:`FLAT_FIELDS`), those of the strategy and search the
+        config runs only (``oob_period`` only with ``inference="out_of_band"``).
+
+        Returns:
+            ``{flat name: value}`` in :data:`FLAT_FIELDS` order.
+        """
+        selected = {"inference": self.inference.name, "estimation.search": self.estimation.search.name}
+        flat = {}
+        for name, (path, variant) in FLAT_FIELDS.items():
+            if variant is not None and selected[path.rsplit(".", 1)[0]] != variant:
+                continue
+            value = self
+            for part in path.split("."):
+                value = getattr(value, part)
+            flat[name] = value
+        return flat
+
     def to_dict(self) -> dict:
-        """All fields as a JSON-ready dict (the content of ``config.json``)."""
-        return dataclasses.asdict(self)
+        """The nested, JSON-ready dict (the content of ``config.json``): the run's own fields, then
+        every section as a dict, the two variants (``inference``, ``estimation.search``) with
+        their ``name``.
+
+        Returns:
+            e.g. ``{"damage": ..., "exploration": {"population": 25, ...}, "estimation":
+            {"population": 25, "generations": 100, "lineages": 1, "search": {"name": "ga"}},
+            "ga": {...}, "inference": {"name": "out_of_band", "period": 35, ...}, "runtime": {...}}``.
+        """
+        data = {name: getattr(self, name) for name in _RUN_FIELDS}
+        estimation = dataclasses.asdict(self.estimation)
+        estimation["search"] = {"name": self.estimation.search.name, **estimation["search"]}
+        data.update(exploration=dataclasses.asdict(self.exploration), estimation=estimation,
+                    ga=dataclasses.asdict(self.ga),
+                    inference={"name": self.inference.name, **dataclasses.asdict(self.inference)},
+                    runtime=dataclasses.asdict(self.runtime))
+        return data
 
     @classmethod
-    def from_dict(cls, data: dict) -> "EEAConfig":
-        """Inverse of :meth:`to_dict` (what ``config.json`` holds).
+    def from_dict(cls, data: Mapping) -> "EEAConfig":
+        """Inverse of :meth:`to_dict` (what ``config.json`` holds); a section or field left out
+        gets its default.
 
-        A dict without ``waterline`` was written before the surface swimmer became the
-        default physics: it describes a deep-water run and loads as ``waterline=None``. One
-        without ``model_space`` was written before servo gains could be modelled: it loads as
-        the default, ``"morphology"``. A field of :data:`eea.compat.RETIRED_FIELDS` at its
-        default is dropped (the run did not use the retired variant; :func:`eea.compat.strip_retired`).
+        A dict without any section (no value is a dict) is a flat ``config.json`` written before
+        the sections, or a flat ``base`` of a ``study.json``: it loads through
+        :func:`eea.compat.upgrade_flat_config` (a ``waterline`` absent is deep water, a
+        ``model_space`` absent the paper's, retired fields at their defaults are dropped, and so
+        are the fields of the strategy and search the run did not use, whatever their values).
+
+        Args:
+            data: the nested dict (or a flat one, above).
 
         Raises:
-            ValueError: on an unknown key (typos fail fast), an invalid value, a retired
-                field with another value than its default, or a value of
-                :data:`eea.compat.RETIRED_VALUES` (the run used a retired variant; rerun it at the commit
-                docs/studies/retired_variants.md names).
+            ValueError: on an unknown key (typos fail fast; the message lists the valid keys),
+                an invalid value, or a flat dict :func:`eea.compat.upgrade_flat_config` refuses
+                (a retired variant).
         """
-        if "waterline" not in data:  # written before the surface swimmer: a deep-water run
-            data = {**data, "waterline": None}
-        return cls._from_fields(strip_retired(data))  # runs written before variants were retired
+        if not isinstance(data, Mapping):
+            raise ValueError(f"an EEAConfig dict must be a dict, got {type(data).__name__}")
+        if not any(isinstance(value, Mapping) for value in data.values()):
+            data = upgrade_flat_config(data)  # written before the sections
+        valid = (*_RUN_FIELDS, *SECTIONS, "inference")
+        unknown = sorted(set(data) - set(valid))
+        if unknown:
+            raise ValueError(f"unknown EEAConfig keys {unknown}; valid keys: {', '.join(valid)}")
+        fields = {name: data[name] for name in _RUN_FIELDS if name in data}
+        sections = {}
+        for name, cls_ in SECTIONS.items():
+            if name in data:
+                section = data[name]
+                if name == "estimation" and isinstance(section, Mapping):
+                    section = {**section, "search": _variant("estimation.search", section.get("search", {}))}
+                sections[name] = _section(cls_, section, name)
+        if "inference" in data:
+            sections["inference"] = _variant("inference", data["inference"])
+        return cls(**fields, **sections)
 
     @classmethod
-    def _from_fields(cls, data: dict) -> "EEAConfig":
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(data) - names)
-        if unknown:
-            raise ValueError(f"unknown EEAConfig keys {unknown}; valid keys: {', '.join(sorted(names))}")
-        return cls(**data)
+    def from_flat(cls, fields: Mapping, *, optional: Mapping | None = None) -> "EEAConfig":
+        """A config from flat names (:data:`FLAT_FIELDS`: the flags, TOML keys, method and budget
+        fields); every name left out keeps its default.
+
+        The flat-name rule: ``fields`` are given explicitly (a flag, a keyword), ``optional``
+        fields come from a budget, a method or a config being changed, and ``fields`` win over
+        them. A field of a strategy or search the config does not run (``oob_period`` with
+        ``inference="known"``, ``cma_sigma`` with ``estimation_search="ga"``) is dropped when it
+        is optional or has its default value; given explicitly at another value it is an error.
+
+        Args:
+            fields: ``{flat name: value}`` given explicitly.
+            optional: ``{flat name: value}`` that apply where the config holds their section.
+
+        Raises:
+            ValueError: on an unknown name (the message lists the valid ones), an explicit field
+                of an inactive strategy or search ("EEAConfig.oob_period needs
+                inference='out_of_band', got 'known'"), or an invalid value.
+        """
+        return cls.from_dict(nest_flat({**(optional or {}), **fields}, explicit=fields))
 
     @classmethod
     def from_method(cls, method: str, budget: str = "paper", **fields) -> "EEAConfig":
-        """Settings of the named method at the named budget (:mod:`eea.methods`), then ``fields``.
+        """Settings of the named method at the named budget (:mod:`eea.methods`), then ``fields``
+        (flat names, given explicitly: :meth:`from_flat`'s rule).
+
+        Args:
+            method: a name of :data:`eea.methods.METHODS`.
+            budget: a name of :data:`eea.methods.BUDGETS`.
+            **fields: flat fields over the method's and the budget's.
 
         Raises:
-            ValueError: an unknown method or budget (the message lists the valid names), or an
-                invalid field as :class:`EEAConfig` raises.
+            ValueError: an unknown method or budget (the message lists the valid names), or as
+                :meth:`from_flat` raises.
         """
-        return cls._from_fields({**budget_fields(budget), **method_fields(method), **fields})
+        return cls.from_flat(fields, optional={**budget_fields(budget), **method_fields(method)})
 
     def replace(self, **changes) -> "EEAConfig":
-        """A validated copy with some fields changed."""
-        return dataclasses.replace(self, **changes)
+        """A validated copy with some settings changed, by flat name (:meth:`from_flat` with
+        ``changes`` explicit over this config's :meth:`to_flat`): switching the strategy or search
+        drops the old one's settings; a field of a strategy or search the copy does not run is an
+        error. Change a whole section with ``dataclasses.replace(config, inference=...)``.
+
+        Args:
+            **changes: ``flat name=value``.
+
+        Raises:
+            ValueError: as :meth:`from_flat` raises.
+        """
+        return type(self).from_flat(changes, optional=self.to_flat())
 
     def same_results_as(self, other: "EEAConfig") -> bool:
-        """Whether two configs give the same rounds (fields other than RESULT_NEUTRAL_FIELDS agree)."""
-        mine, theirs = self.to_dict(), other.to_dict()
-        return all(mine[k] == theirs[k] for k in mine if k not in RESULT_NEUTRAL_FIELDS)
+        """Whether two configs give the same rounds: everything but :data:`RESULT_NEUTRAL_FIELDS`
+        (``runtime``, ``rounds``) agrees.
+
+        Args:
+            other: the config to compare with.
+        """
+        return self.result_fields() == other.result_fields()
+
+    def result_fields(self) -> dict:
+        """The settings that define a run's results, by flat name: :meth:`to_flat` without those
+        under :data:`RESULT_NEUTRAL_FIELDS` (a run's fingerprint; a difference reads as its flag)."""
+        return {k: v for k, v in self.to_flat().items() if FLAT_FIELDS[k][0].split(".")[0] not in RESULT_NEUTRAL_FIELDS}
+
+
+def _flat_defaults() -> dict[str, object]:
+    """Every flat name's default: the default config's value, or a variant's settings class's."""
+    config, defaults = EEAConfig(), {}
+    for name, (path, variant) in FLAT_FIELDS.items():
+        slot, _, field = path.rpartition(".")
+        value = config if variant is None else VARIANT_SLOTS[slot][1][variant]()
+        for part in (path.split(".") if variant is None else (field,)):
+            value = getattr(value, part)
+        defaults[name] = value
+    return defaults
+
+
+#: Every flat name's default value (a variant's field: its settings class's default; ``workers``:
+#: the machine's CPU count).
+FLAT_DEFAULTS: dict[str, object] = _flat_defaults()

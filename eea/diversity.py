@@ -1,7 +1,7 @@
 """Distances between model genomes and diverse selections of them (not the paper's).
 
 Used where a set of models should not be one hypothesis in several near-copies: the
-exploration's candidate models (``EEAConfig.exploration_diversity``,
+exploration's candidate models (``config.exploration.diversity``, ``--exploration-diversity``,
 :meth:`eea.estimation.Estimation.ranked_models`) and the distinct contenders whose angles
 profile inference refines (:class:`eea.inference.profile.Profile`).
 """

@@ -1,5 +1,8 @@
 """Estimation phase of the EEA: evolve models that explain the experiments (paper 3.2-3.4).
 
+Settings: :class:`EstimationSettings`, the section ``config.estimation`` of
+:class:`eea.config.EEAConfig` (population, generations, lineages and the search's own settings).
+
 A model search (:mod:`eea.search`; the paper's bit-string GA over 45-bit model
 genomes, 57-bit with servo gains in the ``morphology+servos`` model space, population 25,
 100 generations per round) whose fitness is MOD_FIT (eq. 3), a
@@ -13,10 +16,10 @@ fittest model of its last generation.
 
 The phase also hands the exploration its candidate models (:meth:`Estimation.ranked_models`):
 the paper's are the distinct models of the last generation, best first. With a minimum
-distance (``EEAConfig.exploration_diversity``, not the paper's) they are picked instead from
-every model the round evaluated, best first, skipping any closer than that to one already
-picked (:func:`eea.diversity.diverse_ranked`; why: docs/self_modeling.md, "Exploration's
-candidate models").
+distance (``config.exploration.diversity``, the flag ``--exploration-diversity``, not the
+paper's) they are picked instead from every model the round evaluated, best first, skipping
+any closer than that to one already picked (:func:`eea.diversity.diverse_ranked`; why:
+docs/self_modeling.md, "Exploration's candidate models").
 """
 
 from __future__ import annotations
@@ -26,15 +29,49 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from aquafish_gym.checks import check_int
 from eea.compat import upgrade_estimation_state
 from eea.diversity import diverse_ranked
 from eea.encoding import genome_keys, genomes_from_keys, model_space_of
 from eea.experiment import Experiment
 from eea.fitness import model_fitness_from_similarities
 from eea.inference import InferenceStrategy
-from eea.search import ModelSearch, check_model_search, make_model_search, model_search_from_state
+from eea.search import (SEARCH_NAMES, SEARCH_SETTINGS, GASearchSettings, ModelSearch, SearchSettings,
+                        check_model_search, make_model_search, model_search_from_state)
 
-__all__ = ["Estimation", "EstimationResult", "distinct_ranked"]
+__all__ = ["Estimation", "EstimationResult", "EstimationSettings", "distinct_ranked"]
+
+
+@dataclasses.dataclass(frozen=True)
+class EstimationSettings:
+    """The estimation phase's settings (the ``EEAConfig`` section ``config.estimation``).
+
+    Args:
+        population: models per generation, >= 2 (paper: 25; the flag ``--estimation-population``).
+        generations: generations per round, >= 1 (paper: 100; ``--estimation-generations``).
+        lineages: 1 (the paper's) or N >= 2 independent estimations sharing each round's
+            experiment (:mod:`eea.search.lineages`; ``--lineages``).
+        search: the model search and its own settings, one of :data:`eea.search.SEARCH_SETTINGS`:
+            :class:`~eea.search.GASearchSettings` (the paper's GA, the default) or
+            :class:`~eea.search.CMASettings` (``--estimation-search cma``, the flags ``--cma-*``).
+
+    Raises:
+        ValueError: naming the field as ``EEAConfig.<flag name>`` if one is out of range, or a
+            ``search`` that is no search's settings (the message lists the valid names).
+    """
+
+    population: int = 25
+    generations: int = 100
+    lineages: int = 1
+    search: SearchSettings = dataclasses.field(default_factory=GASearchSettings)
+
+    def __post_init__(self) -> None:
+        check_int("EEAConfig.estimation_population", self.population, 2)
+        check_int("EEAConfig.estimation_generations", self.generations, 1)
+        check_int("EEAConfig.lineages", self.lineages, 1)
+        if type(self.search) not in SEARCH_SETTINGS.values():
+            raise ValueError(f"EEAConfig.estimation_search: {self.search!r} is no search's settings; valid "
+                             f"names: {', '.join(SEARCH_NAMES)}")
 
 
 def distinct_ranked(genomes: np.ndarray, fitness: np.ndarray | None) -> np.ndarray:
@@ -99,10 +136,17 @@ class Estimation:
         self._round: dict[bytes, float] = {}     # every model this round evaluated -> its best fitness
 
     @classmethod
-    def from_config(cls, config, rng: np.random.Generator) -> "Estimation":
-        """A fresh random population of the search ``config.estimation_search``, sized and
-        tuned by an :class:`eea.config.EEAConfig`."""
-        return cls(make_model_search(config.estimation_search, config, rng))
+    def from_settings(cls, settings: EstimationSettings, ga, model_space, rng: np.random.Generator) -> "Estimation":
+        """A fresh random population of the search ``settings.search`` names
+        (:func:`eea.search.make_model_search`).
+
+        Args:
+            settings: the estimation's :class:`EstimationSettings` (``config.estimation``).
+            ga: the run's :class:`eea.ga.GASettings` (``config.ga``).
+            model_space: the run's model space (a name or an :class:`eea.encoding.ModelSpace`).
+            rng: the run's generator (the initial population).
+        """
+        return cls(make_model_search(settings, ga, model_space, rng))
 
     def run(self, experiments: Sequence[Experiment], strategy: InferenceStrategy, evaluator,
             rng: np.random.Generator, generations: int,

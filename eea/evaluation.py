@@ -29,6 +29,7 @@ per robot). The target keeps its own faults (:class:`eea.target.Target`).
 
 from __future__ import annotations
 
+import dataclasses
 import multiprocessing
 import os
 from concurrent.futures import ProcessPoolExecutor
@@ -43,7 +44,35 @@ from eea.behaviour import SUMMARIES, behaviour_summary, similarity
 from eea.encoding import ModelSpace, get_model_space
 from eea.experiment import Experiment, check_params, quantise_angles
 
-__all__ = ["Evaluator"]
+__all__ = ["Evaluator", "RuntimeSettings"]
+
+
+def _default_workers() -> int:
+    return os.cpu_count() or 1
+
+
+@dataclasses.dataclass(frozen=True)
+class RuntimeSettings:
+    """How a run's simulations are spread over processes and batches (the ``EEAConfig`` section
+    ``config.runtime``): the evaluator's, and they never change a run's results (a run resumes
+    with other values).
+
+    Args:
+        workers: worker processes for simulations, >= 1 (1 = serial; default: every CPU;
+            the flag ``--workers``).
+        max_batch_robots: at most this many robots per ``simulate_batch`` call, >= 1
+            (``--max-batch-robots``; 32-64 is fastest).
+
+    Raises:
+        ValueError: naming the field as ``EEAConfig.<field>`` if one is < 1 or no integer.
+    """
+
+    workers: int = dataclasses.field(default_factory=_default_workers)
+    max_batch_robots: int = 64
+
+    def __post_init__(self) -> None:
+        check_int("EEAConfig.workers", self.workers, 1)
+        check_int("EEAConfig.max_batch_robots", self.max_batch_robots, 1)
 
 
 def _simulate_chunk(morphologies, actions, angles, steps, params, signed, faults=None) -> np.ndarray:

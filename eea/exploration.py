@@ -8,15 +8,15 @@ fitness in the final generation is performed on the target.
 Choices the paper leaves open, made here:
 
 * Candidate models: the distinct genomes of the estimation population's last evaluated
-  generation, best first, at most ``EEAConfig.exploration_models`` (default 25, i.e. the
+  generation, best first, at most ``config.exploration.models`` (``--exploration-models``, default 25, i.e. the
   whole population) - duplicates would only add zero-disagreement pairs. Before the first
   estimation they are the distinct genomes of the random initial population. Not the
-  paper's: with ``EEAConfig.exploration_diversity = d > 0`` they are the fittest models of
+  paper's: with ``config.exploration.diversity = d > 0`` they are the fittest models of
   the whole last round, each at least d apart (:func:`eea.diversity.diverse_ranked`).
 * Context: the next experiment's initial angles are unknown when its action is chosen, so
   every model is simulated from the zero state (pectorals arms-back, caudal 0). A fixed
   context keeps ACT_FIT deterministic and comparable between actions.
-* Not the paper's, with ``angle_sets = K >= 2`` (``EEAConfig.exploration_angles``): every
+* Not the paper's, with ``angle_sets = K >= 2`` (``config.exploration.angles``): every
   model is simulated from K random angle sets, drawn once per round from the run's
   generator and shared by all actions, and an action scores
   :func:`eea.fitness.robust_action_fitness` (the disagreement minus the spread the angles
@@ -24,14 +24,14 @@ Choices the paper leaves open, made here:
 * A new action GA starts every round (actions do not carry over).
 
 Settings: :class:`ExplorationSettings`, the section ``config.exploration`` of
-:class:`eea.config.EEAConfig` (the ``exploration_*`` fields); the GA's breeding settings are
-the run's shared :class:`eea.ga.GASettings`.
+:class:`eea.config.EEAConfig` (the flags ``--exploration-*``); the GA's breeding settings are
+the run's shared :class:`eea.ga.GASettings` (``config.ga``).
 """
 
 from __future__ import annotations
 
 import dataclasses
-from typing import Callable, ClassVar
+from typing import Callable
 
 import numpy as np
 
@@ -39,8 +39,7 @@ from aquafish_gym.checks import check_int
 from eea.encoding import ACTION_BITS, decode_actions
 from eea.experiment import random_angles
 from eea.fitness import action_fitness, robust_action_fitness
-from eea.ga import BitGA
-from eea.settings import ConfigSection
+from eea.ga import BitGA, GASettings
 
 __all__ = ["EXPLORATION_ANGLES_RAD", "Exploration", "ExplorationSettings"]
 
@@ -49,9 +48,9 @@ EXPLORATION_ANGLES_RAD = np.zeros(3)
 
 
 @dataclasses.dataclass(frozen=True)
-class ExplorationSettings(ConfigSection):
-    """The exploration phase's settings (the ``EEAConfig`` section ``config.exploration``,
-    fields ``exploration_*``; module docstring).
+class ExplorationSettings:
+    """The exploration phase's settings (the ``EEAConfig`` section ``config.exploration``, the
+    flags ``--exploration-*``; module docstring).
 
     Args:
         population: actions per GA generation, >= 1 (paper: 25).
@@ -69,11 +68,6 @@ class ExplorationSettings(ConfigSection):
     models: int = 25
     angles: int = 0
     diversity: float = 0.0
-
-    #: Each field's name in :class:`eea.config.EEAConfig`.
-    CONFIG_FIELDS: ClassVar[dict[str, str]] = {
-        "population": "exploration_population", "generations": "exploration_generations",
-        "models": "exploration_models", "angles": "exploration_angles", "diversity": "exploration_diversity"}
 
     def __post_init__(self) -> None:
         for name, low in (("population", 1), ("generations", 1), ("models", 2), ("angles", 0)):
@@ -113,13 +107,16 @@ class Exploration:
         self.angle_sets = int(angle_sets)
 
     @classmethod
-    def from_config(cls, config) -> "Exploration":
-        """Sized and tuned by an :class:`eea.config.EEAConfig`: its sections ``config.exploration``
-        (:class:`ExplorationSettings`) and ``config.ga`` (:class:`eea.ga.GASettings`, mutation
-        ``mutation_bits / 18``)."""
-        exploration = config.exploration
-        return cls(exploration.population, exploration.generations, config.ga.options(ACTION_BITS),
-                   exploration.angles)
+    def from_settings(cls, settings: ExplorationSettings, ga: GASettings) -> "Exploration":
+        """Sized and tuned by its settings (the section ``config.exploration`` of an
+        :class:`eea.config.EEAConfig`) and the run's shared GA settings (``config.ga``, mutation
+        ``mutation_bits / 18``).
+
+        Args:
+            settings: the exploration's :class:`ExplorationSettings`.
+            ga: the run's :class:`eea.ga.GASettings`.
+        """
+        return cls(settings.population, settings.generations, ga.options(ACTION_BITS), settings.angles)
 
     def run(self, models: np.ndarray, evaluator, rng: np.random.Generator,
             on_generation: Callable[[int, float], None] | None = None) -> tuple[np.ndarray, np.ndarray, float]:

@@ -27,19 +27,17 @@ shares (crossover rate, tournament size, mutation bits, elitism); it validates i
 from __future__ import annotations
 
 import dataclasses
-from typing import ClassVar
 
 import numpy as np
 
 from aquafish_gym.checks import check_int
 from eea.encoding import ACTION_BITS
-from eea.settings import ConfigSection
 
 __all__ = ["BitGA", "GASettings", "TellRecord"]
 
 
 @dataclasses.dataclass(frozen=True)
-class GASettings(ConfigSection):
+class GASettings:
     """The settings every GA of a run shares (the ``EEAConfig`` section ``config.ga``).
 
     The exploration GA, the estimation's model GA and the out-of-band inference's inner GA
@@ -64,10 +62,6 @@ class GASettings(ConfigSection):
     tournament_size: int = 2
     mutation_bits: float = 1.0
     elitism: int = 1
-
-    #: Each field's name in :class:`eea.config.EEAConfig`.
-    CONFIG_FIELDS: ClassVar[dict[str, str]] = {"crossover_rate": "crossover_rate", "tournament_size": "tournament_size",
-                                               "mutation_bits": "mutation_bits", "elitism": "elitism"}
 
     def __post_init__(self) -> None:
         value = self.crossover_rate

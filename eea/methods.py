@@ -30,7 +30,8 @@ class Method:
     Attributes:
         name: the registry key (also the study directory of its runs).
         summary: one line: what it does, and where it comes from.
-        fields: the :class:`~eea.config.EEAConfig` fields it sets (the rest keep their defaults).
+        fields: the settings it sets, by flat name (:data:`eea.config.FLAT_FIELDS`; the rest keep
+            their defaults).
         simulations_per_round: measured mean robot simulations per round at the ``reduced``
             budget (10 rounds, ``left_pectoral_half``; module docstring).
         paper: whether the paper defines it.
@@ -68,7 +69,9 @@ BEST_METHOD = "profile_lineages"
 #: The paper's four strategies (paper section 4, Figures 5-10).
 PAPER_METHODS: tuple[str, ...] = tuple(name for name, m in METHODS.items() if m.paper)
 
-#: Budgets by name: the fields each sets (the rest keep the paper's values, section 4).
+#: Budgets by name: the fields each sets, by flat name (the rest keep the paper's values,
+#: section 4). A budget sets the fields of every strategy; a config keeps those of the strategy
+#: it runs (:meth:`eea.config.EEAConfig.from_method`).
 #: ``smoke`` is a seconds-long pipeline check; ``quick`` the case study's quick EEA;
 #: ``reduced`` about a quarter of the paper's simulations per run (every study table);
 #: ``medium`` the paper's populations and generations over 10 rounds; ``paper`` the paper's.
@@ -111,11 +114,18 @@ def method_of(config) -> str:
     """The name of the method ``config`` runs, or ``"custom"`` when it matches none.
 
     A config runs method M when every field M sets has M's value and every other field any
-    method sets has its default. So a published ``config.json`` names its method.
+    method sets has its default or is not in the config (a field of a strategy or search it
+    does not run). So a published ``config.json`` names its method, flat or nested.
+
+    Args:
+        config: an :class:`eea.config.EEAConfig`.
     """
-    defaults = {f.name: f.default for f in dataclasses.fields(type(config))}
+    from eea.config import FLAT_DEFAULTS  # here: eea.config imports this module
+
+    flat = config.to_flat()
     method_keys = {key for m in METHODS.values() for key in m.fields}
     for name, m in METHODS.items():
-        if all(getattr(config, key) == (m.fields[key] if key in m.fields else defaults[key]) for key in method_keys):
+        if all(flat[key] == m.fields.get(key, FLAT_DEFAULTS[key]) if key in flat else key not in m.fields
+               for key in method_keys):
             return name
     return "custom"

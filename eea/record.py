@@ -1,6 +1,7 @@
 """What a run leaves on disk and how to read it back (paper section 4; docs/self_modeling.md).
 
-A run directory holds ``config.json`` (the :class:`~eea.config.EEAConfig`),
+A run directory holds ``config.json`` (the :class:`~eea.config.EEAConfig`, nested:
+:meth:`~eea.config.EEAConfig.to_dict`; a flat one written before the sections loads too),
 ``rounds.csv`` (one row per round, columns :data:`ROUND_COLUMNS`) and the checkpoint
 ``state.pkl``; a run with ``lineages`` >= 2 also ``lineages.csv`` (:func:`write_lineages`, from
 the history of :class:`eea.search.lineages.Lineages`). Columns of ``rounds.csv``:

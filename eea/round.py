@@ -44,11 +44,12 @@ class RoundParts:
     Attributes:
         config: the run's settings.
         target: the damaged robot (draws the true initial angles from the run's generator).
-        strategy: the context inference strategy (one per lineage with ``config.lineages``
+        strategy: the context inference strategy (one per lineage with ``config.estimation.lineages``
             >= 2, :class:`eea.search.lineages.LineageStrategies`).
         exploration: the exploration phase (a fresh action GA per round).
         estimation: the estimation phase (its model search carries over rounds; N
-            independent ones, :class:`eea.search.lineages.Lineages`, with ``config.lineages`` N >= 2).
+            independent ones, :class:`eea.search.lineages.Lineages`, with ``config.estimation.lineages``
+            N >= 2).
         evaluator: batched, cached simulation of the models.
     """
 
@@ -62,12 +63,21 @@ class RoundParts:
     @classmethod
     def from_config(cls, config: EEAConfig, rng: np.random.Generator, evaluator,
                     estimation: Estimation | Lineages | None = None) -> "RoundParts":
-        """The parts of a run of ``config`` (a fresh estimation unless one is given, e.g.
-        restored from a checkpoint; a fresh one draws its initial population from ``rng``)."""
+        """The parts of a run of ``config``, each built from its own section: the one place that
+        wires a run's components from a config.
+
+        Args:
+            config: the run's settings.
+            rng: the run's generator (the target's angles; a fresh estimation's initial population).
+            evaluator: the run's :class:`eea.evaluation.Evaluator`.
+            estimation: the estimation phase, e.g. restored from a checkpoint (None: a fresh one,
+                :func:`eea.search.lineages.make_estimation` of ``config.estimation``).
+        """
         if estimation is None:
-            estimation = make_estimation(config, rng)
-        return cls(config, Target(config.damage, config.steps, rng, config.sim_params), make_strategy(config),
-                   Exploration.from_config(config), estimation, evaluator)
+            estimation = make_estimation(config.estimation, config.ga, config.model_space, rng)
+        return cls(config, Target(config.damage, config.steps, rng, config.sim_params),
+                   make_strategy(config.inference, config.ga, config.estimation.lineages),
+                   Exploration.from_settings(config.exploration, config.ga), estimation, evaluator)
 
     def perform(self, index: int, action) -> Experiment:
         """Experiment ``index``: ``action`` ``(3,)`` performed on the target from fresh random
@@ -137,16 +147,16 @@ def run_round(number: int, experiments: Sequence[Experiment], parts: RoundParts,
     config, evaluator = parts.config, parts.evaluator
     report = on_phase or (lambda name, generations: None)
     started, before = time.perf_counter(), evaluator.simulations
-    models = parts.estimation.ranked_models(config.exploration_models, config.exploration_diversity)
+    models = parts.estimation.ranked_models(config.exploration.models, config.exploration.diversity)
     action_genome, action, action_fitness = parts.exploration.run(
-        models, evaluator, rng, report("exploration", config.exploration_generations))
+        models, evaluator, rng, report("exploration", config.exploration.generations))
     explored, exploration_sims = time.perf_counter(), evaluator.simulations - before
     report("target", None)
     experiment = parts.perform(len(experiments), action)
     performed = time.perf_counter()
     result = parts.estimation.run((*experiments, experiment), parts.strategy, evaluator, rng,
-                                  config.estimation_generations,
-                                  report("estimation", config.estimation_generations))
+                                  config.estimation.generations,
+                                  report("estimation", config.estimation.generations))
     return RoundRecord(number, action_genome, action, float(action_fitness), result.experiments,
                        result.best_genome, float(result.best_fitness), int(evaluator.simulations),
                        int(exploration_sims), explored - started, performed - explored,

@@ -29,7 +29,7 @@ import numpy as np
 from aquafish_gym.progress import progress_bar
 from aquafish_gym.rundir import FileError, MismatchError, check_fingerprint, check_memory, check_output_dir, run_lock
 from eea.checkpoint import STATE_FILE, RunState, load_state, save_state
-from eea.config import RESULT_NEUTRAL_FIELDS, EEAConfig
+from eea.config import FLAT_FIELDS, EEAConfig
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from eea.search.lineages import Lineages, estimation_from_state
@@ -39,17 +39,12 @@ from eea.round import RoundParts, run_round
 __all__ = ["check_run_memory", "run"]
 
 
-def _fingerprint(config: dict) -> dict:
-    """The fields of a config dict that define a run's results (all but RESULT_NEUTRAL_FIELDS)."""
-    return {k: v for k, v in config.items() if k not in RESULT_NEUTRAL_FIELDS}
-
-
 def _check_manifest(out_dir: Path, config: EEAConfig, existing: EEAConfig | None) -> None:
-    """Refuse a directory whose ``config.json`` holds another run (naming the fields)."""
+    """Refuse a directory whose ``config.json`` holds another run (naming the fields by flat name)."""
     if existing is not None and not config.same_results_as(existing):
-        mine, theirs = config.to_dict(), existing.to_dict()
-        diff = [f"{k}: {theirs[k]!r} -> {mine[k]!r}" for k in mine
-                if k not in RESULT_NEUTRAL_FIELDS and mine[k] != theirs[k]]
+        mine, theirs = config.result_fields(), existing.result_fields()
+        diff = [f"{k}: {theirs.get(k, '(none)')!r} -> {mine.get(k, '(none)')!r}"
+                for k in FLAT_FIELDS if k in {*mine, *theirs} and mine.get(k) != theirs.get(k)]
         raise MismatchError(f"{out_dir} holds a run with a different config ({'; '.join(diff)}); {_FIX}")
 
 
@@ -58,10 +53,8 @@ def _check_checkpoint(out_dir: Path, config: EEAConfig, state: RunState | None) 
     copied-in or edited run is refused (naming the fields)."""
     if state is None:
         return
-    # through from_dict: a checkpoint written before the variants' retirement holds the retired fields at their
-    # defaults (eea.compat.strip_retired drops them)
-    check_fingerprint(out_dir / STATE_FILE, _fingerprint(EEAConfig.from_dict(state.config).to_dict()),
-                      _fingerprint(config.to_dict()),
+    # through from_dict: a checkpoint written before the sections holds a flat config (eea.compat)
+    check_fingerprint(out_dir / STATE_FILE, EEAConfig.from_dict(state.config).result_fields(), config.result_fields(),
                       f"the checkpoint belongs to another run: {_FIX} (or delete {STATE_FILE} and "
                       f"{ROUNDS_FILE} to start this one over)")
     if len(state.rows) != state.rounds_done:
@@ -81,9 +74,10 @@ def check_run_memory(config: EEAConfig) -> None:
     Raises:
         ValueError: the estimate exceeds the available memory (the message gives both).
     """
-    robots = max(config.estimation_population * config.rounds * max(1, config.lineages),
-                 config.exploration_population * config.exploration_models * max(1, config.exploration_angles))
-    check_memory(f"estimation population {config.estimation_population} x {config.rounds} rounds x "
+    estimation, exploration = config.estimation, config.exploration
+    robots = max(estimation.population * config.rounds * max(1, estimation.lineages),
+                 exploration.population * exploration.models * max(1, exploration.angles))
+    check_memory(f"estimation population {estimation.population} x {config.rounds} rounds x "
                  f"{config.steps} steps", 56.0 * robots * config.steps,
                  "lower the populations, the rounds or the duration")
 
@@ -135,7 +129,7 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
         estimation, experiments, state = None, (), RunState(config.to_dict())
     _write_records(out, state.rows, estimation, config.model_space)  # repairs a kill between checkpoint and csv
     bar = progress_bar(config.rounds, initial=min(state.rounds_done, config.rounds), unit="round",
-                       desc=f"eea {config.inference} seed {config.seed}", disable=not progress)
+                       desc=f"eea {config.inference.name} seed {config.seed}", disable=not progress)
 
     def on_phase(name: str, generations: int | None):
         bar.set_postfix_str(name)
@@ -146,7 +140,7 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
             bar.set_postfix_str(f"{name} {generation + 1}/{generations} best {best:.4f}")
         return report
 
-    with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots,
+    with Evaluator(config.steps, workers=config.runtime.workers, max_batch_robots=config.runtime.max_batch_robots,
                    params=config.sim_params,
                    model_space=config.model_space, summary=config.behaviour_summary) as evaluator, bar:
         if state.evaluator:

@@ -53,4 +53,24 @@ def test_documented_command_parses(command, monkeypatch):
     if argv[0] == "study" and "--out" not in argv and "--config" not in argv:
         argv += ["--out", "x"]
     monkeypatch.chdir(ROOT)  # a config file's path is relative to the repository's root
-    parse_command_line(build_parser(), argv)
+    args, _ = parse_command_line(build_parser(), argv)
+    if argv[0] in ("eea", "study"):  # no flag of a strategy or search its runs do not use (eea.config.FLAT_FIELDS)
+        _check_flags_are_used(args)
+
+
+def _check_flags_are_used(args) -> None:
+    """Build the command's config (``eea``) or study (``study``): a flag of a strategy or search
+    that no run uses raises; another error (a placeholder such as ``--damage D``) is not this test's."""
+    from aquafish.studies_cli import STUDY_EXCLUDED
+    from aquafish.study import StudySpec
+    from eea.cli import config_fields, config_flag_names, config_from_args, given_flags
+
+    try:
+        if args.command == "eea":
+            config_from_args(args, config_flag_names())
+        else:
+            names = config_flag_names(STUDY_EXCLUDED)
+            StudySpec(args.conditions, args.durations, args.replicates, {"workers": 1, **config_fields(args, names)},
+                      first_seed=args.first_seed, fixed=list(given_flags(args, names)))
+    except ValueError as err:
+        assert " needs " not in str(err) and "no run of the study uses" not in str(err), str(err)

@@ -37,13 +37,14 @@ def recorded_experiments(parts: RoundParts, n: int, rng: np.random.Generator) ->
 def time_round(config: EEAConfig, n_experiments: int, seed: int = 0) -> dict:
     """Run one round (:func:`eea.round.run_round`); return wall seconds per phase and the simulation count."""
     rng = np.random.default_rng(seed)
-    with Evaluator(config.steps, workers=config.workers, max_batch_robots=config.max_batch_robots,
+    workers = config.runtime.workers
+    with Evaluator(config.steps, workers=workers, max_batch_robots=config.runtime.max_batch_robots,
                    params=config.sim_params, model_space=config.model_space,
                    summary=config.behaviour_summary) as evaluator:
         parts = RoundParts.from_config(config, rng, evaluator)
         experiments = recorded_experiments(parts, n_experiments, rng)
-        evaluator.simulate(np.full((config.workers, 9), 0.25), np.zeros((config.workers, 3)),
-                           np.zeros((config.workers, 3)))  # start the pool outside the timing
+        evaluator.simulate(np.full((workers, 9), 0.25), np.zeros((workers, 3)),
+                           np.zeros((workers, 3)))  # start the pool outside the timing
         evaluator.simulations = 0
         record = run_round(n_experiments + 1, experiments, parts, rng)
     return {"exploration_s": record.exploration_s, "target_s": record.target_s, "estimation_s": record.estimation_s,
@@ -71,7 +72,7 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     print(f"{'workers':>7} {'wall s':>8} {'explore s':>9} {'estimate s':>10} {'simulations':>11} {'sims/s':>8} "
           f"{'robot-steps/s':>13}")
     for workers in (int(w) for w in args.workers.split(",")):
-        config = EEAConfig(inference=args.inference, duration_s=args.duration_s, workers=workers)
+        config = EEAConfig.from_flat({"inference": args.inference, "duration_s": args.duration_s, "workers": workers})
         r = time_round(config, args.experiments)
         rate = r["simulations"] / r["wall_s"]
         print(f"{workers:>7} {r['wall_s']:>8.1f} {r['exploration_s']:>9.1f} {r['estimation_s']:>10.1f} "

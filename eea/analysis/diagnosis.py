@@ -44,7 +44,7 @@ import numpy as np
 
 from aquafish_gym.rundir import check_fingerprint
 from eea.checkpoint import STATE_FILE, load_state
-from eea.config import RESULT_NEUTRAL_FIELDS
+from eea.config import EEAConfig
 from eea.encoding import get_model_space
 from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.evaluation import Evaluator
@@ -162,9 +162,9 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
         raise ValueError(f"{out_dir} has no checkpoint ({STATE_FILE}): diagnose needs the run's experiments, which "
                          f"only the checkpoint holds (rounds.csv alone is not enough); diagnose the run directory "
                          "that wrote it")
-    recorded = {k: v for k, v in state.config.items() if k not in RESULT_NEUTRAL_FIELDS}
-    check_fingerprint(Path(out_dir) / STATE_FILE, recorded,
-                      {k: v for k, v in result.config.to_dict().items() if k not in RESULT_NEUTRAL_FIELDS},
+    # through from_dict: a checkpoint written before the sections holds a flat config (eea.compat)
+    check_fingerprint(Path(out_dir) / STATE_FILE, EEAConfig.from_dict(state.config).result_fields(),
+                      result.config.result_fields(),
                       f"its {CONFIG_FILE} does not describe the checkpoint (edited, or copied from another run); "
                       "restore the run's own config.json")
     experiments = [Experiment.from_state_dict(e) for e in state.experiments]
@@ -175,7 +175,7 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
     true_dims = result.true_model
     truth = space.encode(true_dims[None])
     seen = _seen(state.evaluator, result.config.steps, true_dims, result.best_model, space)
-    with Evaluator(result.config.steps, workers=workers, max_batch_robots=result.config.max_batch_robots,
+    with Evaluator(result.config.steps, workers=workers, max_batch_robots=result.config.runtime.max_batch_robots,
                    params=result.config.sim_params, model_space=space,
                    summary=result.config.behaviour_summary) as ev:
         def fit(genome, angles):
@@ -185,9 +185,9 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
         both = np.concatenate([final, truth])
         distinct = both[:1] if (both[0] == both[1]).all() else both  # the run may have found the truth
         proposed = refined = None
-        if result.config.inference == "profile" and state.inference:
+        if result.config.inference.name == "profile" and state.inference:
             inference = chosen_inference_state(state.estimation, state.inference)  # a lineage run: the chosen's
-            remembered = Profile.from_config(result.config)  # the run's inherit rule
+            remembered = Profile.from_settings(result.config.inference)  # the run's inherit rule
             remembered.load_state_dict(inference)
             proposed = fit(truth, remembered.starting_angles(truth, len(experiments), np.random.default_rng(seed)))
             if refine:
@@ -196,8 +196,8 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
             distinct, experiments, ev, np.random.default_rng(seed), profile_generations,
             start=np.repeat(inferred, len(distinct), axis=0))
         profiled = np.resize(fitted, 2)  # (final, truth): one fit serves both when they coincide
-        return RunDiagnosis(Path(out_dir), result.config.inference, len(experiments), *scores,
-                            float(profiled[0]), float(profiled[1]), per_model=result.config.inference == "profile",
+        return RunDiagnosis(Path(out_dir), result.config.inference.name, len(experiments), *scores,
+                            float(profiled[0]), float(profiled[1]), per_model=result.config.inference.name == "profile",
                             true_proposed=proposed, true_refined=refined, found=len(distinct) == 1, **seen,
                             run_error_deg=median_error_deg(inferred[0], true[0]),
                             floor_error_deg=median_error_deg(fitted_angles[-1], true[0]),
@@ -247,8 +247,8 @@ def _seen(cache: dict, steps: int, true_dims: np.ndarray, final_dims: np.ndarray
 def _refined_truth(memory: dict, genomes, experiments, evaluator, config, refine: int, seed: int) -> float:
     """The truth's MOD_FIT after one generation with contender refinement; ``genomes`` are the
     distinct (final, truth) models, the truth last (alone if the run found it)."""
-    profile = Profile(config.profile_proposals, config.profile_initial, refine=refine, contenders=1,
-                      library=config.profile_library)
+    settings = config.inference
+    profile = Profile(settings.proposals, settings.initial, refine=refine, contenders=1, library=settings.library)
     profile.load_state_dict(memory)
     profile.before_generation(0, genomes, experiments, evaluator, np.random.default_rng(seed), genomes=genomes)
     angles = profile.angles(experiments, genomes[-1:], None)

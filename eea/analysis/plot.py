@@ -93,7 +93,7 @@ def summarise_runs(results: list[RunResult]) -> dict[tuple[str, float], GroupSum
     """
     groups: dict[tuple[str, float], list[RunResult]] = defaultdict(list)
     for r in results:
-        groups[(r.config.inference, r.config.duration_s)].append(r)
+        groups[(r.config.inference.name, r.config.duration_s)].append(r)
     summary = {}
     for key in sorted(groups, key=_order):
         runs = groups[key]

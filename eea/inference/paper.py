@@ -5,9 +5,10 @@
 name from :data:`eea.inference.INFERENCE_STRATEGIES` (:mod:`eea.inference.registry`, where
 the table of all strategies is).
 
-Settings: :class:`InBandSettings` and :class:`OutOfBandSettings`, the sections
-``config.in_band`` and ``config.out_of_band`` of :class:`eea.config.EEAConfig`; the inner GA
-of out-of-band breeds with the run's shared :class:`eea.ga.GASettings`.
+Settings: :class:`KnownSettings`, :class:`NoneSettings`, :class:`InBandSettings` and
+:class:`OutOfBandSettings`, each ``config.inference`` of an :class:`eea.config.EEAConfig` that
+runs the strategy (its ``name``); the inner GA of out-of-band breeds with the run's shared
+:class:`eea.ga.GASettings` (``config.ga``).
 """
 
 from __future__ import annotations
@@ -22,17 +23,36 @@ from aquafish_gym.checks import check_int
 
 from eea.arc import TWO_PI, smallest_inclusive_arc, smallest_inclusive_interval, widen_arc
 from eea.encoding import decode_fields, encode_fields
-from eea.ga import BitGA
+from eea.ga import BitGA, GASettings
 from eea.experiment import CAUDAL_LIMIT_RAD, PERIODS, Context, Experiment, with_newest_context
 from eea.inference.strategy import InferenceStrategy
-from eea.settings import ConfigSection
 
-__all__ = ["InBand", "InBandSettings", "Known", "NoInference", "OutOfBand", "OutOfBandSettings"]
+__all__ = ["InBand", "InBandSettings", "Known", "KnownSettings", "NoInference", "NoneSettings", "OutOfBand",
+           "OutOfBandSettings"]
 
 
 @dataclasses.dataclass(frozen=True)
-class InBandSettings(ConfigSection):
-    """In-band inference's settings (the ``EEAConfig`` section ``config.in_band``; :class:`InBand`).
+class KnownSettings:
+    """The ideal baseline's settings (``config.inference`` with ``inference="known"``;
+    :class:`Known`): none."""
+
+    #: The strategy's registry name (:data:`eea.inference.INFERENCE_STRATEGIES`).
+    name: ClassVar[str] = "known"
+
+
+@dataclasses.dataclass(frozen=True)
+class NoneSettings:
+    """The no-inference baseline's settings (``config.inference`` with ``inference="none"``;
+    :class:`NoInference`): none."""
+
+    #: The strategy's registry name (:data:`eea.inference.INFERENCE_STRATEGIES`).
+    name: ClassVar[str] = "none"
+
+
+@dataclasses.dataclass(frozen=True)
+class InBandSettings:
+    """In-band inference's settings (``config.inference`` with ``inference="in_band"``;
+    :class:`InBand`).
 
     Args:
         k_best: models whose angles define the inferred arc, >= 1 (paper: K = 3;
@@ -45,13 +65,12 @@ class InBandSettings(ConfigSection):
             ``in_band_widen``) if one is out of range.
     """
 
+    #: The strategy's registry name (:data:`eea.inference.INFERENCE_STRATEGIES`).
+    name: ClassVar[str] = "in_band"
+
     k_best: int = 3
     confidence: float = 0.5
     widen: float = 0.0
-
-    #: Each field's name in :class:`eea.config.EEAConfig`.
-    CONFIG_FIELDS: ClassVar[dict[str, str]] = {"k_best": "k_best", "confidence": "in_band_confidence",
-                                               "widen": "in_band_widen"}
 
     def __post_init__(self) -> None:
         check_int("EEAConfig.k_best", self.k_best, 1)
@@ -66,9 +85,9 @@ class InBandSettings(ConfigSection):
 
 
 @dataclasses.dataclass(frozen=True)
-class OutOfBandSettings(ConfigSection):
-    """Out-of-band inference's settings (the ``EEAConfig`` section ``config.out_of_band``,
-    fields ``oob_*``; :class:`OutOfBand`).
+class OutOfBandSettings:
+    """Out-of-band inference's settings (``config.inference`` with ``inference="out_of_band"``,
+    the flags ``--oob-*``; :class:`OutOfBand`).
 
     Args:
         period: infer angles every this many estimation generations, >= 1 (paper: 35).
@@ -82,16 +101,14 @@ class OutOfBandSettings(ConfigSection):
         ValueError: naming the field as ``EEAConfig.oob_<field>`` if one is out of range.
     """
 
+    #: The strategy's registry name (:data:`eea.inference.INFERENCE_STRATEGIES`).
+    name: ClassVar[str] = "out_of_band"
+
     period: int = 35
     sample: int = 5
     population: int = 10
     generations: int = 10
     bits: int = 8
-
-    #: Each field's name in :class:`eea.config.EEAConfig`.
-    CONFIG_FIELDS: ClassVar[dict[str, str]] = {"period": "oob_period", "sample": "oob_sample",
-                                               "population": "oob_population", "generations": "oob_generations",
-                                               "bits": "oob_bits"}
 
     def __post_init__(self) -> None:
         for name, low in (("period", 1), ("sample", 1), ("population", 1), ("generations", 1), ("bits", 2)):
@@ -139,9 +156,13 @@ class InBand(InferenceStrategy):
         self.k_best, self.confidence, self.widen = int(k_best), float(confidence), float(widen)
 
     @classmethod
-    def from_config(cls, config):
-        """Built from the section ``config.in_band`` (:class:`InBandSettings`) of an :class:`eea.config.EEAConfig`."""
-        settings = config.in_band
+    def from_settings(cls, settings: InBandSettings, ga=None) -> "InBand":
+        """Built from its :class:`InBandSettings` (``config.inference``).
+
+        Args:
+            settings: the strategy's settings.
+            ga: unused (in-band inference has no GA of its own).
+        """
         return cls(settings.k_best, settings.confidence, settings.widen)
 
     def new_context(self, true_angles):
@@ -209,13 +230,17 @@ class OutOfBand(InferenceStrategy):
         self.bounds = np.array([[0.0, TWO_PI - step], [0.0, TWO_PI - step], [-CAUDAL_LIMIT_RAD, CAUDAL_LIMIT_RAD]])
 
     @classmethod
-    def from_config(cls, config):
-        """Built from the sections ``config.out_of_band`` (:class:`OutOfBandSettings`) and
-        ``config.ga`` (:class:`eea.ga.GASettings`, mutation ``mutation_bits / (3 * bits)``) of an
-        :class:`eea.config.EEAConfig`."""
-        settings = config.out_of_band
+    def from_settings(cls, settings: OutOfBandSettings, ga: GASettings | None = None) -> "OutOfBand":
+        """Built from its :class:`OutOfBandSettings` (``config.inference``) and the run's GA
+        settings (``config.ga``; mutation ``mutation_bits / (3 * bits)``).
+
+        Args:
+            settings: the strategy's settings.
+            ga: the run's :class:`eea.ga.GASettings` (None: the defaults).
+        """
+        ga = GASettings() if ga is None else ga
         return cls(settings.period, settings.sample, settings.population, settings.generations, settings.bits,
-                   config.ga.options(3 * settings.bits))
+                   ga.options(3 * settings.bits))
 
     def new_context(self, true_angles):
         return Context.exact(np.zeros(3))  # replaced by the first inference (generation 0)

@@ -56,8 +56,8 @@ The experiments' contexts hold the best model's angles (the ``inferred_*`` colum
 ``rounds.csv``). What each option measured: docs/studies/unknown_angles.md; the retired ones:
 docs/studies/retired_variants.md.
 
-Settings: :class:`ProfileSettings`, the section ``config.profile`` of
-:class:`eea.config.EEAConfig` (the ``profile_*`` fields).
+Settings: :class:`ProfileSettings`, ``config.inference`` of an :class:`eea.config.EEAConfig`
+with ``inference="profile"`` (the flags ``--profile-*``).
 """
 
 from __future__ import annotations
@@ -74,7 +74,6 @@ from eea.encoding import genome_keys, genomes_from_keys
 from eea.experiment import CAUDAL_LIMIT_RAD, Context, random_angles
 from eea.fitness import model_fitness_from_similarities
 from eea.inference.strategy import Experiments, InferenceStrategy
-from eea.settings import ConfigSection
 
 __all__ = ["LIBRARY_SPACING_RAD", "POLISH_ITERATIONS", "POLISH_STEPS_RAD", "Profile", "ProfileSettings",
            "SCAN_CAUDAL",
@@ -97,9 +96,9 @@ _CAUDAL_WEIGHT = 3.0
 
 
 @dataclasses.dataclass(frozen=True)
-class ProfileSettings(ConfigSection):
-    """Profile inference's settings (the ``EEAConfig`` section ``config.profile``, fields
-    ``profile_*``; the arguments of :class:`Profile`).
+class ProfileSettings:
+    """Profile inference's settings (``config.inference`` with ``inference="profile"``, the
+    flags ``--profile-*``; the arguments of :class:`Profile`).
 
     Args:
         proposals: perturbed angle sets per model, experiment and generation, >= 1.
@@ -112,16 +111,14 @@ class ProfileSettings(ConfigSection):
         ValueError: naming the field as ``EEAConfig.profile_<field>`` if one is out of range.
     """
 
+    #: The strategy's registry name (:data:`eea.inference.INFERENCE_STRATEGIES`).
+    name: ClassVar[str] = "profile"
+
     proposals: int = 2
     initial: int = 8
     refine: int = 0
     contenders: int = 3
     library: int = 0
-
-    #: Each field's name in :class:`eea.config.EEAConfig`.
-    CONFIG_FIELDS: ClassVar[dict[str, str]] = {
-        "proposals": "profile_proposals", "initial": "profile_initial", "refine": "profile_refine",
-        "contenders": "profile_contenders", "library": "profile_library"}
 
     def __post_init__(self) -> None:
         for name, low in (("proposals", 1), ("initial", 1), ("refine", 0), ("contenders", 1), ("library", 0)):
@@ -159,9 +156,14 @@ class Profile(InferenceStrategy):
         self._best: bytes | None = None                                 # the best genome of the last generation
 
     @classmethod
-    def from_config(cls, config):
-        """Built from the section ``config.profile`` (:class:`ProfileSettings`) of an :class:`eea.config.EEAConfig`."""
-        return cls(**dataclasses.asdict(config.profile))
+    def from_settings(cls, settings: ProfileSettings, ga=None) -> "Profile":
+        """Built from its :class:`ProfileSettings` (``config.inference``).
+
+        Args:
+            settings: the strategy's settings.
+            ga: unused (the profile's angle fit is no GA).
+        """
+        return cls(**dataclasses.asdict(settings))
 
     def new_context(self, true_angles):
         return Context.exact(np.zeros(3))  # replaced by the best model's angles after each generation

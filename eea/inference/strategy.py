@@ -43,8 +43,15 @@ class InferenceStrategy:
     name: ClassVar[str] = ""
 
     @classmethod
-    def from_config(cls, config) -> "InferenceStrategy":
-        """Build from an :class:`eea.config.EEAConfig` (subclasses read their fields)."""
+    def from_settings(cls, settings, ga=None) -> "InferenceStrategy":
+        """Build from the strategy's settings (``config.inference`` of an
+        :class:`eea.config.EEAConfig`; subclasses read their fields).
+
+        Args:
+            settings: the strategy's settings (one of :data:`eea.inference.INFERENCE_SETTINGS`).
+            ga: the run's :class:`eea.ga.GASettings` (a strategy with a GA of its own breeds
+                with it; None: the defaults).
+        """
         return cls()
 
     def new_context(self, true_angles: np.ndarray) -> Context:

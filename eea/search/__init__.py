@@ -2,15 +2,17 @@
 
 The core's :class:`eea.estimation.Estimation` evolves model genomes through any object that
 satisfies :class:`ModelSearch`, made by name from :data:`MODEL_SEARCHES`
-(``EEAConfig.estimation_search``). This package is their home:
+(``config.estimation.search``). This package is their home:
 
 * :mod:`eea.search.registry` -- the :class:`ModelSearch` protocol, :func:`check_model_search`
   and the registry (:data:`MODEL_SEARCHES`, :func:`make_model_search`,
   :func:`model_search_from_state`).
 * :mod:`eea.search.model_ga` -- :class:`ModelGA`, the paper's GA (section 4) over model genomes
-  (a :class:`eea.ga.BitGA`, which stays in the core: exploration and out-of-band inference use it).
+  (a :class:`eea.ga.BitGA`, which stays in the core: exploration and out-of-band inference use it),
+  and its settings :class:`GASearchSettings` (none of its own).
 * :mod:`eea.search.cma` -- :class:`CMAModelSearch`, CMA-ES over the nine dimensions (not the paper's),
-  and its settings :class:`CMASettings` (the section ``config.cma`` of :class:`eea.config.EEAConfig`).
+  and its settings :class:`CMASettings` (``config.estimation.search`` of an
+  :class:`eea.config.EEAConfig` with ``estimation_search="cma"``).
 * :mod:`eea.search.lineages` -- several independent estimations sharing each round's experiment,
   one selected per round by an equal angle fit (``lineages`` >= 2; not the paper's). It builds on
   the core's estimation phase and on :mod:`eea.inference` (each lineage has its own strategy;
@@ -23,9 +25,9 @@ search's nested pickle); the lineages also import :mod:`eea.inference` and :mod:
 """
 
 from eea.search.cma import CMAModelSearch, CMASettings
-from eea.search.model_ga import ModelGA
-from eea.search.registry import (MODEL_SEARCHES, SEARCH_NAMES, ModelSearch, check_model_search, make_model_search,
-                                 model_search_from_state)
+from eea.search.model_ga import GASearchSettings, ModelGA
+from eea.search.registry import (MODEL_SEARCHES, SEARCH_NAMES, SEARCH_SETTINGS, ModelSearch, SearchSettings,
+                                 check_model_search, make_model_search, model_search_from_state)
 
-__all__ = ["CMAModelSearch", "CMASettings", "MODEL_SEARCHES", "ModelGA", "ModelSearch", "SEARCH_NAMES", "check_model_search",
-           "make_model_search", "model_search_from_state"]
+__all__ = ["CMAModelSearch", "CMASettings", "GASearchSettings", "MODEL_SEARCHES", "ModelGA", "ModelSearch",
+           "SEARCH_NAMES", "SEARCH_SETTINGS", "SearchSettings", "check_model_search", "make_model_search", "model_search_from_state"]

@@ -1,6 +1,6 @@
 """CMA-ES over model morphologies behind the ask/tell interface of :class:`eea.ga.BitGA`.
 
-An alternative search for the estimation phase (``EEAConfig.estimation_search = "cma"``),
+An alternative search for the estimation phase (``--estimation-search cma``: ``config.estimation.search`` a :class:`CMASettings`),
 not the paper's: the paper evolves models with the bit-string GA of section 4, which stays
 the default. MOD_FIT (eq. 3) of this robot has narrow diagonal ridges that single-field
 bit-flip mutation cannot follow; CMA-ES (the ``cma`` package) adapts a full covariance and
@@ -46,8 +46,9 @@ Randomness: CMA-ES draws its normal samples from a child ``numpy.random.Generato
 spawned from the run's generator at construction and saved with the search state, so a run
 is reproducible and resumes bit-for-bit.
 
-Settings: :class:`CMASettings`, the section ``config.cma`` of :class:`eea.config.EEAConfig`
-(``cma_sigma``, ``cma_global_share``, ``cma_carry_condition``, ``cma_global_keep``).
+Settings: :class:`CMASettings`, ``config.estimation.search`` of an :class:`eea.config.EEAConfig`
+with ``estimation_search="cma"`` (the flags ``--cma-sigma``, ``--cma-global-share``,
+``--cma-carry-condition``, ``--cma-global-keep``, ``--cma-flip-gains``).
 """
 
 from __future__ import annotations
@@ -65,7 +66,6 @@ from eea.encoding import (MODEL_BITS, MODEL_FIELD_BITS, _bits_to_ints, _ints_to_
                           get_model_space)
 from eea.compat import loads, upgrade_cma_search
 from eea.ga import TellRecord
-from eea.settings import ConfigSection
 
 __all__ = ["CMAModelSearch", "CMASettings", "carried_shape", "genomes_to_unit", "unit_to_genomes"]
 
@@ -151,8 +151,9 @@ def carried_shape(covariance, condition: float) -> np.ndarray:
 
 
 @dataclasses.dataclass(frozen=True)
-class CMASettings(ConfigSection):
-    """The CMA-ES search's settings (the ``EEAConfig`` section ``config.cma``, fields ``cma_*``).
+class CMASettings:
+    """The CMA-ES search's settings (``config.estimation.search`` of an ``EEAConfig`` with
+    ``estimation_search="cma"``; the flags ``--cma-*``).
 
     Args:
         sigma: initial step size as a fraction of every dimension's range, in (0, 1].
@@ -168,16 +169,14 @@ class CMASettings(ConfigSection):
             ``global_keep`` > 0 without a ``global_share``.
     """
 
+    #: The search's registry name (:data:`eea.search.MODEL_SEARCHES`).
+    name: ClassVar[str] = "cma"
+
     sigma: float = 0.3
     global_share: int = 0
     carry_condition: float = 0.0
     global_keep: int = 0
     flip_gains: int = 0
-
-    #: Each field's name in :class:`eea.config.EEAConfig`.
-    CONFIG_FIELDS: ClassVar[dict[str, str]] = {"sigma": "cma_sigma", "global_share": "cma_global_share",
-                                               "carry_condition": "cma_carry_condition",
-                                               "global_keep": "cma_global_keep", "flip_gains": "cma_flip_gains"}
 
     def __post_init__(self) -> None:
         if isinstance(self.sigma, bool) or not isinstance(self.sigma, (int, float)) or not 0.0 < self.sigma <= 1.0:
@@ -301,14 +300,27 @@ class CMAModelSearch(TellRecord):
         return unit_to_genomes(x, self.model_space)
 
     @classmethod
-    def from_config(cls, config, rng: np.random.Generator) -> "CMAModelSearch":
-        """Sized and tuned by an :class:`eea.config.EEAConfig` (``estimation_population``, its
-        section ``config.cma`` (:class:`CMASettings`), ``model_space``; any ``elitism`` >= 1
-        carries the one best point)."""
-        cma = config.cma
-        return cls(config.estimation_population, rng, sigma0=cma.sigma, elitism=1 if config.elitism else 0,
+    def from_settings(cls, estimation, ga, model_space, rng: np.random.Generator) -> "CMAModelSearch":
+        """Sized and tuned by the estimation's settings (``config.estimation`` of an
+        :class:`eea.config.EEAConfig`, its ``search`` a :class:`CMASettings`) and the run's GA
+        settings (any ``elitism`` >= 1 carries the one best point).
+
+        Args:
+            estimation: an :class:`eea.estimation.EstimationSettings` whose ``search`` is a
+                :class:`CMASettings`.
+            ga: the run's :class:`eea.ga.GASettings`.
+            model_space: the run's model space (a name or an :class:`eea.encoding.ModelSpace`).
+            rng: the run's generator (one integer seeds the search's own stream).
+
+        Raises:
+            ValueError: if ``estimation.search`` is not a :class:`CMASettings`.
+        """
+        cma = estimation.search
+        if not isinstance(cma, CMASettings):
+            raise ValueError(f"a CMA-ES search needs CMASettings, got {cma!r}")
+        return cls(estimation.population, rng, sigma0=cma.sigma, elitism=1 if ga.elitism else 0,
                    global_share=cma.global_share, carry_condition=cma.carry_condition, global_keep=cma.global_keep,
-                   model_space=getattr(config, "model_space", "morphology"), flip_gains=cma.flip_gains)
+                   model_space=model_space, flip_gains=cma.flip_gains)
 
     def _new_strategy(self, mean: np.ndarray, popsize: int):
         import cma  # here, not at module level: importing cma takes ~1.5 s, and only cma runs need it

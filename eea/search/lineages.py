@@ -130,10 +130,20 @@ class Lineages:
         self.history: list[dict] = []
 
     @classmethod
-    def from_config(cls, config, rng: np.random.Generator) -> "Lineages":
-        """``config.lineages`` fresh estimations (:meth:`Estimation.from_config`), each with its
-        own random initial population drawn from ``rng`` in turn."""
-        return cls([Estimation.from_config(config, rng) for _ in range(config.lineages)])
+    def from_settings(cls, settings, ga, model_space, rng: np.random.Generator) -> "Lineages":
+        """``settings.lineages`` fresh estimations (:meth:`Estimation.from_settings`), each with
+        its own random initial population drawn from ``rng`` in turn.
+
+        Args:
+            settings: the estimation's :class:`eea.estimation.EstimationSettings` (``config.estimation``).
+            ga: the run's :class:`eea.ga.GASettings`.
+            model_space: the run's model space.
+            rng: the run's generator.
+
+        Raises:
+            ValueError: if ``settings.lineages`` < 2.
+        """
+        return cls([Estimation.from_settings(settings, ga, model_space, rng) for _ in range(settings.lineages)])
 
     def run(self, experiments: Sequence[Experiment], strategy: LineageStrategies, evaluator,
             rng: np.random.Generator, generations: int,
@@ -226,12 +236,19 @@ class Lineages:
         return lineages
 
 
-def make_estimation(config, rng: np.random.Generator) -> Estimation | Lineages:
-    """The estimation phase of a run of ``config``: one :class:`Estimation` (the paper's), or
-    :class:`Lineages` of ``config.lineages`` of them when that is >= 2."""
-    if config.lineages > 1:
-        return Lineages.from_config(config, rng)
-    return Estimation.from_config(config, rng)
+def make_estimation(settings, ga, model_space, rng: np.random.Generator) -> Estimation | Lineages:
+    """The estimation phase of a run: one :class:`Estimation` (the paper's), or
+    :class:`Lineages` of ``settings.lineages`` of them when that is >= 2.
+
+    Args:
+        settings: the run's :class:`eea.estimation.EstimationSettings` (``config.estimation``).
+        ga: the run's :class:`eea.ga.GASettings` (``config.ga``).
+        model_space: the run's model space (``config.model_space``).
+        rng: the run's generator (the initial populations).
+    """
+    if settings.lineages > 1:
+        return Lineages.from_settings(settings, ga, model_space, rng)
+    return Estimation.from_settings(settings, ga, model_space, rng)
 
 
 def warm_start(estimation: Estimation | Lineages, genome) -> None:
@@ -259,12 +276,19 @@ def warm_start(estimation: Estimation | Lineages, genome) -> None:
         seed_at(genome)
 
 
-def make_strategy(config) -> InferenceStrategy | LineageStrategies:
-    """The inference strategy of a run of ``config`` (:func:`eea.inference.make_inference`), or
-    one per lineage (:class:`LineageStrategies`) when ``config.lineages`` >= 2."""
-    if config.lineages > 1:
-        return LineageStrategies([make_inference(config.inference, config) for _ in range(config.lineages)])
-    return make_inference(config.inference, config)
+def make_strategy(settings, ga, lineages: int = 1) -> InferenceStrategy | LineageStrategies:
+    """The inference strategy of a run (:func:`eea.inference.make_inference`), or one per
+    lineage (:class:`LineageStrategies`) when ``lineages`` >= 2.
+
+    Args:
+        settings: the run's inference settings (``config.inference``, one of
+            :data:`eea.inference.INFERENCE_SETTINGS`).
+        ga: the run's :class:`eea.ga.GASettings` (out-of-band inference's inner GA).
+        lineages: the run's estimation lineages (``config.estimation.lineages``).
+    """
+    if lineages > 1:
+        return LineageStrategies([make_inference(settings, ga) for _ in range(lineages)])
+    return make_inference(settings, ga)
 
 
 def estimation_from_state(state: dict, rng: np.random.Generator) -> Estimation | Lineages:

@@ -8,6 +8,7 @@ A :class:`eea.ga.BitGA` over model genomes (45 bits in the paper's ``morphology`
 
 from __future__ import annotations
 
+import dataclasses
 from typing import ClassVar
 
 import numpy as np
@@ -15,7 +16,17 @@ import numpy as np
 from eea.encoding import MODEL_BITS, get_model_space, model_space_of
 from eea.ga import BitGA
 
-__all__ = ["ModelGA"]
+__all__ = ["GASearchSettings", "ModelGA"]
+
+
+@dataclasses.dataclass(frozen=True)
+class GASearchSettings:
+    """The paper's GA search's settings (``config.estimation.search`` of an ``EEAConfig`` with
+    ``estimation_search="ga"``, the default): none of its own. Its breeding settings are the
+    run's shared :class:`eea.ga.GASettings` (``config.ga``)."""
+
+    #: The search's registry name (:data:`eea.search.MODEL_SEARCHES`).
+    name: ClassVar[str] = "ga"
 
 
 class ModelGA(BitGA):
@@ -32,12 +43,26 @@ class ModelGA(BitGA):
         super().__init__(get_model_space(model_space).n_bits, population_size, rng, **options)
 
     @classmethod
-    def from_config(cls, config, rng: np.random.Generator) -> "ModelGA":
-        """Sized and tuned by an :class:`eea.config.EEAConfig`: model space, population, and its
-        section ``config.ga`` (:class:`eea.ga.GASettings`: crossover, mutation ``mutation_bits /
-        n_bits``, i.e. / 45 in the paper's space, tournament, elitism)."""
-        space = get_model_space(getattr(config, "model_space", "morphology"))
-        return cls(config.estimation_population, rng, model_space=space, **config.ga.options(space.n_bits))
+    def from_settings(cls, estimation, ga, model_space, rng: np.random.Generator) -> "ModelGA":
+        """Sized by the estimation's settings (``config.estimation`` of an
+        :class:`eea.config.EEAConfig`: its population) and tuned by the run's GA settings
+        (``config.ga``: crossover, mutation ``mutation_bits / n_bits``, i.e. / 45 in the paper's
+        space, tournament, elitism).
+
+        Args:
+            estimation: an :class:`eea.estimation.EstimationSettings` (its ``search`` a
+                :class:`GASearchSettings`).
+            ga: the run's :class:`eea.ga.GASettings`.
+            model_space: the run's model space (a name or an :class:`eea.encoding.ModelSpace`).
+            rng: the run's generator (the initial population).
+
+        Raises:
+            ValueError: if ``estimation.search`` is not a :class:`GASearchSettings`.
+        """
+        if not isinstance(estimation.search, GASearchSettings):
+            raise ValueError(f"a GA search needs GASearchSettings, got {estimation.search!r}")
+        space = get_model_space(model_space)
+        return cls(estimation.population, rng, model_space=space, **ga.options(space.n_bits))
 
     def state_dict(self) -> dict:
         """:meth:`BitGA.state_dict` with ``"search": "ga"``."""

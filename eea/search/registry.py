@@ -3,7 +3,8 @@
 The estimation phase (:class:`eea.estimation.Estimation`) evolves model genomes (45 bits in
 the paper's ``morphology`` model space, 57 in ``morphology+servos``: :class:`eea.encoding.ModelSpace`)
 through any object that satisfies :class:`ModelSearch`; :data:`MODEL_SEARCHES` maps the
-names ``EEAConfig.estimation_search`` accepts to the classes:
+names ``--estimation-search`` accepts (``config.estimation.search.name``) to the classes, and
+:data:`SEARCH_SETTINGS` maps them to their settings classes:
 
 =======  ==========================================  =======================================
 name     class                                       search
@@ -23,18 +24,18 @@ from typing import ClassVar, Protocol
 
 import numpy as np
 
-from eea.search.cma import CMAModelSearch
-from eea.search.model_ga import ModelGA
+from eea.search.cma import CMAModelSearch, CMASettings
+from eea.search.model_ga import GASearchSettings, ModelGA
 
-__all__ = ["MODEL_SEARCHES", "SEARCH_NAMES", "ModelGA", "ModelSearch", "check_model_search", "make_model_search",
-           "model_search_from_state"]
+__all__ = ["MODEL_SEARCHES", "SEARCH_NAMES", "SEARCH_SETTINGS", "ModelGA", "ModelSearch", "SearchSettings",
+           "check_model_search", "make_model_search", "model_search_from_state"]
 
 
 class ModelSearch(Protocol):
     """What the estimation phase needs of a model search (maximises fitness).
 
     Attributes:
-        name: the registry name (``EEAConfig.estimation_search``).
+        name: the registry name (``config.estimation.search.name``).
         n_bits: genome length, 45 (57 in the ``morphology+servos`` model space).
         population_size: P, genomes per generation.
     """
@@ -70,7 +71,7 @@ class ModelSearch(Protocol):
 
 #: What :func:`check_model_search` looks for on a search's class.
 _MEMBERS = ("name", "n_bits", "population_size", "population", "ask", "tell", "best_genome", "best_fitness",
-            "restart", "state_dict", "from_state_dict", "from_config")
+            "restart", "state_dict", "from_state_dict", "from_settings")
 
 
 def check_model_search(search) -> None:
@@ -85,9 +86,13 @@ def check_model_search(search) -> None:
         raise ValueError(f"{type(search).__name__} is not a ModelSearch: it lacks {', '.join(missing)}")
 
 
-#: Registry of model searches by name (``EEAConfig.estimation_search``).
+#: Registry of model searches by name (``config.estimation.search.name``).
 MODEL_SEARCHES: dict[str, type] = {cls.name: cls for cls in (ModelGA, CMAModelSearch)}
 SEARCH_NAMES: tuple[str, ...] = tuple(MODEL_SEARCHES)
+#: The settings class of every search by name (``config.estimation.search`` is one of them).
+SEARCH_SETTINGS: dict[str, type] = {cls.name: cls for cls in (GASearchSettings, CMASettings)}
+#: The type of ``config.estimation.search``: one search's settings.
+SearchSettings = GASearchSettings | CMASettings
 
 
 def _search_class(name) -> type:
@@ -97,13 +102,20 @@ def _search_class(name) -> type:
         raise ValueError(f"unknown estimation search {name!r}; valid names: {', '.join(SEARCH_NAMES)}") from None
 
 
-def make_model_search(name: str, config, rng: np.random.Generator) -> ModelSearch:
-    """A fresh search called ``name``, sized and tuned by an :class:`eea.config.EEAConfig`.
+def make_model_search(estimation, ga, model_space, rng: np.random.Generator) -> ModelSearch:
+    """A fresh search of the kind ``estimation.search`` names, sized and tuned by its settings.
+
+    Args:
+        estimation: an :class:`eea.estimation.EstimationSettings` (``config.estimation``): the
+            population and the search's settings (:data:`SEARCH_SETTINGS`).
+        ga: the run's :class:`eea.ga.GASettings` (``config.ga``).
+        model_space: the run's model space (a name or an :class:`eea.encoding.ModelSpace`).
+        rng: the run's generator (the initial population).
 
     Raises:
-        ValueError: on an unknown name (the message lists the valid names).
+        ValueError: on an unknown search name (the message lists the valid names).
     """
-    return _search_class(name).from_config(config, rng)
+    return _search_class(getattr(estimation.search, "name", None)).from_settings(estimation, ga, model_space, rng)
 
 
 def model_search_from_state(state: dict, rng: np.random.Generator) -> ModelSearch:

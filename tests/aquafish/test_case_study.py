@@ -58,7 +58,8 @@ def test_tiny_case_study_new_rows_servo_gains_and_video(tmp_path, capsys):
     assert {k: m["behaviour_summary"] for k, m in report["models"].items()} == {
         "plain_eea": "dft", "self_model": "signed_dft", "out_of_band": "dft"}
     assert (out / "eea_profile_lineages_servos_signed" / "rounds.csv").exists()
-    assert json.loads((out / "eea_profile_lineages_servos_signed" / "config.json").read_text())["cma_flip_gains"] == 1
+    saved = json.loads((out / "eea_profile_lineages_servos_signed" / "config.json").read_text())
+    assert saved["estimation"]["search"]["flip_gains"] == 1 and saved["estimation"]["search"]["name"] == "cma"
     assert set(report["models"]) == {"plain_eea", "self_model", "out_of_band"}
     assert report["models"]["plain_eea"]["servo_gains"] is None
     gains = report["models"]["self_model"]["servo_gains"]

@@ -1,6 +1,5 @@
 """The ``aquafish`` parser: every sub-command registered, no optional dependency imported, study flags."""
 
-import dataclasses
 import importlib.metadata
 import subprocess
 import sys
@@ -81,11 +80,11 @@ def _flags(parser, command):
 
 
 def test_study_has_every_eea_flag_but_the_per_run_ones():
-    from eea.config import EEAConfig
+    from eea.config import FLAT_FIELDS
 
     parser = build_parser()
     eea, study = _flags(parser, "eea"), _flags(parser, "study")
-    fields = [f.name for f in dataclasses.fields(EEAConfig)]
+    fields = list(FLAT_FIELDS)
     per_run = {"inference", "duration_s", "seed", "workers"}
     assert per_run <= set(eea) and not per_run & set(study)
     for name in set(fields) - per_run:
@@ -106,10 +105,12 @@ def test_study_command_line_of_the_readme(monkeypatch, tmp_path):
     assert (spec.conditions, spec.durations_s, spec.replicates, out) == (("known", "none", "in_band", "out_of_band"),
                                                                           (1.28,), 5, tmp_path)
     assert list(spec.seeds) == [10, 11, 12, 13, 14]
-    from eea.config import EEAConfig
+    from eea.config import FLAT_DEFAULTS
 
-    assert spec.base == EEAConfig(workers=1, rounds=10, estimation_generations=30, exploration_generations=10,
-                                  oob_period=10, estimation_search="cma", cma_sigma=0.2)
+    assert spec.base == {**FLAT_DEFAULTS, "workers": 1, "rounds": 10, "estimation_generations": 30,
+                         "exploration_generations": 10, "oob_period": 10, "estimation_search": "cma", "cma_sigma": 0.2}
+    configs = {c.inference.name: c for c, _ in spec.runs(tmp_path)[:4]}
+    assert configs["out_of_band"].inference.period == 10 and configs["known"].estimation.search.sigma == 0.2
     assert kw == {"backend": "local", "address": None, "processes": None, "progress": True}
 
 
@@ -119,6 +120,7 @@ def test_methods_and_budgets_on_the_command_line_and_flags_over_them(monkeypatch
     import importlib
 
     import aquafish.study
+    from eea.compat import upgrade_flat_fields
     from eea.config import EEAConfig
 
     specs = []
@@ -132,9 +134,11 @@ def test_methods_and_budgets_on_the_command_line_and_flags_over_them(monkeypatch
     published = json.loads((Path(__file__).parents[2] / "docs/results/lph_lin2/study.json").read_text())["base"]
     published.update(damage="caudal_half", profile_library=4, workers=1)        # the flags given beside the names
     (oob, _), (best, best_dir) = specs[0].runs(tmp_path)[:2]
-    assert best == EEAConfig.from_dict(published).replace(inference="profile", seed=0, waterline=EEAConfig().waterline)
+    assert best == EEAConfig.from_flat({"inference": "profile", "seed": 0, "waterline": EEAConfig().waterline},
+                                       optional=upgrade_flat_fields(published))
     assert best_dir == tmp_path / "profile_lineages" / "1.28s" / "seed0"
-    assert (oob.inference, oob.estimation_search, oob.profile_library, oob.rounds) == ("out_of_band", "ga", 4, 10)
+    assert (oob.inference.name, oob.estimation.search.name, oob.rounds) == ("out_of_band", "ga", 10)
+    assert "profile_library" not in oob.to_flat()           # the out-of-band runs have no profile settings
     assert specs[0].fixed == ("profile_library",)           # only a method's field can be overridden
     main([*argv[:-1], str(tmp_path / "one"), "--lineages", "1"])   # a flag given wins, even at its default value
     assert specs[1].runs(tmp_path)[1][0] == best.replace(lineages=1)
@@ -147,7 +151,11 @@ def test_methods_and_budgets_on_the_command_line_and_flags_over_them(monkeypatch
     assert main(["eea", "--method", "profile_lineages", "--budget", "reduced", "--rounds", "3", "--out",
                  str(tmp_path / "r")]) == 0
     assert configs[0] == EEAConfig.from_method("profile_lineages", "reduced", rounds=3)
-    assert (configs[0].inference, configs[0].rounds, configs[0].estimation_generations) == ("profile", 3, 30)
+    assert (configs[0].inference.name, configs[0].rounds, configs[0].estimation.generations) == ("profile", 3, 30)
+    # a study's flag that none of its methods uses is an error; one that some use applies to those
+    with pytest.raises(SystemExit):
+        main(["study", "--methods", "known,none", "--durations", "1.28", "--oob-period", "5", "--out",
+              str(tmp_path / "bad")])
     for bad in (["--budget", "fastest"], ["--method", "library"]):
         with pytest.raises(SystemExit):
             build_parser().parse_args(["eea", "--out", str(tmp_path), *bad])

@@ -16,7 +16,7 @@ import pytest
 
 from aquafish.cli import build_parser, main
 from aquafish.config_file import RECORD_FILE, config_keys, parse_command_line
-from eea.cli import config_fields, config_flag_names
+from eea.cli import config_fields, config_flag_names, config_from_args
 from eea.config import EEAConfig
 
 ROOT = Path(__file__).parents[2]
@@ -132,8 +132,8 @@ def test_eea_values_from_a_file_count_as_given(tmp_path, monkeypatch):
     assert fields == config_fields(build_parser().parse_args(
         ["eea", "--method", "profile_lineages", "--budget", "reduced", "--waterline", "deep",
          "--estimation-generations", "15", "--rounds", "3", "--out", "e"]), config_flag_names())
-    assert EEAConfig(**fields) == EEAConfig.from_method("profile_lineages", "reduced", waterline=None,
-                                                        estimation_generations=15, rounds=3)
+    assert config_from_args(args, config_flag_names()) == EEAConfig.from_method(
+        "profile_lineages", "reduced", waterline=None, estimation_generations=15, rounds=3)
     # the command builds that config, and a study holds the file's fields fixed over its methods' fields
     configs, specs = [], []
     monkeypatch.setattr(importlib.import_module("eea.run"), "run", lambda c, out, progress: configs.append(c) or
@@ -141,12 +141,12 @@ def test_eea_values_from_a_file_count_as_given(tmp_path, monkeypatch):
     monkeypatch.setattr(importlib.import_module("aquafish.study"), "run_study",
                         lambda spec, out, **kw: specs.append(spec) or [])
     assert main(["eea", "--config", str(config), "--out", str(tmp_path / "e")]) == 0
-    assert configs[0].waterline is None and configs[0].estimation_generations == 15
+    assert configs[0].waterline is None and configs[0].estimation.generations == 15
     study = _write(tmp_path / "study.toml", 'methods = ["profile_lineages"]\ndurations = [1.28]\nlineages = 1\n'
                                              'waterline = "deep"\n')
     assert main(["study", "--config", str(study), "--out", str(tmp_path / "s")]) == 0
-    assert specs[0].fixed == ("lineages",) and specs[0].base.waterline is None   # fixed: the methods' fields given
-    assert specs[0].runs(tmp_path)[0][0].lineages == 1   # over profile_lineages' 2
+    assert specs[0].fixed == ("lineages",) and specs[0].base["waterline"] is None  # fixed: the methods' fields given
+    assert specs[0].runs(tmp_path)[0][0].estimation.lineages == 1   # over profile_lineages' 2
 
 
 @pytest.mark.parametrize("text, names", [

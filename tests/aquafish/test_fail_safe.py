@@ -43,12 +43,10 @@ LOCK_FILE = ".aquafish.lock"
 #: A tiny EEA run (~0.5 s), as command-line flags.
 TINY_EEA = ["--duration", "0.16", "--rounds", "2", "--exploration-population", "4", "--exploration-generations", "2",
             "--exploration-models", "3", "--estimation-population", "5", "--estimation-generations", "3",
-            "--k-best", "2", "--oob-period", "2", "--oob-sample", "2", "--oob-population", "4",
-            "--oob-generations", "2", "--no-progress"]
+            "--no-progress"]   # no strategy's flags: a flag of a strategy the run does not use is an error
 TINY_STUDY = ["--methods", "known", "--durations", "0.16", "--replicates", "1", "--rounds", "1",
               "--exploration-population", "4", "--exploration-generations", "2", "--exploration-models", "3",
-              "--estimation-population", "5", "--estimation-generations", "3", "--k-best", "2",
-              "--oob-sample", "2", "--processes", "1"]
+              "--estimation-population", "5", "--estimation-generations", "3", "--processes", "1"]
 TINY_GAIT = ["--generations", "1", "--population-size", "4", "--episode-duration-s", "0.5", "--workers", "1",
              "--quiet", "--checkpoint-every", "1"]
 #: A PPO section that trains in a second.

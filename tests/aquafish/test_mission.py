@@ -117,7 +117,7 @@ def test_stop_action_is_zero_pectoral_speed_and_no_caudal_sweep():
 def test_the_warm_start_puts_the_seed_model_in_the_first_estimation_generation():
     config = EEAConfig.from_method("profile_lineages", "smoke", model_space="morphology+servos", cma_flip_gains=1)
     rng = np.random.default_rng(0)
-    estimation = make_estimation(config, rng)
+    estimation = make_estimation(config.estimation, config.ga, config.model_space, rng)
     assert isinstance(estimation, Lineages)
     seed = _genome("reversed_left_pectoral")
     warm_start(estimation, seed)
@@ -132,14 +132,14 @@ def test_the_warm_start_puts_the_seed_model_in_the_first_estimation_generation()
 
 def test_a_cold_start_does_not_hold_the_seed_model():
     config = EEAConfig.from_method("profile_lineages", "smoke", model_space="morphology+servos")
-    estimation = make_estimation(config, np.random.default_rng(0))
+    estimation = make_estimation(config.estimation, config.ga, config.model_space, np.random.default_rng(0))
     seed = _genome("reversed_left_pectoral")
     assert not any((row == seed).all() for m in estimation.members for row in m.search.population)
 
 
 def test_the_ga_warm_start_and_bad_genomes():
     config = EEAConfig.from_method("none", "smoke", model_space="morphology+servos")
-    estimation = make_estimation(config, np.random.default_rng(0))
+    estimation = make_estimation(config.estimation, config.ga, config.model_space, np.random.default_rng(0))
     seed = _genome("caudal_half")
     warm_start(estimation, seed)
     assert (estimation.search.ask()[0] == seed).all()

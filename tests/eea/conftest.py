@@ -16,8 +16,8 @@ TINY = dict(duration_s=0.16, rounds=2, exploration_population=4, exploration_gen
 
 @pytest.fixture
 def tiny_config():
-    def make(**changes):
-        return EEAConfig(**{**TINY, **changes})
+    def make(**changes):  # TINY's fields apply where the config holds their section, as a budget's
+        return EEAConfig.from_flat(changes, optional=TINY)
     return make
 
 

@@ -30,10 +30,18 @@ RUNS = ("lineages_cma", "out_of_band_ga")
 def test_a_checkpoint_written_before_the_split_resumes_to_the_golden_rows(tmp_path, name):
     out = tmp_path / name
     shutil.copytree(DATA / f"{name}_round2", out)
-    config = EEAConfig.from_dict({**json.loads((out / "config.json").read_text()), "rounds": 3})
+    flat = json.loads((out / "config.json").read_text())
+    assert "oob_period" in flat and "estimation" not in flat       # written before the sections: flat
+    config = EEAConfig.from_dict({**flat, "rounds": 3})             # through eea.compat
     result = eea.run(config, out, progress=False)
     assert len(result.rounds) == 3
     assert _without_wall_seconds(out / "rounds.csv") == (GOLDEN / f"{name}.csv").read_text()
+    # the resumed run writes today's nested config.json and checkpoint config, of the same run
+    nested = json.loads((out / "config.json").read_text())
+    assert nested == config.to_dict() and nested["inference"]["name"] == flat["inference"]
+    from eea.checkpoint import load_state
+
+    assert load_state(out).config == nested and EEAConfig.from_dict(flat).same_results_as(config)
     if name == "lineages_cma":
         assert (out / "lineages.csv").read_text() == (GOLDEN / "lineages_cma_lineages.csv").read_text()
 

@@ -107,9 +107,12 @@ def test_bad_calls_raise():
 
 
 def test_estimation_uses_the_configured_search_and_restores_it(tiny_config, make_experiment):
-    assert isinstance(Estimation.from_config(tiny_config(), np.random.default_rng(0)).search, BitGA)
-    est = Estimation.from_config(tiny_config(estimation_search="cma"), np.random.default_rng(0))
-    assert isinstance(est.search, CMAModelSearch) and est.search.population_size == tiny_config().estimation_population
+    def estimation(config):
+        return Estimation.from_settings(config.estimation, config.ga, config.model_space, np.random.default_rng(0))
+
+    assert isinstance(estimation(tiny_config()).search, BitGA)
+    est = estimation(tiny_config(estimation_search="cma"))
+    assert isinstance(est.search, CMAModelSearch) and est.search.population_size == tiny_config().estimation.population
 
     class OnesEvaluator:
         def similarities(self, genomes, experiments, angles):
@@ -127,7 +130,7 @@ def test_estimation_uses_the_configured_search_and_restores_it(tiny_config, make
                                             ({"cma_sigma": 0.0}, "cma_sigma"), ({"cma_sigma": 1.5}, "cma_sigma")])
 def test_config_rejects_bad_search_settings(changes, match):
     with pytest.raises(ValueError, match=match):
-        EEAConfig(**changes)
+        EEAConfig.from_flat({"estimation_search": "cma", **changes})
 
 
 def test_restart_reopens_the_distribution_around_the_best_point():
@@ -202,18 +205,19 @@ def test_a_kept_global_share_restarts_at_its_own_best_and_at_random_every_kth_ro
     with pytest.raises(ValueError, match="global_keep > 0 needs a global_share"):
         CMAModelSearch(10, np.random.default_rng(0), global_keep=2)
     with pytest.raises(ValueError, match="cma_global_keep > 0 needs cma_global_share"):
-        EEAConfig(estimation_search="cma", cma_global_keep=2)
+        EEAConfig.from_flat({"estimation_search": "cma", "cma_global_keep": 2})
 
 def test_a_global_share_leaves_two_points_to_each_distribution():
     for share in (1, 9):
         with pytest.raises(ValueError, match=r"global_share must be 0 or in .* = \[2, 8\]"):
             CMAModelSearch(10, np.random.default_rng(0), global_share=share)
     with pytest.raises(ValueError, match="cma_global_share must be 0 or in"):
-        EEAConfig(cma_global_share=24, estimation_search="cma")
+        EEAConfig.from_flat({"cma_global_share": 24, "estimation_search": "cma"})
     with pytest.raises(ValueError, match="needs estimation_search='cma'"):
-        EEAConfig(cma_global_share=8)
-    assert CMAModelSearch.from_config(EEAConfig(cma_global_share=8, estimation_search="cma"),
-                                      np.random.default_rng(0)).global_share == 8
+        EEAConfig.from_flat({"cma_global_share": 8})
+    config = EEAConfig.from_flat({"cma_global_share": 8, "estimation_search": "cma"})
+    assert CMAModelSearch.from_settings(config.estimation, config.ga, config.model_space,
+                                        np.random.default_rng(0)).global_share == 8
 
 
 def test_carried_shape_keeps_the_axes_scales_the_longest_to_one_and_floors_the_rest():
@@ -254,9 +258,9 @@ def test_a_restart_with_carry_condition_samples_along_the_learned_ridge():
     with pytest.raises(ValueError, match="carry_condition"):
         CMAModelSearch(10, np.random.default_rng(0), carry_condition=0.5)
     with pytest.raises(ValueError, match="cma_carry_condition"):
-        EEAConfig(cma_carry_condition=float("nan"), estimation_search="cma")
+        EEAConfig.from_flat({"cma_carry_condition": float("nan"), "estimation_search": "cma"})
     with pytest.raises(ValueError, match="needs estimation_search='cma'"):
-        EEAConfig(cma_carry_condition=100)
+        EEAConfig.from_flat({"cma_carry_condition": 100})
 
 
 def test_flip_gains_injects_the_best_model_with_each_pectoral_gain_mirrored_at_a_restart():
@@ -280,4 +284,4 @@ def test_flip_gains_injects_the_best_model_with_each_pectoral_gain_mirrored_at_a
     with pytest.raises(ValueError, match="flip_gains needs the morphology\\+servos model space"):
         CMAModelSearch(10, np.random.default_rng(3), flip_gains=1)
     with pytest.raises(ValueError, match="cma_flip_gains = 1 needs model_space='morphology\\+servos'"):
-        EEAConfig(estimation_search="cma", cma_flip_gains=1)
+        EEAConfig.from_flat({"estimation_search": "cma", "cma_flip_gains": 1})

@@ -14,7 +14,8 @@ from eea.record import ROUND_COLUMNS, write_config, write_rounds
 def _fake_run(path, seed, objective, simulations_per_round=10, rounds=None, inference="profile", left_rad=0.0):
     """A run directory with the given OBJ_FIT per round (true left angle 0, inferred ``left_rad``)."""
     path.mkdir(parents=True)
-    write_config(path, EEAConfig(inference=inference, seed=seed, rounds=rounds or len(objective), workers=1))
+    write_config(path, EEAConfig.from_flat({"inference": inference, "seed": seed, "rounds": rounds or len(objective),
+                                            "workers": 1}))
     write_rounds(path, [{c: 0.0 for c in ROUND_COLUMNS} | {
         "round": i + 1, "objective_fitness": v, "target_experiments": i + 1, "inferred_left_rad": left_rad,
         "simulations": simulations_per_round * (i + 1)} for i, v in enumerate(objective)])

@@ -33,7 +33,7 @@ def test_truth_reproduces_the_target_exactly_under_true_angles(tmp_path, tiny_co
     genomes, _ = ev.scored_models()
     objective = objective_fitness(decode_models(genomes), result.target_morphology.to_array())
     final = result.rounds[-1]["objective_fitness"]
-    assert d.seen == len(genomes) >= tiny_config().estimation_population
+    assert d.seen == len(genomes) >= tiny_config().estimation.population
     assert d.closest_seen == objective.max() >= final
     assert d.better_seen == (objective > final + 1e-12).sum()
     assert d.found == (final == 1.0) and (d.verdict == "found") == d.found

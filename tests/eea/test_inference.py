@@ -14,7 +14,8 @@ TWO_PI = 2 * np.pi
 
 @pytest.fixture(params=INFERENCE_NAMES)
 def strategy(request, tiny_config):
-    return make_inference(request.param, tiny_config(inference=request.param))
+    config = tiny_config(inference=request.param)
+    return make_inference(config.inference, config.ga)
 
 
 def test_contract_every_strategy(strategy, make_experiment):
@@ -141,8 +142,8 @@ def test_out_of_band_newest_never_touches_older_experiments(make_experiment):
 
 def _estimate(config, experiments, spy, generations=2):
     rng = np.random.default_rng(0)
-    strategy = make_inference(config.inference, config)
-    estimation = Estimation.from_config(config, rng)
+    strategy = make_inference(config.inference, config.ga)
+    estimation = Estimation.from_settings(config.estimation, config.ga, config.model_space, rng)
     with Evaluator(16) as ev:
         return estimation.run(experiments, strategy, ev, rng, generations).experiments
 

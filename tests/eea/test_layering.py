@@ -30,8 +30,9 @@ The rules:
 6. No relative imports (rules 1-5 only see absolute ones), and every module is placed in a
    layer, so a new module (or a shim left at an old path) must be placed here first.
 7. A module that defines a section of :class:`eea.config.EEAConfig` (its component's frozen
-   settings, ``eea.config.SECTIONS``) never imports :mod:`eea.config`, directly or through
-   another module: the config imports the sections.
+   settings: ``eea.config.SECTIONS`` and the variants of ``eea.config.VARIANT_SLOTS``) never
+   imports :mod:`eea.config` when it is imported, directly or through another module: the
+   config imports the sections.
 """
 
 import ast
@@ -41,7 +42,7 @@ ROOT = Path(__file__).parents[2]
 EEA = ROOT / "eea"
 #: The paper's core (and its configuration, and :mod:`eea.compat`, which lets the configs and
 #: checkpoints of earlier versions load and imports nothing of eea), at the top of eea/.
-CORE = {"arc", "behaviour", "compat", "config", "diversity", "settings", "encoding", "estimation", "evaluation", "experiment", "exploration",
+CORE = {"arc", "behaviour", "compat", "config", "diversity", "encoding", "estimation", "evaluation", "experiment", "exploration",
         "fitness", "ga", "methods", "round", "target"}
 #: The run and its I/O, at the top of eea/.
 RUN_IO = {"__init__", "checkpoint", "cli", "record", "replay", "run"}
@@ -185,19 +186,24 @@ def test_the_layer_sets_resolve():
         assert module in ALGORITHM and _path(name.split(".", 1)[1]).exists(), (module, name)
 
 
-#: The modules that define a section of :class:`eea.config.EEAConfig` (``eea.config.SECTIONS``):
-#: the config imports them, so they must not import it back.
-SECTION_MODULES = {"ga", "exploration", "search.cma", "inference.paper", "inference.profile"}
+#: The modules that define a section of :class:`eea.config.EEAConfig` (``eea.config.SECTIONS``
+#: and the variants of ``eea.config.VARIANT_SLOTS``): the config imports them, so they must not
+#: import it back.
+SECTION_MODULES = {"ga", "exploration", "estimation", "evaluation", "search.model_ga", "search.cma",
+                   "inference.paper", "inference.profile"}
 
 
 def _closure(module: str) -> set[str]:
-    """Every algorithm module ``module`` imports, directly or through others (a module inside a
+    """Every algorithm module ``module`` imports when it is imported (top-level imports; a
+    function's own import runs when it is called), directly or through others (a module inside a
     subpackage also runs its package's face; ``eea`` itself, which imports everything, is left
     out: importing any eea module runs it, but it is not a dependency of the module's code)."""
     seen, todo = set(), [module] + ([module.split(".")[0]] if "." in module else [])
     while todo:
         current = todo.pop()
-        for name, _ in _imports(_path(current)):
+        for name, top_level in _imports(_path(current)):
+            if not top_level:
+                continue
             target = _eea_name(name)
             found = [target] + ([target.split(".")[0]] if "." in target else [])
             for t in found:
@@ -210,9 +216,10 @@ def _closure(module: str) -> set[str]:
 def test_the_config_sections_do_not_import_the_config():
     """Each component's settings section lives next to its code and
     validates itself; :mod:`eea.config` imports the sections, never the other way round."""
-    from eea.config import SECTIONS
+    from eea.config import SECTIONS, VARIANT_SLOTS
 
-    assert {section.__module__.removeprefix("eea.") for section in SECTIONS.values()} == SECTION_MODULES
+    sections = [*SECTIONS.values(), *(cls for _, classes in VARIANT_SLOTS.values() for cls in classes.values())]
+    assert {section.__module__.removeprefix("eea.") for section in sections} == SECTION_MODULES
     offenders = {module: sorted(_closure(module) & {"config", "round", "run", "cli", "record"})
                  for module in sorted(SECTION_MODULES)}
     assert not any(offenders.values()), offenders
@@ -220,5 +227,6 @@ def test_the_config_sections_do_not_import_the_config():
 
 def test_the_compatibility_module_imports_nothing_of_eea():
     """:mod:`eea.compat` is imported by the config, the checkpoint, the estimation and the CMA
-    search: it imports nothing of eea, so it closes no import cycle."""
-    assert not list(_imports(_path("compat")))
+    search: it imports nothing of eea when it is imported, so it closes no import cycle; only
+    its upgrade of a flat config imports :mod:`eea.config` (for the mapping table), when called."""
+    assert list(_imports(_path("compat"))) == [("eea.config", False)]

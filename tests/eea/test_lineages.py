@@ -152,12 +152,13 @@ def test_a_lineage_run_resumes_exactly_and_records_each_lineage(tiny_config, tmp
 
 def test_one_lineage_is_the_plain_estimation_and_bad_lineages_raise(tiny_config):
     rng = np.random.default_rng(0)
-    assert type(make_estimation(tiny_config(), rng)) is Estimation
-    assert isinstance(make_estimation(tiny_config(lineages=3), rng), Lineages)
+    one, three = tiny_config(), tiny_config(lineages=3)
+    assert type(make_estimation(one.estimation, one.ga, one.model_space, rng)) is Estimation
+    assert isinstance(make_estimation(three.estimation, three.ga, three.model_space, rng), Lineages)
     with pytest.raises(ValueError, match="EEAConfig.lineages"):
         tiny_config(lineages=0)
     with pytest.raises(ValueError, match="at least 2 estimations, got 1"):
-        Lineages([Estimation.from_config(tiny_config(), rng)])
+        Lineages([Estimation.from_settings(one.estimation, one.ga, one.model_space, rng)])
     with pytest.raises(ValueError, match="at least 2 strategies, got 1"):
         LineageStrategies([Profile()])
     with pytest.raises(ValueError, match="share one name"):

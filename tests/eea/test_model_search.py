@@ -1,6 +1,7 @@
 """eea.search: every registered search honours the same ask/tell contract."""
 
 import pickle
+import types
 
 import numpy as np
 import pytest
@@ -14,13 +15,15 @@ from eea.search import (MODEL_SEARCHES, SEARCH_NAMES, ModelGA, check_model_searc
 
 @pytest.fixture(params=SEARCH_NAMES)
 def search(request, tiny_config):
-    return make_model_search(request.param, tiny_config(estimation_search=request.param), np.random.default_rng(0))
+    config = tiny_config(estimation_search=request.param)
+    return make_model_search(config.estimation, config.ga, config.model_space, np.random.default_rng(0))
 
 
 def test_registry_names_and_unknown_name(tiny_config):
     assert SEARCH_NAMES == ("ga", "cma") and all(cls.name == name for name, cls in MODEL_SEARCHES.items())
     with pytest.raises(ValueError, match="valid names: ga, cma"):
-        make_model_search("annealing", tiny_config(), np.random.default_rng(0))
+        make_model_search(types.SimpleNamespace(search="annealing"), tiny_config().ga, "morphology",
+                          np.random.default_rng(0))
     with pytest.raises(ValueError, match="valid names: ga, cma"):
         model_search_from_state({"search": "annealing"}, np.random.default_rng(0))
 

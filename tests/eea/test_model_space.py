@@ -205,7 +205,7 @@ def test_cma_cube_maps_gain_coordinates_to_codes():
 def test_searches_of_the_servo_space_resume_from_their_state(search, tiny_config):
     config = tiny_config(model_space="morphology+servos", estimation_search=search)
     from eea.search import make_model_search
-    s = make_model_search(search, config, np.random.default_rng(4))
+    s = make_model_search(config.estimation, config.ga, config.model_space, np.random.default_rng(4))
     assert s.n_bits == 57
     s.tell(s.ask().sum(axis=1).astype(float))
     restored = model_search_from_state(s.state_dict(), np.random.default_rng(5))
@@ -278,8 +278,8 @@ def test_the_lineages_method_runs_in_the_servo_space(tmp_path, tiny_config):
 def test_model_space_config_round_trip_and_old_configs(tmp_path):
     config = EEAConfig(model_space="morphology+servos", damage="reversed_left_pectoral")
     assert EEAConfig.from_dict(json.loads(json.dumps(config.to_dict()))) == config
-    old = EEAConfig().to_dict()
-    del old["model_space"]                                # a config.json written before the field
+    old = EEAConfig().to_flat()
+    del old["model_space"]                                # a (flat) config.json written before the field
     assert EEAConfig.from_dict(old).model_space == "morphology" == EEAConfig().model_space
     assert not config.same_results_as(config.replace(model_space="morphology"))
     with pytest.raises(ValueError, match="unknown model_space 'servos'; valid names: morphology, morphology\\+servos"):
@@ -290,7 +290,7 @@ def test_the_model_space_flag():
     parser = argparse.ArgumentParser()
     names = add_config_flags(parser)
     args = parser.parse_args(["--model-space", "morphology+servos", "--damage", "reversed_left_pectoral"])
-    assert EEAConfig(**config_fields(args, names)).model_space == "morphology+servos"
+    assert EEAConfig.from_flat(config_fields(args, names)).model_space == "morphology+servos"
     assert "model_space" not in config_fields(parser.parse_args([]), config_flag_names())
     with pytest.raises(SystemExit):
         parser.parse_args(["--model-space", "servos"])

@@ -26,7 +26,7 @@ class TableEvaluator:
 
 def test_estimation_fitness_is_mean_similarity_over_experiments(tiny_config, make_experiment):
     config = tiny_config(inference="known")
-    est = Estimation.from_config(config, np.random.default_rng(0))
+    est = Estimation.from_settings(config.estimation, config.ga, config.model_space, np.random.default_rng(0))
     first = est.search.population
     seen = []
     ev = TableEvaluator()
@@ -40,7 +40,8 @@ def test_estimation_fitness_is_mean_similarity_over_experiments(tiny_config, mak
 
 
 def test_estimation_population_carries_over_between_rounds(tiny_config, make_experiment):
-    est = Estimation.from_config(tiny_config(), np.random.default_rng(0))
+    config = tiny_config()
+    est = Estimation.from_settings(config.estimation, config.ga, config.model_space, np.random.default_rng(0))
     exps = [make_experiment(0)]
     est.run(exps, make_inference("known"), TableEvaluator(), np.random.default_rng(1), 3)
     carried = est.search.population
@@ -57,7 +58,8 @@ def test_estimation_population_carries_over_between_rounds(tiny_config, make_exp
 def test_estimation_state_round_trip_continues_identically(tiny_config, make_experiment):
     exps = [make_experiment(0)]
     rng = np.random.default_rng(0)
-    a = Estimation.from_config(tiny_config(), rng)
+    config = tiny_config()
+    a = Estimation.from_settings(config.estimation, config.ga, config.model_space, rng)
     a.run(exps, make_inference("known"), TableEvaluator(), rng, 2)
     state, rng_state = a.state_dict(), rng.bit_generator.state
     a.run(exps, make_inference("known"), TableEvaluator(), rng, 2)
@@ -114,7 +116,8 @@ def test_diverse_ranked_keeps_the_fittest_far_enough_apart():
 def test_diverse_exploration_models_come_from_the_whole_round_and_survive_a_checkpoint(tiny_config, make_experiment):
     from eea.diversity import model_distance
 
-    est = Estimation.from_config(tiny_config(estimation_population=8), np.random.default_rng(0))
+    config = tiny_config(estimation_population=8)
+    est = Estimation.from_settings(config.estimation, config.ga, config.model_space, np.random.default_rng(0))
     seen = []
     ev = TableEvaluator()
     ev.similarities = (lambda f: lambda g, e, a: (seen.append(g.copy()), f(g, e, a))[1])(ev.similarities)
@@ -131,7 +134,7 @@ def test_diverse_exploration_models_come_from_the_whole_round_and_survive_a_chec
 
 
 def test_exploration_diversity_must_be_a_distance(tiny_config):
-    assert tiny_config(exploration_diversity=0.05).exploration_diversity == 0.05
+    assert tiny_config(exploration_diversity=0.05).exploration.diversity == 0.05
     for bad in (-0.01, 1.0, True, float("nan")):
         with pytest.raises(ValueError, match="exploration_diversity"):
             tiny_config(exploration_diversity=bad)

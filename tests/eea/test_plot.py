@@ -11,8 +11,8 @@ from eea.record import ROUND_COLUMNS, load_result, write_config, write_rounds
 def _fake_run(path, inference, seed, objective, duration_s=1.28, angles=None):
     """A run directory with the given OBJ_FIT per round; ``angles``: per round ((true 3), (inferred 3)) rad."""
     path.mkdir(parents=True)
-    write_config(path, EEAConfig(inference=inference, seed=seed, rounds=len(objective), duration_s=duration_s,
-                                 workers=1))
+    write_config(path, EEAConfig.from_flat(dict(inference=inference, seed=seed, rounds=len(objective),
+                                                 duration_s=duration_s, workers=1)))
     rows = [{c: 0.0 for c in ROUND_COLUMNS} | {"round": i + 1, "objective_fitness": v, "target_experiments": i + 1,
                                                "simulations": 10} for i, v in enumerate(objective)]
     for row, (true, inferred) in zip(rows, angles or []):

@@ -20,8 +20,8 @@ def test_run_round_returns_a_frozen_record_and_leaves_its_inputs_alone(tiny_conf
         parts = RoundParts.from_config(config, rng, evaluator)
         first = run_round(1, (), parts, rng, lambda name, gens: phases.append((name, gens)))
         second = run_round(2, first.experiments, parts, rng)
-    assert phases == [("exploration", config.exploration_generations), ("target", None),
-                      ("estimation", config.estimation_generations)]
+    assert phases == [("exploration", config.exploration.generations), ("target", None),
+                      ("estimation", config.estimation.generations)]
     assert [e.index for e in second.experiments] == [0, 1] and second.experiment is second.experiments[-1]
     assert second.experiments[0].imu_log is first.experiment.imu_log             # the round-1 experiment, passed on
     assert first.experiment.context.confidence == 1.0                            # in_band locks at the round's end

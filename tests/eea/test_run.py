@@ -113,11 +113,17 @@ def test_cli_runs_with_every_field_as_a_flag(tmp_path, capsys):
     args = ["eea", "--inference", "none", "--damage", "caudal_half", "--duration", "0.16", "--rounds", "1",
             "--seed", "4", "--out", str(out), "--no-progress", "--exploration-population", "3",
             "--exploration-generations", "1", "--exploration-models", "2", "--estimation-population", "4",
-            "--estimation-generations", "2", "--k-best", "2", "--oob-sample", "2", "--workers", "1"]
+            "--estimation-generations", "2", "--oob-sample", "5", "--workers", "1"]  # --oob-sample at its default
     assert main(args) == 0
-    saved = json.loads((out / "config.json").read_text())
-    assert (saved["inference"], saved["damage"], saved["duration_s"], saved["seed"]) == ("none", "caudal_half", 0.16, 4)
-    assert saved["estimation_population"] == 4 and "1 rounds" in capsys.readouterr().out
+    saved = json.loads((out / "config.json").read_text())                      # nested
+    assert (saved["inference"], saved["damage"], saved["duration_s"], saved["seed"]) == ({"name": "none"}, "caudal_half",
+                                                                                         0.16, 4)
+    assert saved["estimation"]["population"] == 4 and "1 rounds" in capsys.readouterr().out
+    # a flag of a strategy the run does not use, at another value: one line naming it, nothing run
+    with pytest.raises(SystemExit) as exit:
+        main([*args, "--k-best", "2", "--out", str(tmp_path / "k")])
+    assert exit.value.code == 2 and "EEAConfig.k_best needs inference='in_band', got 'none'" in capsys.readouterr().err
+    assert not (tmp_path / "k").exists()
 
 
 def test_module_help_works():

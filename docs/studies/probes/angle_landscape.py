@@ -57,7 +57,7 @@ def main(argv=None) -> None:
     angles = np.repeat(experiment.true_angles[None, None], n * n, axis=0)       # (n*n, 1, 3)
     angles[:, 0, 0] = np.mod(angles[:, 0, 0] + left.ravel(), 2 * np.pi)
     angles[:, 0, 1] = np.mod(angles[:, 0, 1] + right.ravel(), 2 * np.pi)
-    with Evaluator(result.config.steps, workers=1, max_batch_robots=result.config.max_batch_robots,
+    with Evaluator(result.config.steps, workers=1, max_batch_robots=result.config.runtime.max_batch_robots,
                    params=result.config.sim_params, summary=result.config.behaviour_summary) as evaluator:
         sims = evaluator.similarities(np.repeat(encode_models(morphology[None]), n * n, axis=0), [experiment],
                                       angles)[:, 0].reshape(n, n)

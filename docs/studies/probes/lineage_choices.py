@@ -30,7 +30,7 @@ def main(argv=None) -> None:
     finals, chosen = [], []
     print(f"{'run':<55} {'each lineage':<20} chosen  best?")
     for run in find_runs(args.dirs):  # raises if it finds no run
-        if run.config.lineages < 2 or not run.finished:
+        if run.config.estimation.lineages < 2 or not run.finished:
             continue
         objective, picks = lineage_objective_fitness(run.out_dir)
         final, pick = objective[-1], int(picks[-1])
