@@ -171,12 +171,16 @@ def test_a_config_written_before_the_retirement_loads_unless_it_used_a_retired_v
         EEAConfig.from_dict({**servos, "cma_flip_gains": 1, "cma_global_flip": 1})  # the global flip
 
 
-def test_every_published_config_loads_or_names_its_retired_variant():
+#: One published config.json of each kind the loader must read (tests/data/published_configs/README.md).
+PUBLISHED_CONFIGS = Path(__file__).parents[1] / "data/published_configs"
+
+
+def test_every_kind_of_published_config_loads_or_names_its_retired_variant():
     from eea.compat import RETIRED_FIELDS, RETIRED_VALUES
 
-    results = Path(__file__).parents[2] / "docs/results"
     loaded = refused = 0
-    for path in sorted(results.glob("**/config.json")):
+    methods = set()
+    for path in sorted(PUBLISHED_CONFIGS.glob("*.json")):
         data = json.loads(path.read_text())
         retired = [k for k in RETIRED_FIELDS if k in data and data[k] != RETIRED_FIELDS[k]]
         retired += [k for k in RETIRED_VALUES if data.get(k) in RETIRED_VALUES[k]]
@@ -188,8 +192,10 @@ def test_every_published_config_loads_or_names_its_retired_variant():
             config = EEAConfig.from_dict(data)     # flat: through eea.compat
             assert EEAConfig.from_dict(config.to_dict()) == config
             assert method_of(config) == _flat_method_of(data), path   # named as the flat fields name it
+            assert path.name.startswith(method_of(config) + "_"), path  # the kind the file is named after
+            methods.add(method_of(config))
             loaded += 1
-    assert loaded > 100 and refused > 0
+    assert (loaded, refused) == (11, 8) and methods == {"custom", *METHODS}
 
 
 def _flat_method_of(data: dict) -> str:
@@ -205,11 +211,10 @@ def _flat_method_of(data: dict) -> str:
 def test_a_flat_published_config_and_its_nested_upgrade_are_the_same_run():
     from eea.compat import upgrade_flat_config
 
-    results = Path(__file__).parents[2] / "docs/results"
     methods = set()
-    for path in ("lph_lin2/profile/1.28s/seed0", "surface_paper4_lph/in_band/1.28s/seed0",
-                 "surface_paper4_lph/known/1.28s/seed0", "oob_lph_0_9/out_of_band/1.28s/seed0"):
-        flat = json.loads((results / path / "config.json").read_text())
+    for name in ("profile_lineages_deep_morphology_dft", "in_band_surface_morphology_dft",
+                 "known_surface_morphology_dft", "out_of_band_deep_morphology_dft"):
+        flat = json.loads((PUBLISHED_CONFIGS / f"{name}.json").read_text())
         config, nested = EEAConfig.from_dict(flat), upgrade_flat_config(flat)
         assert EEAConfig.from_dict(nested) == config and config.to_dict()["inference"]["name"] == flat["inference"]
         assert all(flat[k] == v for k, v in config.to_flat().items() if k in flat)   # every used field kept
