@@ -2,14 +2,14 @@
 
 Every allowance for an older run's files is here, and nowhere else in the packages:
 
-* :func:`upgrade_flat_config`: a ``config.json`` (or a ``study.json`` ``base``, or a
+* :func:`upgrade_flat_fields`: a ``config.json`` (or a ``study.json`` ``base``, or a
   checkpoint's config) written before :class:`eea.config.EEAConfig` nested its sections holds
-  every setting flat, by the names of the command-line flags; it becomes the nested dict
-  :meth:`eea.config.EEAConfig.from_dict` reads (through the one mapping table,
-  :data:`eea.config.FLAT_FIELDS`).
+  every setting flat, by the names of the command-line flags, some of them as older versions
+  wrote them; it becomes today's flat fields, which :meth:`eea.config.EEAConfig.from_dict`
+  nests through the one mapping table (:data:`eea.config.FLAT_FIELDS`).
 * :data:`RETIRED_FIELDS`, :data:`RETIRED_VALUES` and :func:`strip_retired`: a ``config.json``
   written before a variant was retired holds the variant's switch.
-  :func:`upgrade_flat_config` drops such a field when it has its default (the run
+  :func:`upgrade_flat_fields` drops such a field when it has its default (the run
   did not use the variant) and refuses the file otherwise (the run did: rerun it at the commit
   docs/studies/retired_variants.md names, which also records what each variant was and why it
   was retired).
@@ -20,9 +20,7 @@ Every allowance for an older run's files is here, and nowhere else in the packag
 * :func:`upgrade_cma_search` and :func:`upgrade_estimation_state`: the attributes and keys that
   older checkpoints lack or still hold, set to what the run they describe did.
 
-This module imports nothing of :mod:`eea` when it is imported, so any module may use it without
-an import cycle; :func:`upgrade_flat_config` alone imports :mod:`eea.config` when it is called
-(for the mapping table; :mod:`eea.config` imports this module).
+This module imports nothing of :mod:`eea`, so any module may use it without an import cycle.
 """
 
 from __future__ import annotations
@@ -31,7 +29,7 @@ import io
 import pickle
 
 __all__ = ["MODULE_RENAMES", "RETIRED_FIELDS", "RETIRED_VALUES", "RenamingUnpickler", "loads", "strip_retired",
-           "upgrade_cma_search", "upgrade_estimation_state", "upgrade_flat_config", "upgrade_flat_fields"]
+           "upgrade_cma_search", "upgrade_estimation_state", "upgrade_flat_fields"]
 
 #: Fields of retired variants (docs/studies/retired_variants.md) and the default
 #: each had: a ``config.json`` written before holds them, and loads (:func:`strip_retired`)
@@ -71,38 +69,10 @@ def strip_retired(data: dict) -> dict:
     return {k: v for k, v in data.items() if k not in RETIRED_FIELDS}
 
 
-def upgrade_flat_config(data: dict) -> dict:
-    """A flat config dict, as every ``config.json`` before the sections held it (and a
-    ``study.json`` ``base``, a checkpoint's ``config``), as today's nested dict.
-
-    * no ``waterline``: written before the surface swimmer became the default physics, a
-      deep-water run: ``waterline=None``;
-    * no ``model_space``: written before servo gains could be modelled: the default,
-      ``"morphology"`` (as every other field left out: its default);
-    * a field of :data:`RETIRED_FIELDS` at its default is dropped (:func:`strip_retired`);
-    * the fields of the strategy and search the run did not use (every flat file holds all of
-      them, a budget's values among them) are dropped whatever their values: they had no
-      effect on the run (:func:`eea.config.nest_flat`).
-
-    Args:
-        data: ``{flat name: value}`` (:data:`eea.config.FLAT_FIELDS`).
-
-    Returns:
-        The nested dict of :meth:`eea.config.EEAConfig.to_dict`'s form (sections left out get
-        their defaults when it is loaded).
-
-    Raises:
-        ValueError: an unknown key, or as :func:`strip_retired` (a retired variant).
-    """
-    from eea.config import nest_flat  # here: eea.config imports this module
-
-    return nest_flat(upgrade_flat_fields(data))
-
-
 def upgrade_flat_fields(data: dict) -> dict:
     """Flat fields written by an earlier version as today's flat fields: a ``waterline`` absent
     is deep water (None), and the fields of :data:`RETIRED_FIELDS` at their defaults are dropped
-    (:func:`strip_retired`). What :func:`upgrade_flat_config` nests, and what a ``study.json``
+    (:func:`strip_retired`). What :meth:`eea.config.EEAConfig.from_dict` nests, and what a ``study.json``
     ``base`` (flat: the study's flags) is compared by.
 
     Args:

@@ -42,18 +42,18 @@ from aquafish_gym import DT_S, SimParams, get_damage
 from aquafish_gym.params import DEFAULT_WATERLINE
 from aquafish_gym.checks import check_int
 from eea.behaviour import SUMMARIES
-from eea.compat import upgrade_flat_config
+from eea.compat import upgrade_flat_fields
 from eea.encoding import ACTION_BITS, MODEL_SPACES
 from eea.estimation import EstimationSettings
 from eea.evaluation import RuntimeSettings
 from eea.exploration import ExplorationSettings
 from eea.ga import GASettings
 from eea.inference import INFERENCE_NAMES, INFERENCE_SETTINGS, InferenceSettings, OutOfBandSettings
-from eea.methods import budget_fields, method_fields
+from eea.methods import METHODS, budget_fields, method_fields
 from eea.search import SEARCH_NAMES, SEARCH_SETTINGS
 
 __all__ = ["ESTIMATION_SEARCHES", "FIELD_HELP", "FLAT_DEFAULTS", "FLAT_FIELDS", "MODEL_SPACE_NAMES",
-           "RESULT_NEUTRAL_FIELDS", "SECTIONS", "VARIANT_SLOTS", "EEAConfig", "nest_flat"]
+           "RESULT_NEUTRAL_FIELDS", "SECTIONS", "VARIANT_SLOTS", "EEAConfig", "method_of", "nest_flat"]
 
 #: Names of the estimation searches (:data:`eea.search.MODEL_SEARCHES`): the paper's
 #: GA and CMA-ES (:mod:`eea.search.cma`).
@@ -432,23 +432,24 @@ class EEAConfig:
         gets its default.
 
         A dict without any section (no value is a dict) is a flat ``config.json`` written before
-        the sections, or a flat ``base`` of a ``study.json``: it loads through
-        :func:`eea.compat.upgrade_flat_config` (a ``waterline`` absent is deep water, a
-        ``model_space`` absent the paper's, retired fields at their defaults are dropped, and so
-        are the fields of the strategy and search the run did not use, whatever their values).
+        the sections, or a flat ``base`` of a ``study.json``: it is brought up to date by
+        :func:`eea.compat.upgrade_flat_fields` (a ``waterline`` absent is deep water, retired
+        fields at their defaults are dropped) and nested by :func:`nest_flat` (a ``model_space``
+        absent is the paper's, as any field left out; the fields of the strategy and search the
+        run did not use are dropped, whatever their values).
 
         Args:
             data: the nested dict (or a flat one, above).
 
         Raises:
             ValueError: on an unknown key (typos fail fast; the message lists the valid keys),
-                an invalid value, or a flat dict :func:`eea.compat.upgrade_flat_config` refuses
+                an invalid value, or a flat dict :func:`eea.compat.upgrade_flat_fields` refuses
                 (a retired variant).
         """
         if not isinstance(data, Mapping):
             raise ValueError(f"an EEAConfig dict must be a dict, got {type(data).__name__}")
         if not any(isinstance(value, Mapping) for value in data.values()):
-            data = upgrade_flat_config(data)  # written before the sections
+            data = nest_flat(upgrade_flat_fields(data))  # written before the sections
         valid = (*_RUN_FIELDS, *SECTIONS, "inference")
         unknown = sorted(set(data) - set(valid))
         if unknown:
@@ -547,3 +548,23 @@ def _flat_defaults() -> dict[str, object]:
 #: Every flat name's default value (a variant's field: its settings class's default; ``workers``:
 #: the machine's CPU count).
 FLAT_DEFAULTS: dict[str, object] = _flat_defaults()
+
+
+def method_of(config: EEAConfig) -> str:
+    """The name of the method (:data:`eea.methods.METHODS`) ``config`` runs, or ``"custom"``
+    when it matches none.
+
+    A config runs method M when every field M sets has M's value and every other field any
+    method sets has its default or is not in the config (a field of a strategy or search it
+    does not run). So a published ``config.json`` names its method, flat or nested.
+
+    Args:
+        config: the run's settings.
+    """
+    flat = config.to_flat()
+    method_keys = {key for m in METHODS.values() for key in m.fields}
+    for name, m in METHODS.items():
+        if all(flat[key] == m.fields.get(key, FLAT_DEFAULTS[key]) if key in flat else key not in m.fields
+               for key in method_keys):
+            return name
+    return "custom"

@@ -6,7 +6,7 @@ A **budget** is how much search each round gets (rounds, populations, generation
 are independent: any method runs at any budget::
 
     config = EEAConfig.from_method("profile_lineages", budget="reduced", damage="caudal_half")
-    method_of(config)      # "profile_lineages"
+    eea.config.method_of(config)      # "profile_lineages"
 
 ``aquafish eea --method M --budget B``, ``aquafish study --methods M1,M2 --budget B`` and
 ``aquafish case-study --method M`` take the same names. :attr:`Method.simulations_per_round`
@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 
-__all__ = ["BEST_METHOD", "BUDGETS", "METHODS", "PAPER_METHODS", "Method", "budget_fields", "method_fields", "method_of"]
+__all__ = ["BEST_METHOD", "BUDGETS", "METHODS", "PAPER_METHODS", "Method", "budget_fields", "method_fields"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -108,24 +108,3 @@ def budget_fields(name: str) -> dict:
     if name not in BUDGETS:
         raise ValueError(f"unknown budget {name!r}; valid names: {', '.join(BUDGETS)}")
     return dict(BUDGETS[name])
-
-
-def method_of(config) -> str:
-    """The name of the method ``config`` runs, or ``"custom"`` when it matches none.
-
-    A config runs method M when every field M sets has M's value and every other field any
-    method sets has its default or is not in the config (a field of a strategy or search it
-    does not run). So a published ``config.json`` names its method, flat or nested.
-
-    Args:
-        config: an :class:`eea.config.EEAConfig`.
-    """
-    from eea.config import FLAT_DEFAULTS  # here: eea.config imports this module
-
-    flat = config.to_flat()
-    method_keys = {key for m in METHODS.values() for key in m.fields}
-    for name, m in METHODS.items():
-        if all(flat[key] == m.fields.get(key, FLAT_DEFAULTS[key]) if key in flat else key not in m.fields
-               for key in method_keys):
-            return name
-    return "custom"

@@ -7,9 +7,10 @@ from pathlib import Path
 
 import pytest
 
-from eea.config import FIELD_HELP, FLAT_DEFAULTS, FLAT_FIELDS, EEAConfig
+from eea.compat import upgrade_flat_fields
+from eea.config import FIELD_HELP, FLAT_DEFAULTS, FLAT_FIELDS, EEAConfig, method_of, nest_flat
 from eea.inference import InBandSettings, KnownSettings, OutOfBandSettings
-from eea.methods import BUDGETS, METHODS, method_of
+from eea.methods import BUDGETS, METHODS
 from eea.search import GASearchSettings
 
 F = EEAConfig.from_flat
@@ -209,13 +210,11 @@ def _flat_method_of(data: dict) -> str:
 
 
 def test_a_flat_published_config_and_its_nested_upgrade_are_the_same_run():
-    from eea.compat import upgrade_flat_config
-
     methods = set()
     for name in ("profile_lineages_deep_morphology_dft", "in_band_surface_morphology_dft",
                  "known_surface_morphology_dft", "out_of_band_deep_morphology_dft"):
         flat = json.loads((PUBLISHED_CONFIGS / f"{name}.json").read_text())
-        config, nested = EEAConfig.from_dict(flat), upgrade_flat_config(flat)
+        config, nested = EEAConfig.from_dict(flat), nest_flat(upgrade_flat_fields(flat))
         assert EEAConfig.from_dict(nested) == config and config.to_dict()["inference"]["name"] == flat["inference"]
         assert all(flat[k] == v for k, v in config.to_flat().items() if k in flat)   # every used field kept
         methods.add(method_of(config))

@@ -31,8 +31,8 @@ The rules:
    layer, so a new module (or a shim left at an old path) must be placed here first.
 7. A module that defines a section of :class:`eea.config.EEAConfig` (its component's frozen
    settings: ``eea.config.SECTIONS`` and the variants of ``eea.config.VARIANT_SLOTS``) never
-   imports :mod:`eea.config` when it is imported, directly or through another module: the
-   config imports the sections.
+   imports :mod:`eea.config`, directly or through another module, not even inside a function:
+   the config imports the sections.
 """
 
 import ast
@@ -194,16 +194,14 @@ SECTION_MODULES = {"ga", "exploration", "estimation", "evaluation", "search.mode
 
 
 def _closure(module: str) -> set[str]:
-    """Every algorithm module ``module`` imports when it is imported (top-level imports; a
-    function's own import runs when it is called), directly or through others (a module inside a
+    """Every algorithm module ``module`` imports, at its top or inside a function, directly or
+    through others (a module inside a
     subpackage also runs its package's face; ``eea`` itself, which imports everything, is left
     out: importing any eea module runs it, but it is not a dependency of the module's code)."""
     seen, todo = set(), [module] + ([module.split(".")[0]] if "." in module else [])
     while todo:
         current = todo.pop()
-        for name, top_level in _imports(_path(current)):
-            if not top_level:
-                continue
+        for name, _ in _imports(_path(current)):
             target = _eea_name(name)
             found = [target] + ([target.split(".")[0]] if "." in target else [])
             for t in found:
@@ -227,6 +225,6 @@ def test_the_config_sections_do_not_import_the_config():
 
 def test_the_compatibility_module_imports_nothing_of_eea():
     """:mod:`eea.compat` is imported by the config, the checkpoint, the estimation and the CMA
-    search: it imports nothing of eea when it is imported, so it closes no import cycle; only
-    its upgrade of a flat config imports :mod:`eea.config` (for the mapping table), when called."""
-    assert list(_imports(_path("compat"))) == [("eea.config", False)]
+    search: it imports nothing of eea, not even inside a function, so it closes no import cycle
+    (the flat fields it brings up to date are nested by :mod:`eea.config`)."""
+    assert list(_imports(_path("compat"))) == []
