@@ -19,7 +19,7 @@ rebuilt from the reports of every finished cell of the manifest (:func:`summariz
 
 Cells run one at a time in this process (each case study's evaluation on every core), on a
 local process pool (``processes`` > 1; each case study's evaluation serial), both writing in
-place, or as Ray tasks (``backend="ray"``, :func:`aquafish.study.connect_ray`) that need no
+place, or as Ray tasks (``backend="ray"``, :func:`aquafish.backends.connect_ray`) that need no
 file system shared with the driver (:mod:`aquafish.shipping`): each task runs in a node-local
 temporary directory and sends its finished directory back with its value; the driver writes
 it into ``OUT`` (atomically, a directory at a time) and decides here, as on the local backend,
@@ -45,6 +45,7 @@ import json
 from pathlib import Path
 from typing import Iterable, Iterator
 
+from aquafish import backends
 from aquafish.shipping import DirTask
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
@@ -58,7 +59,6 @@ ROWS = ("healthy", "plain_eea", "out_of_band", "self_model", "robust", "robust_p
 MANIFEST_FILE = "recovery.json"
 #: The summary files, rebuilt at the end of every run.
 SUMMARY_JSON, SUMMARY_MD = "summary.json", "summary.md"
-BACKENDS = ("local", "ray")
 #: The mark of a share whose row recovers, in ``summary.md``.
 RECOVERS_MARK = "✓"
 
@@ -214,7 +214,7 @@ def _run_tasks(tasks: list, backend: str, processes: int, address: str | None) -
 
     Raises:
         ValueError: a task raised one (its own error, also from a Ray task).
-        ClusterError: as :func:`aquafish.study.connect_ray`.
+        ClusterError: as :func:`aquafish.backends.connect_ray`.
     """
     if backend == "local" and processes == 1:
         for task in tasks:
@@ -246,7 +246,7 @@ def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | Non
         processes: cells at once on the local backend (1: in this process).
         workers: evaluation processes of each case study when cells run one at a time (default:
             all cores); cells that run at once (``processes`` > 1, Ray) evaluate serially.
-        backend: ``"local"`` or ``"ray"`` (``address`` as for :func:`aquafish.study.connect_ray`).
+        backend: ``"local"`` or ``"ray"`` (``address`` as for :func:`aquafish.backends.connect_ray`).
         progress: show progress (over cells; each case study's own bars when cells run one at a time).
         all_rows: every row on every cell, not only on the cells whose damage breaks the healthy gait.
 
@@ -256,19 +256,17 @@ def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | Non
             process writing ``out_dir`` (:class:`~aquafish_gym.rundir.BusyError`); a manifest or a
             finished cell made with other settings (:class:`~aquafish_gym.rundir.MismatchError`,
             naming the fields); a cell's own error.
-        ClusterError: ``backend="ray"`` without Ray or without a reachable cluster.
+        aquafish.backends.ClusterError: ``backend="ray"`` without Ray or without a reachable cluster.
     """
     spec = check_spec(preset, damages, seeds, episode_duration_s)
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if backend not in backends.BACKENDS:
+        raise ValueError(f"backend must be one of {backends.BACKENDS}, got {backend!r}")
     check_int("processes", processes, 1)
     if workers is not None:
         check_int("workers", workers, 1)
     out = check_output_dir(out_dir)
     if backend == "ray":
-        from aquafish.study import connect_ray
-
-        connect_ray(address)
+        backends.connect_ray(address)
     with run_lock(out, command="recovery"):
         return _run_locked(spec, out, processes, workers, backend, address, progress, all_rows)
 

@@ -6,7 +6,7 @@ directories: ``outputs`` (the task writes them: a study's run directory, a recov
 such tasks
 
 * on the local backend as they are, writing in place (a process pool through
-  :func:`aquafish.study.run_tasks`, or one at a time in this process), exactly as before;
+  :func:`aquafish.backends.run_tasks`, or one at a time in this process), exactly as before;
 * on Ray (``backend="ray"``) in a node-local temporary directory (:func:`_in_scratch`): the
   files an argument's directory holds on the driver so far are sent with the task (so an
   interrupted run resumes from them), the task runs on the copies, and the finished output
@@ -22,7 +22,7 @@ the directory. Paths to the node's temporary directory that the task records in 
 driver's paths, so the driver's files read as a local run's.
 
 A task whose worker (or node) is lost is retried by Ray (``max_retries``,
-:data:`aquafish.study.MAX_RETRIES`), and the driver logs one line per retried task when it
+:data:`aquafish.backends.MAX_RETRIES`), and the driver logs one line per retried task when it
 finishes, and one per task lost on every try (which is then left unfinished: running the
 command again finishes it). An error the task raises itself (a corrupt file, say) is not
 retried: it ends the command with its one line, as on the local pool (naming the driver's
@@ -40,6 +40,7 @@ import tempfile
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
+from aquafish import backends
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import LOCK_FILE, FileError
 
@@ -287,10 +288,10 @@ def run_dir_tasks(tasks: list[DirTask], *, backend: str = "local", processes: in
     Args:
         tasks: the tasks.
         backend: ``"local"`` (in place: a pool of ``processes`` workers through
-            :func:`aquafish.study.run_tasks`) or ``"ray"`` (each task in a node-local temporary
+            :func:`aquafish.backends.run_tasks`) or ``"ray"`` (each task in a node-local temporary
             directory, its output directories written here from the bytes it sends back).
         processes: the local pool's size.
-        address: the Ray cluster (:func:`aquafish.study.connect_ray`).
+        address: the Ray cluster (:func:`aquafish.backends.connect_ray`).
 
     Yields:
         Each task's value (on Ray with the task's temporary paths replaced by the driver's),
@@ -298,18 +299,17 @@ def run_dir_tasks(tasks: list[DirTask], *, backend: str = "local", processes: in
         (one line is logged).
 
     Raises:
-        ClusterError: as :func:`aquafish.study.connect_ray`.
+        ClusterError: as :func:`aquafish.backends.connect_ray`.
         ValueError: a task raised one (its own error, also from a Ray task).
         OSError: an output directory cannot be written on the driver.
     """
-    from aquafish.study import run_tasks
-
     if backend != "ray":
-        yield from run_tasks([(t.fn, t.args) for t in tasks], backend=backend, processes=processes, address=address)
+        yield from backends.run_tasks([(t.fn, t.args) for t in tasks], backend=backend, processes=processes,
+                                      address=address)
         return
     shipped = [(_in_scratch, (i, t.fn, _names_only(t), {j: pack_dir(t.args[j]) for j in (*t.outputs, *t.inputs)},
                               t.outputs)) for i, t in enumerate(tasks)]
-    results = run_tasks(shipped, backend="ray", address=address, labels=[t.label for t in tasks])
+    results = backends.run_tasks(shipped, backend="ray", address=address, labels=[t.label for t in tasks])
     while True:
         try:
             index, value, outputs, scratch, attempt = next(results)

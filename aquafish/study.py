@@ -6,7 +6,7 @@ seeds (paper section 4; docs/self_modeling.md). Each (condition, duration, repli
 already holds every round is skipped, and an interrupted one resumes from its last
 finished round. Runs execute in a local process pool (one process per core, each run
 serial) or, with ``backend="ray"``, as Ray tasks on a cluster (the ``[cluster]`` extra;
-:func:`connect_ray` fails in about a second, with one line, without Ray, without a cluster at
+:func:`aquafish.backends.connect_ray` fails in about a second, with one line, without Ray, without a cluster at
 the address or without the token a token-authenticated cluster asks for). On Ray a run works in
 a temporary directory on its node and its finished files come back to this process, which
 writes them into ``OUT`` (:mod:`aquafish.shipping`): no shared file system is needed, and which
@@ -16,44 +16,22 @@ The results are read back and plotted by :mod:`eea.analysis.plot` (``aquafish pl
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import json
-import logging
 import os
-import socket
-import sys
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
-from typing import Callable, Iterator
 
+from aquafish import backends
 from aquafish.shipping import DirTask, run_dir_tasks
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
-from aquafish_gym.rundir import FileError, check_output_dir, die_with_parent, read_json, run_lock
+from aquafish_gym.rundir import FileError, check_output_dir, read_json, run_lock
 from eea.compat import upgrade_flat_fields
 from eea.config import FLAT_DEFAULTS, EEAConfig, nest_flat
 from eea.methods import METHODS, method_fields
 from eea.record import read_rounds
 
-BACKENDS = ("local", "ray")
-#: How many times Ray runs a task again whose worker process or node was lost.
-MAX_RETRIES = 3
-
-_log = logging.getLogger(__name__)
-
-#: How to install what ``backend="ray"`` needs.
-CLUSTER_EXTRA_INSTALL = "pip install 'aquafish[cluster]'"
-
-#: What a token-authenticated Ray cluster (Ray >= 2.5x, ``RAY_AUTH_MODE=token``) asks of a client.
-RAY_TOKEN_HELP = ("set RAY_AUTH_MODE=token and the cluster's token in RAY_AUTH_TOKEN (or in a file named by "
-                  "RAY_AUTH_TOKEN_PATH, or ~/.ray/auth_token; `ray get-auth-token` on the head prints it)")
-
-
-class ClusterError(ValueError):
-    """The Ray backend cannot be used: Ray is not installed, no cluster answers at the address,
-    or the cluster refuses this client (its token). The message says what to do."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -189,14 +167,14 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
             (:class:`~aquafish_gym.rundir.BusyError`), a file in it is corrupt, or
             ``study.json`` exists with a different spec (other seeds of the same spec are the
             same study: new seeds extend it, and ``study.json`` records the union of its seeds).
-        ClusterError: ``backend="ray"`` without the ``[cluster]`` extra, or a cluster that
-            cannot be reached or refuses this client (:func:`connect_ray`); before anything is
+        aquafish.backends.ClusterError: ``backend="ray"`` without the ``[cluster]`` extra, or a cluster that
+            cannot be reached or refuses this client (:func:`aquafish.backends.connect_ray`); before anything is
             created.
         ValueError: a run raised one (e.g. a corrupt file in its directory): the run's own
             error, also from a Ray task (not Ray's ``RayTaskError`` around it).
     """
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if backend not in backends.BACKENDS:
+        raise ValueError(f"backend must be one of {backends.BACKENDS}, got {backend!r}")
     if processes is not None:
         check_int("--processes", processes, 1)
     out_dir = check_output_dir(out_dir)
@@ -205,7 +183,7 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
     for config, _ in spec.runs(out_dir):
         check_run_memory(config)
     if backend == "ray":
-        connect_ray(address)
+        backends.connect_ray(address)
     with run_lock(out_dir, command="study"):
         return _run_study_locked(spec, out_dir, backend, address, processes, progress)
 
@@ -232,172 +210,6 @@ def _run_study_locked(spec: StudySpec, out_dir: Path, backend: str, address: str
         finished(run_dir)
     bar.close()
     return [d for _, d in runs]
-
-
-def run_tasks(tasks: list[tuple[Callable, tuple]], *, backend: str = "local", processes: int = 1,
-              address: str | None = None, labels: list[str] | None = None) -> Iterator:
-    """The values of ``tasks`` (``(function, args)``, top-level functions and picklable
-    arguments), as they finish: on a local pool of ``processes`` workers that die with this
-    process (:func:`~aquafish_gym.rundir.die_with_parent`), or as Ray tasks of one CPU each
-    (``backend="ray"``, :func:`connect_ray` with ``address``; :func:`_ray_values`). A study's
-    runs and a recovery benchmark's cells run through it (:func:`aquafish.shipping.run_dir_tasks`).
-
-    Args:
-        tasks: the tasks.
-        backend: ``"local"`` or ``"ray"``.
-        processes: the local pool's size.
-        address: the Ray cluster.
-        labels: each task's name in a logged line (Ray: a task lost on every try).
-
-    Raises:
-        ClusterError: as :func:`connect_ray`.
-        ValueError: a task raised one: its own error, also from a Ray task (not Ray's
-            ``RayTaskError`` around it).
-    """
-    if not tasks:
-        return
-    if backend == "ray":
-        yield from _ray_values(tasks, address, labels)
-        return
-    # workers die with this process (a killed study leaves no orphan running its queue)
-    with ProcessPoolExecutor(max_workers=min(processes, len(tasks)), initializer=die_with_parent,
-                             initargs=(os.getpid(),)) as pool:
-        for future in as_completed([pool.submit(fn, *args) for fn, args in tasks]):
-            yield future.result()
-
-
-def _ray_values(tasks: list[tuple[Callable, tuple]], address: str | None, labels: list[str] | None) -> Iterator:
-    """The values of ``tasks`` as Ray tasks of one CPU, as they finish.
-
-    Ray retries a task whose worker process or node is lost up to :data:`MAX_RETRIES` times
-    (``max_retries``: system failures only; ``retry_exceptions=False``: an error the task raises
-    itself is its result, not retried). A task lost on every try is logged in one line and
-    yields nothing; the others go on.
-
-    Raises:
-        ClusterError: as :func:`connect_ray`.
-        Exception: the first error a task raised itself (not Ray's ``RayTaskError`` around it).
-    """
-    ray = connect_ray(address)
-    remotes = {}
-    pending = {}
-    for i, (fn, args) in enumerate(tasks):
-        if fn not in remotes:
-            remotes[fn] = ray.remote(num_cpus=1, max_retries=MAX_RETRIES, retry_exceptions=False)(fn)
-        pending[remotes[fn].remote(*args)] = i
-    while pending:
-        done, _ = ray.wait(list(pending), num_returns=1)
-        i = pending.pop(done[0])
-        try:
-            value = ray.get(done[0])
-        except ray.exceptions.RayTaskError as err:
-            raise _task_cause(err) from err
-        except ray.exceptions.RayError as err:  # the worker or its node was lost on every try
-            label = labels[i] if labels else f"task {i + 1} of {len(tasks)}"
-            _log.warning("%s: lost on the Ray cluster after %d tries (%s); it is left unfinished, run the "
-                         "command again to finish it", label, MAX_RETRIES + 1, type(err).__name__)
-            continue
-        yield value
-
-
-def _task_cause(err: Exception) -> Exception:
-    """The exception a Ray task raised (e.g. a run's :class:`~aquafish_gym.rundir.FileError`),
-    so that it reads as on the local pool; ``err`` itself when Ray could not bring it back."""
-    cause = getattr(err, "cause", None)
-    return cause if isinstance(cause, Exception) else err
-
-
-def _import_ray():
-    try:
-        import ray
-    except ImportError as err:
-        raise ClusterError(f"--backend ray needs Ray, which is not installed ({err}): {CLUSTER_EXTRA_INSTALL}") \
-            from None
-    return ray
-
-
-def connect_ray(address: str | None = None):
-    """Import Ray and connect to the cluster at ``address`` (``None``: ``RAY_ADDRESS`` or a new
-    local instance; ``"auto"``: the cluster started on this machine); return the ``ray`` module.
-
-    Before ``ray.init``, a cluster address is checked in about a second: something must listen
-    there, and a token-authenticated cluster (Ray's ``RAY_AUTH_MODE=token``) must accept this
-    client, which needs ``RAY_AUTH_MODE=token`` and the token in ``RAY_AUTH_TOKEN`` (or a file
-    named by ``RAY_AUTH_TOKEN_PATH``, or ``~/.ray/auth_token``) in its environment. Without that,
-    ``ray.init`` retries for 20 s, printing a warning per try, and then fails. A Ray Client
-    address (``ray://``) is passed to ``ray.init`` unchecked.
-
-    Raises:
-        ClusterError: Ray is not installed (the message names the ``[cluster]`` extra), nothing
-            answers at the address, the cluster refuses this client (the message says which
-            variables to set), or ``ray.init`` fails.
-    """
-    ray = _import_ray()
-    if ray.is_initialized():
-        return ray
-    target = address if address is not None else os.environ.get("RAY_ADDRESS")
-    if target and not target.startswith("ray://"):
-        _check_cluster(target)
-    try:
-        ray.init(address=address, include_dashboard=False, log_to_driver=False)
-    except (ConnectionError, RuntimeError, ray.exceptions.RayError) as err:
-        where = f"at --address {address}" if address else f"at RAY_ADDRESS {target}" if target else "(a new local one)"
-        raise ClusterError(f"cannot connect to the Ray cluster {where}: {str(err).splitlines()[0]}") from err
-    return ray
-
-
-def _ray_token_available() -> bool:
-    """Whether a Ray token is where Ray looks: ``RAY_AUTH_TOKEN``, ``RAY_AUTH_TOKEN_PATH``, ``~/.ray/auth_token``."""
-    path = os.environ.get("RAY_AUTH_TOKEN_PATH")
-    return bool(os.environ.get("RAY_AUTH_TOKEN")) or (Path(path).is_file() if path else False) \
-        or (Path.home() / ".ray" / "auth_token").is_file()
-
-
-@contextlib.contextmanager
-def _quiet_stderr_fd():
-    """Send file descriptor 2 to /dev/null (Ray's C++ client logs a warning line per failed connection)."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), 2)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-
-
-def _check_cluster(address: str) -> None:
-    """Fail at once, with what to do, if nothing listens at ``address`` or its cluster refuses this
-    client's token (:func:`connect_ray`); other problems are left to ``ray.init``."""
-    from ray._private.services import canonicalize_bootstrap_address
-    from ray._raylet import GcsClient
-    from ray.exceptions import AuthenticationError
-
-    try:
-        gcs = canonicalize_bootstrap_address(address)  # "auto": the local cluster's, None if there is none
-        host, port = gcs.rsplit(":", 1)
-        port = int(port)
-    except Exception:  # noqa: BLE001  (None, or an address ray.init will reject with its own message)
-        return
-    try:
-        socket.create_connection((host, port), timeout=1).close()
-    except OSError as err:
-        raise ClusterError(f"no Ray cluster answers at --address {address} ({gcs}: {err.strerror or err}); start "
-                           "one with `ray start --head`, or check the address") from None
-    if address == "auto" and "RAY_AUTH_MODE" not in os.environ and _ray_token_available():
-        return  # ray.init turns token authentication on by itself for a local cluster found so
-    try:
-        with _quiet_stderr_fd():
-            GcsClient(address=gcs)
-    except AuthenticationError:
-        mode = os.environ.get("RAY_AUTH_MODE", "")
-        problem = ("refused this client's token (RAY_AUTH_MODE=token): the token is missing or not the cluster's"
-                   if mode.lower() == "token" else
-                   "requires token authentication (Ray's InvalidAuthToken) and this client sends no token")
-        raise ClusterError(f"the Ray cluster at --address {address} {problem}; {RAY_TOKEN_HELP}") from None
-    except Exception:  # noqa: BLE001  (anything else: ray.init reports it)
-        return
 
 
 def _study_seeds(study: dict) -> list[int]:

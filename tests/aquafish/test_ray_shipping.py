@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-import aquafish.study
+import aquafish.backends
 from aquafish.cli import main
 from aquafish.recovery import cell_dir, run_recovery
 from aquafish.shipping import DirTask, pack_dir, run_dir_tasks, unpack_dir
@@ -104,8 +104,8 @@ def node_stand_in(monkeypatch):
             assert _tree(driver["out"]) == before, "a task wrote into the driver's output directory"
             yield value
 
-    monkeypatch.setattr(aquafish.study, "connect_ray", lambda address=None: None)
-    monkeypatch.setattr(aquafish.study, "run_tasks", run_tasks)
+    monkeypatch.setattr(aquafish.backends, "connect_ray", lambda address=None: None)
+    monkeypatch.setattr(aquafish.backends, "run_tasks", run_tasks)
     monkeypatch.setattr("aquafish.case_study._rl_available", lambda: False)  # no PPO rows: faster
     return driver, submitted
 
@@ -166,13 +166,13 @@ def _rows(run_dir: Path) -> list[dict]:
 @pytest.mark.cluster
 def test_a_study_on_ray_sends_no_driver_path_and_the_driver_writes_a_local_runs_files(local_ray, tmp_path,
                                                                                         monkeypatch):
-    real, sent = aquafish.study.run_tasks, []
+    real, sent = aquafish.backends.run_tasks, []
 
     def spy(tasks, **kwargs):
         sent.extend(tasks)
         return real(tasks, **kwargs)
 
-    monkeypatch.setattr(aquafish.study, "run_tasks", spy)
+    monkeypatch.setattr(aquafish.backends, "run_tasks", spy)
     argv = ["study", *TINY_STUDY, "--durations", "0.16,0.32", "--no-progress"]
     assert main([str(a) for a in [*argv, "--out", tmp_path / "local"]]) == 0
     sent.clear()
