@@ -43,8 +43,6 @@ class ClusterError(ValueError):
     or the cluster refuses this client (its token). The message says what to do."""
 
 
-
-
 def run_tasks(tasks: list[tuple[Callable, tuple]], *, backend: str = "local", processes: int = 1,
               address: str | None = None, labels: list[str] | None = None) -> Iterator:
     """The values of ``tasks`` (``(function, args)``, top-level functions and picklable
