@@ -134,6 +134,9 @@ class Evaluator:
         self.simulations = 0
         self._similarity: dict[bytes, float] = {}
         self._summaries: dict[bytes, np.ndarray] = {}
+        # experiment index -> the target summary array already checked (_check_summaries); held,
+        # so its identity cannot pass to another array
+        self._checked: dict[int, np.ndarray] = {}
         self._pool: ProcessPoolExecutor | None = None
 
     # -- lifecycle --------------------------------------------------------------------
@@ -241,13 +244,17 @@ class Evaluator:
     def _check_summaries(self, experiments: Sequence[Experiment]) -> None:
         """Refuse targets summarised otherwise than the models are (``summary``): a model would
         be scored against a target it can never match (a signed run's truth below 1 at the true
-        angles)."""
-        for x in experiments:  # to round-off: a checkpoint may be resumed on another machine's FFT
+        angles). Each target summary is checked once (an experiment's later contexts share it)."""
+        for x in experiments:
+            if self._checked.get(x.index) is x.summary:
+                continue
+            # to round-off: a checkpoint may be resumed on another machine's FFT
             if not np.allclose(x.summary, behaviour_summary(x.imu_log, self.summary == "signed_dft"),
                                rtol=1e-9, atol=1e-9):
                 raise ValueError(f"experiment {x.index}'s summary is not the {self.summary!r} behaviour summary of "
                                  "its IMU log: build the Evaluator with the run's behaviour summary "
                                  f"(summary=config.behaviour_summary; valid: {', '.join(SUMMARIES)})")
+            self._checked[x.index] = x.summary
 
     # -- exploration: responses to candidate actions, cached within a phase ------------
     def summaries(self, genomes, action_genomes, actions, angles) -> np.ndarray:
