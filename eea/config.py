@@ -224,13 +224,11 @@ def nest_flat(flat: Mapping, explicit: Mapping | None = None) -> dict:
     if unknown:
         raise ValueError(f"unknown EEAConfig keys {unknown}; valid keys: {', '.join(sorted(FLAT_FIELDS))}")
     explicit = explicit or {}
-    chosen = {}
+    chosen, nested = {}, {}
     for slot, (selector, classes) in VARIANT_SLOTS.items():
         chosen[selector] = flat.get(selector, FLAT_DEFAULTS[selector])
         if not isinstance(chosen[selector], str) or chosen[selector] not in classes:
             raise ValueError(f"unknown {selector} {chosen[selector]!r}; valid names: {', '.join(classes)}")
-    nested: dict = {}
-    for slot, (selector, _) in VARIANT_SLOTS.items():
         _put(nested, f"{slot}.name", chosen[selector])
     for name, value in flat.items():
         path, variant = FLAT_FIELDS[name]
