@@ -20,8 +20,8 @@ from typing import Callable, Iterator
 
 from aquafish_gym.rundir import die_with_parent
 
-__all__ = ["BACKENDS", "CLUSTER_EXTRA_INSTALL", "MAX_RETRIES", "RAY_TOKEN_HELP", "ClusterError", "connect_ray",
-           "run_tasks"]
+__all__ = ["BACKENDS", "CLUSTER_EXTRA_INSTALL", "MAX_RETRIES", "RAY_TOKEN_HELP", "ClusterError", "check_backend",
+           "connect_ray", "run_tasks"]
 
 #: The backends a batch of tasks can run on.
 BACKENDS = ("local", "ray")
@@ -43,6 +43,17 @@ class ClusterError(ValueError):
     or the cluster refuses this client (its token). The message says what to do."""
 
 
+def check_backend(backend: str) -> str:
+    """``backend`` if it is one of :data:`BACKENDS`.
+
+    Raises:
+        ValueError: any other name, naming the allowed ones.
+    """
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    return backend
+
+
 def run_tasks(tasks: list[tuple[Callable, tuple]], *, backend: str = "local", processes: int = 1,
               address: str | None = None, labels: list[str] | None = None) -> Iterator:
     """The values of ``tasks`` (``(function, args)``, top-level functions and picklable
@@ -60,9 +71,10 @@ def run_tasks(tasks: list[tuple[Callable, tuple]], *, backend: str = "local", pr
 
     Raises:
         ClusterError: as :func:`connect_ray`.
-        ValueError: a task raised one: its own error, also from a Ray task (not Ray's
-            ``RayTaskError`` around it).
+        ValueError: an unknown ``backend`` (on the first value asked for); a task raised one:
+            its own error, also from a Ray task (not Ray's ``RayTaskError`` around it).
     """
+    check_backend(backend)
     if not tasks:
         return
     if backend == "ray":

@@ -259,8 +259,7 @@ def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | Non
         aquafish.backends.ClusterError: ``backend="ray"`` without Ray or without a reachable cluster.
     """
     spec = check_spec(preset, damages, seeds, episode_duration_s)
-    if backend not in backends.BACKENDS:
-        raise ValueError(f"backend must be one of {backends.BACKENDS}, got {backend!r}")
+    backends.check_backend(backend)
     check_int("processes", processes, 1)
     if workers is not None:
         check_int("workers", workers, 1)

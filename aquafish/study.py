@@ -173,8 +173,7 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
         ValueError: a run raised one (e.g. a corrupt file in its directory): the run's own
             error, also from a Ray task (not Ray's ``RayTaskError`` around it).
     """
-    if backend not in backends.BACKENDS:
-        raise ValueError(f"backend must be one of {backends.BACKENDS}, got {backend!r}")
+    backends.check_backend(backend)
     if processes is not None:
         check_int("--processes", processes, 1)
     out_dir = check_output_dir(out_dir)

@@ -42,6 +42,18 @@ def test_bad_spec_raises(kw, match):
         tiny_spec(**kw)
 
 
+def test_an_unknown_backend_is_refused_by_name_before_anything_is_written(tmp_path):
+    from aquafish.backends import run_tasks
+    from aquafish.recovery import run_recovery
+
+    for call in (lambda: run_study(tiny_spec(), tmp_path / "s", backend="slurm"),
+                 lambda: run_recovery(tmp_path / "r", preset="smoke", damages=["caudal_half"], backend="slurm"),
+                 lambda: list(run_tasks([(abs, (-1,))], backend="slurm"))):
+        with pytest.raises(ValueError, match=r"backend must be one of \('local', 'ray'\), got 'slurm'"):
+            call()
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_each_run_keeps_the_settings_of_its_own_strategy_and_a_given_one_must_be_used():
     spec = tiny_spec(conditions=("known", "out_of_band", "in_band"))
     known, oob, in_band = (c for c, _ in spec.runs(".")[:3])
