@@ -1,7 +1,7 @@
 """NEAT fitness of a whole generation at once, on the batched vector env.
 
 :func:`batch_fitness` scores every genome of a list with every start of a
-:class:`~gait.neat_evolution.FitnessTask` in one ``gym.make_vec(task.env_id, ...)``
+:class:`~gait.fitness_task.FitnessTask` in one ``gym.make_vec(task.env_id, ...)``
 (:mod:`aquafish_gym.vector_env`): genome j's start k is sub-env ``j * K + k``
 (K = ``task.episodes``), seeded ``task.seed + k``, so it starts from the initial angles
 (and damage draw) of the single env's episode k. Each sub-env has its own network
@@ -9,7 +9,7 @@
 observation and the clock, outputs clipped), the same numbers as
 :meth:`~gait.controller.NEATController.act` gives when :meth:`FitnessTask.run` drives the single env.
 
-Equivalence with :func:`~gait.neat_evolution.evaluate_genome`: observations, and so the
+Equivalence with :func:`~gait.fitness_task.evaluate_genome`: observations, and so the
 networks' actions, are equal to the last bit; the distance (and a return made of positions)
 differs by the vector env's position round-off (measured at most 3.8e-13 units over 20 s,
 tested to 1e-9; a robot's round-off depends on its place in its PyBullet world, the one at
@@ -28,7 +28,6 @@ from __future__ import annotations
 import multiprocessing
 import os
 from concurrent.futures import ProcessPoolExecutor
-from typing import TYPE_CHECKING
 
 import gymnasium as gym
 import numpy as np
@@ -38,15 +37,13 @@ from aquafish_gym.checks import check_int
 from aquafish_gym.rundir import die_with_parent
 from aquafish_gym.vector_env import MAX_WORLD_ROBOTS
 from gait.clock import CLOCK_DIM, clock_features
+from gait.fitness_task import FitnessTask
 from gait.rollout import DEFAULT_ENV_ID
-
-if TYPE_CHECKING:
-    from gait.neat_evolution import FitnessTask
 
 __all__ = ["BatchEvaluator", "batch_fitness", "genomes_per_world"]
 
 
-def genomes_per_world(task: "FitnessTask", max_world_robots: int = MAX_WORLD_ROBOTS) -> int:
+def genomes_per_world(task: FitnessTask, max_world_robots: int = MAX_WORLD_ROBOTS) -> int:
     """Genomes whose ``task.episodes`` starts share one PyBullet world: ``max(1, max_world_robots // K)``.
 
     Raises:
@@ -56,13 +53,13 @@ def genomes_per_world(task: "FitnessTask", max_world_robots: int = MAX_WORLD_ROB
     return max(1, int(max_world_robots) // task.episodes)
 
 
-def batch_fitness(genomes, config, task: "FitnessTask", max_world_robots: int = MAX_WORLD_ROBOTS) -> np.ndarray:
+def batch_fitness(genomes, config, task: FitnessTask, max_world_robots: int = MAX_WORLD_ROBOTS) -> np.ndarray:
     """Fitness of each genome: the mean score over ``task``'s starts, all genomes in one vector env.
 
     Args:
         genomes: a sequence of n ``neat.DefaultGenome`` (not modified).
         config: their ``neat.Config``.
-        task: the :class:`~gait.neat_evolution.FitnessTask` (robot, seed or fixed angles,
+        task: the :class:`~gait.fitness_task.FitnessTask` (robot, seed or fixed angles,
             duration, clock period, K = ``episodes``, env id).
         max_world_robots: most robots of one PyBullet world; a world holds
             :func:`genomes_per_world` whole genomes (the layout is in the module docstring).
@@ -153,7 +150,7 @@ class BatchEvaluator:
         ValueError: ``workers`` or ``max_world_robots`` not an integer >= 1.
     """
 
-    def __init__(self, task: "FitnessTask", workers: int = 1, max_world_robots: int = MAX_WORLD_ROBOTS,
+    def __init__(self, task: FitnessTask, workers: int = 1, max_world_robots: int = MAX_WORLD_ROBOTS,
                  keep_fitness: bool = True):
         self.task = task
         self.keep_fitness = bool(keep_fitness)

@@ -5,7 +5,7 @@ without its files and reporters) at a case-study preset's NEAT settings (``--bud
 default ``quick``: its ``gait_population`` genomes x ``gait_episodes`` starts, 20 s
 episodes, healthy robot, seed 0) for ``--generations`` generations with each evaluator:
 
-* ``single``: :func:`gait.neat_evolution.evaluate_genome` genome by genome, one single env
+* ``single``: :func:`gait.fitness_task.evaluate_genome` genome by genome, one single env
   per episode (the code before the vector env, ``evolve_gait(batched=False)``), in-process
   and, for each ``W`` > 1 of ``--workers``, on ``W`` processes
   (:class:`gait.neat_progress.PoolEvaluator`);
@@ -40,7 +40,8 @@ import numpy as np
 from aquafish.case_study import PRESETS
 from aquafish_gym.argtypes import add_alias
 from gait.batch_fitness import BatchEvaluator
-from gait.neat_evolution import FitnessTask, evaluate_genome, load_neat_config, set_num_inputs
+from gait.fitness_task import FitnessTask, evaluate_genome
+from gait.neat_evolution import load_neat_config, set_num_inputs
 from gait.neat_progress import PoolEvaluator
 from gait.robots import as_robot
 

@@ -9,7 +9,8 @@ from gait_helpers import SHORT_S
 
 from gait import evolve_gait
 from gait.batch_fitness import BatchEvaluator, batch_fitness, genomes_per_world
-from gait.neat_evolution import FitnessTask, evaluate_genome, load_neat_config, set_num_inputs
+from gait.fitness_task import FitnessTask, evaluate_genome
+from gait.neat_evolution import load_neat_config, set_num_inputs
 from gait.robots import as_robot
 
 

@@ -9,7 +9,7 @@ import aquafish_gym  # noqa: F401
 from gait import ClockObservation, rollout, with_clock
 from gait.clock import clock_features
 from gait.controller import ConstantController
-from gait.neat_evolution import FitnessTask, evaluate_genome
+from gait.fitness_task import FitnessTask, evaluate_genome
 from gait.robots import Robot
 from aquafish_gym import Morphology
 
