@@ -95,3 +95,23 @@ def test_lineage_choices_reports_each_lineage_and_the_chosen_one(tmp_path, tiny_
     assert f"best lineage (oracle) {final.max():.3f}" in lines[2]
     with pytest.raises(SystemExit, match="no run with lineages >= 2"):
         _load("lineage_choices").main([str(tmp_path / "plain")])
+
+
+def test_angle_sensitivity_is_zero_for_the_same_start_and_body_and_grows_with_the_model_error():
+    probe = _load("angle_sensitivity")
+    from aquafish_gym import SimParams, get_damage
+    from eea.fitness import objective_fitness
+
+    rng = np.random.default_rng(0)
+    truth = get_damage("left_pectoral_half").apply().to_array()
+    near = probe.near_models(truth, 0.1, 3, rng)
+    assert all(objective_fitness(m, truth) >= 0.9 - 1e-12 for m in near)      # eq. 4: every dimension 10 % away
+    far = probe.near_models(truth, 0.4, 3, rng)
+    angles = np.array([[0.3, 2.0, 0.1], [4.0, 1.0, -0.2]])
+    actions = np.array([[0.4, -0.3, 1.0], [-0.5, 0.5, 0.5]])
+    model_other = np.tile(angles[:, None], (1, 3, 1))
+    d = probe.dissimilarities(truth, truth, {"near": near, "random model": far}, actions, angles, angles.copy(),
+                              model_other, 32, SimParams(waterline=None))
+    assert np.all(d["other angles"] == 0) and np.all(d["design"] == 0)           # the same body from the same start
+    np.testing.assert_array_equal(d["random model, other angles"], d["random model"])  # same starts: same responses
+    assert np.all(d["random model"] > d["near"]) and np.all(d["near"] > 0)       # further bodies, further responses

@@ -1,0 +1,140 @@
+"""How far the unknown initial angles move a response, next to how far a wrong morphology does.
+
+The paper's inference strategies exist because the initial flipper angles change the robot's
+response. How much they do decides what inference can win: if another start moves the truth's
+behaviour summary as far as a random morphology does, the experiments tell morphologies apart
+only once the angles are fitted. For every experiment length, over ``--actions`` random actions
+(each with its own random true angles), this prints the mean dissimilarity ``1 - sim``
+(eq. 2, the run's summary) of the target's response at its true angles against
+
+* ``other angles``: the target itself from another random start (what the unknown angles alone do);
+* ``zero angles``: the target from angles 0, 0, 0 (the paper's ``none`` baseline, Figure 6);
+* ``design``: the undamaged robot at the true angles (what the damage does);
+* ``OBJ_FIT 0.9`` and ``OBJ_FIT 0.8``: ``--models`` models near the truth, every dimension moved
+  by 10 % (20 %) of its range up or down at random (clipped to the range; OBJ_FIT, eq. 4, about
+  0.9 and 0.8: where ``known`` and the paper's out-of-band end), at the true angles;
+* ``random model``: ``--models`` random model genomes at the true angles (what a wrong
+  morphology does when the angles are known; the models of a run's first generation);
+* ``random model, other angles``: those models from other random starts (a wrong morphology
+  and wrong angles: what a search sees before it has learned anything);
+
+and the share of actions on which another start moves the target further than the median
+model at OBJ_FIT 0.8 does at known angles (then the angles hide the difference between a model
+at 0.8 and the truth). Deep water (the paper's robot) unless ``--surface``.
+
+    python docs/studies/probes/angle_sensitivity.py                     # left_pectoral_half, 1.28-10.24 s
+    python docs/studies/probes/angle_sensitivity.py --damage caudal_half --durations 1.28
+
+Cost: ``actions * (4 + 4 * models)`` simulations per duration (1,760 with the defaults), about a
+minute on one core for all four durations.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from aquafish_gym import ACTION_BOUNDS, MORPHOLOGY_BOUNDS, Morphology, SimParams, get_damage, simulate_batch
+from aquafish_gym.params import DT_S
+from eea.behaviour import behaviour_summary, similarity
+from eea.encoding import MODEL_BITS, decode_models
+from eea.experiment import random_angles
+from eea.fitness import objective_fitness
+
+#: The paper's four experiment lengths (s), section 4.
+PAPER_DURATIONS_S = (1.28, 2.56, 5.12, 10.24)
+
+
+def near_models(truth: np.ndarray, share: float, n: int, rng: np.random.Generator) -> np.ndarray:
+    """``(n, 9)`` models with every dimension of ``truth`` moved by ``share`` of its range up or
+    down at random, clipped to the range (so OBJ_FIT, eq. 4, is at least ``1 - share``)."""
+    bounds = np.asarray(MORPHOLOGY_BOUNDS)
+    step = share * (bounds[:, 1] - bounds[:, 0]) * rng.choice([-1.0, 1.0], (n, len(bounds)))
+    return np.clip(truth + step, bounds[:, 0], bounds[:, 1])
+
+
+def dissimilarities(truth: np.ndarray, design: np.ndarray, groups: dict[str, np.ndarray], actions: np.ndarray,
+                    angles: np.ndarray, other: np.ndarray, model_other: np.ndarray, steps: int, params: SimParams,
+                    signed: bool = False) -> dict[str, np.ndarray]:
+    """The mean ``1 - sim`` per action of each comparison of the module docstring.
+
+    Args:
+        truth, design: ``(9,)`` the target's and the undamaged robot's morphologies.
+        groups: name -> ``(M, 9)`` wrong morphologies, each simulated at the true angles; the
+            group ``"random model"`` also from ``model_other``.
+        actions: ``(A, 3)`` servo commands.
+        angles, other: ``(A, 3)`` the true and another start per action (rad).
+        model_other: ``(A, M, 3)`` the models' other starts.
+        steps: simulation steps (0.01 s).
+        params: the simulator's parameters.
+        signed: the signed summary (``signed_dft``) instead of the paper's.
+
+    Returns:
+        name -> ``(A,)`` dissimilarities: ``other angles``, ``zero angles``, ``design``, each
+        group's mean over its models (and its median, ``"<group>, median"``), and
+        ``random model, other angles``.
+    """
+    names = list(groups)
+    sizes = [len(groups[n]) for n in names]
+    morph = np.concatenate([np.tile(truth, (3, 1)), design[None], *groups.values(), groups["random model"]])
+    summaries = []
+    for k in range(len(actions)):
+        start = np.concatenate([angles[k][None], other[k][None], np.zeros((1, 3)), angles[k][None],
+                                np.tile(angles[k], (sum(sizes), 1)), model_other[k]])
+        log = simulate_batch(morph, np.tile(actions[k], (len(morph), 1)), start, steps, params=params)
+        summaries.append(behaviour_summary(log, signed=signed))
+    s = np.stack(summaries)                      # (A, rows, 3, bins)
+    d = 1.0 - similarity(s[:, :1], s[:, 1:])     # (A, rows - 1): against the target at its true angles
+    out = {"other angles": d[:, 0], "zero angles": d[:, 1], "design": d[:, 2]}
+    start = 3
+    for name, size in zip(names, sizes):
+        out[name], out[f"{name}, median"] = d[:, start:start + size].mean(axis=1), np.median(d[:, start:start + size], axis=1)
+        start += size
+    out["random model, other angles"] = d[:, start:].mean(axis=1)
+    return out
+
+
+def main(argv=None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--damage", default="left_pectoral_half", help="the target (default: the paper's case study)")
+    parser.add_argument("--durations", default=",".join(map(str, PAPER_DURATIONS_S)),
+                        help="experiment lengths in s, comma-separated (default: the paper's four)")
+    parser.add_argument("--actions", type=int, default=40, help="random actions, >= 1 (default 40)")
+    parser.add_argument("--models", type=int, default=10, help="random models, >= 1 (default 10)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the actions, angles and models (default 0)")
+    parser.add_argument("--surface", action="store_true", help="the surface swimmer instead of deep water")
+    parser.add_argument("--signed", action="store_true", help="the signed summary (signed_dft)")
+    args = parser.parse_args(argv)
+    if args.actions < 1 or args.models < 1:
+        parser.error(f"--actions and --models must be >= 1, got {args.actions} and {args.models}")
+    try:
+        durations = [float(d) for d in args.durations.split(",")]
+    except ValueError:
+        parser.error(f"--durations must be numbers of seconds, comma-separated, got {args.durations!r}")
+    params = SimParams() if args.surface else SimParams(waterline=None)
+    rng = np.random.default_rng(args.seed)
+    low, high = np.asarray(ACTION_BOUNDS).T
+    actions = rng.uniform(low, high, (args.actions, 3))
+    angles, other = random_angles(rng, args.actions), random_angles(rng, args.actions)
+    model_other = random_angles(rng, args.actions * args.models).reshape(args.actions, args.models, 3)
+    truth, design = get_damage(args.damage).apply().to_array(), Morphology.healthy().to_array()
+    groups = {"OBJ_FIT 0.9": near_models(truth, 0.1, args.models, rng), "OBJ_FIT 0.8": near_models(truth, 0.2, args.models, rng),
+              "random model": np.atleast_2d(decode_models(rng.integers(0, 2, (args.models, MODEL_BITS))))}
+    print(f"{args.damage}, {'surface' if args.surface else 'deep water'}, {'signed_dft' if args.signed else 'dft'}, "
+          f"{args.actions} actions, {args.models} models a group: mean 1 - sim (eq. 2) against the target at its "
+          f"true angles")
+    print("models' mean OBJ_FIT: " + ", ".join(f"{n} {np.mean([objective_fitness(m, truth) for m in g]):.3f}"
+                                               for n, g in groups.items()) + f", design {objective_fitness(design, truth):.3f}")
+    names = ["other angles", "zero angles", "design", *groups, "random model, other angles"]
+    print(f"{'duration':>9} " + " ".join(f"{n:>13}" for n in names[:-1]) + f" {'random, other':>13}"
+          + "  other angles > median OBJ_FIT 0.8")
+    for duration in durations:
+        steps = int(round(duration / DT_S))
+        d = dissimilarities(truth, design, groups, actions, angles, other, model_other, steps, params, args.signed)
+        further = float(np.mean(d["other angles"] > d["OBJ_FIT 0.8, median"]))
+        print(f"{duration:>8.2f}s " + " ".join(f"{d[n].mean():>13.4f}" for n in names) + f"  {further:>6.0%}")
+
+
+if __name__ == "__main__":
+    main()
