@@ -271,8 +271,14 @@ class AquaFishEnv(gym.Env, EzPickle):
     generator, unless given by ``initial_angles`` or ``options={"initial_angles": ...}``.
     ``options={"damage": name}`` sets the episode's damage preset (``"random"`` or a list
     draws one from ``reset``'s generator); without it the episode takes the constructor's
-    ``damage``. ``reset``'s ``options`` is None or a dict with keys from
-    :attr:`reset_options` (``"damage"`` and ``"initial_angles"`` here; each task adds its
+    ``damage``. ``options={"initial_yaw_deg": a}`` starts the robot turned by ``a`` degrees
+    (in [-180, 180], counter-clockwise seen from above) from +y: the IMU's yaw starts at ``a``
+    while the task's heading stays +y (the forward reward is still measured along +y, the
+    heading tasks' targets are still angles from +y). The water is the same in every
+    horizontal direction, so the robot's own motion (body-frame velocities, roll, pitch) is
+    the unturned robot's; what changes is what a controller that reads the yaw does.
+    ``reset``'s ``options`` is None or a dict with keys from :attr:`reset_options`
+    (``"damage"``, ``"initial_angles"`` and ``"initial_yaw_deg"`` here; each task adds its
     own); any other ``options`` is refused with a ``ValueError``.
 
     ## Episode End
@@ -339,7 +345,7 @@ class AquaFishEnv(gym.Env, EzPickle):
     #: The id this class is registered under (:data:`aquafish_gym.ENV_IDS`), named in its errors.
     env_id = "AquaFish-v0"
     #: The keys ``reset``'s ``options`` accepts (each task adds its own).
-    reset_options: tuple[str, ...] = ("damage", "initial_angles")
+    reset_options: tuple[str, ...] = ("damage", "initial_angles", "initial_yaw_deg")
     #: ``SimParams`` fields the task sets itself, so not arguments of its constructor.
     _task_sim_params: tuple[str, ...] = ()
 
@@ -586,6 +592,15 @@ class AquaFishEnv(gym.Env, EzPickle):
             self._damage_onsets([self.world], [slice(0, 1)], [self], self._episodes, self.onset_step)
         return bool(self._episodes.damaged[0])
 
+    @staticmethod
+    def _check_yaw(yaw_deg) -> float:
+        """``options["initial_yaw_deg"]``: a finite number of degrees in [-180, 180]."""
+        ok = isinstance(yaw_deg, (int, float, np.integer, np.floating)) and not isinstance(yaw_deg, (bool, np.bool_))
+        if not ok or not math.isfinite(float(yaw_deg)) or abs(float(yaw_deg)) > 180.0:
+            raise ValueError(f"options['initial_yaw_deg'] must be a number of degrees in [-180, 180] (the robot's "
+                             f"heading at reset, counter-clockwise from +y), got {yaw_deg!r}")
+        return float(yaw_deg)
+
     def _check_angles(self, angles) -> np.ndarray:
         arr = np.asarray(angles, dtype=np.float64)
         amp = self.params.caudal_amplitude_rad
@@ -665,6 +680,8 @@ class AquaFishEnv(gym.Env, EzPickle):
             amp = self.params.caudal_amplitude_rad
             angles = np.array([self.np_random.uniform(0, 2 * np.pi), self.np_random.uniform(0, 2 * np.pi), self.np_random.uniform(-amp, amp)])
         self._initial_angles = np.asarray(angles, dtype=np.float64)
+        self._initial_yaw_rad = math.radians(self._check_yaw(options["initial_yaw_deg"])) \
+            if "initial_yaw_deg" in options else 0.0
         self._damage_pending = self.onset_step is not None and self.onset_step > 0
         self._reset_task(options)
 
@@ -686,7 +703,7 @@ class AquaFishEnv(gym.Env, EzPickle):
                                  visual=self.render_mode is not None, client=client,
                                  water_current=self._water_current()[None])
         self._world._owns_client = True
-        self._world.reset(self._initial_angles[None])
+        self._world.reset(self._initial_angles[None], yaw_rad=np.array([self._initial_yaw_rad]))
         state = BodyState.of([self._world])
         self._episodes = Episodes.stack([self], state.position)
         obs, info = self._reset_results(state, self._episodes)

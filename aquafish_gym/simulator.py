@@ -176,11 +176,27 @@ class BatchWorld:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def reset(self, initial_angles, actions=None) -> None:
-        """Put every robot at its home position, level, at rest, flippers at ``initial_angles`` ``(N, 3)`` rad."""
+    def reset(self, initial_angles, actions=None, yaw_rad=None) -> None:
+        """Put every robot at its home position, level, at rest, flippers at ``initial_angles`` ``(N, 3)`` rad.
+
+        ``yaw_rad``: ``(N,)`` each robot's heading, counter-clockwise from +y seen from above
+        (None: every robot heads +y). The fluid model and the surface are the same in every
+        horizontal direction, so a robot turned by ``yaw`` swims its trajectory turned by ``yaw``.
+
+        Raises:
+            ValueError: bad ``initial_angles`` (:func:`validate_initial_angles`) or a ``yaw_rad``
+                that is not ``(N,)`` finite numbers.
+        """
         self.initial_angles = validate_initial_angles(initial_angles, self.n, self.params.caudal_amplitude_rad)
-        for body, home, angles in zip(self.bodies, self.home.tolist(), self.initial_angles):
-            p.resetBasePositionAndOrientation(body, home, (0, 0, 0, 1), physicsClientId=self.client)
+        if yaw_rad is None:
+            orientations = [(0, 0, 0, 1)] * self.n
+        else:
+            yaw = np.asarray(yaw_rad, dtype=np.float64)
+            if yaw.shape != (self.n,) or not np.all(np.isfinite(yaw)):
+                raise ValueError(f"yaw_rad must be {self.n} finite headings (rad), one per robot, got {yaw_rad!r}")
+            orientations = [(0.0, 0.0, float(np.sin(y / 2)), float(np.cos(y / 2))) for y in yaw]
+        for body, home, angles, orientation in zip(self.bodies, self.home.tolist(), self.initial_angles, orientations):
+            p.resetBasePositionAndOrientation(body, home, orientation, physicsClientId=self.client)
             p.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=self.client)
             for j, a in zip(JOINTS, angles):
                 p.resetJointState(body, j, float(a), 0.0, physicsClientId=self.client)

@@ -175,7 +175,8 @@ class AquaFishVectorEnv(VectorEnv):
                                [f for _, f in robots], client=client,
                                water_current=np.stack([env._water_current() for env in envs]))
             world._owns_client = True
-            world.reset(np.stack([env._initial_angles for env in envs]))
+            world.reset(np.stack([env._initial_angles for env in envs]),
+                        yaw_rad=np.array([env._initial_yaw_rad for env in envs]))
             worlds.append(world)
         self._worlds = worlds
         state = BodyState.of(self._worlds)

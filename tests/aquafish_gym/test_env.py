@@ -163,9 +163,10 @@ def test_action_maps_to_servo_ranges():
 
 #: The ``reset`` options each task accepts.
 RESET_OPTIONS = {
-    "AquaFish-v0": ["damage", "initial_angles"],
-    "AquaFishStationKeeping-v0": ["current_direction_deg", "current_speed", "damage", "initial_angles"],
-    "AquaFishHeading-v0": ["damage", "initial_angles", "target_heading_deg"],
+    "AquaFish-v0": ["damage", "initial_angles", "initial_yaw_deg"],
+    "AquaFishStationKeeping-v0": ["current_direction_deg", "current_speed", "damage", "initial_angles",
+                                  "initial_yaw_deg"],
+    "AquaFishHeading-v0": ["damage", "initial_angles", "initial_yaw_deg", "target_heading_deg"],
 }
 
 
@@ -256,4 +257,44 @@ def test_a_damage_option_holds_for_its_episode_and_random_draws_from_the_presets
     listed = {env.reset(seed=s, options={"damage": ["caudal_half", "left_pectoral_missing"]})[1]["damage"]
               for s in range(20)}
     assert listed == {"caudal_half", "left_pectoral_missing"}
+    env.close()
+
+
+def _swim_turned(yaw_deg, steps=40):
+    env = gym.make("AquaFish-v0", damage="left_pectoral_half").unwrapped
+    options = {"initial_angles": [0.3, 2.0, 0.1]} | ({} if yaw_deg is None else {"initial_yaw_deg": yaw_deg})
+    obs, _ = env.reset(seed=0, options=options)
+    observations, rewards = [obs], []
+    for k in range(steps):
+        obs, reward, *_ = env.step(np.array([np.sin(k / 5), 0.5, 0.8]))
+        observations.append(obs)
+        rewards.append(reward)
+    moved = env.world.position[0, 0] - env.world.home[0]
+    env.close()
+    return np.array(observations), np.array(rewards), moved
+
+
+def test_a_robot_started_turned_swims_the_same_motion_turned_and_is_rewarded_along_plus_y():
+    straight, straight_rewards, straight_moved = _swim_turned(None)
+    zero, zero_rewards, _ = _swim_turned(0.0)
+    np.testing.assert_array_equal(zero, straight)                      # 0 degrees is the default start, bit for bit
+    np.testing.assert_array_equal(zero_rewards, straight_rewards)
+    turned, turned_rewards, turned_moved = _swim_turned(90.0)
+    assert np.degrees(np.arctan2(turned[0, 2], turned[0, 5])) == pytest.approx(90.0)   # the IMU's yaw starts there
+    body = [0, 1, 3, 4, 6, 7, 8, 9, 10, 11]                             # all but sin and cos of the yaw
+    np.testing.assert_allclose(turned[:, body], straight[:, body], atol=1e-12)   # isotropic water: the same motion
+    np.testing.assert_allclose(np.degrees(np.arctan2(turned[:, 2], turned[:, 5])),
+                               (np.degrees(np.arctan2(straight[:, 2], straight[:, 5])) + 90.0 + 180.0) % 360.0 - 180.0,
+                               atol=1e-9)
+    x, y = straight_moved[:2]
+    np.testing.assert_allclose(turned_moved[:2], [-y, x], atol=1e-12)   # the path turned 90 degrees counter-clockwise
+    assert turned_rewards.sum() == pytest.approx(x, abs=1e-12)          # forward is still +y: the path's old x
+    assert straight_rewards.sum() == pytest.approx(y, abs=1e-12)
+
+
+@pytest.mark.parametrize("yaw", [181.0, -180.5, float("nan"), float("inf"), "north", True, None, [10.0]])
+def test_a_bad_initial_yaw_is_refused_naming_the_allowed_range(yaw):
+    env = gym.make("AquaFish-v0", episode_duration_s=0.2).unwrapped
+    with pytest.raises(ValueError, match=r"initial_yaw_deg'\] must be a number of degrees in \[-180, 180\]"):
+        env.reset(seed=0, options={"initial_yaw_deg": yaw})
     env.close()

@@ -206,3 +206,17 @@ def test_benchmark_runs_and_prints_its_table(capsys):
     vector_env.main(["--sizes", "2", "--env-steps", "4", "--repeats", "1"])
     out = capsys.readouterr().out
     assert "SyncVectorEnv" in out and "PyBullet bound" in out and out.strip().splitlines()[-1].split()[0] == "2"
+
+
+def test_an_initial_yaw_turns_every_sub_env_as_it_turns_the_single_env():
+    options = {"initial_yaw_deg": -135.0}
+    actions = np.random.default_rng(3).uniform(-1, 1, (4, 3, 3))
+    venv = gym.make_vec("AquaFish-v0", num_envs=3, vectorization_mode="vector_entry_point", damage="caudal_half")
+    vec = [venv.reset(seed=4, options=options)[0]] + [venv.step(a)[0] for a in actions]
+    venv.close()
+    for i in range(3):
+        env = gym.make("AquaFish-v0", damage="caudal_half")
+        single = [env.reset(seed=4 + i, options=options)[0]] + [env.step(a[i])[0] for a in actions]
+        env.close()
+        np.testing.assert_array_equal(np.array(vec)[:, i], np.array(single), err_msg=f"sub-env {i}")
+    assert np.degrees(np.arctan2(vec[0][:, 2], vec[0][:, 5])) == pytest.approx([-135.0] * 3)
