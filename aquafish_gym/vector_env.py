@@ -67,7 +67,8 @@ _DOC = """N sub-envs of ``{env_id}`` stepped together as N robots of one PyBulle
     As the single env, per sub-env. ``reset(seed=s)`` seeds sub-env i with ``s + i``
     (as :class:`gymnasium.vector.SyncVectorEnv`), ``reset(seed=[s0, ..., sN-1])`` each
     with its own (None: fresh entropy); ``options`` (the single env's keys) apply to
-    every sub-env. Every sub-env is reset at once: a partial reset
+    every sub-env, except ``initial_yaw_deg``, which may also be a list of N headings (sub-env
+    i starts turned by entry i). Every sub-env is reset at once: a partial reset
     (``options["reset_mask"]`` not all True) is refused. With ``damage_onset_s`` every
     sub-env starts healthy and switches to its own damage at the onset of its episode's
     time, as the single env does (``info["damaged"]``); an autoreset starts healthy again.
@@ -162,9 +163,20 @@ class AquaFishVectorEnv(VectorEnv):
                              "length, so they end together): options['reset_mask'] must be all True")
         return options or None
 
+    def _sub_env_options(self, options) -> list:
+        """``options`` for each sub-env: the same dict, or one per sub-env when
+        ``options["initial_yaw_deg"]`` is a list (or array) of N headings."""
+        yaw = options.get("initial_yaw_deg") if isinstance(options, dict) else None
+        if not isinstance(yaw, (list, tuple, np.ndarray)):
+            return [options] * self.num_envs
+        if len(yaw) != self.num_envs:
+            raise ValueError(f"options['initial_yaw_deg'] must be one heading (degrees) or a list of {self.num_envs} "
+                             f"(one per sub-env), got {len(yaw)}")
+        return [options | {"initial_yaw_deg": y} for y in yaw]
+
     def _start_episodes(self, seeds: list[int | None], options) -> tuple[np.ndarray, dict[str, Any]]:
-        for env, seed in zip(self.envs, seeds):
-            env._draw_episode(seed, options)
+        for env, seed, env_options in zip(self.envs, seeds, self._sub_env_options(options)):
+            env._draw_episode(seed, env_options)
         worlds = []
         for k, part in enumerate(self._slices):
             envs = self.envs[part]

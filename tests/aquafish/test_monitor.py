@@ -152,3 +152,56 @@ def test_reversed_servo_alarms_after_the_onset_not_before():
     env.close()
     assert not any(alarm for t, alarm in alarms if t <= 20.0)
     assert monitor.alarm and 20.0 < monitor.alarm_time_s <= 30.0
+
+
+def _headed(speed, yaw_deg):
+    obs = _obs(speed)
+    obs[2], obs[5] = np.sin(np.radians(yaw_deg)), np.cos(np.radians(yaw_deg))
+    return obs
+
+
+def test_heading_bins_split_the_circle_from_minus_180():
+    from aquafish.monitor import heading_bin
+
+    yaws = [-180.0, -135.0, -0.001, 0.0, 179.999, 180.0, 540.0, -225.0]
+    assert heading_bin(yaws, 8).tolist() == [0, 1, 3, 4, 7, 0, 0, 7]   # -225 is 135
+    assert heading_bin(yaws, 2).tolist() == [0, 0, 0, 1, 1, 0, 0, 1]
+
+
+def test_a_window_is_judged_by_the_range_of_the_heading_it_ends_in():
+    # left half of the circle (bin 0, yaw in [-180, 0)): this gait swims slower there
+    cal = _calibration(lower=0.5, upper=0.8, heading_bins=((0.5, 0.55, 0.6), (0.7, 0.75, 0.8)))
+    assert cal.range_at(-90.0) == (0.5, 0.6) and cal.range_at(90.0) == (0.7, 0.8) and cal.range_at(None) == (0.5, 0.8)
+    slow_left = DamageMonitor(cal)
+    assert not any(slow_left.update(_headed(0.55, -90.0)) for _ in range(100))    # normal for that heading
+    slow_right = DamageMonitor(cal)
+    assert any(slow_right.update(_headed(0.55, 90.0)) for _ in range(100))        # too slow for this one
+    saved = MonitorCalibration.from_dict(json.loads(json.dumps(cal.to_dict())))
+    assert saved == cal and saved.heading_bins == cal.heading_bins
+    old = {k: v for k, v in cal.to_dict().items() if k != "heading_bins"} | {"version": 1}
+    assert MonitorCalibration.from_dict(old).heading_bins == ()                  # a version-1 file: one range
+    with pytest.raises(ValueError, match="heading_bins must be"):
+        _calibration(heading_bins=((0.7, 0.75, 0.6),))
+
+
+def test_a_gait_blind_to_the_yaw_gets_the_same_range_from_spread_headings():
+    """The water is the same in every direction: a gait that ignores the yaw swims the same
+    speeds from any heading, so spreading the calibration's start headings changes nothing but
+    adds the bins; a bin the episodes never reach takes the overall range."""
+    from aquafish.monitor import forward_speeds, heading_bin
+    from gait.controller import ConstantController
+
+    gait = ConstantController([0.6, 0.6, 1.0])
+    kw = dict(seeds=range(3), window_s=2.0, warmup_s=2.0, episode_duration_s=8.0)
+    plain, binned = calibrate(gait, **kw), calibrate(gait, **kw, heading_bins=6)
+    assert (binned.lower, binned.median, binned.upper) == pytest.approx((plain.lower, plain.median, plain.upper),
+                                                                         abs=1e-12)
+    _, _, yaws = forward_speeds(gait, "healthy", range(3), 8.0, initial_yaw_deg=[-120.0, 0.0, 120.0])
+    np.testing.assert_allclose(yaws[:, 0], [-120.0, 0.0, 120.0], atol=1e-9)   # episode k of 3 starts at -180 + 120 (k + 1/2)
+    assert len(binned.heading_bins) == 6
+    reached = set(heading_bin(yaws[:, 20:], 6).ravel().tolist())             # the headings windows end at
+    for b, triple in enumerate(binned.heading_bins):
+        if b not in reached:
+            assert triple == (binned.lower, binned.median, binned.upper)
+    with pytest.raises(ValueError, match="heading_bins must be 0"):
+        calibrate(gait, **kw, heading_bins=1)

@@ -220,3 +220,14 @@ def test_an_initial_yaw_turns_every_sub_env_as_it_turns_the_single_env():
         env.close()
         np.testing.assert_array_equal(np.array(vec)[:, i], np.array(single), err_msg=f"sub-env {i}")
     assert np.degrees(np.arctan2(vec[0][:, 2], vec[0][:, 5])) == pytest.approx([-135.0] * 3)
+
+
+def test_a_list_of_initial_yaws_turns_each_sub_env_by_its_own():
+    venv = gym.make_vec("AquaFish-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    obs, _ = venv.reset(seed=0, options={"initial_yaw_deg": [-90.0, 0.0, 170.0]})
+    assert np.degrees(np.arctan2(obs[:, 2], obs[:, 5])) == pytest.approx([-90.0, 0.0, 170.0])
+    with pytest.raises(ValueError, match=r"one heading \(degrees\) or a list of 3 \(one per sub-env\), got 2"):
+        venv.reset(seed=0, options={"initial_yaw_deg": [0.0, 1.0]})
+    with pytest.raises(ValueError, match=r"initial_yaw_deg'\] must be a number of degrees in \[-180, 180\]"):
+        venv.reset(seed=0, options={"initial_yaw_deg": [0.0, 1.0, 200.0]})
+    venv.close()
