@@ -18,14 +18,9 @@ damage from healthy swimming with no false alarm (23 of 24 missions alarmed with
 the similarity never separates ``caudal_half`` and falls below its threshold in only part of
 the windows after several other damages (18-78 %), so its early alarms are largely chance.
 
-Heading: AquaFish-v0's water is the same in every horizontal direction and the speed is
-measured in the body frame, so the robot's motion does not depend on its heading; a gait's
-may, because a NEAT network reads the yaw (it was evolved to swim along +y and may swim slower
-when turned away). A calibration with ``heading_bins`` > 0 therefore starts its episodes at
-headings spread round the circle (the env's ``initial_yaw_deg``) and keeps a range per heading
-bin (the window's heading: the yaw at its last sample); the monitor judges a window by the bin
-it ends in (a bin the calibration saw too little of, fewer than :data:`MIN_BIN_WINDOWS`
-windows, by the range over all headings).
+Start heading: AquaFish-v0 has no water current and its physics is the same in every
+horizontal direction, and the speed is measured in the body frame, so the signal does not
+depend on the heading the robot starts with; the calibration varies the initial angles only.
 """
 
 from __future__ import annotations
@@ -47,19 +42,15 @@ from aquafish_gym.env import FRAME_SKIP
 from aquafish_gym.files import atomic_write
 from aquafish_gym.params import DT_S
 
-__all__ = ["CALIBRATION_FILE", "DamageMonitor", "MIN_BIN_WINDOWS", "MonitorCalibration", "calibrate", "forward_speeds",
-           "heading_bin", "healthy_range", "window_means", "FORWARD_SPEED_INDEX"]
+__all__ = ["CALIBRATION_FILE", "DamageMonitor", "MonitorCalibration", "calibrate", "forward_speeds",
+           "healthy_range", "window_means", "FORWARD_SPEED_INDEX"]
 
 #: Index of the body-frame forward velocity (units/s) in AquaFish-v0's observation.
 FORWARD_SPEED_INDEX = 10
 #: The file name of a calibration saved beside a self-model.
 CALIBRATION_FILE = "monitor_calibration.json"
-#: The ``format`` and ``version`` fields of a saved calibration (version 1: one range, no heading bins).
-CALIBRATION_FORMAT, CALIBRATION_VERSION = "aquafish damage monitor calibration", 2
-#: Indices of sin and cos of the yaw in AquaFish-v0's observation.
-YAW_SIN_INDEX, YAW_COS_INDEX = 2, 5
-#: Fewest healthy windows a heading bin needs for a range of its own (else: the range over all headings).
-MIN_BIN_WINDOWS = 50
+#: The ``format`` and ``version`` fields of a saved calibration.
+CALIBRATION_FORMAT, CALIBRATION_VERSION = "aquafish damage monitor calibration", 1
 #: AquaFish-v0's control period (s): one observation per control step.
 CONTROL_PERIOD_S = FRAME_SKIP * DT_S
 
@@ -76,21 +67,6 @@ def _check_nonnegative(name: str, value, what: str) -> float:
     if not (ok and math.isfinite(float(value)) and float(value) >= 0):
         raise ValueError(f"{name} must be a finite number >= 0 ({what}), got {value!r}")
     return float(value)
-
-
-def heading_bin(yaw_deg, bins: int) -> np.ndarray:
-    """The heading bin of each yaw: ``bins`` bins of ``360 / bins`` degrees, bin 0 starting at -180.
-
-    Args:
-        yaw_deg: yaw (degrees, any real; taken modulo 360), any shape.
-        bins: number of bins (>= 1).
-
-    Returns:
-        int64 bin indices in ``[0, bins)``, ``yaw_deg``'s shape.
-    """
-    check_int("bins", bins, 1)
-    turned = np.mod(np.asarray(yaw_deg, dtype=np.float64) + 180.0, 360.0)
-    return np.minimum((turned * bins / 360.0).astype(np.int64), bins - 1)
 
 
 def window_steps(window_s: float, control_period_s: float = CONTROL_PERIOD_S) -> int:
@@ -172,13 +148,9 @@ class MonitorCalibration:
         episodes: healthy episodes calibrated on; ``seeds`` their ``reset`` seeds.
         episode_duration_s: simulated seconds per episode.
         robot: the self-model's description (:meth:`gait.robots.Robot.to_dict`), or {}.
-        heading_bins: ``()`` (one range for every heading), or one ``(lower, median, upper)``
-            per heading bin (:func:`heading_bin` with ``len(heading_bins)`` bins); a bin's range
-            applies to a window that ends headed inside it.
 
     Raises:
-        ValueError: ``lower > upper`` (overall or in a bin), a non-finite number, or a bad
-            window, warm-up or period.
+        ValueError: ``lower > upper``, a non-finite number, or a bad window, warm-up or period.
     """
 
     lower: float
@@ -193,7 +165,6 @@ class MonitorCalibration:
     seeds: tuple[int, ...] = ()
     episode_duration_s: float = 0.0
     robot: dict = dataclasses.field(default_factory=dict, compare=False, hash=False)
-    heading_bins: tuple[tuple[float, float, float], ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("lower", "upper", "median"):
@@ -202,14 +173,6 @@ class MonitorCalibration:
                 raise ValueError(f"MonitorCalibration.{name} must be a finite number of units/s, got {value!r}")
         if self.lower > self.upper:
             raise ValueError(f"MonitorCalibration.lower must be <= upper, got {self.lower!r} > {self.upper!r}")
-        try:
-            bins = tuple(tuple(float(v) for v in b) for b in self.heading_bins)
-        except (TypeError, ValueError):
-            bins = ((math.nan,),)
-        if any(len(b) != 3 or not all(map(math.isfinite, b)) or b[0] > b[2] for b in bins):
-            raise ValueError(f"MonitorCalibration.heading_bins must be (lower, median, upper) triples of finite "
-                             f"units/s with lower <= upper, got {self.heading_bins!r}")
-        object.__setattr__(self, "heading_bins", bins)
         _check_positive("MonitorCalibration.control_period_s", self.control_period_s, "seconds per observation")
         window_steps(self.window_s, self.control_period_s)
         _check_nonnegative("MonitorCalibration.warmup_s", self.warmup_s, "seconds before the first window")
@@ -220,14 +183,6 @@ class MonitorCalibration:
         """Samples per window."""
         return window_steps(self.window_s, self.control_period_s)
 
-    def range_at(self, yaw_deg: float | None = None) -> tuple[float, float]:
-        """``(lower, upper)`` of a window that ends headed ``yaw_deg`` (degrees): its heading bin's,
-        or the overall range without bins or without a heading."""
-        if not self.heading_bins or yaw_deg is None:
-            return self.lower, self.upper
-        lower, _, upper = self.heading_bins[int(heading_bin(yaw_deg, len(self.heading_bins)))]
-        return lower, upper
-
     @property
     def warmup(self) -> int:
         """Samples skipped before the first window: ``ceil(warmup_s / control_period_s)``."""
@@ -237,7 +192,6 @@ class MonitorCalibration:
         """JSON-ready fields, with ``format``, ``version`` and ``signal``."""
         d = dataclasses.asdict(self)
         d["seeds"] = list(self.seeds)
-        d["heading_bins"] = [list(b) for b in self.heading_bins]
         return {"format": CALIBRATION_FORMAT, "version": CALIBRATION_VERSION, "signal": "forward_speed"} | d
 
     @classmethod
@@ -250,9 +204,9 @@ class MonitorCalibration:
         """
         if not isinstance(data, dict) or data.get("format") != CALIBRATION_FORMAT:
             raise ValueError(f"not a damage monitor calibration (format must be {CALIBRATION_FORMAT!r})")
-        if data.get("version") not in (1, CALIBRATION_VERSION) or data.get("signal") != "forward_speed":
+        if data.get("version") != CALIBRATION_VERSION or data.get("signal") != "forward_speed":
             raise ValueError(f"unsupported calibration version {data.get('version')!r} or signal "
-                             f"{data.get('signal')!r}; this code reads versions 1 and {CALIBRATION_VERSION}, forward_speed")
+                             f"{data.get('signal')!r}; this code reads version {CALIBRATION_VERSION}, forward_speed")
         fields = {f.name for f in dataclasses.fields(cls)}
         values = {k: v for k, v in data.items() if k not in ("format", "version", "signal")}
         unknown, missing = set(values) - fields, {"lower", "upper", "median", "window_s", "warmup_s"} - set(values)
@@ -339,12 +293,10 @@ class DamageMonitor:
         if obs.size <= FORWARD_SPEED_INDEX:
             raise ValueError(f"observation must be AquaFish-v0's (>= 11 entries, entry {FORWARD_SPEED_INDEX} the "
                              f"forward speed), got shape {obs.shape}")
-        yaw_deg = math.degrees(math.atan2(obs[YAW_SIN_INDEX], obs[YAW_COS_INDEX]))
-        return self.update_speed(obs[FORWARD_SPEED_INDEX], None if info is None else info.get("time_s"), yaw_deg)
+        return self.update_speed(obs[FORWARD_SPEED_INDEX], None if info is None else info.get("time_s"))
 
-    def update_speed(self, speed: float, time_s: float | None = None, yaw_deg: float | None = None) -> bool:
-        """:meth:`update` with the forward speed alone (units/s), its time (s) or None, and the
-        robot's yaw (degrees; with heading bins, the window is judged by its bin's range) or None.
+    def update_speed(self, speed: float, time_s: float | None = None) -> bool:
+        """:meth:`update` with the forward speed alone (units/s) and its time (s) or None.
 
         Raises:
             ValueError: ``speed`` not a finite number.
@@ -364,8 +316,7 @@ class DamageMonitor:
             return self.alarm
         self.last_mean = float(np.mean(np.fromiter(self._samples, dtype=np.float64)))
         cal = self.calibration
-        lower, upper = cal.range_at(yaw_deg)
-        if not self.alarm and not (lower <= self.last_mean <= upper):
+        if not self.alarm and not (cal.lower <= self.last_mean <= cal.upper):
             self.alarm = True
             self.alarm_time_s = float(time_s) if time_s is not None else index * cal.control_period_s
         return self.alarm
@@ -382,8 +333,8 @@ def _check_seeds(seeds) -> list[int]:
 
 
 def forward_speeds(controller, robot="healthy", seeds: Iterable[int] = (0,), episode_duration_s: float = 60.0, *,
-                   damage: str | None = None, damage_onset_s: float | None = None, initial_yaw_deg=None,
-                   max_world_robots: int = 64) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                   damage: str | None = None, damage_onset_s: float | None = None,
+                   max_world_robots: int = 64) -> tuple[np.ndarray, np.ndarray]:
     """Swim ``controller`` on ``robot`` from each seed at once (the vector env) and record the IMU speed.
 
     Every sub-env has its own copy of ``controller`` (``copy.deepcopy``, then ``reset()``),
@@ -396,14 +347,12 @@ def forward_speeds(controller, robot="healthy", seeds: Iterable[int] = (0,), epi
         episode_duration_s: simulated seconds per episode (> 0).
         damage: a damage for the robot (a preset, JSON fault or ``sampled:SEED``), or None.
         damage_onset_s: when ``damage`` comes in force (s), None: from the start.
-        initial_yaw_deg: None (every episode starts headed +y), or one heading per seed
-            (degrees in [-180, 180]; the env's ``initial_yaw_deg``).
         max_world_robots: robots per PyBullet world.
 
     Returns:
-        ``(speeds, damaged, yaw_deg)``, each ``(len(seeds), T + 1)``: the body-frame forward
-        velocity (units/s) of the observation of ``reset`` and of each of the T control steps,
-        ``info["damaged"]`` with it, and the IMU's yaw (degrees in (-180, 180]).
+        ``(speeds, damaged)``, both ``(len(seeds), T + 1)``: the body-frame forward velocity
+        (units/s) of the observation of ``reset`` and of each of the T control steps, and
+        ``info["damaged"]`` with it.
 
     Raises:
         ValueError: bad seeds, duration, robot, damage or onset (the env's message).
@@ -425,27 +374,24 @@ def forward_speeds(controller, robot="healthy", seeds: Iterable[int] = (0,), epi
     controllers = [copy.deepcopy(controller) for _ in seeds]
     for c in controllers:
         c.reset()
-    options = None if initial_yaw_deg is None else {"initial_yaw_deg": [float(y) for y in initial_yaw_deg]}
     try:
-        obs, info = envs.reset(seed=seeds, options=options)
-        truncated = np.zeros(len(seeds), dtype=bool)
-        speeds, damaged, yaws = [], [], []
+        obs, info = envs.reset(seed=seeds)
+        speeds, damaged = [obs[:, FORWARD_SPEED_INDEX].copy()], [np.asarray(info["damaged"], dtype=bool).copy()]
         while True:
-            speeds.append(obs[:, FORWARD_SPEED_INDEX].copy())
-            damaged.append(np.asarray(info["damaged"], dtype=bool).copy())
-            yaws.append(np.degrees(np.arctan2(obs[:, YAW_SIN_INDEX], obs[:, YAW_COS_INDEX])))
-            if truncated.all():
-                break
             actions = np.array([c.act(o, t) for c, o, t in zip(controllers, obs, info["time_s"])], dtype=np.float64)
             obs, _, _, truncated, info = envs.step(actions)
+            speeds.append(obs[:, FORWARD_SPEED_INDEX].copy())
+            damaged.append(np.asarray(info["damaged"], dtype=bool).copy())
+            if truncated.all():
+                break
     finally:
         envs.close()
-    return np.stack(speeds, axis=1), np.stack(damaged, axis=1), np.stack(yaws, axis=1)
+    return np.stack(speeds, axis=1), np.stack(damaged, axis=1)
 
 
 def calibrate(controller, robot="healthy", seeds: Iterable[int] = range(12), *, window_s: float = 6.0,
               warmup_s: float = 6.0, episode_duration_s: float = 120.0, quantile: float = 0.0,
-              margin: float = 0.25, heading_bins: int = 0) -> MonitorCalibration:
+              margin: float = 0.25) -> MonitorCalibration:
     """Calibrate the monitor of ``controller`` on healthy swimming of ``robot`` (the self-model).
 
     One episode per seed, each from the random initial flipper angles its seed draws; every
@@ -462,10 +408,6 @@ def calibrate(controller, robot="healthy", seeds: Iterable[int] = range(12), *, 
         episode_duration_s: simulated seconds per episode; at least ``warmup_s + window_s``.
         quantile: as :func:`healthy_range`.
         margin: as :func:`healthy_range`.
-        heading_bins: 0 (every episode starts headed +y, one range), or B >= 2: episode k of n
-            starts turned by ``-180 + 360 (k + 1/2) / n`` degrees and every heading bin
-            (:func:`heading_bin`) with at least :data:`MIN_BIN_WINDOWS` windows gets a range
-            of its own; the others, and the overall range, are those over all windows.
 
     Returns:
         The :class:`MonitorCalibration`.
@@ -483,20 +425,10 @@ def calibrate(controller, robot="healthy", seeds: Iterable[int] = range(12), *, 
         raise ValueError(f"episode_duration_s must be at least warmup_s + window_s = {warmup_s + window_s:g} s, "
                          f"got {episode_duration_s!r}")
     healthy_range([0.0], quantile, margin)  # checks quantile and margin before any swimming
-    check_int("heading_bins", heading_bins, 0)
-    if heading_bins == 1:
-        raise ValueError("heading_bins must be 0 (one range, every episode headed +y) or >= 2, got 1")
     robot = as_robot(robot)
-    starts = None if not heading_bins else -180.0 + 360.0 * (np.arange(len(seeds)) + 0.5) / len(seeds)
-    speeds, _, yaws = forward_speeds(controller, robot, seeds, episode_duration_s, initial_yaw_deg=starts)
+    speeds, _ = forward_speeds(controller, robot, seeds, episode_duration_s)
     probe = MonitorCalibration(0.0, 0.0, 0.0, window_s, warmup_s)
-    means = window_means(speeds[:, probe.warmup:], window)
-    lower, median, upper = healthy_range(means, quantile, margin)
-    bins = ()
-    if heading_bins:
-        ends = heading_bin(yaws[:, probe.warmup + window - 1:], heading_bins)   # the heading each window ends at
-        bins = tuple(healthy_range(means[ends == b], quantile, margin) if np.sum(ends == b) >= MIN_BIN_WINDOWS
-                     else (lower, median, upper) for b in range(heading_bins))
+    lower, median, upper = healthy_range(window_means(speeds[:, probe.warmup:], window), quantile, margin)
     return MonitorCalibration(lower=lower, upper=upper, median=median, window_s=float(window_s), warmup_s=warmup_s,
                               quantile=float(quantile), margin=float(margin), episodes=len(seeds), seeds=tuple(seeds),
-                              episode_duration_s=episode_duration_s, robot=robot.to_dict(), heading_bins=bins)
+                              episode_duration_s=episode_duration_s, robot=robot.to_dict())

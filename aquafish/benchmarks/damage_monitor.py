@@ -37,13 +37,11 @@ HEALTHY_SEED = 10000
 NO_SLOWDOWN = 0.97
 
 
-def run_monitor(monitor: DamageMonitor, speeds: np.ndarray, control_period_s: float,
-                yaw_deg: np.ndarray | None = None) -> float | None:
-    """Stream one episode's speeds ``(T + 1,)`` (and yaws, degrees, for a calibration with heading
-    bins) through ``monitor`` (reset first); the alarm time (s) or None."""
+def run_monitor(monitor: DamageMonitor, speeds: np.ndarray, control_period_s: float) -> float | None:
+    """Stream one episode's speeds ``(T + 1,)`` through ``monitor`` (reset first); the alarm time (s) or None."""
     monitor.reset()
     for k, speed in enumerate(speeds):
-        if monitor.update_speed(speed, k * control_period_s, None if yaw_deg is None else yaw_deg[k]):
+        if monitor.update_speed(speed, k * control_period_s):
             break
     return monitor.alarm_time_s
 
@@ -61,9 +59,6 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     parser.add_argument("--margin", type=float, default=0.25, help="margin of the healthy range (default 0.25)")
     parser.add_argument("--calibration-episodes", type=int, default=12)
     parser.add_argument("--calibration-duration", type=float, default=120.0)
-    parser.add_argument("--heading-bins", type=int, default=0,
-                        help="0: one healthy range, calibration episodes headed +y; B >= 2: episodes at spread headings "
-                             "and a range per heading bin (aquafish.monitor.calibrate)")
     parser.add_argument("--healthy-episodes", type=int, default=30)
     parser.add_argument("--healthy-duration", type=float, default=150.0)
     parser.add_argument("--mission-seeds", default="20000,20001,20002")
@@ -74,20 +69,15 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     t0 = time.perf_counter()
     controller = load_controller(args.controller)
     cal = calibrate(controller, "healthy", range(args.calibration_episodes), window_s=args.window,
-                    warmup_s=args.warmup, episode_duration_s=args.calibration_duration, margin=args.margin,
-                    heading_bins=args.heading_bins)
+                    warmup_s=args.warmup, episode_duration_s=args.calibration_duration, margin=args.margin)
     monitor = DamageMonitor(cal)
     period = cal.control_period_s
     print(f"calibration: {cal.episodes} x {cal.episode_duration_s:g} s, window {cal.window_s:g} s, warm-up "
           f"{cal.warmup_s:g} s: healthy range [{cal.lower:.4f}, {cal.upper:.4f}] units/s, median {cal.median:.4f}")
-    for b, (lower, median, upper) in enumerate(cal.heading_bins):
-        width = 360.0 / len(cal.heading_bins)
-        print(f"  heading [{-180 + b * width:g}, {-180 + (b + 1) * width:g}) degrees: [{lower:.4f}, {upper:.4f}], "
-              f"median {median:.4f}")
 
     seeds = range(HEALTHY_SEED, HEALTHY_SEED + args.healthy_episodes)
-    speeds, _, yaws = forward_speeds(controller, "healthy", seeds, args.healthy_duration)
-    alarms = [run_monitor(monitor, row, period, yaw) for row, yaw in zip(speeds, yaws)]
+    speeds, _ = forward_speeds(controller, "healthy", seeds, args.healthy_duration)
+    alarms = [run_monitor(monitor, row, period) for row in speeds]
     hours = args.healthy_episodes * args.healthy_duration / 3600.0
     false_alarms = sum(a is not None for a in alarms)
     watched_hours = args.healthy_episodes * (args.healthy_duration - cal.warmup_s - cal.window_s) / 3600.0
@@ -97,13 +87,13 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     mission_seeds = [int(s) for s in args.mission_seeds.split(",")]
     rows = []
     for damage in DAMAGES:
-        speeds, damaged, yaws = forward_speeds(controller, "healthy", mission_seeds, args.onset + args.after, damage=damage,
+        speeds, damaged = forward_speeds(controller, "healthy", mission_seeds, args.onset + args.after, damage=damage,
                                          damage_onset_s=args.onset)
         onset_index = int(round(args.onset / period))
         after = speeds[:, onset_index + cal.window:].mean()
         delays = []
-        for row, yaw in zip(speeds, yaws):
-            alarm = run_monitor(monitor, row, period, yaw)
+        for row in speeds:
+            alarm = run_monitor(monitor, row, period)
             delays.append(None if alarm is None else round(alarm - args.onset, 6))
         rows.append({"damage": damage, "delays_s": delays, "speed_after": float(after),
                      "speed_share": float(after / cal.median), "slows": bool(after / cal.median < NO_SLOWDOWN)})
