@@ -115,3 +115,8 @@ def test_angle_sensitivity_is_zero_for_the_same_start_and_body_and_grows_with_th
     assert np.all(d["other angles"] == 0) and np.all(d["design"] == 0)           # the same body from the same start
     np.testing.assert_array_equal(d["random model, other angles"], d["random model"])  # same starts: same responses
     assert np.all(d["random model"] > d["near"]) and np.all(d["near"] > 0)       # further bodies, further responses
+    ramp = np.stack([np.arange(1, 5) * 0.5, np.zeros(4), -np.arange(1, 5) * 0.01], axis=-1)[None]   # (1, 4, 3) degrees
+    np.testing.assert_allclose(probe.rates_log(ramp)[0], [[50.0, 0.0, -1.0]] * 4)  # degrees per 0.01 s step, from rest
+    rates = probe.dissimilarities(truth, truth, {"near": near, "random model": far}, actions, angles, angles.copy(),
+                                  model_other, 32, SimParams(waterline=None), rates=True, max_coefficient=1e6)
+    assert np.all(rates["other angles"] == 0) and np.all(rates["random model"] > rates["near"])

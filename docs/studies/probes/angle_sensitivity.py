@@ -18,12 +18,13 @@ only once the angles are fitted. For every experiment length, over ``--actions``
 * ``random model, other angles``: those models from other random starts (a wrong morphology
   and wrong angles: what a search sees before it has learned anything);
 
-and the share of actions on which another start moves the target further than the median
-model at OBJ_FIT 0.8 does at known angles (then the angles hide the difference between a model
+the ratio of the first to the models at OBJ_FIT 0.9, and the share of actions on which another
+start moves the target further than the median model at OBJ_FIT 0.8 does at known angles (then the angles hide the difference between a model
 at 0.8 and the truth). Deep water (the paper's robot) unless ``--surface``.
 
     python docs/studies/probes/angle_sensitivity.py                     # left_pectoral_half, 1.28-10.24 s
     python docs/studies/probes/angle_sensitivity.py --damage caudal_half --durations 1.28
+    python docs/studies/probes/angle_sensitivity.py --rates --max 1e6 --durations 1.28   # a gyroscope, no clipping
 
 Cost: ``actions * (4 + 4 * models)`` simulations per duration (1,760 with the defaults), about a
 minute on one core for all four durations.
@@ -37,7 +38,7 @@ import numpy as np
 
 from aquafish_gym import ACTION_BOUNDS, MORPHOLOGY_BOUNDS, Morphology, SimParams, get_damage, simulate_batch
 from aquafish_gym.params import DT_S
-from eea.behaviour import behaviour_summary, similarity
+from eea.behaviour import MAX_COEFFICIENT, behaviour_summary, similarity
 from eea.encoding import MODEL_BITS, decode_models
 from eea.experiment import random_angles
 from eea.fitness import objective_fitness
@@ -54,9 +55,17 @@ def near_models(truth: np.ndarray, share: float, n: int, rng: np.random.Generato
     return np.clip(truth + step, bounds[:, 0], bounds[:, 1])
 
 
+def rates_log(imu_log: np.ndarray) -> np.ndarray:
+    """``(N, steps, 3)`` angular rates (degrees/s) of an IMU log of orientations: the first
+    difference over 0.01 s, from the level robot at rest heading +y (0, 0, 0) before step 1."""
+    log = np.asarray(imu_log, dtype=np.float64)
+    return np.diff(log, axis=1, prepend=np.zeros_like(log[:, :1])) / DT_S
+
+
 def dissimilarities(truth: np.ndarray, design: np.ndarray, groups: dict[str, np.ndarray], actions: np.ndarray,
                     angles: np.ndarray, other: np.ndarray, model_other: np.ndarray, steps: int, params: SimParams,
-                    signed: bool = False) -> dict[str, np.ndarray]:
+                    signed: bool = False, rates: bool = False,
+                    max_coefficient: float = MAX_COEFFICIENT) -> dict[str, np.ndarray]:
     """The mean ``1 - sim`` per action of each comparison of the module docstring.
 
     Args:
@@ -69,6 +78,9 @@ def dissimilarities(truth: np.ndarray, design: np.ndarray, groups: dict[str, np.
         steps: simulation steps (0.01 s).
         params: the simulator's parameters.
         signed: the signed summary (``signed_dft``) instead of the paper's.
+        rates: summarise the angular rates (:func:`rates_log`, a gyroscope's signal) instead of
+            the orientation angles.
+        max_coefficient: MAX of eq. 2.
 
     Returns:
         name -> ``(A,)`` dissimilarities: ``other angles``, ``zero angles``, ``design``, each
@@ -83,9 +95,9 @@ def dissimilarities(truth: np.ndarray, design: np.ndarray, groups: dict[str, np.
         start = np.concatenate([angles[k][None], other[k][None], np.zeros((1, 3)), angles[k][None],
                                 np.tile(angles[k], (sum(sizes), 1)), model_other[k]])
         log = simulate_batch(morph, np.tile(actions[k], (len(morph), 1)), start, steps, params=params)
-        summaries.append(behaviour_summary(log, signed=signed))
+        summaries.append(behaviour_summary(rates_log(log) if rates else log, signed=signed))
     s = np.stack(summaries)                      # (A, rows, 3, bins)
-    d = 1.0 - similarity(s[:, :1], s[:, 1:])     # (A, rows - 1): against the target at its true angles
+    d = 1.0 - similarity(s[:, :1], s[:, 1:], max_coefficient)   # (A, rows - 1): against the target at its true angles
     out = {"other angles": d[:, 0], "zero angles": d[:, 1], "design": d[:, 2]}
     start = 3
     for name, size in zip(names, sizes):
@@ -105,7 +117,14 @@ def main(argv=None) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the actions, angles and models (default 0)")
     parser.add_argument("--surface", action="store_true", help="the surface swimmer instead of deep water")
     parser.add_argument("--signed", action="store_true", help="the signed summary (signed_dft)")
+    parser.add_argument("--rates", action="store_true",
+                        help="summarise the angular rates (degrees/s, a gyroscope's signal) instead of the angles")
+    parser.add_argument("--max", type=float, default=MAX_COEFFICIENT,
+                        help=f"MAX of eq. 2 (default the paper's {MAX_COEFFICIENT:g}; large: no coefficient clips, "
+                             "so the columns are mean coefficient distances over MAX)")
     args = parser.parse_args(argv)
+    if not args.max > 0:
+        parser.error(f"--max must be > 0, got {args.max}")
     if args.actions < 1 or args.models < 1:
         parser.error(f"--actions and --models must be >= 1, got {args.actions} and {args.models}")
     try:
@@ -121,19 +140,22 @@ def main(argv=None) -> None:
     truth, design = get_damage(args.damage).apply().to_array(), Morphology.healthy().to_array()
     groups = {"OBJ_FIT 0.9": near_models(truth, 0.1, args.models, rng), "OBJ_FIT 0.8": near_models(truth, 0.2, args.models, rng),
               "random model": np.atleast_2d(decode_models(rng.integers(0, 2, (args.models, MODEL_BITS))))}
-    print(f"{args.damage}, {'surface' if args.surface else 'deep water'}, {'signed_dft' if args.signed else 'dft'}, "
-          f"{args.actions} actions, {args.models} models a group: mean 1 - sim (eq. 2) against the target at its "
-          f"true angles")
+    print(f"{args.damage}, {'surface' if args.surface else 'deep water'}, {'signed_dft' if args.signed else 'dft'} of "
+          f"{'angular rates' if args.rates else 'orientation angles'}, MAX {args.max:g}, {args.actions} actions, "
+          f"{args.models} models a group: mean 1 - sim (eq. 2) against the target at its true angles")
     print("models' mean OBJ_FIT: " + ", ".join(f"{n} {np.mean([objective_fitness(m, truth) for m in g]):.3f}"
                                                for n, g in groups.items()) + f", design {objective_fitness(design, truth):.3f}")
     names = ["other angles", "zero angles", "design", *groups, "random model, other angles"]
     print(f"{'duration':>9} " + " ".join(f"{n:>13}" for n in names[:-1]) + f" {'random, other':>13}"
-          + "  other angles > median OBJ_FIT 0.8")
+          + "  other / 0.9  other angles > median OBJ_FIT 0.8")
     for duration in durations:
         steps = int(round(duration / DT_S))
-        d = dissimilarities(truth, design, groups, actions, angles, other, model_other, steps, params, args.signed)
+        d = dissimilarities(truth, design, groups, actions, angles, other, model_other, steps, params, args.signed,
+                            args.rates, args.max)
         further = float(np.mean(d["other angles"] > d["OBJ_FIT 0.8, median"]))
-        print(f"{duration:>8.2f}s " + " ".join(f"{d[n].mean():>13.4f}" for n in names) + f"  {further:>6.0%}")
+        ratio = d["other angles"].mean() / d["OBJ_FIT 0.9"].mean()
+        print(f"{duration:>8.2f}s " + " ".join(f"{d[n].mean():>13.3g}" for n in names) + f"  {ratio:>11.2f}"
+              + f"  {further:>6.0%}")
 
 
 if __name__ == "__main__":
