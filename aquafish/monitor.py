@@ -19,8 +19,10 @@ the similarity never separates ``caudal_half`` and falls below its threshold in 
 the windows after several other damages (18-78 %), so its early alarms are largely chance.
 
 Start heading: AquaFish-v0 has no water current and its physics is the same in every
-horizontal direction, and the speed is measured in the body frame, so the signal does not
-depend on the heading the robot starts with; the calibration varies the initial angles only.
+horizontal direction, and the speed is measured in the body frame, so the robot's motion does
+not depend on its heading; the calibration varies the initial angles only. A gait may still
+swim slower at some headings (a NEAT network reads the yaw); per-heading ranges were measured
+and did not help (docs/main_job.md, "Heading bins, measured and not kept").
 """
 
 from __future__ import annotations
