@@ -15,8 +15,11 @@ only once the angles are fitted. For every experiment length, over ``--actions``
   0.9 and 0.8: where ``known`` and the paper's out-of-band end), at the true angles;
 * ``random model``: ``--models`` random model genomes at the true angles (what a wrong
   morphology does when the angles are known; the models of a run's first generation);
-* ``random model, other angles``: those models from other random starts (a wrong morphology
-  and wrong angles: what a search sees before it has learned anything);
+* ``no left length``: the truth with its left pectoral's length 0 (a vanished flipper, whose
+  angle no longer matters: the model grid's zero level, a suspected attractor under unknown
+  angles);
+* every model group also from other random starts (``<group>, other``: a wrong morphology and
+  wrong angles, what a search sees while its angles are wrong);
 
 the ratio of the first to the models at OBJ_FIT 0.9, and the share of actions on which another
 start moves the target further than the median model at OBJ_FIT 0.8 does at known angles (then the angles hide the difference between a model
@@ -26,7 +29,7 @@ at 0.8 and the truth). Deep water (the paper's robot) unless ``--surface``.
     python docs/studies/probes/angle_sensitivity.py --damage caudal_half --durations 1.28
     python docs/studies/probes/angle_sensitivity.py --rates --max 1e6 --durations 1.28   # a gyroscope, no clipping
 
-Cost: ``actions * (4 + 4 * models)`` simulations per duration (1,760 with the defaults), about a
+Cost: ``actions * (4 + 8 * models)`` simulations per duration (3,360 with the defaults), about a
 minute on one core for all four durations.
 """
 
@@ -70,8 +73,8 @@ def dissimilarities(truth: np.ndarray, design: np.ndarray, groups: dict[str, np.
 
     Args:
         truth, design: ``(9,)`` the target's and the undamaged robot's morphologies.
-        groups: name -> ``(M, 9)`` wrong morphologies, each simulated at the true angles; the
-            group ``"random model"`` also from ``model_other``.
+        groups: name -> ``(M, 9)`` wrong morphologies, each simulated at the true angles and
+            from its row of ``model_other``.
         actions: ``(A, 3)`` servo commands.
         angles, other: ``(A, 3)`` the true and another start per action (rad).
         model_other: ``(A, M, 3)`` the models' other starts.
@@ -83,27 +86,32 @@ def dissimilarities(truth: np.ndarray, design: np.ndarray, groups: dict[str, np.
         max_coefficient: MAX of eq. 2.
 
     Returns:
-        name -> ``(A,)`` dissimilarities: ``other angles``, ``zero angles``, ``design``, each
-        group's mean over its models (and its median, ``"<group>, median"``), and
-        ``random model, other angles``.
+        name -> ``(A,)`` dissimilarities: ``other angles``, ``zero angles``, ``design``, and per
+        group its mean over its models at the true angles (and their median,
+        ``"<group>, median"``) and from the other starts (``"<group>, other angles"``).
+
+    Raises:
+        ValueError: a group without one model per other start.
     """
     names = list(groups)
-    sizes = [len(groups[n]) for n in names]
-    morph = np.concatenate([np.tile(truth, (3, 1)), design[None], *groups.values(), groups["random model"]])
+    m = len(model_other[0])
+    if any(len(g) != m for g in groups.values()):
+        raise ValueError(f"every group needs {m} models (one per other start), got {[len(g) for g in groups.values()]}")
+    morph = np.concatenate([np.tile(truth, (3, 1)), design[None], *[np.concatenate([g, g]) for g in groups.values()]])
     summaries = []
     for k in range(len(actions)):
+        per_group = np.concatenate([np.tile(angles[k], (m, 1)), model_other[k]])    # at the true angles, then other
         start = np.concatenate([angles[k][None], other[k][None], np.zeros((1, 3)), angles[k][None],
-                                np.tile(angles[k], (sum(sizes), 1)), model_other[k]])
+                                np.tile(per_group, (len(names), 1))])
         log = simulate_batch(morph, np.tile(actions[k], (len(morph), 1)), start, steps, params=params)
         summaries.append(behaviour_summary(rates_log(log) if rates else log, signed=signed))
     s = np.stack(summaries)                      # (A, rows, 3, bins)
     d = 1.0 - similarity(s[:, :1], s[:, 1:], max_coefficient)   # (A, rows - 1): against the target at its true angles
     out = {"other angles": d[:, 0], "zero angles": d[:, 1], "design": d[:, 2]}
-    start = 3
-    for name, size in zip(names, sizes):
-        out[name], out[f"{name}, median"] = d[:, start:start + size].mean(axis=1), np.median(d[:, start:start + size], axis=1)
-        start += size
-    out["random model, other angles"] = d[:, start:].mean(axis=1)
+    for i, name in enumerate(names):
+        at_true, at_other = d[:, 3 + 2 * m * i:3 + 2 * m * i + m], d[:, 3 + 2 * m * i + m:3 + 2 * m * (i + 1)]
+        out[name], out[f"{name}, median"] = at_true.mean(axis=1), np.median(at_true, axis=1)
+        out[f"{name}, other angles"] = at_other.mean(axis=1)
     return out
 
 
@@ -139,14 +147,15 @@ def main(argv=None) -> None:
     model_other = random_angles(rng, args.actions * args.models).reshape(args.actions, args.models, 3)
     truth, design = get_damage(args.damage).apply().to_array(), Morphology.healthy().to_array()
     groups = {"OBJ_FIT 0.9": near_models(truth, 0.1, args.models, rng), "OBJ_FIT 0.8": near_models(truth, 0.2, args.models, rng),
-              "random model": np.atleast_2d(decode_models(rng.integers(0, 2, (args.models, MODEL_BITS))))}
+              "random model": np.atleast_2d(decode_models(rng.integers(0, 2, (args.models, MODEL_BITS)))),
+              "no left length": np.tile(np.where(np.arange(9) == 1, 0.0, truth), (args.models, 1))}
     print(f"{args.damage}, {'surface' if args.surface else 'deep water'}, {'signed_dft' if args.signed else 'dft'} of "
           f"{'angular rates' if args.rates else 'orientation angles'}, MAX {args.max:g}, {args.actions} actions, "
           f"{args.models} models a group: mean 1 - sim (eq. 2) against the target at its true angles")
     print("models' mean OBJ_FIT: " + ", ".join(f"{n} {np.mean([objective_fitness(m, truth) for m in g]):.3f}"
                                                for n, g in groups.items()) + f", design {objective_fitness(design, truth):.3f}")
-    names = ["other angles", "zero angles", "design", *groups, "random model, other angles"]
-    print(f"{'duration':>9} " + " ".join(f"{n:>13}" for n in names[:-1]) + f" {'random, other':>13}"
+    names = ["other angles", "zero angles", "design", *groups]
+    print(f"{'duration':>9} " + " ".join(f"{n:>14}" for n in names) + "".join(f" {n.replace('OBJ_FIT ', '')[:8] + '@other':>14}" for n in groups)
           + "  other / 0.9  other angles > median OBJ_FIT 0.8")
     for duration in durations:
         steps = int(round(duration / DT_S))
@@ -154,7 +163,8 @@ def main(argv=None) -> None:
                             args.rates, args.max)
         further = float(np.mean(d["other angles"] > d["OBJ_FIT 0.8, median"]))
         ratio = d["other angles"].mean() / d["OBJ_FIT 0.9"].mean()
-        print(f"{duration:>8.2f}s " + " ".join(f"{d[n].mean():>13.3g}" for n in names) + f"  {ratio:>11.2f}"
+        print(f"{duration:>8.2f}s " + " ".join(f"{d[n].mean():>14.3g}" for n in names)
+              + "".join(f" {d[n + ', other angles'].mean():>14.3g}" for n in groups) + f"  {ratio:>11.2f}"
               + f"  {further:>6.0%}")
 
 
