@@ -18,16 +18,18 @@ only once the angles are fitted. For every experiment length, over ``--actions``
 * ``no left length``: the truth with its left pectoral's length 0 (a vanished flipper, whose
   angle no longer matters: the model grid's zero level, a suspected attractor under unknown
   angles);
-* every model group also from other random starts (``<group>, other``: a wrong morphology and
+* every model group also from other random starts (``<group>@other``: a wrong morphology and
   wrong angles, what a search sees while its angles are wrong);
 
 the ratio of the first to the models at OBJ_FIT 0.9, and the share of actions on which another
-start moves the target further than the median model at OBJ_FIT 0.8 does at known angles (then the angles hide the difference between a model
-at 0.8 and the truth). Deep water (the paper's robot) unless ``--surface``.
+start moves the target further than the median model at OBJ_FIT 0.8 does at known angles
+(then the angles hide the difference between a model at 0.8 and the truth). Deep water (the
+paper's robot) unless ``--surface``; ``--rates`` summarises the angular rates (a gyroscope's
+signal) instead of the angles, ``--max`` sets eq. 2's MAX.
 
     python docs/studies/probes/angle_sensitivity.py                     # left_pectoral_half, 1.28-10.24 s
     python docs/studies/probes/angle_sensitivity.py --damage caudal_half --durations 1.28
-    python docs/studies/probes/angle_sensitivity.py --rates --max 1e6 --durations 1.28   # a gyroscope, no clipping
+    python docs/studies/probes/angle_sensitivity.py --rates --max 1000 --durations 1.28   # a gyroscope
 
 Cost: ``actions * (4 + 8 * models)`` simulations per duration (3,360 with the defaults), about a
 minute on one core for all four durations.
