@@ -31,8 +31,8 @@ signal) instead of the angles, ``--max`` sets eq. 2's MAX.
     python docs/studies/probes/angle_sensitivity.py --damage caudal_half --durations 1.28
     python docs/studies/probes/angle_sensitivity.py --rates --max 1000 --durations 1.28   # a gyroscope
 
-Cost: ``actions * (4 + 8 * models)`` simulations per duration (3,360 with the defaults), about a
-minute on one core for all four durations.
+Cost: ``actions * (4 + 8 * models)`` simulations per duration (3,360 with the defaults), about two
+minutes on one core for all four durations.
 """
 
 from __future__ import annotations
