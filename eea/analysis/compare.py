@@ -5,7 +5,9 @@
 needs the runs paired by seed instead, a baseline that means "learned nothing" or "the
 paper's method", and the numbers a reader asks for first: the final OBJ_FIT (eq. 4) per
 seed, Welch's p on the seeds both variants ran, how many runs reach a level of OBJ_FIT and
-when, the median initial-angle error per flipper and the cost in simulations per round::
+when, the median initial-angle error per flipper, the cost in simulations per round and, for runs
+with servo gains in the model (``morphology+servos``), how many found both pectoral gains on
+the truth's side of 0 (Fisher's exact test against the baseline)::
 
     variants = {"out_of_band": find_runs(["runs/oob/out_of_band"]),
                 "profile": find_runs(["runs/profile/profile"])}
@@ -24,9 +26,10 @@ import numpy as np
 
 from aquafish_gym.files import save_figure
 from eea.analysis.plot import welch_p_value
-from eea.record import RunResult
+from eea.record import GAIN_COLUMNS, RunResult
 
-__all__ = ["VariantSummary", "compare_variants", "comparison_table", "parse_variant", "plot_variants"]
+__all__ = ["VariantSummary", "compare_variants", "comparison_table", "fisher_p_value", "parse_variant",
+           "plot_variants", "pectoral_signs_right"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -47,6 +50,9 @@ class VariantSummary:
         simulations_per_round: mean over the runs of the model simulations run by round R
             (cache hits excluded), divided by R.
         left_out: runs that had not finished round R (not counted).
+        signs_right: ``(n,)`` bool, seed for seed: whether the round-R model's two pectoral
+            gains have the truth's signs (:func:`pectoral_signs_right`); None for runs without
+            servo gains in the model.
     """
 
     label: str
@@ -59,6 +65,7 @@ class VariantSummary:
     median_error_deg: np.ndarray
     simulations_per_round: float
     left_out: int
+    signs_right: np.ndarray | None = None
 
     @property
     def mean(self) -> float:
@@ -74,6 +81,41 @@ class VariantSummary:
         """``(len(seeds),)`` final OBJ_FIT of the given seeds, in their order (each must be counted)."""
         index = {int(s): i for i, s in enumerate(self.seeds)}
         return self.final[[index[int(s)] for s in seeds]]
+
+
+def pectoral_signs_right(model_gains, true_gains) -> bool:
+    """Whether both pectoral gains of a model are on the truth's side of 0.
+
+    Args:
+        model_gains: ``(>= 2,)`` the model's servo gains (left pectoral, right pectoral, ...).
+        true_gains: ``(>= 2,)`` the target's, likewise.
+
+    Returns:
+        ``sign(model) == sign(truth)`` for both pectorals: a reversed servo (-1) needs a
+        negative gain, a healthy or weak one a positive gain, a seized one (0) a gain of 0.
+    """
+    m, t = np.asarray(model_gains, dtype=np.float64)[:2], np.asarray(true_gains, dtype=np.float64)[:2]
+    return bool(np.all(np.sign(m) == np.sign(t)))
+
+
+def fisher_p_value(right_a: int, n_a: int, right_b: int, n_b: int) -> float:
+    """Two-sided p of Fisher's exact test that two variants succeed equally often.
+
+    Args:
+        right_a, n_a: successes and runs of one variant (0 <= right_a <= n_a, n_a >= 1).
+        right_b, n_b: the other's.
+
+    Returns:
+        The p-value in [0, 1] (``scipy.stats.fisher_exact`` on the 2 x 2 table).
+
+    Raises:
+        ValueError: counts out of range.
+    """
+    if not (0 <= right_a <= n_a and 0 <= right_b <= n_b and n_a >= 1 and n_b >= 1):
+        raise ValueError(f"counts must satisfy 0 <= right <= n, n >= 1; got {right_a}/{n_a} and {right_b}/{n_b}")
+    from scipy.stats import fisher_exact
+
+    return float(fisher_exact([[right_a, n_a - right_a], [right_b, n_b - right_b]])[1])
 
 
 def parse_variant(text: str) -> tuple[str, Path]:
@@ -103,8 +145,13 @@ def _summarise(label: str, results: list[RunResult], rounds: int, level: float) 
     reached = np.where(above.any(axis=1), above.argmax(axis=1) + 1, 0)
     errors = np.concatenate([r.inference_error_deg[:rounds] for r in done.values()])
     sims = np.mean([r.rounds[rounds - 1]["simulations"] / rounds for r in done.values()])
+    signs = None
+    if all(r.model_space.servos for r in done.values()):
+        signs = np.array([pectoral_signs_right([r.rounds[rounds - 1][c] for c in GAIN_COLUMNS], r.true_model[9:])
+                          for r in done.values()])
     return VariantSummary(label, rounds, np.array(list(done)), values[:, -1], reached, float(level),
-                          values.mean(axis=0), np.median(errors, axis=0), float(sims), len(by_seed) - len(done))
+                          values.mean(axis=0), np.median(errors, axis=0), float(sims), len(by_seed) - len(done),
+                          signs)
 
 
 def compare_variants(variants: dict[str, list[RunResult]], rounds: int | None = None,
@@ -147,7 +194,10 @@ def comparison_table(summary: dict[str, VariantSummary], baseline: str | None = 
     two-sided p (:func:`eea.analysis.plot.welch_p_value`) against ``baseline`` on the seeds both ran
     (their number in brackets; "-" for the baseline itself or when undefined); runs that
     reach the level, and their median first round; runs ending >= 0.95;
-    median angle error L / R / C (degrees); simulations per round.
+    median angle error L / R / C (degrees); simulations per round; and, when some variant has
+    servo gains in its model, runs with both pectoral signs right and Fisher's exact p
+    (:func:`fisher_p_value`) against the baseline on the seeds both ran ("-" where a variant
+    has no gains).
 
     Args:
         summary: from :func:`compare_variants`.
@@ -162,9 +212,11 @@ def comparison_table(summary: dict[str, VariantSummary], baseline: str | None = 
     if baseline not in summary:
         raise ValueError(f"baseline {baseline!r} is not a variant; variants: {', '.join(summary)}")
     base = summary[baseline]
+    gains = any(s.signs_right is not None for s in summary.values())
     lines = [f"| variant | seeds | final OBJ_FIT (round {base.rounds}) | per seed | p vs {baseline} (seeds) | "
-             f"reach {base.level:g} (median round) | >= 0.95 | median angle error L / R / C (°) | simulations per round |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             f"reach {base.level:g} (median round) | >= 0.95 | median angle error L / R / C (°) | simulations per round |"
+             + (f" pectoral signs right (Fisher p vs {baseline}) |" if gains else ""),
+             "|---|---|---|---|---|---|---|---|---|" + ("---|" if gains else "")]
     for label, s in summary.items():
         common = np.intersect1d(s.seeds, base.seeds)
         p = np.nan if label == baseline else welch_p_value(s.final_on(common), base.final_on(common))
@@ -174,10 +226,29 @@ def comparison_table(summary: dict[str, VariantSummary], baseline: str | None = 
         consecutive = len(s.seeds) > 1 and np.array_equal(s.seeds, np.arange(s.seeds[0], s.seeds[-1] + 1))
         seeds = f"{s.seeds[0]}-{s.seeds[-1]}" if consecutive else ",".join(map(str, s.seeds))
         errors = " / ".join(f"{e:.0f}" for e in s.median_error_deg)
-        lines.append(f"| {label} | {seeds} | {s.mean:.3f} ± {s.std:.3f} | {' '.join(f'{v:.3f}' for v in s.final)} | "
-                     f"{p_text} | {reach} | {int((s.final >= 0.95).sum())}/{len(s.seeds)} | {errors} | "
-                     f"{s.simulations_per_round:.0f} |")
+        row = (f"| {label} | {seeds} | {s.mean:.3f} ± {s.std:.3f} | {' '.join(f'{v:.3f}' for v in s.final)} | "
+               f"{p_text} | {reach} | {int((s.final >= 0.95).sum())}/{len(s.seeds)} | {errors} | "
+               f"{s.simulations_per_round:.0f} |")
+        if gains:
+            row += f" {_signs_text(s, base, label == baseline)} |"
+        lines.append(row)
     return "\n".join(lines)
+
+
+def _signs_text(s: VariantSummary, base: VariantSummary, is_baseline: bool) -> str:
+    """``"k/n"`` with Fisher's p against the baseline on the seeds both ran, or ``"-"``."""
+    if s.signs_right is None:
+        return "-"
+    text = f"{int(s.signs_right.sum())}/{len(s.seeds)}"
+    if is_baseline or base.signs_right is None:
+        return text
+    common = np.intersect1d(s.seeds, base.seeds)
+    if not len(common):
+        return text
+    mine = s.signs_right[np.searchsorted(s.seeds, common)]
+    theirs = base.signs_right[np.searchsorted(base.seeds, common)]
+    p = fisher_p_value(int(mine.sum()), len(common), int(theirs.sum()), len(common))
+    return f"{text} (p {p:.2g}, {len(common)})"
 
 
 def plot_variants(summary: dict[str, VariantSummary], out_png: str | os.PathLike) -> Path:

@@ -8,7 +8,7 @@ from aquafish.cli import main
 from eea.analysis.compare import compare_variants, comparison_table, parse_variant, plot_variants
 from eea.config import EEAConfig
 from eea.analysis.plot import find_runs
-from eea.record import ROUND_COLUMNS, write_config, write_rounds
+from eea.record import ROUND_COLUMNS, round_columns, write_config, write_rounds
 
 
 def _fake_run(path, seed, objective, simulations_per_round=10, rounds=None, inference="profile", left_rad=0.0):
@@ -102,3 +102,43 @@ def test_cli_prints_the_table_and_draws_the_curves(tmp_path, capsys):
     assert "variant 'a' has two runs with seed 0" in capsys.readouterr().err
     summary = compare_variants({"a": find_runs([tmp_path / "a"])})
     assert plot_variants(summary, tmp_path / "one.png").exists()
+
+
+def _servo_run(path, seed, left, right, objective=0.8):
+    """A ``morphology+servos`` run of ``reversed_left_pectoral`` (true gains -1, 1, 1) whose
+    one round's model has the pectoral gains ``left``, ``right``."""
+    path.mkdir(parents=True)
+    write_config(path, EEAConfig.from_flat({"inference": "profile", "seed": seed, "rounds": 1, "workers": 1,
+                                            "model_space": "morphology+servos", "damage": "reversed_left_pectoral",
+                                            "estimation_search": "cma"}))
+    write_rounds(path, [{c: 0.0 for c in round_columns("morphology+servos")} | {
+        "round": 1, "objective_fitness": objective, "target_experiments": 1, "simulations": 10,
+        "model_left_pectoral_gain": left, "model_right_pectoral_gain": right, "model_caudal_gain": 1.0}],
+                 "morphology+servos")
+
+
+def test_pectoral_signs_are_counted_and_compared_with_fishers_exact_test(tmp_path):
+    from scipy.stats import fisher_exact
+
+    from eea.analysis.compare import fisher_p_value, pectoral_signs_right
+
+    assert pectoral_signs_right([-0.25, 0.5, 1.0], [-1, 1, 1]) and not pectoral_signs_right([0.25, 0.5], [-1, 1])
+    assert not pectoral_signs_right([0.0, 1.0], [-1, 1]) and pectoral_signs_right([0.0, 1.0], [0, 1])  # seized: 0
+    # the record's case: 17 of 20 against 10 of 20
+    assert fisher_p_value(17, 20, 10, 20) == pytest.approx(fisher_exact([[17, 3], [10, 10]])[1]) == pytest.approx(
+        0.0407, abs=5e-4)
+    with pytest.raises(ValueError, match="counts"):
+        fisher_p_value(3, 2, 1, 2)
+    base = [(-1.0, 1.0), (0.5, 1.0), (-0.5, 1.0), (1.0, -1.0)]        # 2 of 4 right
+    new = [(-1.0, 1.0), (-0.5, 0.25), (-0.125, 1.0), (-1.0, 0.5), (-1.0, 1.0)]  # all right; seed 4 unpaired
+    for s, (left, right) in enumerate(base):
+        _servo_run(tmp_path / "base" / f"seed{s}", s, left, right)
+    for s, (left, right) in enumerate(new):
+        _servo_run(tmp_path / "new" / f"seed{s}", s, left, right)
+    summary = compare_variants({"base": find_runs([tmp_path / "base"]), "new": find_runs([tmp_path / "new"])})
+    assert summary["base"].signs_right.tolist() == [True, False, True, False]
+    table = comparison_table(summary).splitlines()
+    assert table[0].endswith("| pectoral signs right (Fisher p vs base) |")
+    assert table[2].endswith("| 2/4 |")
+    p = fisher_exact([[4, 0], [2, 2]])[1]                                # seeds 0-3, the ones both ran
+    assert table[3].endswith(f"| 5/5 (p {p:.2g}, 4) |")
