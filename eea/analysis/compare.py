@@ -102,8 +102,10 @@ def fisher_p_value(right_a: int, n_a: int, right_b: int, n_b: int) -> float:
     """Two-sided p of Fisher's exact test that two variants succeed equally often.
 
     Args:
-        right_a, n_a: successes and runs of one variant (0 <= right_a <= n_a, n_a >= 1).
-        right_b, n_b: the other's.
+        right_a: successes of one variant (0 <= right_a <= n_a).
+        n_a: its runs (>= 1).
+        right_b: successes of the other (0 <= right_b <= n_b).
+        n_b: its runs (>= 1).
 
     Returns:
         The p-value in [0, 1] (``scipy.stats.fisher_exact`` on the 2 x 2 table).
