@@ -49,6 +49,8 @@ class VariantSummary:
             caudal) over rounds 1..R of every run (:attr:`~eea.record.RunResult.inference_error_deg`).
         simulations_per_round: mean over the runs of the model simulations run by round R
             (cache hits excluded), divided by R.
+        wall_seconds: mean over the runs of the wall seconds to the end of round R (the
+            machine's and its load's, not the method's alone).
         left_out: runs that had not finished round R (not counted).
         signs_right: ``(n,)`` bool, seed for seed: whether the round-R model's two pectoral
             gains have the truth's signs (:func:`pectoral_signs_right`); None for runs without
@@ -66,6 +68,7 @@ class VariantSummary:
     simulations_per_round: float
     left_out: int
     signs_right: np.ndarray | None = None
+    wall_seconds: float = float("nan")
 
     @property
     def mean(self) -> float:
@@ -151,9 +154,10 @@ def _summarise(label: str, results: list[RunResult], rounds: int, level: float) 
     if all(r.model_space.servos for r in done.values()):
         signs = np.array([pectoral_signs_right([r.rounds[rounds - 1][c] for c in GAIN_COLUMNS], r.true_model[9:])
                           for r in done.values()])
+    wall = np.mean([r.rounds[rounds - 1]["wall_seconds"] for r in done.values()])
     return VariantSummary(label, rounds, np.array(list(done)), values[:, -1], reached, float(level),
                           values.mean(axis=0), np.median(errors, axis=0), float(sims), len(by_seed) - len(done),
-                          signs)
+                          signs, float(wall))
 
 
 def compare_variants(variants: dict[str, list[RunResult]], rounds: int | None = None,
@@ -196,7 +200,8 @@ def comparison_table(summary: dict[str, VariantSummary], baseline: str | None = 
     two-sided p (:func:`eea.analysis.plot.welch_p_value`) against ``baseline`` on the seeds both ran
     (their number in brackets; "-" for the baseline itself or when undefined); runs that
     reach the level, and their median first round; runs ending >= 0.95;
-    median angle error L / R / C (degrees); simulations per round; and, when some variant has
+    median angle error L / R / C (degrees); simulations per round; wall minutes a run to
+    round R (mean; the machine's and its load's); and, when some variant has
     servo gains in its model, runs with both pectoral signs right and Fisher's exact p
     (:func:`fisher_p_value`) against the baseline on the seeds both ran ("-" where a variant
     has no gains).
@@ -217,8 +222,8 @@ def comparison_table(summary: dict[str, VariantSummary], baseline: str | None = 
     gains = any(s.signs_right is not None for s in summary.values())
     lines = [f"| variant | seeds | final OBJ_FIT (round {base.rounds}) | per seed | p vs {baseline} (seeds) | "
              f"reach {base.level:g} (median round) | >= 0.95 | median angle error L / R / C (°) | simulations per round |"
-             + (f" pectoral signs right (Fisher p vs {baseline}) |" if gains else ""),
-             "|---|---|---|---|---|---|---|---|---|" + ("---|" if gains else "")]
+             " wall min a run |" + (f" pectoral signs right (Fisher p vs {baseline}) |" if gains else ""),
+             "|---|---|---|---|---|---|---|---|---|---|" + ("---|" if gains else "")]
     for label, s in summary.items():
         common = np.intersect1d(s.seeds, base.seeds)
         p = np.nan if label == baseline else welch_p_value(s.final_on(common), base.final_on(common))
@@ -230,7 +235,7 @@ def comparison_table(summary: dict[str, VariantSummary], baseline: str | None = 
         errors = " / ".join(f"{e:.0f}" for e in s.median_error_deg)
         row = (f"| {label} | {seeds} | {s.mean:.3f} ± {s.std:.3f} | {' '.join(f'{v:.3f}' for v in s.final)} | "
                f"{p_text} | {reach} | {int((s.final >= 0.95).sum())}/{len(s.seeds)} | {errors} | "
-               f"{s.simulations_per_round:.0f} |")
+               f"{s.simulations_per_round:.0f} | {s.wall_seconds / 60:.1f} |")
         if gains:
             row += f" {_signs_text(s, base, label == baseline)} |"
         lines.append(row)

@@ -18,7 +18,7 @@ def _fake_run(path, seed, objective, simulations_per_round=10, rounds=None, infe
                                             "workers": 1}))
     write_rounds(path, [{c: 0.0 for c in ROUND_COLUMNS} | {
         "round": i + 1, "objective_fitness": v, "target_experiments": i + 1, "inferred_left_rad": left_rad,
-        "simulations": simulations_per_round * (i + 1)} for i, v in enumerate(objective)])
+        "simulations": simulations_per_round * (i + 1), "wall_seconds": 30.0 * (i + 1)} for i, v in enumerate(objective)])
 
 
 def test_summary_pairs_seeds_and_counts_the_first_round_at_the_level(tmp_path):
@@ -35,6 +35,8 @@ def test_summary_pairs_seeds_and_counts_the_first_round_at_the_level(tmp_path):
     np.testing.assert_allclose(s.mean, (0.85 + 0.96 + 0.7) / 3)
     np.testing.assert_allclose(s.std, np.std([0.85, 0.96, 0.7]))
     assert s.simulations_per_round == pytest.approx((100 + 300 + 10) / 3)
+    assert s.wall_seconds == pytest.approx(90.0)                        # 30 s a round, to round 3
+    assert "| 137 | 1.5 |" in comparison_table({"a": s}).splitlines()[2]   # simulations a round, wall minutes
     assert s.median_error_deg[0] == pytest.approx(90.0)  # 6 of the 9 rounds are off by 90 deg
 
 
