@@ -31,7 +31,8 @@ from aquafish_gym.rundir import read_json
 from gait.controller import RandomController, load_controller, require_rl, sb3_sidecar
 from gait.neat_evolution import RUN_FILE, evolve_or_load_gait
 from gait.rl import train_or_load_rl
-from gait.rollout import check_env_id, rollout
+from gait.envs import check_env_id
+from gait.rollout import rollout
 
 
 @dataclasses.dataclass(frozen=True)

@@ -42,7 +42,8 @@ from gait.neat_evolution import (GaitResult, evolve_from_population, evolve_gait
                                  load_neat_config)
 from gait.plots import plot_fitness_history, plot_transfer
 from gait.robots import RANDOM_DAMAGE, Robot, as_robot, parse_robot
-from gait.rollout import EPISODE_DURATION_S, Rollout, make_env, rollout
+from gait.envs import EPISODE_DURATION_S, make_env
+from gait.rollout import Rollout, rollout
 from gait.transfer import TransferResult, save_transfer, score_transfer
 from gait.rl import train_or_load_rl, train_rl  # stable-baselines3 is imported only when training (the [rl] extra)
 from gait.video import record_video  # imageio and matplotlib are imported only when recording

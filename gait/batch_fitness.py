@@ -38,7 +38,7 @@ from aquafish_gym.rundir import die_with_parent
 from aquafish_gym.vector_env import MAX_WORLD_ROBOTS
 from gait.clock import CLOCK_DIM, clock_features
 from gait.fitness_task import FitnessTask
-from gait.rollout import DEFAULT_ENV_ID
+from gait.envs import DEFAULT_ENV_ID
 
 __all__ = ["BatchEvaluator", "batch_fitness", "genomes_per_world"]
 

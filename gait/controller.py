@@ -36,7 +36,8 @@ import numpy as np
 
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, read_json
-from gait.clock import CLOCK_DIM, CLOCK_PERIOD_S, OBS_DIM, check_clock_period, with_clock
+from gait.clock import CLOCK_DIM, CLOCK_PERIOD_S, OBS_DIM, ClockObservation, check_clock_period, with_clock
+from gait.envs import DEFAULT_ENV_ID, make_env
 
 #: File names inside a run directory that :func:`load_controller` looks for.
 NEAT_CONTROLLER_FILE = "best_controller.json"
@@ -454,9 +455,6 @@ def _sb3_custom_objects(path: Path, algo_cls, algo: str, meta: dict[str, Any]) -
     """
     from stable_baselines3.common.type_aliases import TrainFreq, TrainFrequencyUnit
     from stable_baselines3.common.utils import FloatSchedule
-
-    from gait.clock import ClockObservation
-    from gait.rollout import DEFAULT_ENV_ID, make_env
 
     try:
         with zipfile.ZipFile(path) as archive:

@@ -16,7 +16,8 @@ import numpy as np
 from gait.clock import CLOCK_PERIOD_S
 from gait.controller import NEATController
 from gait.robots import Robot
-from gait.rollout import DEFAULT_ENV_ID, EPISODE_DURATION_S, Rollout, check_env_id, check_episodes, rollout
+from gait.envs import DEFAULT_ENV_ID, EPISODE_DURATION_S, check_env_id, check_episodes
+from gait.rollout import Rollout, rollout
 
 __all__ = ["FitnessTask", "evaluate_genome"]
 

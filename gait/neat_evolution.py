@@ -57,7 +57,8 @@ from gait.neat_progress import GenerationBar, PoolEvaluator, QuietCheckpointer
 from gait.plots import plot_fitness_history
 from gait.robots import Robot, as_robot
 from gait.fitness_task import FitnessTask, evaluate_genome
-from gait.rollout import DEFAULT_ENV_ID, EPISODE_DURATION_S, Rollout, make_env
+from gait.envs import DEFAULT_ENV_ID, EPISODE_DURATION_S, make_env
+from gait.rollout import Rollout
 
 #: The documented NEAT config kept next to this module.
 DEFAULT_CONFIG = Path(__file__).with_name("neat_config.ini")

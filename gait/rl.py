@@ -29,7 +29,8 @@ from gait.controller import (SB3_ALGOS, SB3_MODEL_FILE, SB3PolicyController, req
                              sb3_sidecar)
 from gait.plots import plot_learning_curve
 from gait.robots import Robot, as_robot
-from gait.rollout import DEFAULT_ENV_ID, EPISODE_DURATION_S, check_env_id, make_env, rollout
+from gait.envs import DEFAULT_ENV_ID, EPISODE_DURATION_S, check_env_id, make_env
+from gait.rollout import rollout
 
 #: The hyperparameter file kept next to this module.
 HYPERPARAMS_FILE = Path(__file__).with_name("rl_hyperparams.yml")

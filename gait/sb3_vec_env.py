@@ -35,7 +35,7 @@ import aquafish_gym  # registers the AquaFish tasks  # noqa: F401
 from aquafish_gym.checks import check_int
 from gait.clock import CLOCK_DIM, CLOCK_PERIOD_S, check_clock_period, clock_features
 from gait.robots import Robot, as_robot
-from gait.rollout import DEFAULT_ENV_ID, EPISODE_DURATION_S, check_env_id
+from gait.envs import DEFAULT_ENV_ID, EPISODE_DURATION_S, check_env_id
 
 __all__ = ["ClockVecEnv", "MONITOR_FILE", "make_clock_vec_env"]
 

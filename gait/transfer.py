@@ -22,7 +22,8 @@ import numpy as np
 from aquafish_gym.files import atomic_write
 from gait.controller import Controller
 from gait.robots import Robot, as_robot
-from gait.rollout import EPISODE_DURATION_S, Rollout, check_episodes, rollout
+from gait.envs import EPISODE_DURATION_S, check_episodes
+from gait.rollout import Rollout, rollout
 
 
 @dataclasses.dataclass(frozen=True)

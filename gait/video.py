@@ -28,7 +28,7 @@ import numpy as np
 from aquafish_gym.env import FRAME_SKIP
 from aquafish_gym.params import DT_S
 from gait.controller import Controller
-from gait.rollout import EPISODE_DURATION_S, make_env
+from gait.envs import EPISODE_DURATION_S, make_env
 from gait.video_frames import FrameRenderer, SwimTrack, check_frame_size
 
 #: Playback rate of the case study's video (frames per second): with a frame every control
