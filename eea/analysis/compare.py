@@ -80,10 +80,19 @@ class VariantSummary:
         """Population standard deviation (ddof 0) of the final OBJ_FIT."""
         return float(self.final.std())
 
+    def _rows(self, seeds) -> list[int]:
+        """The rows of the given seeds, in their order (each must be counted)."""
+        index = {int(s): i for i, s in enumerate(self.seeds)}
+        return [index[int(s)] for s in seeds]
+
     def final_on(self, seeds) -> np.ndarray:
         """``(len(seeds),)`` final OBJ_FIT of the given seeds, in their order (each must be counted)."""
-        index = {int(s): i for i, s in enumerate(self.seeds)}
-        return self.final[[index[int(s)] for s in seeds]]
+        return self.final[self._rows(seeds)]
+
+    def signs_right_on(self, seeds) -> np.ndarray:
+        """``(len(seeds),)`` :attr:`signs_right` of the given seeds, in their order (each must be
+        counted; runs with servo gains only)."""
+        return self.signs_right[self._rows(seeds)]
 
 
 def pectoral_signs_right(model_gains, true_gains) -> bool:
@@ -252,8 +261,7 @@ def _signs_text(s: VariantSummary, base: VariantSummary, is_baseline: bool) -> s
     common = np.intersect1d(s.seeds, base.seeds)
     if not len(common):
         return text
-    mine = s.signs_right[np.searchsorted(s.seeds, common)]
-    theirs = base.signs_right[np.searchsorted(base.seeds, common)]
+    mine, theirs = s.signs_right_on(common), base.signs_right_on(common)
     p = fisher_p_value(int(mine.sum()), len(common), int(theirs.sum()), len(common))
     return f"{text} (p {p:.2g}, {len(common)})"
 
