@@ -15,6 +15,7 @@ Link indices: -1 body, 0 left pectoral, 1 right pectoral, 2 caudal.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
 import numpy as np
@@ -96,9 +97,16 @@ def capsule_volume() -> float:
     return math.pi * BODY_RADIUS**2 * BODY_CYLINDER_LENGTH + 4.0 / 3.0 * math.pi * BODY_RADIUS**3
 
 
-def body_slices():
-    """The body's capsule as discs along its axis (:func:`~aquafish_gym.hydrostatics.capsule_slices`)."""
-    return capsule_slices(BODY_RADIUS, BODY_CYLINDER_LENGTH)
+@functools.cache
+def body_slices() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The body's capsule as discs along its axis (:func:`~aquafish_gym.hydrostatics.capsule_slices`).
+
+    Computed once per process (every world is built from it) and returned read-only.
+    """
+    slices = capsule_slices(BODY_RADIUS, BODY_CYLINDER_LENGTH)
+    for array in slices:
+        array.setflags(write=False)
+    return slices
 
 
 def floating_share(params: SimParams) -> float:
@@ -110,9 +118,15 @@ def floating_share(params: SimParams) -> float:
     neutrally buoyant). Uses the same slices as the simulator, so the robot is in
     equilibrium at rest to rounding. Default waterline 0.3: 0.8759.
     """
-    if params.waterline is None:
+    return _floating_share(params.waterline)
+
+
+@functools.lru_cache(maxsize=64)
+def _floating_share(waterline: float | None) -> float:
+    """:func:`floating_share` of a waterline (units, or None: deep water), cached per value."""
+    if waterline is None:
         return 1.0
-    volume, _, _ = submerged_slices(np.eye(3), np.float64(0.0), params.waterline, *body_slices())
+    volume, _, _ = submerged_slices(np.eye(3), np.float64(0.0), waterline, *body_slices())
     return float(volume) / capsule_volume()
 
 

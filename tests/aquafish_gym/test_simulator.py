@@ -110,3 +110,39 @@ def test_per_robot_water_current_matches_a_world_in_that_current(waterline):
             np.testing.assert_array_equal(w.run(30)[0], logs[None][i])
     with pytest.raises(ValueError, match=r"water_current must be None or 3 finite velocities"):
         BatchWorld(morph, water_current=np.zeros((2, 3)))
+
+
+def test_caudal_sweep_phase_is_added_one_step_at_a_time():
+    """The caudal sweep's phase after k steps is ``phase += 2 pi f dt`` done k times (the
+    same doubles whatever the chunks a run is stepped in), and its targets are ``A sin``."""
+    from aquafish_gym.simulator import DT_S
+
+    morph, actions, angles = random_inputs(3, seed=2)
+    actions[:, 2] = [0.3, 0.0, 0.9]  # the middle robot's fin holds still
+    with BatchWorld(morph) as world:
+        world.reset(angles, actions)
+        start = world._caudal_phase.copy()
+        targets, _ = world._caudal_targets(5)
+        expected = start.copy()
+        for _ in range(5):
+            expected[[0, 2]] = expected[[0, 2]] + world._caudal_omega[[0, 2]] * DT_S
+        np.testing.assert_array_equal(world._caudal_phase, expected)
+        np.testing.assert_array_equal(targets[-1], SimParams().caudal_amplitude_rad * np.sin(expected[[0, 2]]))
+        assert world._caudal_targets(0)[0].shape == (0, 2)
+        np.testing.assert_array_equal(world._caudal_phase, expected)  # zero steps move nothing
+    with BatchWorld(morph) as whole, BatchWorld(morph) as chunks:
+        whole.reset(angles, actions)
+        chunks.reset(angles, actions)
+        whole.run(64)
+        chunks.run(23)
+        chunks.run(41)
+        np.testing.assert_array_equal(whole._caudal_phase, chunks._caudal_phase)
+        np.testing.assert_array_equal(whole.joint_angles(), chunks.joint_angles())
+
+
+def test_body_slices_are_computed_once_and_read_only():
+    from aquafish_gym.robot import body_slices
+
+    assert body_slices() is body_slices()
+    with pytest.raises(ValueError, match="read-only"):
+        body_slices()[0][0] = 1.0
