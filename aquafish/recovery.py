@@ -51,6 +51,7 @@ from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
 from aquafish_gym.rundir import FileError, check_fingerprint, check_output_dir, read_json, run_lock
+from eea.analysis.compare import pectoral_signs_right
 
 #: The rows of the summary, in column order (``report.json`` controller keys; the oracle,
 #: ``true_damaged``, is what every share is taken of).
@@ -347,11 +348,45 @@ def shares(controllers: dict) -> dict[str, float | None]:
             for key in ROWS if key in controllers}
 
 
+#: The two pectoral servos' keys in a report's gains.
+_PECTORAL_GAINS = ("left_pectoral_gain", "right_pectoral_gain")
+
+
+def signs_right(gains: dict, target_morphology: dict | None = None) -> bool | None:
+    """Whether the self-model identified the pectoral servos: each of its pectoral gains on the
+    target's side of 0 (:func:`eea.analysis.compare.pectoral_signs_right`: a reversed servo needs
+    a negative gain, a healthy or weak one a positive gain, a dead or seized one 0). A pectoral
+    whose flipper the target has lost (length or width 0) is not judged: its servo moves
+    nothing, so no experiment shows its gain.
+
+    Args:
+        gains: a cell's ``gains``: ``{"self_model": {...} or None, "target": {...}}``, each
+            keyed ``left_pectoral_gain``, ``right_pectoral_gain``, ``caudal_gain``.
+        target_morphology: the target's flipper dimensions keyed as
+            ``aquafish_gym.MORPHOLOGY_FIELDS`` (a report's ``target_morphology``); None: every
+            flipper is there.
+
+    Returns:
+        None when the cell has no self-model with servo gains (it did not run, or its model
+        space holds none) or the target has lost both pectoral flippers, else the verdict.
+    """
+    model, target = gains.get("self_model"), gains.get("target")
+    if not model or not target or any(k not in model or k not in target for k in _PECTORAL_GAINS):
+        return None
+    shape = target_morphology or {}
+    judged = [k for k, side in zip(_PECTORAL_GAINS, ("left", "right"))
+              if shape.get(f"{side}_pectoral_x", 1.0) > 0 and shape.get(f"{side}_pectoral_y", 1.0) > 0]
+    if not judged:
+        return None
+    return all(pectoral_signs_right([model[k]] * 2, [target[k]] * 2) for k in judged)
+
+
 def cell_summary(report: dict) -> dict:
     """One cell of ``summary.json`` from its case study's report: ``damage``, ``seed``, ``breaks``,
     ``shares``, ``recovers`` (per row but ``healthy``: the verdict's test), ``gains`` (the
-    self-model's and the target's servo gains), ``target_experiments`` (per EEA model) and
-    ``wall_seconds`` (of the case-study run that finished the cell).
+    self-model's and the target's servo gains), ``signs_right`` (:func:`signs_right`),
+    ``target_experiments`` (per EEA model) and ``wall_seconds`` (of the case-study run that
+    finished the cell).
 
     Raises:
         KeyError: the report lacks a field every case-study report has.
@@ -359,12 +394,12 @@ def cell_summary(report: dict) -> dict:
     row_shares = shares(report["controllers"])
     recovering = set(report["verdict"]["recovering"])
     models = report["models"]
+    gains = {"self_model": models.get("self_model", {}).get("servo_gains"), "target": report.get("target_servo_gains")}
     return {
         "damage": report["damage"], "seed": report["seed"], "breaks": bool(report["verdict"]["breaks"]),
         "shares": row_shares,
         "recovers": {key: key in recovering for key in row_shares if key != "healthy"},
-        "gains": {"self_model": models.get("self_model", {}).get("servo_gains"),
-                  "target": report.get("target_servo_gains")},
+        "gains": gains, "signs_right": signs_right(gains, report.get("target_morphology")),
         "target_experiments": {key: m["target_experiments"] for key, m in models.items()},
         "wall_seconds": report["wall_seconds"],
     }
@@ -372,9 +407,10 @@ def cell_summary(report: dict) -> dict:
 
 def summarize(reports: Iterable[dict]) -> dict:
     """``cells`` (:func:`cell_summary` of every report) and ``totals``: the number of ``cells``,
-    of cells whose damage ``breaks`` the healthy gait, and per row (but ``healthy``) how many of
+    of cells whose damage ``breaks`` the healthy gait, per row (but ``healthy``) how many of
     the breaking cells that have the row it recovers in (``recovers``, ``of``, ``rate``: None
-    without such a cell).
+    without such a cell), and ``identified``: in how many of the cells with a self-model of
+    servo gains both its pectoral signs are right (``right``, ``of``, ``rate``).
 
     Raises:
         KeyError: a report lacks a field every case-study report has.
@@ -387,7 +423,10 @@ def summarize(reports: Iterable[dict]) -> dict:
         if any(key in c["recovers"] for c in cells):
             n = sum(c["recovers"][key] for c in having)
             rows[key] = {"recovers": n, "of": len(having), "rate": n / len(having) if having else None}
-    return {"cells": cells, "totals": {"cells": len(cells), "breaking": len(breaking), "rows": rows}}
+    judged = [c["signs_right"] for c in cells if c["signs_right"] is not None]
+    identified = {"right": sum(judged), "of": len(judged), "rate": sum(judged) / len(judged) if judged else None}
+    return {"cells": cells, "totals": {"cells": len(cells), "breaking": len(breaking), "rows": rows,
+                                       "identified": identified}}
 
 
 def _share_text(cell: dict, key: str) -> str:
@@ -397,6 +436,17 @@ def _share_text(cell: dict, key: str) -> str:
     share = cell["shares"][key]
     text = "n/a" if share is None else f"{share:.0%}"
     return text + (f" {RECOVERS_MARK}" if cell["recovers"].get(key) else "")
+
+
+def _gains_text(cell: dict) -> str:
+    """The self-model's pectoral gains beside the truth's in ``summary.md`` (empty without them)."""
+    right = cell.get("signs_right")
+    if right is None:
+        return ""
+    model, target = cell["gains"]["self_model"], cell["gains"]["target"]
+    pair = ", ".join(f"{model[k]:+g}" for k in _PECTORAL_GAINS)
+    truth = ", ".join(f"{target[k]:+g}" for k in _PECTORAL_GAINS)
+    return f"{pair} ({truth}){f' {RECOVERS_MARK}' if right else ''}"
 
 
 def render_summary(summary: dict) -> str:
@@ -412,13 +462,19 @@ def render_summary(summary: dict) -> str:
              f"damaged robot); {RECOVERS_MARK}: the row recovers (at least {RECOVERS_SHARE:.0%} of the oracle and "
              f"{RECOVERS_OVER_HEALTHY:g}x the healthy gait). A damage breaks the healthy gait when it keeps at most "
              f"{BREAKS_SHARE:.0%} of the oracle; n/a: the oracle does not swim forward.", "",
-             "| damage | seed | breaks | " + " | ".join(f"`{k}`" for k in keys) + " |",
-             "|---|---|---|" + "---|" * len(keys)]
+             f"The self-model's pectoral gains (left, right) are given beside the truth's; {RECOVERS_MARK}: each "
+             f"on the truth's side of 0 (a pectoral whose flipper the target lost is not judged).", "",
+             "| damage | seed | breaks | " + " | ".join(f"`{k}`" for k in keys) + " | self-model gains (truth) |",
+             "|---|---|---|" + "---|" * len(keys) + "---|"]
     for cell in summary["cells"]:
         lines.append(f"| `{cell['damage']}` | {cell['seed']} | {'yes' if cell['breaks'] else 'no'} | "
-                     + " | ".join(_share_text(cell, k) for k in keys) + " |")
+                     + " | ".join(_share_text(cell, k) for k in keys) + f" | {_gains_text(cell)} |")
     lines += ["", f"Recovers in the {totals['breaking']} of {totals['cells']} cells that break: "
               + (", ".join(f"`{k}` {r['recovers']}/{r['of']}" for k, r in totals["rows"].items()) or "no rows") + "."]
+    identified = totals.get("identified")
+    if identified and identified["of"]:
+        lines += ["", f"Pectoral signs right: {identified['right']} of the {identified['of']} cells with a "
+                      "self-model of servo gains."]
     if summary.get("missing"):
         lines += ["", "Not finished (run the command again to finish them): "
                   + ", ".join(f"`{m['damage']}` seed {m['seed']}" for m in summary["missing"]) + "."]

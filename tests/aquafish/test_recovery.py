@@ -6,7 +6,7 @@ import pytest
 
 from aquafish.case_study import BREAKS_SHARE, breaks, verdict
 from aquafish.cli import main
-from aquafish.recovery import (MANIFEST_FILE, cell_dir, check_spec, merge_manifest, render_summary,
+from aquafish.recovery import (MANIFEST_FILE, cell_dir, check_spec, merge_manifest, render_summary, signs_right,
                                summarize)
 from aquafish_gym.rundir import MismatchError
 
@@ -28,7 +28,8 @@ REPORTS = [
     _report("a", 0, {"healthy": 2, "plain_eea": 5, "self_model": 9, "out_of_band": 8.5, "true_damaged": 10,
                      "robust": 3, "ppo": 1, "robust_ppo": 9}, gains={"left_pectoral_gain": 0.4}),
     _report("b", 0, {"healthy": 4, "plain_eea": 9, "self_model": 8.5, "out_of_band": 2, "true_damaged": 10,
-                     "robust": 8, "ppo": 5, "robust_ppo": 1}),
+                     "robust": 8, "ppo": 5, "robust_ppo": 1},
+            gains={"left_pectoral_gain": 0.25, "right_pectoral_gain": 1.0, "caudal_gain": 0.5}),
     _report("c", 0, {"healthy": 8, "plain_eea": 9, "self_model": 9.5, "out_of_band": 9, "true_damaged": 10,
                      "robust": 9, "ppo": 9, "robust_ppo": 9}),
     _report("d", 0, {"healthy": 1, "plain_eea": 1, "self_model": 1, "out_of_band": 1, "true_damaged": -1,
@@ -55,11 +56,42 @@ def test_summary_totals_hand_computed():
         "plain_eea": (1, 2), "out_of_band": (1, 2), "self_model": (2, 2), "robust": (1, 2), "robust_ppo": (1, 2),
         "ppo": (0, 2)}
     assert totals["rows"]["self_model"]["rate"] == 1.0 and totals["rows"]["ppo"]["rate"] == 0.0
+    # a's self-model lacks the right gain: not judged; b's has both signs of the truth (+0.5, +1)
+    assert [x["signs_right"] for x in (a, b, c, d)] == [None, True, None, None]
+    assert totals["identified"] == {"right": 1, "of": 1, "rate": 1.0}
 
     md = render_summary({"settings": {"preset": "smoke", "episode_duration_s": 20.0}, **summary})
     assert "| `a` | 0 | yes | 20% | 50% | 85% ✓ | 90% ✓ | 30% | 90% ✓ | 10% |" in md
     assert "| `d` | 0 | no | n/a | n/a | n/a | n/a | n/a |  |  |" in md
     assert "Recovers in the 2 of 4 cells that break: `plain_eea` 1/2, `out_of_band` 1/2, `self_model` 2/2" in md
+    assert "| 50% | +0.25, +1 (+0.5, +1) ✓ |" in md and "| 10% |  |" in md
+    assert "Pectoral signs right: 1 of the 1 cells with a self-model of servo gains." in md
+
+
+@pytest.mark.parametrize("model, target, right", [
+    ((-1.0, 0.75), (-1.0, 1.0), True),      # the reversed left servo found
+    ((0.25, 0.75), (-1.0, 1.0), False),     # the healthy left taken
+    ((-0.5, -0.25), (-1.0, 1.0), False),    # the mirror image
+    ((0.0, 0.5), (0.0, 1.0), True),         # a dead servo needs exactly 0
+    ((0.125, 0.5), (0.0, 1.0), False),
+])
+def test_signs_right_compares_both_pectoral_signs(model, target, right):
+    keys = ("left_pectoral_gain", "right_pectoral_gain")
+    gains = {"self_model": {**dict(zip(keys, model)), "caudal_gain": 1.0},
+             "target": {**dict(zip(keys, target)), "caudal_gain": 1.0}}
+    assert signs_right(gains) is right
+    assert signs_right({"self_model": None, "target": gains["target"]}) is None
+
+
+def test_a_lost_flipper_s_servo_is_not_judged():
+    keys = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")
+    gains = {"self_model": dict(zip(keys, (-0.625, -0.125, 1.0))), "target": dict(zip(keys, (-1.0, 1.0, 1.0)))}
+    whole = {f"{side}_pectoral_{a}": 0.5 for side in ("left", "right") for a in "xyz"}
+    assert signs_right(gains, whole) is False                       # the right gain's sign is wrong
+    no_right = {**whole, "right_pectoral_x": 0.0, "right_pectoral_y": 0.0, "right_pectoral_z": 0.0}
+    assert signs_right(gains, no_right) is True                     # ...but that servo moves no flipper
+    no_pectorals = {**no_right, "left_pectoral_y": 0.0}
+    assert signs_right(gains, no_pectorals) is None
 
 
 def test_a_rerun_extends_the_manifest_with_damages_and_seeds_but_refuses_another_preset(tmp_path):
