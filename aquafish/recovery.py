@@ -51,7 +51,6 @@ from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
 from aquafish_gym.rundir import FileError, check_fingerprint, check_output_dir, read_json, run_lock
-from eea.analysis.compare import pectoral_signs_right
 
 #: The rows of the summary, in column order (``report.json`` controller keys; the oracle,
 #: ``true_damaged``, is what every share is taken of).
@@ -354,8 +353,9 @@ _PECTORAL_GAINS = ("left_pectoral_gain", "right_pectoral_gain")
 
 def signs_right(gains: dict, target_morphology: dict | None = None) -> bool | None:
     """Whether the self-model identified the pectoral servos: each of its pectoral gains on the
-    target's side of 0 (:func:`eea.analysis.compare.pectoral_signs_right`: a reversed servo needs
-    a negative gain, a healthy or weak one a positive gain, a dead or seized one 0). A pectoral
+    target's side of 0 (as :func:`eea.analysis.compare.pectoral_signs_right` judges a run: a
+    reversed servo needs a negative gain, a healthy or weak one a positive gain, a dead or
+    seized one 0). A pectoral
     whose flipper the target has lost (length or width 0) is not judged: its servo moves
     nothing, so no experiment shows its gain.
 
@@ -378,7 +378,12 @@ def signs_right(gains: dict, target_morphology: dict | None = None) -> bool | No
               if shape.get(f"{side}_pectoral_x", 1.0) > 0 and shape.get(f"{side}_pectoral_y", 1.0) > 0]
     if not judged:
         return None
-    return all(pectoral_signs_right([model[k]] * 2, [target[k]] * 2) for k in judged)
+    return all(_sign(model[k]) == _sign(target[k]) for k in judged)
+
+
+def _sign(x: float) -> int:
+    """-1, 0 or +1."""
+    return (x > 0) - (x < 0)
 
 
 def cell_summary(report: dict) -> dict:
