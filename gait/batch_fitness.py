@@ -37,7 +37,7 @@ from aquafish_gym.checks import check_int
 from aquafish_gym.rundir import die_with_parent
 from aquafish_gym.vector_env import MAX_WORLD_ROBOTS
 from gait.clock import CLOCK_DIM, clock_features
-from gait.fitness_task import FitnessTask
+from gait.fitness_task import FitnessTask, along_heading
 from gait.envs import DEFAULT_ENV_ID
 
 __all__ = ["BatchEvaluator", "batch_fitness", "genomes_per_world"]
@@ -84,14 +84,17 @@ def batch_fitness(genomes, config, task: FitnessTask, max_world_robots: int = MA
                         max_world_robots=world, **task.robot.env_kwargs(), initial_angles=task.initial_angles,
                         episode_duration_s=task.episode_duration_s)
     try:
-        scores = _run_episodes(envs, controllers, seeds, task.env_id)
+        yaws = [task.start_yaw_deg(episode) for _ in genomes for episode in range(k)] if task.spread_headings else None
+        scores = _run_episodes(envs, controllers, seeds, task.env_id, yaws)
     finally:
         envs.close()
     return scores.reshape(len(genomes), k).mean(axis=1)
 
 
-def _run_episodes(envs, controllers, seeds: list[int], env_id: str) -> np.ndarray:
-    """One episode of every sub-env, sub-env i driven by ``controllers[i]``; ``(N,)`` scores.
+def _run_episodes(envs, controllers, seeds: list[int], env_id: str, yaws: list[float] | None = None) -> np.ndarray:
+    """One episode of every sub-env, sub-env i driven by ``controllers[i]``; ``(N,)`` scores
+    (with ``yaws``, sub-env i starts turned by ``yaws[i]`` degrees and scores its displacement
+    along that heading, as :meth:`FitnessTask.score`).
 
     Each step does what :meth:`~gait.controller.NEATController.act` does, for all sub-envs:
     the observation and the clock (:func:`gait.clock.with_clock`'s ``clock_features``), each
@@ -100,7 +103,8 @@ def _run_episodes(envs, controllers, seeds: list[int], env_id: str) -> np.ndarra
     networks = [controller.network() for controller in controllers]
     period = controllers[0].clock_period_s
     num_inputs = controllers[0].config.genome_config.num_inputs
-    obs, info = envs.reset(seed=seeds)
+    obs, info = envs.reset(seed=seeds, options=None if yaws is None else {"initial_yaw_deg": list(yaws)})
+    start = np.column_stack([info["x_position"], info["y_position"]])
     if obs.shape[1] + CLOCK_DIM != num_inputs:
         raise ValueError(f"this network takes {num_inputs - CLOCK_DIM} observation entries, got {obs.shape[1]}")
     total = np.zeros(len(controllers))
@@ -113,7 +117,11 @@ def _run_episodes(envs, controllers, seeds: list[int], env_id: str) -> np.ndarra
         if terminated.any() or (truncated.any() and not truncated.all()):
             raise RuntimeError("the vector env ended some episodes and not others")  # it never does
         total += rewards
-    return np.array(info["distance"], dtype=np.float64) if env_id == DEFAULT_ENV_ID else total
+    if env_id != DEFAULT_ENV_ID:
+        return total
+    if yaws is not None:
+        return along_heading(np.column_stack([info["x_position"], info["y_position"]]) - start, np.asarray(yaws))
+    return np.array(info["distance"], dtype=np.float64)
 
 
 def _chunk_fitness(genomes, config, task, max_world_robots: int) -> list[float]:

@@ -44,6 +44,10 @@ def add_commands(subparsers) -> None:
     add_episode_duration(p, 20.0, "20", note="each genome's evaluation")
     p.add_argument("--episodes-per-genome", type=int_at_least(1), default=1,
                    help="episodes per evaluation from different initial angles (seeds seed, seed+1, ...); fitness is their mean (default 1)")
+    p.add_argument("--spread-headings", action="store_true",
+                   help="start episode k of the K turned by -180 + 360 (k + 1/2) / K degrees and score it along its "
+                        "own start heading, so the gait swims alike whichever way it points (AquaFish-v0; with "
+                        "--episodes-per-genome 2: -90 and +90 degrees)")
     p.add_argument("--checkpoint-every", type=int_at_least(1), default=5, help="generations between checkpoints (default 5)")
     p.add_argument("--verbose", action="store_true", help="NEAT's per-generation report (species, fitness statistics)")
     add_alias(p, add_no_progress(p, "generation"), "--quiet")
@@ -94,7 +98,7 @@ def run_gait(args: argparse.Namespace) -> int:
                          population_size=args.population_size, seed=args.seed, out_dir=args.out, workers=args.workers,
                          config_path=args.neat_config, resume=resume, episode_duration_s=args.episode_duration_s,
                          episodes_per_genome=args.episodes_per_genome, checkpoint_every=args.checkpoint_every, verbose=args.verbose,
-                         progress=not args.no_progress, env_id=args.env)
+                         progress=not args.no_progress, env_id=args.env, spread_headings=args.spread_headings)
     score = (f"forward distance {result.best_fitness:.3f} units ({result.best_fitness * 8:.1f} cm)" if args.env == "AquaFish-v0"
              else f"{args.env} return {result.best_fitness:.3f}")
     print(f"best {score} in {args.episode_duration_s:g} s on {result.robot.label}; {result.generations} generations, "

@@ -19,7 +19,7 @@ from gait.robots import Robot
 from gait.envs import DEFAULT_ENV_ID, EPISODE_DURATION_S, check_env_id, check_episodes
 from gait.rollout import Rollout, rollout
 
-__all__ = ["FitnessTask", "evaluate_genome"]
+__all__ = ["FitnessTask", "along_heading", "evaluate_genome"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -37,9 +37,14 @@ class FitnessTask:
             single 20 s trial; more episodes favour gaits that work from any start.
         env_id: the task (``aquafish_gym.ENV_IDS``). On ``"AquaFish-v0"`` (the paper's)
             the fitness is the forward distance, on the others the episode return.
+        spread_headings: start episode k of K turned by :meth:`start_yaw_deg` (evenly spread
+            headings) and score it by its displacement along its own start heading, so the
+            gait is selected to swim alike whichever way it points (its observation holds
+            the absolute yaw; AquaFish-v0 only). False (the default): every start heads +y.
 
     Raises:
-        ValueError: ``episodes`` < 1, or > 1 with fixed ``initial_angles``; an unknown env id.
+        ValueError: ``episodes`` < 1, or > 1 with fixed ``initial_angles``; an unknown env id;
+            ``spread_headings`` on another task than AquaFish-v0.
     """
 
     robot: Robot
@@ -49,27 +54,59 @@ class FitnessTask:
     clock_period_s: float = CLOCK_PERIOD_S
     episodes: int = 1
     env_id: str = DEFAULT_ENV_ID
+    spread_headings: bool = False
 
     def __post_init__(self) -> None:
         check_episodes(self.episodes, self.initial_angles)
         check_env_id(self.env_id)
+        if self.spread_headings and self.env_id != DEFAULT_ENV_ID:
+            raise ValueError(f"spread_headings needs the forward task {DEFAULT_ENV_ID!r} (the other tasks measure "
+                             f"their goals from +y), got {self.env_id!r}")
+
+    def start_yaw_deg(self, episode: int) -> float:
+        """Heading of episode ``episode``'s start, degrees counter-clockwise from +y: 0, or with
+        ``spread_headings`` ``-180 + 360 (k + 1/2) / K`` (K = ``episodes``: -90 and +90 for 2)."""
+        return -180.0 + 360.0 * (episode + 0.5) / self.episodes if self.spread_headings else 0.0
 
     def controller(self, genome, config) -> NEATController:
         """The network of ``genome`` (a ``neat`` genome and its ``neat.Config``) with the task's clock."""
         return NEATController(genome, config, self.clock_period_s)
 
     def run(self, controller, episode: int = 0) -> Rollout:
-        """Episode ``episode`` (seed ``seed + episode``) of ``controller``."""
+        """Episode ``episode`` (seed ``seed + episode``, heading :meth:`start_yaw_deg`) of ``controller``."""
+        yaw = {"initial_yaw_deg": self.start_yaw_deg(episode)} if self.spread_headings else {}
         return rollout(controller, self.robot, seed=self.seed + episode, initial_angles=self.initial_angles,
-                       episode_duration_s=self.episode_duration_s, env_id=self.env_id)
+                       episode_duration_s=self.episode_duration_s, env_id=self.env_id, **yaw)
 
-    def score(self, episode: Rollout) -> float:
-        """An episode's fitness: forward distance (units) on AquaFish-v0, the return on other tasks."""
-        return episode.distance if self.env_id == DEFAULT_ENV_ID else episode.episode_return
+    def score(self, episode: Rollout, k: int = 0) -> float:
+        """Episode ``k``'s fitness: forward distance (units) on AquaFish-v0 (with
+        ``spread_headings``, the displacement along the episode's start heading,
+        :func:`along_heading`), the return on other tasks."""
+        if self.env_id != DEFAULT_ENV_ID:
+            return episode.episode_return
+        if self.spread_headings:
+            return float(along_heading(episode.trajectory[-1] - episode.trajectory[0], self.start_yaw_deg(k)))
+        return episode.distance
 
     def fitness(self, controller) -> float:
         """Mean score over the task's episodes."""
-        return float(np.mean([self.score(self.run(controller, k)) for k in range(self.episodes)]))
+        return float(np.mean([self.score(self.run(controller, k), k) for k in range(self.episodes)]))
+
+
+def along_heading(displacement, yaw_deg) -> np.ndarray:
+    """Horizontal displacement along a heading.
+
+    Args:
+        displacement: ``(..., 2)`` x, y displacement (units, world frame).
+        yaw_deg: heading(s) broadcasting with ``displacement[..., 0]``, degrees counter-clockwise
+            from +y (the env's ``initial_yaw_deg``): the unit vector ``(-sin, cos)``.
+
+    Returns:
+        ``(...)`` units; at 0 degrees the y displacement.
+    """
+    d = np.asarray(displacement, dtype=np.float64)
+    a = np.radians(np.asarray(yaw_deg, dtype=np.float64))
+    return -np.sin(a) * d[..., 0] + np.cos(a) * d[..., 1]
 
 
 def evaluate_genome(genome, config, *, task: FitnessTask) -> float:

@@ -301,6 +301,8 @@ def _settings(task: FitnessTask) -> dict[str, Any]:
     settings = {"robot": task.robot.to_dict(), "seed": task.seed, "initial_angles": task.initial_angles,
                 "episode_duration_s": task.episode_duration_s, "clock_period_s": task.clock_period_s,
                 "episodes": task.episodes}
+    if task.spread_headings:
+        settings["spread_headings"] = True
     return settings if task.env_id == DEFAULT_ENV_ID else settings | {"env_id": task.env_id}
 
 
@@ -330,7 +332,7 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
                 initial_angles=None, episode_duration_s: float = EPISODE_DURATION_S,
                 clock_period_s: float = CLOCK_PERIOD_S, episodes_per_genome: int = 1, checkpoint_every: int = 5,
                 verbose: bool = False, progress: bool = True, env_id: str = DEFAULT_ENV_ID,
-                batched: bool = True) -> GaitResult:
+                batched: bool = True, spread_headings: bool = False) -> GaitResult:
     """Evolve a NEAT controller that swims forward on a robot (or solves another AquaFish task).
 
     Args:
@@ -358,6 +360,9 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
         clock_period_s: period of the controller's clock input (s).
         episodes_per_genome: episodes per evaluation, seeds ``seed, seed + 1, ...``; fitness is
             the mean distance (see :class:`FitnessTask`).
+        spread_headings: start episode k of the K turned by ``-180 + 360 (k + 1/2) / K`` degrees
+            and score it along its own start heading (:class:`FitnessTask`), so the gait swims
+            alike whichever way it points; AquaFish-v0 only. Default False: every start heads +y.
         checkpoint_every: generations between checkpoints (needs ``out_dir``); the final
             generation is always checkpointed, so ``resume=latest_checkpoint(out_dir)`` extends a run.
         verbose: print NEAT's per-generation report (species, fitness statistics).
@@ -387,7 +392,8 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
     seed = check_int("seed", seed, 0)
     workers = check_int("workers", workers if workers is not None else (os.cpu_count() or 1), 1)
     checkpoint_every = check_int("checkpoint_every", checkpoint_every, 1)
-    task = _make_task(robot, seed, initial_angles, episode_duration_s, clock_period_s, episodes_per_genome, env_id)
+    task = _make_task(robot, seed, initial_angles, episode_duration_s, clock_period_s, episodes_per_genome, env_id,
+                      spread_headings)
     out_dir = check_output_dir(out_dir) if out_dir is not None else None
     with make_env(robot, env_id=env_id, episode_duration_s=task.episode_duration_s) as env:  # checks the duration
         num_inputs = env.observation_space.shape[0] + CLOCK_DIM
@@ -433,13 +439,15 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
 
 
 def _make_task(robot: Robot, seed: int, initial_angles, episode_duration_s, clock_period_s, episodes_per_genome,
-               env_id: str) -> FitnessTask:
+               env_id: str, spread_headings: bool = False) -> FitnessTask:
     angles = None if initial_angles is None else tuple(float(a) for a in np.asarray(initial_angles, dtype=float).reshape(3))
     if isinstance(episode_duration_s, bool) or not isinstance(episode_duration_s, (int, float, np.floating)) \
             or not (np.isfinite(episode_duration_s) and episode_duration_s > 0):
         raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
+    if not isinstance(spread_headings, bool):
+        raise ValueError(f"spread_headings must be True or False, got {spread_headings!r}")
     return FitnessTask(robot, seed, angles, float(episode_duration_s), check_clock_period(clock_period_s),
-                       check_int("episodes_per_genome", episodes_per_genome, 1), env_id)
+                       check_int("episodes_per_genome", episodes_per_genome, 1), env_id, spread_headings)
 
 
 def _check_gait_memory(population_size: int, task: FitnessTask, workers: int) -> None:
@@ -595,7 +603,7 @@ def _check_finished(out_dir: Path, morphology, kwargs: dict[str, Any]) -> None:
     a = bound.arguments
     robot = as_robot(a["morphology"] if a["morphology"] is not None else "healthy", damage=a["damage"])
     task = _make_task(robot, check_int("seed", a["seed"], 0), a["initial_angles"], a["episode_duration_s"],
-                      a["clock_period_s"], a["episodes_per_genome"], a["env_id"])
+                      a["clock_period_s"], a["episodes_per_genome"], a["env_id"], a["spread_headings"])
     population_size = a["population_size"] or load_neat_config(a["config_path"]).pop_size
     run = read_json(out_dir / RUN_FILE)
     recorded = dict(read_json(out_dir / SETTINGS_FILE)) if (out_dir / SETTINGS_FILE).is_file() else {}
@@ -621,6 +629,7 @@ def _write_outputs(result: GaitResult, task: FitnessTask, config: neat.Config) -
         "initial_angles_rad": result.initial_angles.tolist(),
         "best_fitness": result.best_fitness,
         "episodes_per_genome": task.episodes,
+        **({"spread_headings": True} if task.spread_headings else {}),
         "best_rollout_distance": result.best_rollout.distance,
         "evaluations": result.history[-1]["evaluations"],
         "wall_time_s": result.wall_time_s,

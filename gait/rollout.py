@@ -48,7 +48,8 @@ class Rollout:
 
 
 def rollout(controller: Controller, robot=None, *, damage: str = "none", seed: int = 0, initial_angles=None,
-            episode_duration_s: float = EPISODE_DURATION_S, env_id: str = DEFAULT_ENV_ID, **env_kwargs: Any) -> Rollout:
+            episode_duration_s: float = EPISODE_DURATION_S, env_id: str = DEFAULT_ENV_ID,
+            initial_yaw_deg: float | None = None, **env_kwargs: Any) -> Rollout:
     """Run ``controller`` for one episode and record its distance and trajectory.
 
     Args:
@@ -60,6 +61,8 @@ def rollout(controller: Controller, robot=None, *, damage: str = "none", seed: i
         initial_angles: ``(3,)`` left, right pectoral, caudal angles (rad), or None.
         episode_duration_s: simulated seconds (20 s is the paper's gait fitness).
         env_id: the task (``aquafish_gym.ENV_IDS``; default the paper's ``"AquaFish-v0"``).
+        initial_yaw_deg: start turned by this many degrees counter-clockwise from +y (the env's
+            reset option; None: headed +y). The env's distance stays measured along +y.
         **env_kwargs: further env arguments (e.g. ``frame_skip``, fluid parameters).
 
     Returns:
@@ -73,7 +76,8 @@ def rollout(controller: Controller, robot=None, *, damage: str = "none", seed: i
     env = make_env(robot, initial_angles=initial_angles, episode_duration_s=episode_duration_s, env_id=env_id, **env_kwargs)
     try:
         controller.reset()
-        obs, info = env.reset(seed=int(seed))
+        options = None if initial_yaw_deg is None else {"initial_yaw_deg": initial_yaw_deg}
+        obs, info = env.reset(seed=int(seed), options=options)
         xy = [(info["x_position"], info["y_position"])]
         times = [info["time_s"]]
         angles = np.asarray(info["initial_angles"], dtype=np.float64).copy()

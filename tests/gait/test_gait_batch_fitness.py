@@ -110,3 +110,56 @@ def test_batched_evolution_is_the_single_env_evolution():
         for key in ("best_fitness", "mean_fitness", "std_fitness", "best_so_far"):
             assert b[key] == pytest.approx(a[key], rel=0, abs=1e-9)
     assert str(batched.best_controller.genome) == str(single.best_controller.genome)
+
+
+# -- starts at spread headings --------------------------------------------------------------------
+
+def test_spread_headings_are_evenly_spaced_and_only_on_the_forward_task():
+    task = FitnessTask(as_robot("healthy"), 0, None, SHORT_S, episodes=4, spread_headings=True)
+    assert [task.start_yaw_deg(k) for k in range(4)] == [-135.0, -45.0, 45.0, 135.0]
+    assert FitnessTask(as_robot("healthy"), 0, None, SHORT_S, episodes=2).start_yaw_deg(1) == 0.0
+    with pytest.raises(ValueError, match="spread_headings needs the forward task 'AquaFish-v0'"):
+        FitnessTask(as_robot("healthy"), 0, None, SHORT_S, episodes=2, env_id="AquaFishHeading-v0",
+                    spread_headings=True)
+
+
+def test_along_heading_by_hand():
+    from gait.fitness_task import along_heading
+    # heading +90 degrees (counter-clockwise from +y) points along -x
+    assert along_heading([-2.0, 0.5], 90.0) == pytest.approx(2.0)
+    assert along_heading([3.0, 4.0], 0.0) == pytest.approx(4.0)
+    assert along_heading([1.0, 1.0], -45.0) == pytest.approx(np.sqrt(2.0))
+
+
+def test_a_start_turned_scores_along_its_own_heading_on_both_paths():
+    genomes, config = _genomes(4)
+    plain = FitnessTask(as_robot("healthy"), 3, None, SHORT_S, episodes=2)
+    spread = FitnessTask(as_robot("healthy"), 3, None, SHORT_S, episodes=2, spread_headings=True)
+    batched = batch_fitness(genomes, config, spread, max_world_robots=4)
+    np.testing.assert_allclose(batched, _single(genomes, config, spread), rtol=0, atol=1e-9)
+    # by hand for genome 0: each start's displacement projected on its start heading (-90, +90)
+    controller = spread.controller(genomes[0], config)
+    by_hand = []
+    for k, yaw in enumerate((-90.0, 90.0)):
+        run = spread.run(controller, k)
+        assert run.trajectory.shape[1] == 2
+        dx, dy = run.trajectory[-1] - run.trajectory[0]
+        by_hand.append(dx if yaw == -90.0 else -dx)        # -90 degrees heads +x, +90 heads -x
+    assert batched[0] == pytest.approx(np.mean(by_hand), abs=1e-9)
+    assert not np.allclose(batched, batch_fitness(genomes, config, plain, max_world_robots=4))
+
+
+def test_evolve_gait_records_spread_headings(tmp_path):
+    result = evolve_gait("healthy", generations=1, population_size=4, seed=0, out_dir=tmp_path / "g", workers=1,
+                         episode_duration_s=SHORT_S, episodes_per_genome=2, spread_headings=True, progress=False)
+    import json
+    assert json.loads((tmp_path / "g" / "fitness_settings.json").read_text())["spread_headings"] is True
+    assert json.loads((tmp_path / "g" / "run.json").read_text())["spread_headings"] is True
+    from aquafish_gym.rundir import MismatchError
+    with pytest.raises(MismatchError):
+        evolve_gait("healthy", generations=2, population_size=4, seed=0, out_dir=tmp_path / "g", workers=1,
+                    episode_duration_s=SHORT_S, episodes_per_genome=2, progress=False,
+                    resume=str(sorted((tmp_path / "g" / "checkpoints").iterdir())[-1]))
+    # the recorded best fitness is the spread task's score of the best controller (the single-env path)
+    spread = FitnessTask(as_robot("healthy"), 0, None, SHORT_S, episodes=2, spread_headings=True)
+    assert result.best_fitness == pytest.approx(spread.fitness(result.best_controller), abs=1e-9)
