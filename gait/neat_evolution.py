@@ -204,6 +204,8 @@ class GaitResult:
         best_rollout: the best controller's first fitness episode on the single env (seed
             ``seed``; trajectory ``(T + 1, 2)``); its distance is ``best_fitness`` when
             ``episodes_per_genome`` is 1 (batched: to the vector env's round-off, ~1e-13 units).
+            With ``spread_headings`` it starts turned and its ``distance`` is along +y, the
+            env's; ``run.json``'s ``best_rollout_distance`` is then its score along its heading.
         robot: the robot evolved for.
         seed: the run seed (also the episode seed unless ``initial_angles``).
         initial_angles: ``(3,)`` rad used for every evaluation.
@@ -630,7 +632,8 @@ def _write_outputs(result: GaitResult, task: FitnessTask, config: neat.Config) -
         "best_fitness": result.best_fitness,
         "episodes_per_genome": task.episodes,
         **({"spread_headings": True} if task.spread_headings else {}),
-        "best_rollout_distance": result.best_rollout.distance,
+        "best_rollout_distance": task.score(result.best_rollout, 0) if task.spread_headings
+        else result.best_rollout.distance,
         "evaluations": result.history[-1]["evaluations"],
         "wall_time_s": result.wall_time_s,
         "controller": NEAT_CONTROLLER_FILE,
