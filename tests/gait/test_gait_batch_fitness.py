@@ -163,3 +163,7 @@ def test_evolve_gait_records_spread_headings(tmp_path):
     # the recorded best fitness is the spread task's score of the best controller (the single-env path)
     spread = FitnessTask(as_robot("healthy"), 0, None, SHORT_S, episodes=2, spread_headings=True)
     assert result.best_fitness == pytest.approx(spread.fitness(result.best_controller), abs=1e-9)
+    first = spread.run(result.best_controller, 0)        # turned -90 degrees: scored along -90, not +y
+    run_json = json.loads((tmp_path / "g" / "run.json").read_text())
+    assert run_json["best_rollout_distance"] == pytest.approx(spread.score(first, 0), abs=1e-12)
+    assert run_json["best_rollout_distance"] != pytest.approx(first.distance)
