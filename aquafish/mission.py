@@ -192,7 +192,8 @@ def prepare_prior(directory, preset: str = "quick", seed: int = 0, *, prior: str
     builds from scratch on the healthy robot (``"eea"``: ``eea/``, the case study's self-model
     EEA on damage ``none`` at the preset's budget; at ``quick`` it can land on a wrong servo
     sign, and the gait evolved on it then swims worse than its calibration expects: a false
-    alarm). Then ``gait/``: NEAT on the self-model robot; ``monitor_calibration.json``: the
+    alarm). Then ``gait/``: NEAT on the self-model robot, its starts at spread headings
+    (:func:`gait.evolve_gait`'s ``spread_headings``); ``monitor_calibration.json``: the
     monitor's calibration of the gait on the self-model from ``calibration_seeds`` random
     starts. Each step is skipped when done.
 
@@ -224,7 +225,12 @@ def make_prior(directory, genome, robot: Robot, preset: str = "quick", seed: int
     :func:`prepare_prior` after the EEA. ``calibration_seeds`` overrides the preset's."""
     settings = mission_preset(preset)
     out = check_output_dir(directory, "--self-model")
-    gait.evolve_or_load_gait(robot, out / "gait", **_gait_kwargs(settings, seed, workers, progress))
+    # the prior's gait starts its fitness episodes at spread headings, each scored along its own:
+    # a gait that swims alike whichever way it points keeps the monitor's speed range over hours
+    # (docs/main_job.md, "Gaits from spread headings"); the oracle and the recovered gait are scored
+    # as the case study's
+    gait.evolve_or_load_gait(robot, out / "gait", **_gait_kwargs(settings, seed, workers, progress),
+                             spread_headings=True)
     n = calibration_seeds or settings.calibration_seeds
     wanted = (n, settings.calibration_episode_s, settings.window_s, settings.warmup_s)
     saved = MonitorCalibration.load(out / CALIBRATION_FILE) if (out / CALIBRATION_FILE).is_file() else None

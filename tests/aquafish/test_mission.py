@@ -247,6 +247,8 @@ def test_the_design_prior_is_the_healthy_robot_and_runs_no_eea(tmp_path):
     assert prior.robot.damage == "none"
     assert not (tmp_path / "design" / "eea").exists()  # no self-modeling before the mission
     assert (tmp_path / "design" / "monitor_calibration.json").is_file()
+    import json
+    assert json.loads((tmp_path / "design" / "gait" / "fitness_settings.json").read_text())["spread_headings"] is True
 
 
 def test_a_calibration_made_with_other_settings_is_made_anew(prior_dir):
