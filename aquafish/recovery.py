@@ -355,9 +355,8 @@ def signs_right(gains: dict, target_morphology: dict | None = None) -> bool | No
     """Whether the self-model identified the pectoral servos: each of its pectoral gains on the
     target's side of 0 (as :func:`eea.analysis.compare.pectoral_signs_right` judges a run: a
     reversed servo needs a negative gain, a healthy or weak one a positive gain, a dead or
-    seized one 0). A pectoral
-    whose flipper the target has lost (length or width 0) is not judged: its servo moves
-    nothing, so no experiment shows its gain.
+    seized one 0). A pectoral whose flipper the target has lost (length or width 0) is not
+    judged: its servo moves nothing, so no experiment shows its gain.
 
     Args:
         gains: a cell's ``gains``: ``{"self_model": {...} or None, "target": {...}}``, each
@@ -414,8 +413,8 @@ def summarize(reports: Iterable[dict]) -> dict:
     """``cells`` (:func:`cell_summary` of every report) and ``totals``: the number of ``cells``,
     of cells whose damage ``breaks`` the healthy gait, per row (but ``healthy``) how many of
     the breaking cells that have the row it recovers in (``recovers``, ``of``, ``rate``: None
-    without such a cell), and ``identified``: in how many of the cells with a self-model of
-    servo gains both its pectoral signs are right (``right``, ``of``, ``rate``).
+    without such a cell), and ``identified``: in how many of the cells whose self-model's signs
+    are judged (:func:`signs_right` not None) they are right (``right``, ``of``, ``rate``).
 
     Raises:
         KeyError: a report lacks a field every case-study report has.
