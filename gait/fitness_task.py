@@ -74,9 +74,9 @@ class FitnessTask:
 
     def run(self, controller, episode: int = 0) -> Rollout:
         """Episode ``episode`` (seed ``seed + episode``, heading :meth:`start_yaw_deg`) of ``controller``."""
-        yaw = {"initial_yaw_deg": self.start_yaw_deg(episode)} if self.spread_headings else {}
         return rollout(controller, self.robot, seed=self.seed + episode, initial_angles=self.initial_angles,
-                       episode_duration_s=self.episode_duration_s, env_id=self.env_id, **yaw)
+                       episode_duration_s=self.episode_duration_s, env_id=self.env_id,
+                       initial_yaw_deg=self.start_yaw_deg(episode) if self.spread_headings else None)
 
     def score(self, episode: Rollout, k: int = 0) -> float:
         """Episode ``k``'s fitness: forward distance (units) on AquaFish-v0 (with
