@@ -185,7 +185,9 @@ def add_commands(sub) -> None:
     s.add_argument("--replicates", type=int_at_least(1), default=25,
                    help="seeds S..S+N-1 per (condition, duration), S the --first-seed")
     s.add_argument("--first-seed", type=int_at_least(0), default=0,
-                   help="the first seed S (default 0); shards of one study's seeds can share its --out")
+                   help="the first seed S (default 0); shards of one study's seeds can share its --out one "
+                        "after the other (a running study locks its --out; shards at once need an --out each, "
+                        "which aquafish compare joins under one label)")
     s.add_argument("--out", required=True, type=path, help="study directory")
     s.add_argument("--backend", choices=["local", "ray"], default="local", help="local process pool or Ray tasks")
     s.add_argument("--address", default=None,
