@@ -43,6 +43,21 @@ def _mission(args: argparse.Namespace) -> int:
     return 0
 
 
+def _mission_table(args: argparse.Namespace) -> int:
+    from aquafish.mission_table import format_table, read_missions, summarise_missions
+    from aquafish_gym.files import atomic_write
+
+    summary = summarise_missions(read_missions(args.missions))
+    table = format_table(summary)
+    print(table, end="")
+    if args.out is not None:
+        args.out.mkdir(parents=True, exist_ok=True)
+        atomic_write(args.out / "summary.json", (json.dumps(summary, indent=1) + "\n").encode())
+        atomic_write(args.out / "summary.md", table.encode())
+        print(f"wrote {args.out / 'summary.md'} and summary.json ({summary['totals']['missions']} missions)")
+    return 0
+
+
 def add_commands(sub) -> None:
     m = sub.add_parser("mission", help="a mission: the robot swims, is damaged, notices it, runs target experiments "
                                        "where it stands, rebuilds its self-model (warm start) and swims on "
@@ -76,3 +91,11 @@ def add_commands(sub) -> None:
     add_no_progress(m, "generation")
     add_config_option(m)
     m.set_defaults(func=_mission)
+
+    t = sub.add_parser("mission-table", help="many missions in one table: alarm delays, target experiments, compute, "
+                                             "speeds, gains, and the totals the mission's goals are stated in "
+                                             "(aquafish.mission_table)")
+    t.add_argument("missions", nargs="+", type=path, metavar="DIR", help="finished missions (aquafish mission --out)")
+    t.add_argument("--out", type=path, default=None,
+                   help="also write OUT/summary.md and OUT/summary.json (default: print only)")
+    t.set_defaults(func=_mission_table)

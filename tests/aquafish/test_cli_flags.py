@@ -50,12 +50,13 @@ NO_PROGRESS_DISPLAY = {
     "envs": "lists the tasks", "doctor": "prints the simulator path", "bench": "its benchmarks print their own tables",
     "transfer": "a few episodes, prints one line per controller",
     "diagnose": "prints one table line per run as it is diagnosed",
-    "plot": "draws a figure", "compare": "prints a table",
+    "plot": "draws a figure", "compare": "prints a table", "mission-table": "prints a table",
 }
 #: Arguments a command needs to parse at all.
 REQUIRED = {"eea": ["--out", "r"], "study": ["--out", "s"], "transfer": ["--controller", "c", "--target", "healthy"],
             "plot": ["d"], "compare": ["a=d"], "diagnose": ["d"], "baselines": ["--out", "b"],
-            "recovery": ["--out", "r"], "mission": ["--damage", "none", "--out", "m"], "bench": ["sim"]}
+            "recovery": ["--out", "r"], "mission": ["--damage", "none", "--out", "m"], "bench": ["sim"],
+            "mission-table": ["m"]}
 
 
 class _Built(Exception):

@@ -1,0 +1,181 @@
+"""The mission table: many missions' ``mission.json`` in one table, judged against the mission's goals.
+
+A mission (:mod:`aquafish.mission`) answers for one damage and one seed. ``aquafish mission-table
+DIR ...`` reads finished missions (each ``DIR/mission.json``) and writes what a reader needs to
+judge the whole: one row per mission (damage, seed, search start, alarm delay, target
+experiments, compute, the four speeds, the share of the oracle after recovery, the gains found
+beside the truth) and the totals the goals are stated in:
+
+* an alarm within :data:`ALARM_WITHIN_S` of the damage (and none before it) on at least 95 %
+  of missions;
+* after recovery, at least :data:`RECOVERED_SHARE` of the oracle gait's speed on the damaged
+  robot;
+* from alarm to new gait, at most :data:`COMPUTE_BUDGET_S` seconds of compute.
+
+Speeds are displacement along the mission's heading per second (units/s, 1 unit = 8 cm), as
+``mission.json`` records them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+from typing import Sequence
+
+from aquafish.recovery import signs_right
+
+__all__ = ["ALARM_WITHIN_S", "COMPUTE_BUDGET_S", "RECOVERED_SHARE", "format_table", "mission_row", "read_missions",
+           "summarise_missions"]
+
+#: The alarm must come within this many seconds of the damage coming in force.
+ALARM_WITHIN_S = 10.0
+#: A recovered mission swims at least this share of the oracle gait's speed after recovery.
+RECOVERED_SHARE = 0.8
+#: Compute from alarm to new gait allowed (seconds, the 2-core machine).
+COMPUTE_BUDGET_S = 300.0
+
+_GAINS = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")
+_MORPHOLOGY_KEYS = ("left_pectoral_x", "left_pectoral_y", "right_pectoral_x", "right_pectoral_y")
+
+
+def read_missions(directories: Sequence[str | os.PathLike]) -> list[dict]:
+    """The ``mission.json`` report of every directory, in the order given.
+
+    Raises:
+        ValueError: no directory given, a directory given twice, or one without a readable
+            ``mission.json`` (the message names it: a mission still running has none yet).
+    """
+    if not directories:
+        raise ValueError("give at least one mission directory (an aquafish mission --out)")
+    seen: set[Path] = set()
+    reports = []
+    for d in directories:
+        path = Path(d) / "mission.json"
+        key = path.resolve()
+        if key in seen:
+            raise ValueError(f"{d}: given twice")
+        seen.add(key)
+        try:
+            reports.append(json.loads(path.read_text()))
+        except FileNotFoundError:
+            raise ValueError(f"{d}: no mission.json (not a mission directory, or the mission has not finished)") from None
+        except (OSError, json.JSONDecodeError) as err:
+            raise ValueError(f"{path}: cannot be read as a mission report ({err})") from None
+    return reports
+
+
+def _share(after, oracle) -> float | None:
+    if after is None or oracle is None or not oracle > 0:
+        return None
+    return after / oracle
+
+
+def mission_row(report: dict) -> dict:
+    """One mission's row of the table, from its ``mission.json`` report.
+
+    Returns:
+        A dict: ``damage``, ``seed``, ``warm_start``, ``false_alarm``, ``alarm_delay_s`` (alarm
+        minus the damage coming in force; None without an alarm or for a false alarm),
+        ``target_experiments``, ``compute_s``, ``speed_before``, ``speed_damaged``,
+        ``speed_after``, ``oracle_speed`` (units/s), ``after_share`` (``speed_after`` over
+        ``oracle_speed``; None without an oracle that swims forward), ``gains`` (found) and
+        ``true_gains`` (three each: left, right pectoral, caudal), ``signs_right`` (as
+        :func:`aquafish.recovery.signs_right`; None without a recovery) and the three verdicts
+        ``alarm_in_time``, ``recovered`` and ``compute_in_budget``.
+
+    Raises:
+        ValueError: a report without the fields a mission writes (the message names the first).
+    """
+    try:
+        onset = report.get("damage_in_force_s", report["onset_s"])
+        alarm, false_alarm = report["alarm_s"], bool(report["false_alarm"])
+        after, oracle = report["speed_after"], report["oracle_speed"]
+        truth, found = report["true_model"], report.get("self_model_after")
+        row = {"damage": report["damage"], "seed": report["seed"], "warm_start": report["warm_start"],
+               "false_alarm": false_alarm, "target_experiments": report["target_experiments"],
+               "compute_s": report["compute_seconds"], "speed_before": report["speed_before"],
+               "speed_damaged": report["speed_damaged"], "speed_after": after, "oracle_speed": oracle}
+    except KeyError as err:
+        raise ValueError(f"not a mission report: no {err.args[0]!r} field") from None
+    delay = None if alarm is None or false_alarm or onset is None else alarm - onset
+    share = _share(after, oracle)
+    row["alarm_delay_s"] = delay
+    row["after_share"] = share
+    row["true_gains"] = [truth[k] for k in _GAINS]
+    row["gains"] = [found[k] for k in _GAINS] if found else None
+    morphology = {k: truth[k] for k in _MORPHOLOGY_KEYS if k in truth}
+    row["signs_right"] = (signs_right({"self_model": found, "target": truth}, morphology) if found else None)
+    row["alarm_in_time"] = delay is not None and delay <= ALARM_WITHIN_S
+    row["recovered"] = share is not None and share >= RECOVERED_SHARE
+    row["compute_in_budget"] = row["compute_s"] is not None and row["compute_s"] <= COMPUTE_BUDGET_S
+    return row
+
+
+def summarise_missions(reports: Sequence[dict]) -> dict:
+    """The table's rows and totals.
+
+    Returns:
+        ``{"rows": [mission_row, ...], "totals": {...}}``: ``missions``, ``false_alarms``,
+        ``alarm_in_time`` (missions with an alarm within :data:`ALARM_WITHIN_S` of the damage),
+        ``recovered`` (at least :data:`RECOVERED_SHARE` of the oracle after recovery; among
+        missions with an oracle speed: ``with_oracle``), ``signs_right`` (among missions whose
+        verdict is not None: ``signs_judged``), ``compute_in_budget``, and the median compute
+        seconds and alarm delay.
+    """
+    rows = [mission_row(r) for r in reports]
+    delays = sorted(r["alarm_delay_s"] for r in rows if r["alarm_delay_s"] is not None)
+    compute = sorted(r["compute_s"] for r in rows if r["compute_s"] is not None)
+    judged = [r["signs_right"] for r in rows if r["signs_right"] is not None]
+    totals = {
+        "missions": len(rows),
+        "false_alarms": sum(r["false_alarm"] for r in rows),
+        "alarm_in_time": sum(r["alarm_in_time"] for r in rows),
+        "with_oracle": sum(r["after_share"] is not None for r in rows),
+        "recovered": sum(r["recovered"] for r in rows),
+        "signs_judged": len(judged),
+        "signs_right": sum(judged),
+        "compute_in_budget": sum(r["compute_in_budget"] for r in rows),
+        "median_compute_s": _median(compute),
+        "median_alarm_delay_s": _median(delays),
+    }
+    return {"rows": rows, "totals": totals}
+
+
+def _median(values: list[float]) -> float | None:
+    if not values:
+        return None
+    n = len(values)
+    return values[n // 2] if n % 2 else (values[n // 2 - 1] + values[n // 2]) / 2
+
+
+def _num(x, digits: int = 3) -> str:
+    return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{digits}f}"
+
+
+def _gains(g) -> str:
+    return "-" if g is None else ", ".join(f"{x:+g}" for x in g)
+
+
+def format_table(summary: dict) -> str:
+    """``summary`` (:func:`summarise_missions`) as a Markdown table and a line of totals."""
+    head = ("| damage | seed | EEA start | alarm after the damage (s) | experiments | compute (s) | speed before | "
+            "damaged | after | oracle | after / oracle | gains found (L, R, C) | true | signs |")
+    lines = [head, "|" + "---|" * head.count(" | ") + "---|"]
+    for r in summary["rows"]:
+        alarm = "false alarm" if r["false_alarm"] else _num(r["alarm_delay_s"], 1)
+        share = "-" if r["after_share"] is None else f"{100 * r['after_share']:.0f} %" + (" ✓" if r["recovered"] else "")
+        signs = {True: "✓", False: "✗", None: "-"}[r["signs_right"]]
+        lines.append(f"| `{r['damage']}` | {r['seed']} | {'warm' if r['warm_start'] else 'cold'} | {alarm} | "
+                     f"{r['target_experiments']} | {_num(r['compute_s'], 0)} | {_num(r['speed_before'])} | "
+                     f"{_num(r['speed_damaged'])} | {_num(r['speed_after'])} | {_num(r['oracle_speed'])} | {share} | "
+                     f"{_gains(r['gains'])} | {_gains(r['true_gains'])} | {signs} |")
+    t = summary["totals"]
+    lines.append("")
+    lines.append(f"{t['missions']} missions: alarm within {ALARM_WITHIN_S:g} s of the damage on {t['alarm_in_time']}, "
+                 f"{t['false_alarms']} false alarms; recovered to {100 * RECOVERED_SHARE:.0f} % of the oracle on "
+                 f"{t['recovered']} of {t['with_oracle']} with an oracle; pectoral signs right on {t['signs_right']} of "
+                 f"{t['signs_judged']}; compute within {COMPUTE_BUDGET_S:g} s on {t['compute_in_budget']} (median "
+                 f"{_num(t['median_compute_s'], 0)} s); median alarm delay {_num(t['median_alarm_delay_s'], 1)} s.")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,92 @@
+"""aquafish.mission_table: missions' reports in one table, judged against the mission's goals."""
+
+import json
+
+import pytest
+
+from aquafish.cli import main
+from aquafish.mission_table import format_table, mission_row, read_missions, summarise_missions
+
+_DESIGN = {"left_pectoral_x": 0.25, "left_pectoral_y": 1.0, "right_pectoral_x": 0.25, "right_pectoral_y": 1.0}
+
+
+def _report(damage="reversed_left_pectoral", seed=0, *, alarm=32.2, in_force=30.06, false_alarm=False, after=0.8,
+            oracle=1.0, compute=250.0, found=(-1.0, 0.875, 1.0), truth=(-1.0, 1.0, 1.0), shape=None):
+    gains = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")
+    return {"damage": damage, "seed": seed, "warm_start": True, "onset_s": 30.0, "damage_in_force_s": in_force,
+            "alarm_s": alarm, "false_alarm": false_alarm, "target_experiments": 8, "compute_seconds": compute,
+            "speed_before": 0.71, "speed_damaged": 0.62, "speed_after": after, "oracle_speed": oracle,
+            "true_model": {**_DESIGN, **(shape or {}), **dict(zip(gains, truth))},
+            "self_model_after": None if found is None else {**_DESIGN, **dict(zip(gains, found))}}
+
+
+def test_a_row_measures_the_alarm_from_the_damage_in_force_and_the_speed_against_the_oracle():
+    row = mission_row(_report())
+    assert row["alarm_delay_s"] == pytest.approx(32.2 - 30.06)
+    assert row["after_share"] == 0.8                                         # 80 %: just recovered
+    assert row["alarm_in_time"] and row["recovered"] and row["compute_in_budget"] and row["signs_right"]
+    slow = mission_row(_report(alarm=40.1, after=0.79, compute=301.0, found=(1.0, 1.0, 1.0)))
+    assert slow["alarm_delay_s"] == pytest.approx(10.04) and not slow["alarm_in_time"]
+    assert not slow["recovered"] and not slow["compute_in_budget"] and slow["signs_right"] is False
+
+
+def test_a_false_alarm_has_no_delay_and_a_missing_oracle_no_share():
+    row = mission_row(_report(alarm=11.9, false_alarm=True, oracle=None))
+    assert row["alarm_delay_s"] is None and not row["alarm_in_time"]
+    assert row["after_share"] is None and not row["recovered"]
+    assert mission_row(_report(oracle=-0.1))["after_share"] is None          # an oracle that does not swim forward
+
+
+def test_a_lost_flippers_servo_is_not_judged():
+    # the right flipper lost: its servo moves nothing, so a wrong right gain is not held against the model
+    row = mission_row(_report(damage="sampled:1017", truth=(-1.0, 1.0, 1.0), found=(-0.75, -1.0, 1.0),
+                              shape={"right_pectoral_y": 0.0}))
+    assert row["signs_right"] is True
+    assert mission_row(_report(found=None))["signs_right"] is None
+
+
+def test_totals_count_the_goals():
+    reports = [_report(), _report(seed=1, alarm=45.0, after=0.1, compute=1500.0, found=(1.0, -1.0, 1.0)),
+               _report(seed=2, alarm=12.0, false_alarm=True, oracle=None, compute=100.0)]
+    t = summarise_missions(reports)["totals"]
+    assert (t["missions"], t["false_alarms"], t["alarm_in_time"]) == (3, 1, 1)
+    assert (t["with_oracle"], t["recovered"]) == (2, 1)
+    assert (t["signs_judged"], t["signs_right"], t["compute_in_budget"]) == (3, 2, 2)
+    assert t["median_compute_s"] == 250.0
+    assert t["median_alarm_delay_s"] == pytest.approx((32.2 - 30.06 + 45.0 - 30.06) / 2)
+    table = format_table(summarise_missions(reports))
+    assert table.count("\n| `reversed_left_pectoral` |") == 3 and "false alarm" in table and "80 % ✓" in table
+    assert "recovered to 80 % of the oracle on 1 of 2 with an oracle" in table
+
+
+def test_bad_input_is_named(tmp_path):
+    with pytest.raises(ValueError, match="at least one mission directory"):
+        read_missions([])
+    with pytest.raises(ValueError, match="no mission.json"):
+        read_missions([tmp_path])
+    (tmp_path / "mission.json").write_text("{")
+    with pytest.raises(ValueError, match="cannot be read as a mission report"):
+        read_missions([tmp_path])
+    (tmp_path / "mission.json").write_text(json.dumps(_report()))
+    with pytest.raises(ValueError, match="given twice"):
+        read_missions([tmp_path, tmp_path / "."])
+    with pytest.raises(ValueError, match="no 'oracle_speed' field"):
+        mission_row({k: v for k, v in _report().items() if k != "oracle_speed"})
+
+
+def test_the_command_prints_and_writes_the_table(tmp_path, capsys):
+    dirs = []
+    for seed in (0, 1):
+        d = tmp_path / f"m{seed}"
+        d.mkdir()
+        (d / "mission.json").write_text(json.dumps(_report(seed=seed)))
+        dirs.append(str(d))
+    assert main(["mission-table", *dirs, "--out", str(tmp_path / "table")]) == 0
+    out = capsys.readouterr().out
+    assert "2 missions: alarm within 10 s of the damage on 2" in out
+    written = json.loads((tmp_path / "table" / "summary.json").read_text())
+    assert written["totals"]["recovered"] == 2 and len(written["rows"]) == 2
+    assert (tmp_path / "table" / "summary.md").read_text() in out
+    with pytest.raises(SystemExit) as exit_:                                     # fails safe, one line
+        main(["mission-table", str(tmp_path / "nowhere")])
+    assert exit_.value.code == 2 and "no mission.json" in capsys.readouterr().err
