@@ -20,7 +20,10 @@ from eea.experiment import Experiment, angle_errors_deg
 from eea.fitness import model_fitness_from_similarities
 from eea.inference.profile import Profile
 
-__all__ = ["Selection", "select_model"]
+__all__ = ["FAULT_GAIN_LEVELS", "Selection", "check_fault_hypotheses", "fault_hypotheses", "select_model"]
+
+#: The pectoral servo gains of :func:`fault_hypotheses`: reversed, half reversed, dead, weak, healthy.
+FAULT_GAIN_LEVELS: tuple[float, ...] = (-1.0, -0.5, 0.0, 0.5, 1.0)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -115,3 +118,73 @@ def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator
     profile.polish_angles(genomes, angles, sims, experiments, evaluator)
     fitness = model_fitness_from_similarities(sims)[inverse]
     return Selection(models, fitness, angles[inverse], int(np.argmax(fitness)))
+
+
+def fault_hypotheses(design, levels: Sequence[float] = FAULT_GAIN_LEVELS, caudal_gain: float = 1.0) -> np.ndarray:
+    """Servo-fault hypotheses at a known morphology: every pair of pectoral gains from ``levels``.
+
+    A robot knows the morphology it was built to (its design); a servo fault leaves that
+    morphology as it was and changes only how a servo turns. These are the candidate models of
+    :func:`check_fault_hypotheses`.
+
+    Args:
+        design: ``(9,)`` the robot's flipper dimensions (simulator units, ``MORPHOLOGY_FIELDS``).
+        levels: pectoral gains to combine, each in [-1, 1] (default :data:`FAULT_GAIN_LEVELS`).
+        caudal_gain: every hypothesis's caudal gain, in [0, 1].
+
+    Returns:
+        ``(L * L, 12)`` models of the ``morphology+servos`` space: the design and the gains
+        (left, right pectoral, caudal), left gain varying slowest.
+
+    Raises:
+        ValueError: ``design`` not 9 finite numbers, no level, or a gain out of its range.
+    """
+    design = np.asarray(design, dtype=np.float64)
+    if design.shape != (9,) or not np.all(np.isfinite(design)):
+        raise ValueError(f"design must be the 9 flipper dimensions, got shape {design.shape}")
+    gains = np.asarray(levels, dtype=np.float64)
+    if gains.ndim != 1 or not len(gains) or not np.all(np.abs(gains) <= 1.0):
+        raise ValueError(f"levels must be one or more pectoral gains in [-1, 1], got {levels!r}")
+    if not 0.0 <= caudal_gain <= 1.0:
+        raise ValueError(f"caudal_gain must be in [0, 1], got {caudal_gain!r}")
+    left, right = np.meshgrid(gains, gains, indexing="ij")
+    n = left.size
+    return np.column_stack([np.tile(design, (n, 1)), left.ravel(), right.ravel(), np.full(n, float(caudal_gain))])
+
+
+def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], evaluator: Evaluator,
+                           rng: np.random.Generator, *, levels: Sequence[float] = FAULT_GAIN_LEVELS,
+                           generations: int = 10, scan_cycles: int = 2) -> Selection:
+    """A found self-model against servo-fault hypotheses at the design, fitted equally hard.
+
+    The search of a self-model in ``morphology+servos`` can settle on a model that explains the
+    experiments with a wrong servo sign and a morphology bent to fit (docs/studies/recovery.md):
+    under its own fitted angles the truth scores a higher MOD_FIT than that model, but the
+    search does not get there. This check fits the initial angles of ``model`` and of every
+    hypothesis of :func:`fault_hypotheses` ``(design, levels)`` equally hard on all the
+    experiments (:func:`select_model`) and keeps the highest MOD_FIT (eq. 3). Not the paper's.
+
+    Args:
+        model: ``(12,)`` the found self-model (``morphology+servos`` values).
+        design: ``(9,)`` the robot's design morphology.
+        experiments: the run's target experiments, E >= 1.
+        evaluator: an :class:`~eea.evaluation.Evaluator` of the ``morphology+servos`` space and
+            the run's length and behaviour summary.
+        rng: draws the angle fit's starts.
+        levels: the hypotheses' pectoral gains.
+        generations, scan_cycles: the angle fit's effort, as :func:`select_model`.
+
+    Returns:
+        A :class:`Selection` of ``1 + L * L`` models: row 0 is ``model``; ``index`` the chosen
+        one (``model`` itself when no hypothesis fits better).
+
+    Raises:
+        ValueError: a model that is not 12 values, or as :func:`fault_hypotheses` and
+            :func:`select_model` raise.
+    """
+    model = np.asarray(model, dtype=np.float64)
+    if model.shape != (12,):
+        raise ValueError(f"model must be the 12 values of a morphology+servos self-model, got shape {model.shape}")
+    candidates = np.vstack([model[None], fault_hypotheses(design, levels)])
+    return select_model(candidates, experiments, evaluator, rng, generations=generations, scan_cycles=scan_cycles,
+                        model_space="morphology+servos")

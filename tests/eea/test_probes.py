@@ -120,3 +120,23 @@ def test_angle_sensitivity_is_zero_for_the_same_start_and_body_and_grows_with_th
     rates = probe.dissimilarities(truth, truth, {"near": near, "random model": far}, actions, angles, angles.copy(),
                                   model_other, 32, SimParams(waterline=None), rates=True, max_coefficient=1e6)
     assert np.all(rates["other angles"] == 0) and np.all(rates["random model"] > rates["near"])
+
+
+def test_fault_check_names_the_true_fault_of_a_servo_run(tmp_path, tiny_config, capsys):
+    """fault_check on a tiny reversed-left-servo run: one JSON line; the chosen model is the run's final model or a
+    hypothesis at the design, and its MOD_FIT is the best of the candidates listed."""
+    import json
+
+    from eea.run import run
+
+    run(tiny_config(damage="reversed_left_pectoral", model_space="morphology+servos", behaviour_summary="signed_dft"),
+        tmp_path, progress=False)
+    _load("fault_check").main([str(tmp_path)])
+    line = json.loads(capsys.readouterr().out.strip())
+    assert line["damage"] == "reversed_left_pectoral" and line["true_gains"] == [-1.0, 1.0, 1.0]
+    assert line["chosen_fit"] == max(fit for _, fit in line["top3"]) >= line["final_fit"]
+    if line["chosen"] == "final":                       # ties go to the run's own model
+        assert line["chosen_gains"] == line["final_gains"] and line["chosen_fit"] == line["final_fit"]
+    else:
+        assert line["chosen"] == "hypothesis" and line["chosen_fit"] > line["final_fit"]
+    assert line["simulations"] > 0
