@@ -103,7 +103,9 @@ class Evaluator:
         steps: simulation steps (0.01 s each) of every simulation.
         workers: worker processes; 1 simulates in this process. The pool is created on
             first use and lives until :meth:`close` (use the evaluator as a context manager).
-        max_batch_robots: at most this many robots per ``simulate_batch`` call.
+        max_batch_robots: at most this many robots per ``simulate_batch`` call (default 64, as
+            ``EEAConfig``'s: PyBullet's cost per robot grows with the robots in one world, so a
+            world of 2,000 steps each robot about 10x slower than one of 64; docs/performance.md).
         params: simulator parameters of the models (default: the defaults); the caudal
             sweep must be the default one (:func:`eea.experiment.check_params`).
         model_space: what a model genome holds, a :class:`eea.encoding.ModelSpace` or its name
@@ -120,7 +122,7 @@ class Evaluator:
             model space or summary.
     """
 
-    def __init__(self, steps: int, *, workers: int = 1, max_batch_robots: int = 2048,
+    def __init__(self, steps: int, *, workers: int = 1, max_batch_robots: int = 64,
                  params: SimParams | None = None,
                  model_space: str | ModelSpace = "morphology", summary: str = "dft") -> None:
         for name, value in (("steps", steps), ("workers", workers), ("max_batch_robots", max_batch_robots)):
