@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import statistics
 from pathlib import Path
 from typing import Sequence
 
@@ -125,8 +126,8 @@ def summarise_missions(reports: Sequence[dict]) -> dict:
         seconds and alarm delay.
     """
     rows = [mission_row(r) for r in reports]
-    delays = sorted(r["alarm_delay_s"] for r in rows if r["alarm_delay_s"] is not None)
-    compute = sorted(r["compute_s"] for r in rows if r["compute_s"] is not None)
+    delays = [r["alarm_delay_s"] for r in rows if r["alarm_delay_s"] is not None]
+    compute = [r["compute_s"] for r in rows if r["compute_s"] is not None]
     judged = [r["signs_right"] for r in rows if r["signs_right"] is not None]
     totals = {
         "missions": len(rows),
@@ -144,10 +145,7 @@ def summarise_missions(reports: Sequence[dict]) -> dict:
 
 
 def _median(values: list[float]) -> float | None:
-    if not values:
-        return None
-    n = len(values)
-    return values[n // 2] if n % 2 else (values[n // 2 - 1] + values[n // 2]) / 2
+    return statistics.median(values) if values else None
 
 
 def _num(x, digits: int = 3) -> str:

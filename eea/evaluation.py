@@ -105,7 +105,7 @@ class Evaluator:
             first use and lives until :meth:`close` (use the evaluator as a context manager).
         max_batch_robots: at most this many robots per ``simulate_batch`` call (default 64, as
             ``EEAConfig``'s: PyBullet's cost per robot grows with the robots in one world, so a
-            world of 2,000 steps each robot about 10x slower than one of 64; docs/performance.md).
+            world of 2,000 steps each robot more than 10x slower than one of 100; docs/performance.md).
         params: simulator parameters of the models (default: the defaults); the caudal
             sweep must be the default one (:func:`eea.experiment.check_params`).
         model_space: what a model genome holds, a :class:`eea.encoding.ModelSpace` or its name

@@ -141,7 +141,7 @@ def fault_hypotheses(design, levels: Sequence[float] = FAULT_GAIN_LEVELS, caudal
     """
     design = np.asarray(design, dtype=np.float64)
     if design.shape != (9,) or not np.all(np.isfinite(design)):
-        raise ValueError(f"design must be the 9 flipper dimensions, got shape {design.shape}")
+        raise ValueError(f"design must be the 9 flipper dimensions as finite numbers, got {design.tolist()!r}")
     gains = np.asarray(levels, dtype=np.float64)
     if gains.ndim != 1 or not len(gains) or not np.all(np.abs(gains) <= 1.0):
         raise ValueError(f"levels must be one or more pectoral gains in [-1, 1], got {levels!r}")
