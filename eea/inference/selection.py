@@ -172,7 +172,8 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
             the run's length and behaviour summary.
         rng: draws the angle fit's starts.
         levels: the hypotheses' pectoral gains.
-        generations, scan_cycles: the angle fit's effort, as :func:`select_model`.
+        generations: the angle fit's random-perturbation generations, as :func:`select_model`.
+        scan_cycles: the angle fit's scan cycles, as :func:`select_model`.
 
     Returns:
         A :class:`Selection` of ``1 + L * L`` models: row 0 is ``model``; ``index`` the chosen
