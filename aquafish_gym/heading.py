@@ -16,9 +16,26 @@ from gymnasium.utils import EzPickle
 from aquafish_gym.checks import check_weight
 from aquafish_gym.env import AquaFishEnv, BodyState, Episodes, check_task_value
 
-__all__ = ["HeadingEnv"]
+__all__ = ["HeadingEnv", "along_heading"]
 
 _HEADING_BOUNDS = (-180.0, 180.0)
+
+
+def along_heading(displacement, heading_rad) -> np.ndarray:
+    """Horizontal displacement along a heading: its component on the unit vector ``(-sin, cos)``.
+
+    Args:
+        displacement: ``(..., 2)`` (or wider: the first two entries are used) x, y displacement
+            (units, world frame).
+        heading_rad: heading(s) broadcasting with ``displacement[..., 0]``, radians
+            counter-clockwise from +y (the initial forward direction; the env's yaw convention).
+
+    Returns:
+        ``(...)`` units; at 0 rad the y displacement.
+    """
+    d = np.asarray(displacement, dtype=np.float64)
+    heading = np.asarray(heading_rad, dtype=np.float64)
+    return d[..., 0] * -np.sin(heading) + d[..., 1] * np.cos(heading)
 
 
 class HeadingEnv(AquaFishEnv):
@@ -122,7 +139,7 @@ class HeadingEnv(AquaFishEnv):
     def _rewards(self, state: BodyState, episodes: Episodes, displacement: np.ndarray,
                  actions: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         target = episodes.task["target_heading_rad"]
-        along = displacement[:, 0] * -np.sin(target) + displacement[:, 1] * np.cos(target)  # direction (-sin, cos, 0)
+        along = along_heading(displacement, target)
         terms = {
             "reward_heading": self.heading_reward_weight * np.cos(self._errors(state, episodes)),
             "reward_forward": self.forward_reward_weight * along,

@@ -104,7 +104,7 @@ def _run_episodes(envs, controllers, seeds: list[int], env_id: str, yaws: list[f
     period = controllers[0].clock_period_s
     num_inputs = controllers[0].config.genome_config.num_inputs
     obs, info = envs.reset(seed=seeds, options=None if yaws is None else {"initial_yaw_deg": list(yaws)})
-    start = np.column_stack([info["x_position"], info["y_position"]])
+    start = None if yaws is None else np.column_stack([info["x_position"], info["y_position"]])
     if obs.shape[1] + CLOCK_DIM != num_inputs:
         raise ValueError(f"this network takes {num_inputs - CLOCK_DIM} observation entries, got {obs.shape[1]}")
     total = np.zeros(len(controllers))

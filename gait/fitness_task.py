@@ -13,6 +13,7 @@ import dataclasses
 
 import numpy as np
 
+from aquafish_gym.heading import along_heading as along_heading_rad
 from gait.clock import CLOCK_PERIOD_S
 from gait.controller import NEATController
 from gait.robots import Robot
@@ -94,19 +95,18 @@ class FitnessTask:
 
 
 def along_heading(displacement, yaw_deg) -> np.ndarray:
-    """Horizontal displacement along a heading.
+    """Horizontal displacement along a heading given in degrees (the env's ``initial_yaw_deg``):
+    :func:`aquafish_gym.heading.along_heading` of ``radians(yaw_deg)``.
 
     Args:
         displacement: ``(..., 2)`` x, y displacement (units, world frame).
         yaw_deg: heading(s) broadcasting with ``displacement[..., 0]``, degrees counter-clockwise
-            from +y (the env's ``initial_yaw_deg``): the unit vector ``(-sin, cos)``.
+            from +y.
 
     Returns:
         ``(...)`` units; at 0 degrees the y displacement.
     """
-    d = np.asarray(displacement, dtype=np.float64)
-    a = np.radians(np.asarray(yaw_deg, dtype=np.float64))
-    return -np.sin(a) * d[..., 0] + np.cos(a) * d[..., 1]
+    return along_heading_rad(displacement, np.radians(np.asarray(yaw_deg, dtype=np.float64)))
 
 
 def evaluate_genome(genome, config, *, task: FitnessTask) -> float:
