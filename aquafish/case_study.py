@@ -361,6 +361,42 @@ def model_robot(result, label: str) -> Robot:
     return Robot(result.best_morphology, "none", label, faults)
 
 
+#: The file of a self-model run's check against servo-fault hypotheses (:func:`checked_self_model`).
+FAULT_CHECK_FILE = "fault_check.json"
+
+
+def checked_self_model(result, workers: int = 1, seed: int = 0):
+    """The self-model a ``morphology+servos`` run's final model becomes after the check against
+    servo-fault hypotheses at the design (:func:`eea.inference.selection.check_fault_hypotheses`),
+    computed once and kept in the run directory's ``fault_check.json`` (written atomically).
+
+    Returns:
+        ``(model (12,), record dict)``: the kept model's values and the check's record (the
+        candidates' gains and MOD_FITs, the index kept, the simulations).
+    """
+    from eea.checkpoint import load_state
+    from eea.evaluation import Evaluator
+    from eea.experiment import Experiment
+    from eea.inference.selection import check_fault_hypotheses
+
+    path = Path(result.out_dir) / FAULT_CHECK_FILE
+    if path.exists():
+        record = json.loads(path.read_text())
+        return np.asarray(record["kept"], dtype=float), record
+    experiments = [Experiment.from_state_dict(e) for e in load_state(result.out_dir).experiments]
+    final = np.asarray(result.best_model, dtype=float)
+    with Evaluator(result.config.steps, workers=workers, params=result.config.sim_params,
+                   model_space="morphology+servos", summary=result.config.behaviour_summary) as evaluator:
+        sel = check_fault_hypotheses(final, Morphology.healthy().to_array(), experiments, evaluator,
+                                     np.random.default_rng(seed))
+        simulations = evaluator.simulations
+    record = {"final": final.tolist(), "kept": sel.model.tolist(), "index": sel.index,
+              "candidates": sel.models.tolist(), "model_fitness": sel.model_fitness.tolist(),
+              "simulations": int(simulations)}
+    atomic_write(path, json.dumps(record, indent=1).encode())
+    return sel.model, record
+
+
 def _model_gains(result) -> list[float] | None:
     """The final best model's servo gains of a ``morphology+servos`` run (None in ``morphology``)."""
     model = np.asarray(result.best_model, dtype=float)
