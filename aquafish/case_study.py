@@ -348,7 +348,9 @@ def _gait_dir(key: str, duration_s: float) -> str:
 
 
 def model_robot(result, label: str) -> Robot:
-    """The robot a self-model describes: its morphology, and in ``morphology+servos`` its servo
+    """The robot a run's self-model (:attr:`eea.RunResult.self_model`: in ``morphology+servos``
+    the model its check against servo-fault hypotheses kept) describes: its morphology, and in
+    ``morphology+servos`` its servo
     gains as ``ServoFaults(speed_scale=gains)`` (so a gait evolved on it meets the modelled
     servos, e.g. a reversed pectoral as gain -1).
 
@@ -358,49 +360,25 @@ def model_robot(result, label: str) -> Robot:
     """
     gains = _model_gains(result)
     faults = None if gains is None else ServoFaults(speed_scale=tuple(gains))
-    return Robot(result.best_morphology, "none", label, faults)
-
-
-#: The file of a self-model run's check against servo-fault hypotheses (:func:`checked_self_model`).
-FAULT_CHECK_FILE = "fault_check.json"
-
-
-def checked_self_model(result, workers: int = 1, seed: int = 0):
-    """The self-model a ``morphology+servos`` run's final model becomes after the check against
-    servo-fault hypotheses at the design (:func:`eea.inference.selection.check_fault_hypotheses`),
-    computed once and kept in the run directory's ``fault_check.json`` (written atomically).
-
-    Returns:
-        ``(model (12,), record dict)``: the kept model's values and the check's record (the
-        candidates' gains and MOD_FITs, the index kept, the simulations).
-    """
-    from eea.checkpoint import load_state
-    from eea.evaluation import Evaluator
-    from eea.experiment import Experiment
-    from eea.inference.selection import check_fault_hypotheses
-
-    path = Path(result.out_dir) / FAULT_CHECK_FILE
-    if path.exists():
-        record = json.loads(path.read_text())
-        return np.asarray(record["kept"], dtype=float), record
-    experiments = [Experiment.from_state_dict(e) for e in load_state(result.out_dir).experiments]
-    final = np.asarray(result.best_model, dtype=float)
-    with Evaluator(result.config.steps, workers=workers, params=result.config.sim_params,
-                   model_space="morphology+servos", summary=result.config.behaviour_summary) as evaluator:
-        sel = check_fault_hypotheses(final, Morphology.healthy().to_array(), experiments, evaluator,
-                                     np.random.default_rng(seed))
-        simulations = evaluator.simulations
-    record = {"final": final.tolist(), "kept": sel.model.tolist(), "index": sel.index,
-              "candidates": sel.models.tolist(), "model_fitness": sel.model_fitness.tolist(),
-              "simulations": int(simulations)}
-    atomic_write(path, json.dumps(record, indent=1).encode())
-    return sel.model, record
+    return Robot(result.self_model_morphology, "none", label, faults)
 
 
 def _model_gains(result) -> list[float] | None:
-    """The final best model's servo gains of a ``morphology+servos`` run (None in ``morphology``)."""
-    model = np.asarray(result.best_model, dtype=float)
+    """The self-model's servo gains of a ``morphology+servos`` run (None in ``morphology``)."""
+    model = np.asarray(result.self_model, dtype=float)
     return None if model.size == len(MORPHOLOGY_FIELDS) else model[len(MORPHOLOGY_FIELDS):].tolist()
+
+
+def _fault_check_report(result) -> dict | None:
+    """A ``morphology+servos`` run's check for the report: the final model's servo gains and
+    OBJ_FIT before the check, and whether a hypothesis replaced it (None without a check)."""
+    check = result.fault_check
+    if check is None:
+        return None
+    return {"replaced": check.index != 0,
+            "final_servo_gains": dict(zip(GAIN_NAMES, check.final_model[len(MORPHOLOGY_FIELDS):].tolist())),
+            "final_objective_fitness": float(result.rounds[-1]["objective_fitness"]),
+            "simulations": check.simulations}
 
 
 def _true_gains(damage: str) -> list[float]:
@@ -453,7 +431,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         run_dir = out / _eea_dir(name, space, summary)
         timed(f"eea_{key}", lambda key=key, run_dir=run_dir: eea.run(configs[key], run_dir, progress=progress))
         eea_results[key] = eea.load_result(run_dir)
-    models = {key: result.best_morphology for key, result in eea_results.items()}
+    models = {key: result.self_model_morphology for key, result in eea_results.items()}
 
     # 3. gaits: native robots are the models (with their servo gains), the oracle's is the damaged
     # robot (faults included), the robust gait's the healthy robot with a damage drawn per episode
@@ -514,7 +492,8 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
                 "behaviour_summary": runs[key][2],
                 "morphology": _dims(models[key]),
                 "servo_gains": None if _model_gains(result) is None else dict(zip(GAIN_NAMES, _model_gains(result))),
-                "objective_fitness": float(result.rounds[-1]["objective_fitness"]),
+                "objective_fitness": result.self_model_objective_fitness,
+                "fault_check": _fault_check_report(result),
                 "initial_angle_error_deg": dict(zip(("left", "right", "caudal"),
                                                     result.inference_error_deg[-1].round(2).tolist())),
                 "target_experiments": int(result.rounds[-1]["target_experiments"]),
@@ -676,6 +655,13 @@ def render_report(report: dict) -> str:
     if any(errors):
         lines.append("| initial-angle error, last experiment (deg: left, right, caudal) | | | " + " | ".join(
             f"{e['left']:.1f}, {e['right']:.1f}, {e['caudal']:.1f}" if e else "(not inferred)" for e in errors) + " |")
+    for k in keys:
+        check = m[k].get("fault_check")
+        if check and check["replaced"]:
+            final = ", ".join(f"{v:+.3f}" for v in check["final_servo_gains"].values())
+            lines += ["", f"The {CONTROLLER_KEYS[k].removeprefix('the ')}'s search ended on servo gains ({final}) "
+                      f"(objective fitness {check['final_objective_fitness']:.3f}); its check against servo-fault "
+                      "hypotheses at the design found a fault that explains the experiments better, shown above."]
     lines += ["", "## Gait transfer (paper Figure 12)", "", "![trajectories](" + report["figures"]["trajectories"] + ")", ""]
     episodes = report["settings"]["transfer_episodes"]
     duration = report.get("episode_duration_s", 20.0)

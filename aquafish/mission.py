@@ -68,6 +68,7 @@ from eea import EEAConfig
 from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
 from eea.experiment import quantise_angles
+from eea.fault_check import check_final_model
 from eea.round import RoundParts, run_round
 from eea.search.lineages import make_estimation, warm_start
 from gait.controller import NEAT_CONTROLLER_FILE
@@ -213,7 +214,7 @@ def prepare_prior(directory, preset: str = "quick", seed: int = 0, *, prior: str
     config = _eea_config(settings, "none", seed, workers)
     eea.run(config, out / "eea", progress=progress)
     result = eea.load_result(out / "eea")
-    genome = get_model_space(result.config.model_space).encode(np.asarray(result.best_model)[None])[0]
+    genome = get_model_space(result.config.model_space).encode(np.asarray(result.self_model)[None])[0]
     return make_prior(out, genome, model_robot(result, "self-model (healthy)"), preset, seed, workers=workers,
                       progress=progress)
 
@@ -524,7 +525,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             log.info("mission: alarm at %.1f s", alarm_s)
             stop_robot(mission, settings.stop_max_s)
             config = _eea_config(settings, damage, seed, workers)
-            records, target, new_model, eea_s = _recover_model(mission, prior.genome if warm else None, config,
+            records, target, new_model, check, eea_s = _recover_model(mission, prior.genome if warm else None, config,
                                                                settings, progress)
             t0 = time.perf_counter()
             case = PRESETS[settings.case_preset]
@@ -535,10 +536,12 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             gait_s = time.perf_counter() - t0
             controller, gait_start = result.best_controller, mission.time_s
             controller.reset()
-            new_genome = records[-1].best_genome
+            new_genome = get_model_space(config.model_space).encode(check.model[None])[0]
             recovery = {"alarm_s": alarm_s, "recovered_s": mission.time_s, "target_experiments": len(records),
                         "compute_seconds": eea_s + gait_s, "compute_seconds_eea": eea_s,
                         "compute_seconds_gait": gait_s, "self_model": _model_dict(new_genome),
+                        "fault_check": {"replaced": check.index != 0, "simulations": check.simulations,
+                                        "final_model": _model_dict(records[-1].best_genome)},
                         "experiment_s": target.steps * DT_S, "experiments": _experiments(records, target)}
         rows = mission.rows
         sizes = (mission.env.base_morphology.to_array(), mission.env.morphology.to_array())  # before, after the onset
@@ -573,6 +576,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
                     "window_s": prior.calibration.window_s},
         "self_model_before": _model_dict(prior.genome),
         "self_model_after": recovery.get("self_model"),
+        "fault_check": recovery.get("fault_check"),
         "true_model": dict(zip(space.fields, np.round(space.truth(damage), 4).tolist())),
         "experiments": recovery.get("experiments", []),
         "self_model_dir": str(prior.directory),
@@ -622,7 +626,9 @@ def _calibrate(controller, robot: Robot, settings: MissionPreset, seeds: int | N
 def _recover_model(mission: _Mission, genome: np.ndarray | None, config: EEAConfig, settings: MissionPreset,
                    progress: bool):
     """The EEA's rounds with the mission's robot as the target, warm-started at the current
-    self-model ``genome`` (None: from a random population): ``(round records, the MissionTarget, the new self-model robot, wall seconds of compute)``.
+    self-model ``genome`` (None: from a random population), then the final model's check against
+    servo-fault hypotheses (:mod:`eea.fault_check`): ``(round records, the MissionTarget, the
+    new self-model robot, the check, wall seconds of compute)``.
     The target's simulated seconds are not compute: they are the mission's."""
     rng = np.random.default_rng(config.seed)
     t0, sim_wall = time.perf_counter(), 0.0
@@ -643,11 +649,13 @@ def _recover_model(mission: _Mission, genome: np.ndarray | None, config: EEAConf
             sim_wall += record.target_s
             if progress:
                 print(f"mission: round {number}/{config.rounds} model fitness {record.model_fitness:.3f}", flush=True)
-    space = get_model_space(config.model_space)
-    values = space.decode(records[-1].best_genome[None])[0]
+        space = get_model_space(config.model_space)
+        check = check_final_model(space.decode(records[-1].best_genome[None])[0], experiments, evaluator,
+                                  config.rounds)
+    values = check.model
     robot = Robot(aquafish_gym.Morphology.from_array(values[:9]), "none", "self-model (after the damage)",
                   ServoFaults(speed_scale=tuple(float(g) for g in values[9:])))
-    return records, target, robot, time.perf_counter() - t0 - sim_wall
+    return records, target, robot, check, time.perf_counter() - t0 - sim_wall
 
 
 def _oracle_speed(damage: str, settings: MissionPreset, seed: int, out: Path, workers: int, progress: bool) -> float:

@@ -4,7 +4,9 @@ A run directory holds ``config.json`` (the :class:`~eea.config.EEAConfig`, neste
 :meth:`~eea.config.EEAConfig.to_dict`; a flat one written before the sections loads too),
 ``rounds.csv`` (one row per round, columns :data:`ROUND_COLUMNS`) and the checkpoint
 ``state.pkl``; a run with ``lineages`` >= 2 also ``lineages.csv`` (:func:`write_lineages`, from
-the history of :class:`eea.search.lineages.Lineages`). Columns of ``rounds.csv``:
+the history of :class:`eea.search.lineages.Lineages`); a finished ``morphology+servos`` run also
+``fault_check.json`` (:mod:`eea.fault_check`: its final model against servo-fault hypotheses,
+and the self-model kept, :attr:`RunResult.self_model`). Columns of ``rounds.csv``:
 
 * ``round`` (1-based), ``objective_fitness`` (eq. 4 of the best model, an oracle),
   ``model_fitness`` (its MOD_FIT, eq. 3), ``action_fitness`` (ACT_FIT, eq. 1, of the
@@ -50,6 +52,7 @@ from eea.checkpoint import CONFIG_FILE
 from eea.config import EEAConfig
 from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, model_space_of, servo_gains
 from eea.experiment import FLIPPERS, angle_errors_deg
+from eea.fault_check import read_fault_check
 from eea.fitness import objective_fitness
 
 __all__ = ["CONFIG_FILE", "GAIN_COLUMNS", "LINEAGES_FILE", "LINEAGE_COLUMNS", "ROUNDS_FILE", "ROUND_COLUMNS",
@@ -132,6 +135,44 @@ class RunResult:
         if not self.model_space.servos:
             return dims
         return np.concatenate([dims, [self.rounds[-1][c] for c in GAIN_COLUMNS]])
+
+    @property
+    def fault_check(self):
+        """The check of the final model against servo-fault hypotheses
+        (:class:`eea.fault_check.FaultCheck`, ``fault_check.json``), or None: in the ``morphology``
+        space, before the last round is done, or when the record is of an earlier round (a run
+        extended since).
+
+        Raises:
+            FileError: (a ``ValueError``) a corrupt ``fault_check.json``.
+        """
+        if not self.model_space.servos or not self.rounds:
+            return None
+        check = read_fault_check(self.out_dir)
+        return check if check is not None and check.round == self.rounds[-1]["round"] else None
+
+    @property
+    def self_model(self) -> np.ndarray:
+        """``(n,)`` the run's self-model: in ``morphology+servos`` the model its check against
+        servo-fault hypotheses kept (:mod:`eea.fault_check`) once made, else (and in the paper's
+        ``morphology`` space) :attr:`best_model`.
+
+        Raises:
+            ValueError: if no round has finished yet.
+        """
+        check = self.fault_check
+        return self.best_model if check is None else check.model.copy()
+
+    @property
+    def self_model_morphology(self) -> Morphology:
+        """The dimensions of :attr:`self_model` as a :class:`~aquafish_gym.Morphology`."""
+        return Morphology.from_array(self.self_model[:len(MORPHOLOGY_FIELDS)])
+
+    @property
+    def self_model_objective_fitness(self) -> float:
+        """OBJ_FIT (eq. 4) of :attr:`self_model` (the final round's ``objective_fitness`` when
+        no check has changed the model)."""
+        return float(objective_fitness(self.self_model, self.true_model, self.model_space.bounds))
 
     @property
     def best_morphology(self) -> Morphology:

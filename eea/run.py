@@ -8,10 +8,13 @@
         estimation    evolve models that reproduce all experiments (eq. 3), with the
                       inference strategy choosing the models' initial angles
         record        OBJ_FIT (eq. 4) of the best model, angles, counters -> rounds.csv
+    and in the ``morphology+servos`` model space, after the last round:
+        check         the final model against servo-fault hypotheses at the design
+                      (:mod:`eea.fault_check`) -> fault_check.json, the run's self-model
 
 and writes ``DIR/config.json``, ``DIR/rounds.csv`` and the checkpoint ``DIR/state.pkl``
 (see :mod:`eea.record`, :mod:`eea.checkpoint`), and a run with lineages ``DIR/lineages.csv``
-(:func:`eea.record.write_lineages`). The round itself is
+(:func:`eea.record.write_lineages`), a ``morphology+servos`` run ``DIR/fault_check.json``. The round itself is
 :func:`eea.round.run_round`. All randomness comes from one
 ``numpy.random.Generator`` seeded with ``config.seed``, so the same config gives the same
 rounds. Resumable: running the same command again after an interruption continues from the
@@ -32,6 +35,7 @@ from eea.checkpoint import STATE_FILE, RunState, load_state, save_state
 from eea.config import FLAT_FIELDS, EEAConfig
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
+from eea.fault_check import check_final_model, write_fault_check
 from eea.search.lineages import Lineages, estimation_from_state
 from eea.record import ROUNDS_FILE, RunResult, read_config, round_row, write_config, write_lineages, write_rounds
 from eea.round import RoundParts, run_round
@@ -89,7 +93,8 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
         config: the run's settings.
         out_dir: run directory (created if missing). If it holds a checkpoint of the same
             config, the run continues after its last finished round; a finished run is
-            returned without simulating. ``rounds``, ``workers`` and ``max_batch_robots``
+            returned without simulating (but for a ``morphology+servos`` run's check against
+            servo-fault hypotheses, :mod:`eea.fault_check`, when it has none yet). ``rounds``, ``workers`` and ``max_batch_robots``
             may differ from the stored config (they do not change results; a larger
             ``rounds`` extends the run, a smaller one leaves ``config.json`` as it is).
         progress: show progress over rounds (:func:`aquafish_gym.progress.progress_bar`: a tqdm
@@ -162,7 +167,11 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
             _write_records(out, state.rows, parts.estimation, config.model_space)
             bar.set_postfix_str(f"obj {row['objective_fitness']:.3f}")
             bar.update(1)
-    return RunResult(out, config, list(state.rows))
+        result = RunResult(out, config, list(state.rows))
+        if result.model_space.servos and result.finished and result.fault_check is None:
+            bar.set_postfix_str("fault check")
+            write_fault_check(out, check_final_model(result.best_model, experiments, evaluator, state.rounds_done))
+    return result
 
 
 def _write_records(out: Path, rows, estimation, model_space: str) -> None:

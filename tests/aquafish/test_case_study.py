@@ -4,6 +4,7 @@ import json
 
 import pytest
 
+import eea
 from aquafish import case_study
 from aquafish.case_study import CONTROLLER_KEYS, PRESETS, render_report, run_case_study, verdict
 from aquafish.cli import main
@@ -65,6 +66,12 @@ def test_tiny_case_study_new_rows_servo_gains_and_video(tmp_path, capsys):
     gains = report["models"]["self_model"]["servo_gains"]
     assert set(gains) == set(case_study.GAIN_NAMES) and -1 <= gains["left_pectoral_gain"] <= 1
     assert report["target_servo_gains"] == {"left_pectoral_gain": -1.0, "right_pectoral_gain": 1.0, "caudal_gain": 1.0}
+    # the self-model is what the run's check against servo-fault hypotheses kept
+    run = eea.load_result(out / "eea_profile_lineages_servos_signed")
+    assert [gains[k] for k in case_study.GAIN_NAMES] == run.fault_check.model[9:].tolist()
+    assert report["models"]["self_model"]["fault_check"]["replaced"] == (run.fault_check.index != 0)
+    assert report["models"]["self_model"]["objective_fitness"] == run.self_model_objective_fitness
+    assert report["models"]["plain_eea"]["fault_check"] is None
     # the model's gains reached the robot its gait was evolved on, and the 2 s runs have their own directories
     robot = json.loads((out / "gait_self_model_2s" / "run.json").read_text())["robot"]
     assert robot["faults"]["speed_scale"] == pytest.approx([gains[k] for k in case_study.GAIN_NAMES])

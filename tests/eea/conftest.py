@@ -14,11 +14,19 @@ TINY = dict(duration_s=0.16, rounds=2, exploration_population=4, exploration_gen
             oob_population=4, oob_generations=2, workers=1, waterline=None)
 
 
+def _tiny(**changes):  # TINY's fields apply where the config holds their section, as a budget's
+    return EEAConfig.from_flat(changes, optional=TINY)
+
+
 @pytest.fixture
 def tiny_config():
-    def make(**changes):  # TINY's fields apply where the config holds their section, as a budget's
-        return EEAConfig.from_flat(changes, optional=TINY)
-    return make
+    return _tiny
+
+
+@pytest.fixture(scope="session")
+def session_tiny_config():
+    """:func:`tiny_config` for fixtures wider than a test."""
+    return _tiny
 
 
 def _make_experiment(index, action=(0.3, -0.2, 0.8), true_angles=(1.0, 2.0, 0.1), steps=16, context=None, seed=0):

@@ -45,7 +45,7 @@ EEA = ROOT / "eea"
 CORE = {"arc", "behaviour", "compat", "config", "diversity", "encoding", "estimation", "evaluation", "experiment", "exploration",
         "fitness", "ga", "methods", "round", "target"}
 #: The run and its I/O, at the top of eea/.
-RUN_IO = {"__init__", "checkpoint", "cli", "record", "replay", "run"}
+RUN_IO = {"__init__", "checkpoint", "cli", "fault_check", "record", "replay", "run"}
 #: The subpackages of the algorithm and their modules.
 SEARCH = {"search", "search.registry", "search.model_ga", "search.cma", "search.lineages"}
 INFERENCE = {"inference", "inference.strategy", "inference.paper", "inference.profile", "inference.registry",

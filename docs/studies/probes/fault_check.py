@@ -4,8 +4,8 @@ For every finished ``morphology+servos`` run under the given directories (each n
 checkpoint, ``state.pkl``, for the experiments' IMU logs), this fits the initial angles of the
 run's final model and of the 25 hypotheses of :func:`eea.inference.selection.fault_hypotheses`
 (the design morphology, pectoral gains -1, -0.5, 0, 0.5, 1 each, caudal 1) equally hard on all
-the run's experiments (:func:`eea.inference.selection.check_fault_hypotheses`: 10 generations,
-2 scan cycles, the polish) and prints one JSON line per run: the damage, the true, final and
+the run's experiments (:func:`eea.fault_check.check_final_model`, the check every such run now
+ends with: 10 generations, 2 scan cycles, the polish; it does not write into the run) and prints one JSON line per run: the damage, the true, final and
 chosen gains, whether each has both pectoral signs right (as the recovery benchmark judges
 them: a lost flipper's servo is not judged), the MOD_FITs, the three best candidates, the
 simulations and seconds.
@@ -19,17 +19,16 @@ from __future__ import annotations
 
 import argparse
 import json
-import time
 
 import numpy as np
 
 from aquafish.recovery import signs_right
-from aquafish_gym import MORPHOLOGY_FIELDS, Morphology
+from aquafish_gym import MORPHOLOGY_FIELDS
 from eea.analysis.plot import find_runs
 from eea.checkpoint import load_state
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
-from eea.inference.selection import check_fault_hypotheses
+from eea.fault_check import check_final_model
 from eea.record import load_result
 
 GAINS = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")
@@ -42,38 +41,34 @@ def signs(model, truth) -> bool | None:
                         "target": dict(zip(GAINS, map(float, truth[9:])))}, shape)
 
 
-def check_run(run_dir, seed: int = 0) -> dict:
+def check_run(run_dir) -> dict:
     """The check of one finished run (see the module docstring); its JSON line as a dict."""
     result, state = load_result(run_dir), load_state(run_dir)
     if result.config.model_space != "morphology+servos":
         raise ValueError(f"{run_dir}: a morphology+servos run is needed, got {result.config.model_space}")
     experiments = [Experiment.from_state_dict(e) for e in state.experiments]
     final, truth = np.asarray(result.best_model, dtype=float), result.true_model
-    started = time.perf_counter()
     with Evaluator(result.config.steps, workers=1, params=result.config.sim_params, model_space="morphology+servos",
                    summary=result.config.behaviour_summary) as evaluator:
-        sel = check_fault_hypotheses(final, Morphology.healthy().to_array(), experiments, evaluator,
-                                     np.random.default_rng(seed))
-        simulations = evaluator.simulations
-    order = np.argsort(-sel.model_fitness, kind="stable")
-    chosen = sel.model
+        check = check_final_model(final, experiments, evaluator, len(result.rounds))
+    order = np.argsort(-check.model_fitness, kind="stable")
+    chosen = check.model
     return {"run": str(run_dir), "damage": result.config.damage, "true_gains": truth[9:].tolist(),
             "final_gains": final[9:].tolist(), "final_signs": signs(final, truth),
-            "final_fit": round(float(sel.model_fitness[0]), 4),
-            "chosen": "final" if sel.index == 0 else "hypothesis", "chosen_gains": chosen[9:].tolist(),
-            "chosen_signs": signs(chosen, truth), "chosen_fit": round(float(sel.model_fitness[sel.index]), 4),
-            "top3": [[sel.models[i, 9:11].tolist(), round(float(sel.model_fitness[i]), 4)] for i in order[:3]],
-            "simulations": int(simulations), "seconds": round(time.perf_counter() - started)}
+            "final_fit": round(float(check.model_fitness[0]), 4),
+            "chosen": "final" if check.index == 0 else "hypothesis", "chosen_gains": chosen[9:].tolist(),
+            "chosen_signs": signs(chosen, truth), "chosen_fit": round(float(check.model_fitness[check.index]), 4),
+            "top3": [[check.models[i, 9:11].tolist(), round(float(check.model_fitness[i]), 4)] for i in order[:3]],
+            "simulations": check.simulations, "seconds": round(check.wall_seconds)}
 
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dirs", nargs="+", help="directories searched for finished morphology+servos runs")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the angle fit's starts (default 0)")
     args = parser.parse_args(argv)
     for result in find_runs(args.dirs):
         if result.config.model_space == "morphology+servos":  # the paper's morphology runs have no servo gains
-            print(json.dumps(check_run(result.out_dir, args.seed)), flush=True)
+            print(json.dumps(check_run(result.out_dir)), flush=True)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,140 @@
+"""The last step of a ``morphology+servos`` run: its final model against servo-fault hypotheses.
+
+The self-model search in ``morphology+servos`` (not the paper's space) can end on a model that
+explains the experiments with a wrong servo sign and a morphology bent to fit: under its own
+fitted initial angles the truth scores a higher MOD_FIT, but the search does not get there
+(docs/studies/recovery.md). A robot knows the morphology it was built to, and a servo fault
+leaves that morphology as it was; so after the last round, :func:`eea.run` fits the initial
+angles of the final model and of 25 servo-fault hypotheses at the design (the healthy
+morphology, pectoral gains -1, -0.5, 0, 0.5, 1 each, caudal gain 1:
+:func:`eea.inference.selection.fault_hypotheses`) equally hard on all the run's experiments and
+keeps the highest MOD_FIT (eq. 3): the run's **self-model**
+(:attr:`eea.record.RunResult.self_model`). It costs about 38,000 simulations, under one round of
+the ``full`` method.
+
+The record is ``DIR/fault_check.json`` (:class:`FaultCheck`), written atomically once the last
+round is done; a run extended by more rounds is checked again.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import time
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from aquafish_gym import Morphology
+from aquafish_gym.files import atomic_write
+from aquafish_gym.rundir import FileError, read_json
+from eea.evaluation import Evaluator
+from eea.experiment import Experiment
+from eea.inference.selection import check_fault_hypotheses
+
+__all__ = ["FAULT_CHECK_FILE", "FAULT_CHECK_SEED", "FaultCheck", "check_final_model", "read_fault_check"]
+
+#: The check's record in a run directory.
+FAULT_CHECK_FILE = "fault_check.json"
+#: Seed of the angle fit's random starts: fixed, so a finished run is checked alike whenever (and
+#: by whichever command) the check is made.
+FAULT_CHECK_SEED = 0
+
+
+@dataclasses.dataclass(frozen=True)
+class FaultCheck:
+    """The outcome of :func:`check_final_model`.
+
+    Attributes:
+        round: the round whose final model was checked (1-based; the run's last).
+        models: ``(26, 12)`` the candidates (``morphology+servos`` values: 9 dimensions in
+            simulator units, then the left, right pectoral and caudal servo gains): row 0 the
+            final model, then the hypotheses.
+        model_fitness: ``(26,)`` each candidate's MOD_FIT (eq. 3) under its own fitted angles.
+        index: the kept row (the highest MOD_FIT; 0 when no hypothesis fits better).
+        simulations: model simulations the check ran.
+        wall_seconds: how long it took.
+    """
+
+    round: int
+    models: np.ndarray
+    model_fitness: np.ndarray
+    index: int
+    simulations: int
+    wall_seconds: float
+
+    @property
+    def final_model(self) -> np.ndarray:
+        """``(12,)`` the run's final model, as the search left it."""
+        return self.models[0]
+
+    @property
+    def model(self) -> np.ndarray:
+        """``(12,)`` the kept model: the run's self-model."""
+        return self.models[self.index]
+
+    def to_dict(self) -> dict:
+        """A JSON-ready dict (floats round-trip exact)."""
+        return {"round": self.round, "index": self.index, "models": self.models.tolist(),
+                "model_fitness": self.model_fitness.tolist(), "simulations": self.simulations,
+                "wall_seconds": self.wall_seconds}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "FaultCheck":
+        """The inverse of :meth:`to_dict`.
+
+        Raises:
+            ValueError: a missing key, or arrays of the wrong shape.
+        """
+        models = np.asarray(data["models"], dtype=np.float64)
+        fitness = np.asarray(data["model_fitness"], dtype=np.float64)
+        index = int(data["index"])
+        if models.ndim != 2 or models.shape[1] != 12 or fitness.shape != (len(models),) \
+                or not 0 <= index < len(models):
+            raise ValueError(f"models {models.shape}, model_fitness {fitness.shape} and index {index} do not agree")
+        return cls(int(data["round"]), models, fitness, index, int(data["simulations"]), float(data["wall_seconds"]))
+
+
+def check_final_model(model, experiments: Sequence[Experiment], evaluator: Evaluator, round_number: int) -> FaultCheck:
+    """Check a run's final ``morphology+servos`` model against servo-fault hypotheses at the
+    design (the healthy morphology): :func:`eea.inference.selection.check_fault_hypotheses` with
+    the angle fit's starts drawn from :data:`FAULT_CHECK_SEED`.
+
+    Args:
+        model: ``(12,)`` the final model's values.
+        experiments: all the run's target experiments, E >= 1.
+        evaluator: an :class:`~eea.evaluation.Evaluator` of the ``morphology+servos`` space, the
+            run's length and behaviour summary.
+        round_number: the round the model is from (kept in the record).
+
+    Raises:
+        ValueError: as :func:`~eea.inference.selection.check_fault_hypotheses` raises.
+    """
+    started, simulations = time.perf_counter(), evaluator.simulations
+    selection = check_fault_hypotheses(model, Morphology.healthy().to_array(), experiments, evaluator,
+                                       np.random.default_rng(FAULT_CHECK_SEED))
+    return FaultCheck(int(round_number), selection.models, selection.model_fitness, selection.index,
+                      int(evaluator.simulations - simulations), time.perf_counter() - started)
+
+
+def write_fault_check(out_dir: str | os.PathLike, check: FaultCheck) -> None:
+    """Write ``out_dir/fault_check.json`` atomically."""
+    atomic_write(Path(out_dir) / FAULT_CHECK_FILE, (json.dumps(check.to_dict(), indent=1) + "\n").encode())
+
+
+def read_fault_check(out_dir: str | os.PathLike) -> FaultCheck | None:
+    """The check recorded in ``out_dir`` (None if there is none).
+
+    Raises:
+        FileError: (a ``ValueError``) the file is not valid JSON or not a check record.
+    """
+    path = Path(out_dir) / FAULT_CHECK_FILE
+    if not path.is_file():
+        return None
+    data = read_json(path)
+    try:
+        return FaultCheck.from_dict(data)
+    except (KeyError, TypeError, ValueError) as err:
+        raise FileError(path, f"is not a fault-check record ({err})") from None

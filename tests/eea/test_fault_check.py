@@ -1,0 +1,73 @@
+"""eea.fault_check: a morphology+servos run ends with its final model checked against servo-fault hypotheses."""
+
+import json
+
+import numpy as np
+import pytest
+
+import eea
+from aquafish_gym import Morphology
+from aquafish_gym.rundir import FileError
+from eea.fault_check import FAULT_CHECK_FILE, FaultCheck, read_fault_check
+from eea.fitness import objective_fitness
+from eea.inference.selection import fault_hypotheses
+
+
+@pytest.fixture(scope="module")
+def servo_run(tmp_path_factory, session_tiny_config):
+    """A tiny finished morphology+servos run on a reversed left servo."""
+    config = session_tiny_config(model_space="morphology+servos", damage="reversed_left_pectoral",
+                                 behaviour_summary="signed_dft", rounds=1)
+    return eea.run(config, tmp_path_factory.mktemp("servo_run"), progress=False)
+
+
+def test_a_finished_servo_run_keeps_the_best_of_its_final_model_and_the_hypotheses(servo_run):
+    check = servo_run.fault_check
+    assert check is not None and (servo_run.out_dir / FAULT_CHECK_FILE).is_file()
+    assert check.round == 1 and check.models.shape == (26, 12) and check.model_fitness.shape == (26,)
+    np.testing.assert_array_equal(check.final_model, servo_run.best_model)
+    np.testing.assert_array_equal(check.models[1:], fault_hypotheses(Morphology.healthy().to_array()))
+    assert check.index == int(np.argmax(check.model_fitness)) and check.simulations > 0
+    np.testing.assert_array_equal(servo_run.self_model, check.models[check.index])
+    # the self-model's OBJ_FIT is eq. 4 of the kept model; the round's column stays the search's
+    truth = np.concatenate([Morphology.healthy().to_array(), [-1.0, 1.0, 1.0]])
+    assert servo_run.self_model_objective_fitness == pytest.approx(
+        objective_fitness(check.model, truth, servo_run.model_space.bounds))
+    assert servo_run.rounds[-1]["objective_fitness"] == pytest.approx(
+        objective_fitness(servo_run.best_model, truth, servo_run.model_space.bounds))
+
+
+def test_the_record_round_trips_and_a_stale_one_is_ignored(servo_run, tmp_path):
+    check = read_fault_check(servo_run.out_dir)
+    again = FaultCheck.from_dict(json.loads(json.dumps(check.to_dict())))
+    np.testing.assert_array_equal(again.models, check.models)
+    assert (again.index, again.round, again.simulations) == (check.index, check.round, check.simulations)
+    stale = eea.RunResult(tmp_path, servo_run.config, servo_run.rounds)
+    (tmp_path / FAULT_CHECK_FILE).write_text(json.dumps({**check.to_dict(), "round": 7}))
+    assert stale.fault_check is None  # a record of another round: the run was extended since
+    np.testing.assert_array_equal(stale.self_model, servo_run.best_model)
+
+
+def test_a_paper_space_run_has_no_check(tmp_path, tiny_config):
+    result = eea.run(tiny_config(rounds=1), tmp_path, progress=False)
+    assert result.fault_check is None and not (tmp_path / FAULT_CHECK_FILE).exists()
+    np.testing.assert_array_equal(result.self_model, result.best_model)
+
+
+@pytest.mark.parametrize("content, match", [("{", "not valid JSON"), ('{"round": 1}', "not a fault-check record"),
+                                            ('{"round": 1, "index": 3, "models": [[0]], "model_fitness": [1],'
+                                             ' "simulations": 0, "wall_seconds": 0}', "do not agree")])
+def test_a_corrupt_record_is_named(tmp_path, content, match):
+    (tmp_path / FAULT_CHECK_FILE).write_text(content)
+    with pytest.raises(FileError, match=match) as err:
+        read_fault_check(tmp_path)
+    assert FAULT_CHECK_FILE in str(err.value)
+
+
+def test_a_run_extended_by_a_round_is_checked_again(servo_run, tmp_path):
+    import shutil
+
+    shutil.copytree(servo_run.out_dir, tmp_path / "run")
+    longer = eea.run(servo_run.config.replace(rounds=2), tmp_path / "run", progress=False)
+    assert longer.fault_check.round == 2
+    np.testing.assert_array_equal(longer.fault_check.final_model, longer.best_model)
