@@ -10,7 +10,7 @@ morphology, pectoral gains -1, -0.5, 0, 0.5, 1 each, caudal gain 1:
 :func:`eea.inference.selection.fault_hypotheses`) equally hard on all the run's experiments and
 keeps the highest MOD_FIT (eq. 3): the run's **self-model**
 (:attr:`eea.record.RunResult.self_model`). It costs about 38,000 simulations, under one round of
-the ``full`` method.
+the case study's self-model search (``profile_lineages`` at ``quick``: about 50,000).
 
 The record is ``DIR/fault_check.json`` (:class:`FaultCheck`), written atomically once the last
 round is done; a run extended by more rounds is checked again.
@@ -34,7 +34,8 @@ from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from eea.inference.selection import check_fault_hypotheses
 
-__all__ = ["FAULT_CHECK_FILE", "FAULT_CHECK_SEED", "FaultCheck", "check_final_model", "read_fault_check"]
+__all__ = ["FAULT_CHECK_FILE", "FAULT_CHECK_SEED", "FaultCheck", "check_final_model", "read_fault_check",
+           "write_fault_check"]
 
 #: The check's record in a run directory.
 FAULT_CHECK_FILE = "fault_check.json"

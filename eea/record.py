@@ -52,7 +52,7 @@ from eea.checkpoint import CONFIG_FILE
 from eea.config import EEAConfig
 from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, model_space_of, servo_gains
 from eea.experiment import FLIPPERS, angle_errors_deg
-from eea.fault_check import read_fault_check
+from eea.fault_check import FaultCheck, read_fault_check
 from eea.fitness import objective_fitness
 
 __all__ = ["CONFIG_FILE", "GAIN_COLUMNS", "LINEAGES_FILE", "LINEAGE_COLUMNS", "ROUNDS_FILE", "ROUND_COLUMNS",
@@ -137,7 +137,7 @@ class RunResult:
         return np.concatenate([dims, [self.rounds[-1][c] for c in GAIN_COLUMNS]])
 
     @property
-    def fault_check(self):
+    def fault_check(self) -> "FaultCheck | None":
         """The check of the final model against servo-fault hypotheses
         (:class:`eea.fault_check.FaultCheck`, ``fault_check.json``), or None: in the ``morphology``
         space, before the last round is done, or when the record is of an earlier round (a run
