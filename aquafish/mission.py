@@ -525,8 +525,8 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             log.info("mission: alarm at %.1f s", alarm_s)
             stop_robot(mission, settings.stop_max_s)
             config = _eea_config(settings, damage, seed, workers)
-            records, target, new_model, check, eea_s = _recover_model(mission, prior.genome if warm else None, config,
-                                                               settings, progress)
+            records, target, new_model, check, eea_s = _recover_model(
+                mission, prior.genome if warm else None, config, settings, progress)
             t0 = time.perf_counter()
             case = PRESETS[settings.case_preset]
             result = evolve_from_population(new_model, prior.gait_dir, case.gait_generations, seed=seed,

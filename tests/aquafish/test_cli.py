@@ -148,7 +148,7 @@ def test_methods_and_budgets_on_the_command_line_and_flags_over_them(monkeypatch
     configs = []
     monkeypatch.setattr(importlib.import_module("eea.run"), "run", lambda config, out, progress: configs.append(config) or
                         type("R", (), {"rounds": [dict(objective_fitness=1, model_fitness=1, simulations=0)],
-                                              "fault_check": None})())
+                                       "fault_check": None})())
     assert main(["eea", "--method", "profile_lineages", "--budget", "reduced", "--rounds", "3", "--out",
                  str(tmp_path / "r")]) == 0
     assert configs[0] == EEAConfig.from_method("profile_lineages", "reduced", rounds=3)

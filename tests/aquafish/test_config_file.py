@@ -138,7 +138,7 @@ def test_eea_values_from_a_file_count_as_given(tmp_path, monkeypatch):
     configs, specs = [], []
     monkeypatch.setattr(importlib.import_module("eea.run"), "run", lambda c, out, progress: configs.append(c) or
                         type("R", (), {"rounds": [dict(objective_fitness=1, model_fitness=1, simulations=0)],
-                                              "fault_check": None})())
+                                       "fault_check": None})())
     monkeypatch.setattr(importlib.import_module("aquafish.study"), "run_study",
                         lambda spec, out, **kw: specs.append(spec) or [])
     assert main(["eea", "--config", str(config), "--out", str(tmp_path / "e")]) == 0
