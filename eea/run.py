@@ -13,9 +13,9 @@
                       (:mod:`eea.fault_check`) -> fault_check.json, the run's self-model
 
 and writes ``DIR/config.json``, ``DIR/rounds.csv`` and the checkpoint ``DIR/state.pkl``
-(see :mod:`eea.record`, :mod:`eea.checkpoint`), and a run with lineages ``DIR/lineages.csv``
-(:func:`eea.record.write_lineages`), a ``morphology+servos`` run ``DIR/fault_check.json``. The round itself is
-:func:`eea.round.run_round`. All randomness comes from one
+(see :mod:`eea.record`, :mod:`eea.checkpoint`), a run with lineages ``DIR/lineages.csv``
+(:func:`eea.record.write_lineages`) and a ``morphology+servos`` run ``DIR/fault_check.json``.
+The round itself is :func:`eea.round.run_round`. All randomness comes from one
 ``numpy.random.Generator`` seeded with ``config.seed``, so the same config gives the same
 rounds. Resumable: running the same command again after an interruption continues from the
 last finished round and ends with the same ``rounds.csv`` (``wall_seconds`` aside) as an
@@ -94,9 +94,10 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
         out_dir: run directory (created if missing). If it holds a checkpoint of the same
             config, the run continues after its last finished round; a finished run is
             returned without simulating (but for a ``morphology+servos`` run's check against
-            servo-fault hypotheses, :mod:`eea.fault_check`, when it has none yet). ``rounds``, ``workers`` and ``max_batch_robots``
-            may differ from the stored config (they do not change results; a larger
-            ``rounds`` extends the run, a smaller one leaves ``config.json`` as it is).
+            servo-fault hypotheses, :mod:`eea.fault_check`, when it has none yet).
+            ``rounds``, ``workers`` and ``max_batch_robots`` may differ from the stored config
+            (they do not change results; a larger ``rounds`` extends the run, a smaller one
+            leaves ``config.json`` as it is).
         progress: show progress over rounds (:func:`aquafish_gym.progress.progress_bar`: a tqdm
             bar with the current phase on a terminal, else one line per round).
 

@@ -5,8 +5,8 @@ checkpoint, ``state.pkl``, for the experiments' IMU logs), this fits the initial
 run's final model and of the 25 hypotheses of :func:`eea.inference.selection.fault_hypotheses`
 (the design morphology, pectoral gains -1, -0.5, 0, 0.5, 1 each, caudal 1) equally hard on all
 the run's experiments (:func:`eea.fault_check.check_final_model`, the check every such run now
-ends with: 10 generations, 2 scan cycles, the polish; it does not write into the run) and prints one JSON line per run: the damage, the true, final and
-chosen gains, whether each has both pectoral signs right (as the recovery benchmark judges
+ends with: 10 generations, 2 scan cycles, the polish; it does not write into the run) and
+prints one JSON line per run: the damage, the true, final and chosen gains, whether each has both pectoral signs right (as the recovery benchmark judges
 them: a lost flipper's servo is not judged), the MOD_FITs, the three best candidates, the
 simulations and seconds.
 
