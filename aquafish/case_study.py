@@ -32,7 +32,8 @@ interrupted case study resumes where it stopped. With ``shared_dir``, the rows t
 depend on the damage (:data:`SHARED_KEYS`) are trained, or loaded when finished, there instead,
 so case studies of one seed on several damages share them (:mod:`aquafish.recovery`). With
 ``all_rows=False`` (the recovery benchmark's default) the healthy and oracle gaits come first,
-and the rest runs only when the damage breaks the healthy gait (:func:`breaks`). The report's
+and the rest runs only when the damage breaks the healthy gait (:func:`breaks`); with
+``triage_only`` too, nothing runs after them (a later run goes on from there). The report's
 ``stage_seconds`` holds the wall seconds of every stage
 (``aquafish bench case_study_stages``).
 """
@@ -161,7 +162,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
                    model_space: str = DEFAULT_MODEL_SPACE, behaviour_summary: str = DEFAULT_SUMMARY,
                    episode_duration_s: float | None = None,
                    video: bool = True, workers: int | None = None, progress: bool = True,
-                   shared_dir=None, all_rows: bool = True) -> dict:
+                   shared_dir=None, all_rows: bool = True, triage_only: bool = False) -> dict:
     """Run the case study and write its report; return the report as a dict.
 
     Args:
@@ -198,10 +199,14 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             (:func:`breaks`), the report holds those two rows only (``"triaged": true``, no
             models, figures or video) and nothing else is run. A later run with ``all_rows``
             on the same ``out_dir`` adds the other rows (the two gaits are reused).
+        triage_only: with ``all_rows`` False, stop after the triage whatever it finds: the
+            report holds the two rows and says whether the damage breaks the healthy gait
+            (``"triaged": true``). A later run without it on the same ``out_dir`` goes on
+            from there (the recovery benchmark triages every cell before the rest).
 
     Raises:
         ValueError: unknown preset, damage, method or model space, a bad seed, duration or
-            worker count, or an ``out_dir`` or ``shared_dir`` that cannot be written (all checked
+            worker count, ``triage_only`` with ``all_rows``, or an ``out_dir`` or ``shared_dir`` that cannot be written (all checked
             before anything is created); an ``out_dir`` that another process is writing
             (:class:`~aquafish_gym.rundir.BusyError`) or whose steps were made with other
             settings (:class:`~aquafish_gym.rundir.MismatchError`, naming the fields).
@@ -212,6 +217,8 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
     check_int("seed", seed, 0)
     if workers is not None:
         check_int("workers", workers, 1)
+    if triage_only and all_rows:
+        raise ValueError("triage_only=True needs all_rows=False (a triage runs the healthy and oracle rows only)")
     runs = {"plain_eea": ("none", PAPER_MODEL_SPACE, PAPER_SUMMARY),
             "self_model": (method, model_space, behaviour_summary)}
     if (method, model_space, behaviour_summary) != ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY):
@@ -224,7 +231,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
     shared = None if shared_dir is None else check_output_dir(shared_dir, "shared_dir")
     with run_lock(out, command="case-study"):
         return _run_locked(preset, settings, damage, target, seed, out, method, model_space, video, workers,
-                           progress, runs, configs, shared, all_rows)
+                           progress, runs, configs, shared, all_rows, triage_only)
 
 
 def preset_settings(preset: str, episode_duration_s: float | None = None) -> CaseStudyPreset:
@@ -389,10 +396,12 @@ def _true_gains(damage: str) -> list[float]:
 
 def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int, out: Path,
                 method: str, model_space: str, video: bool, workers: int | None, progress: bool, runs: dict,
-                configs: dict, shared: Path | None = None, all_rows: bool = True) -> dict:
+                configs: dict, shared: Path | None = None, all_rows: bool = True,
+                triage_only: bool = False) -> dict:
     """The body of :func:`run_case_study`, under the lock of ``out`` (the rows of
     :data:`SHARED_KEYS` in ``shared`` when given)."""
     t0 = time.perf_counter()
+    triage_s = 0.0 if triage_only else _triage_seconds(out)  # a triage run before, whose gaits are reused
     duration = settings.episode_duration_s
     stages: dict[str, float] = {}  # wall seconds per stage (a step found finished costs its loading)
 
@@ -421,7 +430,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
                          episodes=settings.transfer_episodes, episode_duration_s=duration))
                      for key in controllers}
         healthy, oracle = (transfers[k].target_distance for k in ("healthy", "true_damaged"))
-        if not breaks(healthy, oracle):
+        if triage_only or not breaks(healthy, oracle):
             return _write_triaged(out, preset, settings, damage, target, seed, method, model_space, transfers,
                                   stages, time.perf_counter() - t0, shared)
 
@@ -505,7 +514,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         "verdict": verdict(controllers_report),
         "figures": figures,
         "video": video_name,
-        "wall_seconds": time.perf_counter() - t0,
+        "wall_seconds": triage_s + time.perf_counter() - t0,
         "stage_seconds": stages,
         **({"shared_dir": str(shared)} if shared is not None else {}),
     }
@@ -521,27 +530,41 @@ def breaks(healthy_distance: float, oracle_distance: float) -> bool:
     return bool(oracle_distance > 0 and healthy_distance / oracle_distance <= BREAKS_SHARE)
 
 
+def _triage_seconds(out: Path) -> float:
+    """The wall seconds of the triage whose report ``out`` holds (0 without one): a case study that
+    goes on from a triage counts them in its own ``wall_seconds``."""
+    try:
+        report = json.loads((out / "report.json").read_text())
+    except (OSError, ValueError):
+        return 0.0
+    return float(report.get("wall_seconds", 0.0)) if isinstance(report, dict) and report.get("triaged") else 0.0
+
+
 def _write_triaged(out: Path, preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int,
                    method: str, model_space: str, transfers: dict, stages: dict, wall_seconds: float,
                    shared: Path | None) -> dict:
-    """The report of a case study stopped at its triage (``all_rows=False``): the damage does not
-    break the healthy gait, so only the healthy and the oracle rows were run."""
+    """The report of a case study stopped at its triage (``all_rows=False``): the healthy and the
+    oracle rows only, because the damage does not break the healthy gait or because the
+    triage was all that was asked (``triage_only``; ``verdict.breaks`` then says whether the
+    rest is to run)."""
     controllers = {key: {"native_distance": t.native_distance, "target_distance": t.target_distance,
                          "native_distances": t.native_distances.tolist(), "target_distances": t.target_distances.tolist()}
                    for key, t in transfers.items()}
     healthy, oracle = (controllers[k]["target_distance"] for k in ("healthy", "true_damaged"))
     share = healthy / oracle if oracle > 0 else None
+    broken = breaks(healthy, oracle)
     line = (f"The oracle gait does not swim forward on the damaged robot ({oracle:.2f} units): there is nothing "
             "to recover." if share is None else
-            f"The damage does not break the healthy gait (it keeps {share:.0%} of the oracle gait's {oracle:.2f} "
-            "units on the damaged robot).") + " The other rows were not run (triage)."
+            f"The damage {'breaks' if broken else 'does not break'} the healthy gait (it keeps {share:.0%} of the "
+            f"oracle gait's {oracle:.2f} units on the damaged robot).") + (
+            " The other rows are still to run." if broken else " The other rows were not run (triage).")
     report = {
         "preset": preset, "damage": damage, "seed": seed, "method": method, "model_space": model_space,
         "episode_duration_s": settings.episode_duration_s,
         "settings": {**dataclasses.asdict(settings), "rl_timesteps": settings.rl_timesteps},
         "target_morphology": _dims(target), "target_servo_gains": dict(zip(GAIN_NAMES, _true_gains(damage))),
         "models": {}, "controllers": controllers, "triaged": True,
-        "verdict": {"breaks": False, "recovers": False, "plain_eea_below": False, "self_model_share": None,
+        "verdict": {"breaks": broken, "recovers": False, "plain_eea_below": False, "self_model_share": None,
                     "plain_eea_share": None, "healthy_share": share,
                     **{f"{key}_share": None for key in ROBUST_KEYS}, **{f"{key}_recovers": None for key in ROBUST_KEYS},
                     "recovering": [], "line": line},

@@ -11,6 +11,13 @@ healthy gait, the damage-robust gait and the damage-robust PPO policy) are train
 seed in ``OUT/shared/seed<S>`` (:func:`aquafish.case_study.train_shared_rows`) before that
 seed's cells, which load them from there (``run_case_study(shared_dir=...)``).
 
+The cells run in two passes: first every new cell's **triage** (the healthy and the oracle
+gaits, scored on the damaged robot; ``run_case_study(triage_only=True)``), then the other
+rows of the cells whose damage breaks the healthy gait (every triaged cell with
+``all_rows``), so which cells break, and so what the rest will cost, is known early. A
+triaged cell whose damage breaks the healthy gait is not finished: the summary lists it as
+missing until its rows have run.
+
 ``OUT/recovery.json`` is the run's manifest (preset, episode duration, damages, seeds): a
 rerun with another preset or duration is refused naming the fields; one with other damages
 or seeds extends it. At the end of every run, ``OUT/summary.json`` and ``OUT/summary.md`` are
@@ -194,13 +201,21 @@ def _train_shared(preset: str, seed: int, shared: str, episode_duration_s: float
 
 
 def _run_cell(preset: str, damage: str, seed: int, cell: str, shared: str, episode_duration_s: float,
-              workers: int | None, progress: bool, all_rows: bool = False) -> dict:
+              workers: int | None, progress: bool, all_rows: bool = False, triage_only: bool = False) -> dict:
     """Run one cell's case study (no video) with the shared rows of its seed; return its report
-    (``all_rows`` False: the other rows only where the damage breaks the healthy gait)."""
+    (``all_rows`` False: the other rows only where the damage breaks the healthy gait;
+    ``triage_only``: the healthy and oracle rows only, as ``run_case_study``)."""
     from aquafish.case_study import run_case_study
 
     return run_case_study(preset, damage, seed, cell, episode_duration_s=episode_duration_s, video=False,
-                          workers=workers, progress=progress, shared_dir=shared, all_rows=all_rows)
+                          workers=workers, progress=progress, shared_dir=shared, all_rows=all_rows,
+                          triage_only=triage_only)
+
+
+def rows_to_run(report: dict | None, all_rows: bool = False) -> bool:
+    """Whether a cell with this report (None: none yet) still has rows to run: a triaged cell
+    whose damage breaks the healthy gait, or any triaged cell with ``all_rows``."""
+    return report is not None and bool(report.get("triaged")) and (all_rows or bool(report["verdict"]["breaks"]))
 
 
 # -- running tasks ----------------------------------------------------------------------------------
@@ -231,11 +246,11 @@ def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | Non
                  all_rows: bool = False) -> dict:
     """Run every unfinished cell (damage x seed) of the benchmark and write its summary; return it.
 
-    A cell first evolves the healthy and the oracle gaits and scores them on the damaged robot;
-    only when the damage breaks the healthy gait does it run the other rows (self-models,
-    their gaits, PPO), since the benchmark's recovery rates count breaking cells only
-    (``run_case_study(all_rows=False)``). ``all_rows=True`` runs every row on every cell, and
-    completes cells an earlier run left at their triage.
+    Every new cell is first triaged: its healthy and oracle gaits are evolved and scored on the
+    damaged robot (``run_case_study(triage_only=True)``). Then the cells whose damage breaks
+    the healthy gait get the other rows (self-models, their gaits, PPO), since the benchmark's
+    recovery rates count breaking cells only. ``all_rows=True`` runs every row on every cell,
+    and completes cells an earlier run left at their triage.
 
     Args:
         out_dir: the benchmark's directory (finished cells and shared rows are reused).
@@ -275,8 +290,7 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     """The body of :func:`run_recovery`, under the lock of ``out``."""
     manifest = merge_manifest(out, spec)
     reports = {cell: read_cell(out, *cell, manifest) for cell in manifest.cells()}
-    todo = [cell for cell in spec.cells()
-            if reports[cell] is None or (all_rows and reports[cell].get("triaged"))]
+    todo = [cell for cell in spec.cells() if reports[cell] is None or rows_to_run(reports[cell], all_rows)]
     alone = backend == "local" and processes == 1  # one cell at a time, in this process
     cell_workers, inner_progress = (workers, progress) if alone else (1, False)
     duration = spec.episode_duration_s
@@ -288,16 +302,21 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     for _ in _run_tasks(shared_tasks, backend, processes, address):
         bar.update()
     bar.close()
-    bar = progress_bar(len(spec.cells()), initial=len(spec.cells()) - len(todo), desc="recovery cells", unit="cell",
-                       disable=not progress)
-    tasks = [DirTask(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)),
-                                 str(shared_dir(out, seed)), duration, cell_workers, inner_progress, all_rows),
-                     outputs=(3,), inputs=(4,),
-                     label=f"cell {damage} seed {seed}") for damage, seed in todo]
-    for report in _run_tasks(tasks, backend, processes, address):
-        reports[(report["damage"], report["seed"])] = report
-        bar.update()
-    bar.close()
+    # 1. triage every new cell (the healthy and oracle rows), 2. the other rows where they are due
+    for stage, cells, triage_only in (("triage", [c for c in todo if reports[c] is None], True),
+                                      ("recovery rows", None, False)):
+        if cells is None:
+            cells = [c for c in todo if rows_to_run(reports[c], all_rows)]
+        bar = progress_bar(len(cells), desc=stage, unit="cell", disable=not progress or not cells)
+        tasks = [DirTask(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)),
+                                     str(shared_dir(out, seed)), duration, cell_workers, inner_progress,
+                                     all_rows and not triage_only, triage_only),
+                         outputs=(3,), inputs=(4,), label=f"{stage} of cell {damage} seed {seed}")
+                 for damage, seed in cells]
+        for report in _run_tasks(tasks, backend, processes, address):
+            reports[(report["damage"], report["seed"])] = report
+            bar.update()
+        bar.close()
     summary = _summary(manifest, reports)
     atomic_write(out / SUMMARY_JSON, json.dumps(summary, indent=2).encode())
     atomic_write(out / SUMMARY_MD, render_summary(summary).encode())
@@ -307,7 +326,7 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
 def _summary(manifest: RecoverySpec, reports: dict) -> dict:
     """``summary.json``: the settings, :func:`summarize` of the finished cells, the missing ones."""
     return {"settings": manifest.to_dict(), **summarize([r for r in reports.values() if r is not None]),
-            "missing": [{"damage": d, "seed": s} for (d, s), r in reports.items() if r is None]}
+            "missing": [{"damage": d, "seed": s} for (d, s), r in reports.items() if r is None or rows_to_run(r)]}
 
 
 def summary_so_far(out_dir) -> dict:

@@ -1,6 +1,7 @@
 """The recovery benchmark (``aquafish recovery``): cells, shared rows, the summary."""
 
 import json
+from pathlib import Path
 
 import pytest
 
@@ -221,3 +222,89 @@ def test_the_summary_so_far_reads_the_finished_cells_lists_the_rest_and_writes_n
     out = capsys.readouterr().out
     assert "| `left_pectoral_half` | 1 | yes | 20% |" in out and "1 cells finished, 3 to run (nothing written)" in out
     assert sorted(p.name for p in tmp_path.rglob("*")) == before and not (tmp_path / SUMMARY_JSON).exists()
+
+
+def test_every_cell_is_triaged_before_any_cell_runs_its_other_rows_and_a_broken_cell_left_at_triage_is_missing(
+        tmp_path, monkeypatch):
+    from aquafish.recovery import run_recovery, summary_so_far
+
+    calls = []
+    broken = {"reversed_left_pectoral", "sampled:5"}  # the fake triage's verdicts
+    stop_at = {"sampled:5"}  # its rows fail once: the run is interrupted between the passes
+
+    def fake_cell(preset, damage, seed, cell, shared, duration, workers, progress, all_rows, triage_only):
+        calls.append(("triage" if triage_only else "rows", damage))
+        path = Path(cell)
+        path.mkdir(parents=True, exist_ok=True)
+        healthy = 2.0 if damage in broken else 9.0
+        if triage_only:
+            report = _report(damage, seed, {"healthy": healthy, "plain_eea": 0, "self_model": 0, "true_damaged": 10})
+            del report["controllers"]["plain_eea"], report["controllers"]["self_model"]
+            report.update(models={}, triaged=True, wall_seconds=1.0, verdict={"breaks": healthy <= 5, "recovering": []})
+        else:
+            if damage in stop_at:
+                stop_at.discard(damage)
+                raise RuntimeError("interrupted")
+            assert json.loads((path / "report.json").read_text())["triaged"] is True  # goes on from its triage
+            report = _report(damage, seed, {"healthy": healthy, "plain_eea": 3, "self_model": 9, "true_damaged": 10})
+        (path / "report.json").write_text(json.dumps(report))
+        return report
+
+    monkeypatch.setattr("aquafish.recovery._run_cell", fake_cell)
+    monkeypatch.setattr("aquafish.recovery._train_shared", lambda preset, seed, *rest: seed)
+    damages = ["left_pectoral_half", "reversed_left_pectoral", "caudal_half", "sampled:5"]
+    with pytest.raises(RuntimeError, match="interrupted"):
+        run_recovery(tmp_path, preset="smoke", damages=damages, seeds=[0], progress=False)
+    # the four triages first, then the rows of the two broken cells only
+    assert calls == [("triage", d) for d in damages] + [("rows", "reversed_left_pectoral"), ("rows", "sampled:5")]
+    summary = summary_so_far(tmp_path)
+    assert [m["damage"] for m in summary["missing"]] == ["sampled:5"]  # broken, rows not run: not finished
+    by_damage = {c["damage"]: c for c in summary["cells"]}
+    assert by_damage["sampled:5"]["breaks"] and by_damage["sampled:5"]["shares"] == {"healthy": pytest.approx(0.2)}
+    assert summary["totals"]["rows"]["self_model"] == {"recovers": 1, "of": 1, "rate": 1.0}
+
+    calls.clear()  # a rerun runs only what is left: the broken cell's rows, not its triage
+    summary = run_recovery(tmp_path, preset="smoke", damages=damages, seeds=[0], progress=False)
+    assert calls == [("rows", "sampled:5")] and summary["missing"] == []
+    assert summary["totals"]["breaking"] == 2 and summary["totals"]["rows"]["self_model"]["of"] == 2
+    calls.clear()
+    run_recovery(tmp_path, preset="smoke", damages=damages, seeds=[0], progress=False, all_rows=True)
+    assert calls == [("rows", "left_pectoral_half"), ("rows", "caudal_half")]  # all_rows completes the triaged
+
+
+def test_rows_to_run_and_triage_only_needs_all_rows_off(tmp_path):
+    from aquafish.case_study import run_case_study
+    from aquafish.recovery import rows_to_run
+
+    triaged = {"triaged": True, "verdict": {"breaks": True}}
+    assert rows_to_run(triaged) and rows_to_run({**triaged, "verdict": {"breaks": False}}, all_rows=True)
+    assert not rows_to_run({**triaged, "verdict": {"breaks": False}}) and not rows_to_run(None)
+    assert not rows_to_run({"verdict": {"breaks": True}})  # a finished cell
+    with pytest.raises(ValueError, match="triage_only=True needs all_rows=False"):
+        run_case_study("smoke", "reversed_left_pectoral", 0, tmp_path / "cs", triage_only=True)
+    assert not (tmp_path / "cs").exists()
+
+
+def test_a_triage_that_finds_the_damage_breaks_the_healthy_gait_says_so_and_that_the_rest_is_to_run(tmp_path):
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from aquafish.case_study import _write_triaged, preset_settings
+    from aquafish_gym import get_damage
+
+    def scored(native, target):
+        return SimpleNamespace(native_distance=native, target_distance=target, native_distances=np.array([native]),
+                               target_distances=np.array([target]))
+
+    damage = get_damage("reversed_left_pectoral")
+    transfers = {"healthy": scored(12.0, -1.5), "true_damaged": scored(10.0, 10.0)}
+    report = _write_triaged(tmp_path, "smoke", preset_settings("smoke"), damage.name, damage.apply(), 0,
+                            "profile_lineages", "morphology+servos", transfers, {}, 2.5, None)
+    assert report["triaged"] is True and report["verdict"]["breaks"] is True
+    assert report["verdict"]["healthy_share"] == pytest.approx(-0.15)
+    assert "breaks the healthy gait (it keeps -15% of" in report["verdict"]["line"]
+    assert "still to run" in (tmp_path / "report.md").read_text()
+    transfers["healthy"] = scored(12.0, 6.0)  # 60 % of the oracle: not broken
+    assert _write_triaged(tmp_path, "smoke", preset_settings("smoke"), damage.name, damage.apply(), 0,
+                          "profile_lineages", "morphology+servos", transfers, {}, 2.5, None)["verdict"]["breaks"] is False
