@@ -253,19 +253,28 @@ def run_lock(directory: str | os.PathLike, flag: str = "--out", *, name: str = L
 
 
 def _make_dirs(directory: Path) -> list[Path]:
-    """Create ``directory`` and its missing parents; return those created, deepest first."""
+    """Create ``directory`` and its missing parents; return those this call created, deepest
+    first. A directory that another process creates at the same moment (two runs of one
+    benchmark starting side by side under a parent not yet made) is used as it is."""
     missing = []
     path = Path(os.path.abspath(directory))
     while not os.path.lexists(path) and path.parent != path:
         missing.append(path)
         path = path.parent
+    created = []
     for path in reversed(missing):
         try:
             path.mkdir()
-        except BaseException:
-            _remove_if_unused([p for p in missing if p.exists()])
+        except FileExistsError:
+            if path.is_dir() and not path.is_symlink():
+                continue  # made by another process since it was found missing
+            _remove_if_unused(created[::-1])
             raise
-    return missing
+        except BaseException:
+            _remove_if_unused(created[::-1])
+            raise
+        created.append(path)
+    return created[::-1]
 
 
 def _remove_if_unused(created: list[Path]) -> None:

@@ -141,6 +141,37 @@ def test_a_lock_removes_only_the_directories_it_made(tmp_path):
     assert (tmp_path / "kept" / "new" / "result.txt").read_text() == "written\n"
 
 
+
+def test_two_runs_that_create_one_parent_at_the_same_moment_both_start_and_neither_removes_it(tmp_path,
+                                                                                              monkeypatch):
+    # the race of two benchmark workers locking shared/seed0 and shared/seed1 under a missing
+    # shared/: each found it missing, the other created it first, so this mkdir finds it made
+    import os
+
+    real_lexists = os.path.lexists
+    raced = tmp_path / "shared"
+
+    def lexists(path):
+        if Path(path) == raced and not getattr(lexists, "done", False):
+            lexists.done = True
+            raced.mkdir()  # the other process, between the check and this process's mkdir
+            return False
+        return real_lexists(path)
+
+    monkeypatch.setattr("aquafish_gym.rundir.os.path.lexists", lexists)
+    with pytest.raises(RuntimeError):
+        with run_lock(raced / "seed1", command="recovery"):
+            raise RuntimeError("failed before writing")
+    # seed1, which this run made, is removed; shared/, which the other made, is not
+    assert raced.is_dir() and list(raced.iterdir()) == []
+    monkeypatch.undo()
+    (tmp_path / "file").write_text("")
+    monkeypatch.setattr("aquafish_gym.rundir.os.path.lexists",
+                        lambda path: False if Path(path) == tmp_path / "file" else real_lexists(path))
+    with pytest.raises(FileExistsError):  # a file in the way is still an error
+        with run_lock(tmp_path / "file" / "run"):
+            pass
+
 # -- 7. no file a user may receive runs code when loaded ------------------------------------------------
 
 class _Payload:
