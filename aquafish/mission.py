@@ -69,13 +69,14 @@ from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
 from eea.experiment import quantise_angles
 from eea.fault_check import check_final_model
+from eea.record import save_experiments
 from eea.round import RoundParts, run_round
 from eea.search.lineages import make_estimation, warm_start
 from gait.controller import NEAT_CONTROLLER_FILE
 from gait.neat_evolution import evolve_from_population
 from gait.robots import Robot
 
-__all__ = ["MISSION_FILE", "MISSION_PRESETS", "PRIORS", "RECOVERED_DIR", "MissionPreset", "MissionTarget", "Prior",
+__all__ = ["EXPERIMENTS_FILE", "MISSION_FILE", "MISSION_PRESETS", "PRIORS", "RECOVERED_DIR", "MissionPreset", "MissionTarget", "Prior",
            "load_prior", "make_prior", "mission_preset", "plot_timeline", "prepare_prior",
            "run_mission", "span_speed", "stop_robot"]
 
@@ -83,8 +84,12 @@ log = logging.getLogger(__name__)
 
 MISSION_FILE, TRAJECTORY_FILE, TIMELINE_FILE = "mission.json", "trajectory.csv", "timeline.png"
 #: Where a mission with a recovery writes the robot's new self-model (``self_model.json``: the
-#: genome and the robot, as a prior's) and gait (``best_controller.json``, for ``aquafish transfer``).
+#: genome and the robot, as a prior's), gait (``best_controller.json``, for ``aquafish transfer``)
+#: and the target experiments it made (:data:`EXPERIMENTS_FILE`).
 RECOVERED_DIR = "recovered"
+#: The recovery's target experiments, actions and IMU logs (:func:`eea.record.save_experiments`;
+#: :func:`eea.record.load_experiments` reads them back, to score models on them offline).
+EXPERIMENTS_FILE = "experiments.npz"
 #: Control period of the mission (s): AquaFish-v0's.
 CONTROL_S = FRAME_SKIP * DT_S
 #: Env action that stops the robot: pectorals 0 rev/s, caudal 0 Hz (its fin held where it is).
@@ -543,6 +548,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
                         "fault_check": {"replaced": check.index != 0, "simulations": check.simulations,
                                         "final_model": _model_dict(records[-1].best_genome)},
                         "experiment_s": target.steps * DT_S, "experiments": _experiments(records, target)}
+            experiments = records[-1].experiments  # the robot's own data, kept to be scored again offline
         rows = mission.rows
         sizes = (mission.env.base_morphology.to_array(), mission.env.morphology.to_array())  # before, after the onset
     finally:
@@ -586,7 +592,9 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         (out / RECOVERED_DIR).mkdir(exist_ok=True)
         _write_self_model(out / RECOVERED_DIR, new_genome, new_model)
         controller.save(out / RECOVERED_DIR / NEAT_CONTROLLER_FILE)
+        save_experiments(out / RECOVERED_DIR / EXPERIMENTS_FILE, experiments)
         report["files"]["recovered"] = RECOVERED_DIR
+        report["files"]["experiments"] = f"{RECOVERED_DIR}/{EXPERIMENTS_FILE}"
     _write_trajectory(rows, out / TRAJECTORY_FILE)
     plot_timeline(rows, report, out / TIMELINE_FILE)
     report["files"]["video"] = write_mission_video(rows, report, out / "mission", *sizes).name if video else None

@@ -77,7 +77,7 @@ from eea.exploration import Exploration
 from eea.search.lineages import LineageStrategies, Lineages
 from eea.inference import INFERENCE_NAMES, INFERENCE_STRATEGIES, InferenceStrategy, make_inference
 from eea.search import MODEL_SEARCHES, ModelGA, ModelSearch, make_model_search
-from eea.record import ROUND_COLUMNS, RunResult, load_result
+from eea.record import ROUND_COLUMNS, RunResult, load_experiments, load_result, save_experiments
 from eea.round import RoundParts, RoundRecord, run_round
 from eea.run import run
 from eea.target import Target

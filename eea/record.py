@@ -51,14 +51,14 @@ from aquafish_gym.rundir import FileError, read_json
 from eea.checkpoint import CONFIG_FILE
 from eea.config import EEAConfig
 from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, model_space_of, servo_gains
-from eea.experiment import FLIPPERS, angle_errors_deg
+from eea.experiment import FLIPPERS, Context, Experiment, angle_errors_deg
 from eea.fault_check import FaultCheck, read_fault_check
 from eea.fitness import objective_fitness
 
 __all__ = ["CONFIG_FILE", "GAIN_COLUMNS", "LINEAGES_FILE", "LINEAGE_COLUMNS", "ROUNDS_FILE", "ROUND_COLUMNS",
-           "RunResult", "TRUE_GAIN_COLUMNS", "check_rounds", "lineage_columns", "load_result", "read_rounds",
-           "read_config", "read_csv", "round_columns", "round_row", "write_config", "write_csv", "write_lineages",
-           "write_rounds"]
+           "RunResult", "TRUE_GAIN_COLUMNS", "check_rounds", "lineage_columns", "load_experiments", "load_result",
+           "read_rounds", "read_config", "read_csv", "round_columns", "round_row", "save_experiments", "write_config",
+           "write_csv", "write_lineages", "write_rounds"]
 
 ROUNDS_FILE = "rounds.csv"
 MODEL_COLUMNS = tuple(f"model_{name}" for name in MORPHOLOGY_FIELDS)
@@ -431,3 +431,59 @@ def write_lineages(out_dir: str | os.PathLike, history: Sequence[dict]) -> None:
                          "selection_fitness": float(h["selection_fitness"][lineage]),
                          **{f"model_{name}": float(v) for name, v in zip(space.fields, values)}})
     write_csv(Path(out_dir) / LINEAGES_FILE, lineage_columns(space), rows)
+
+
+#: The arrays of an experiments file (:func:`save_experiments`), one row per experiment.
+_EXPERIMENT_ARRAYS = ("index", "action", "imu_log", "summary", "true_angles", "context_starts", "context_widths",
+                      "context_confidence")
+
+
+def save_experiments(path: str | os.PathLike, experiments) -> None:
+    """Write ``experiments`` to ``path`` (a NumPy ``.npz`` of plain arrays, no pickle), atomically.
+
+    The arrays, E = len(experiments) rows each: ``index`` (E,), ``action`` (E, 3),
+    ``imu_log`` (E, steps, 3) in degrees, ``summary`` (E, 3, steps // 2 + 1),
+    ``true_angles`` (E, 3) rad, and the contexts' ``context_starts`` (E, 3),
+    ``context_widths`` (E, 3) rad and ``context_confidence`` (E,). :func:`load_experiments`
+    reads them back, so a run's target experiments can be scored again offline (a mission's
+    self-model checked anew, say).
+
+    Raises:
+        ValueError: ``experiments`` is empty or its IMU logs differ in length.
+    """
+    experiments = tuple(experiments)
+    if not experiments:
+        raise ValueError("no experiments to save")
+    if len({e.imu_log.shape for e in experiments}) != 1:
+        raise ValueError("experiments of different lengths cannot share one file: "
+                         f"IMU logs {sorted({e.imu_log.shape for e in experiments})}")
+    arrays = {"index": np.array([e.index for e in experiments]),
+              **{name: np.stack([getattr(e, name) for e in experiments])
+                 for name in ("action", "imu_log", "summary", "true_angles")},
+              "context_starts": np.array([e.context.starts for e in experiments]),
+              "context_widths": np.array([e.context.widths for e in experiments]),
+              "context_confidence": np.array([e.context.confidence for e in experiments])}
+    buffer = io.BytesIO()
+    np.savez(buffer, **arrays)
+    atomic_write(Path(path), buffer.getvalue())
+
+
+def load_experiments(path: str | os.PathLike) -> tuple[Experiment, ...]:
+    """The experiments :func:`save_experiments` wrote to ``path``, oldest first.
+
+    Raises:
+        FileError: ``path`` is missing, not such a file (no pickle is ever loaded), or its
+            arrays do not fit together.
+    """
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {name: data[name] for name in _EXPERIMENT_ARRAYS}
+        return tuple(Experiment(int(i), a, log, summ, true, Context(tuple(s), tuple(w), float(c)))
+                     for i, a, log, summ, true, s, w, c in zip(*(arrays[name] for name in _EXPERIMENT_ARRAYS),
+                                                               strict=True))
+    except FileNotFoundError:
+        raise FileError(path, "does not exist", "give the experiments file a run wrote") from None
+    except (OSError, KeyError, ValueError, TypeError) as err:
+        raise FileError(path, f"is not an experiments file ({type(err).__name__}: {err})",
+                        "give the experiments file a run wrote") from None

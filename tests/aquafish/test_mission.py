@@ -13,6 +13,8 @@ from aquafish.mission import (MISSION_PRESETS, STOP_ACTION, MissionTarget, _Miss
 from aquafish.mission_cli import PRESET_NAMES
 from gait import load_controller
 from aquafish_gym import Morphology
+from aquafish_gym.params import DT_S
+import eea
 from eea import EEAConfig
 from eea.encoding import get_model_space
 from eea.search.cma import CMAModelSearch
@@ -82,6 +84,13 @@ def test_the_smoke_mission_writes_its_report_with_sane_relations(smoke_mission):
             np.asarray(SPACE.truth("none")[:9]), abs=1e-3)
     assert report["files"]["recovered"] == "recovered"
     load_controller(out / "recovered")
+    # the experiments the robot made where it stood, kept as data: the report's actions and angles
+    experiments = eea.load_experiments(out / report["files"]["experiments"])
+    assert len(experiments) == report["target_experiments"]
+    for saved_one, reported in zip(experiments, report["experiments"]):
+        np.testing.assert_allclose(saved_one.action, reported["action"], atol=5e-5)
+        np.testing.assert_allclose(saved_one.true_angles, reported["true_initial_angles_rad"], atol=5e-5)
+        assert saved_one.imu_log.shape == (round(report["experiment_s"] / DT_S), 3)
 
 
 @pytest.mark.slow

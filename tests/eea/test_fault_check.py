@@ -71,3 +71,39 @@ def test_a_run_extended_by_a_round_is_checked_again(servo_run, tmp_path):
     longer = eea.run(servo_run.config.replace(rounds=2), tmp_path / "run", progress=False)
     assert longer.fault_check.round == 2
     np.testing.assert_array_equal(longer.fault_check.final_model, longer.best_model)
+
+
+def test_saved_experiments_come_back_equal_and_redo_the_runs_check(servo_run, tmp_path):
+    from eea.checkpoint import load_state
+    from eea.evaluation import Evaluator
+    from eea.experiment import Experiment
+    from eea.fault_check import check_final_model
+
+    experiments = tuple(Experiment.from_state_dict(s) for s in load_state(servo_run.out_dir).experiments)
+    eea.save_experiments(tmp_path / "experiments.npz", experiments)
+    loaded = eea.load_experiments(tmp_path / "experiments.npz")
+    assert len(loaded) == len(experiments) >= 1
+    for a, b in zip(loaded, experiments):
+        assert a.index == b.index and a.context == b.context
+        for name in ("action", "imu_log", "summary", "true_angles"):
+            np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    # the file is all an offline check needs: the same models' MOD_FITs, the same kept model
+    config = servo_run.config
+    with Evaluator(config.steps, workers=1, params=config.sim_params, model_space=config.model_space,
+                   summary=config.behaviour_summary) as evaluator:
+        again = check_final_model(servo_run.fault_check.final_model, loaded, evaluator, 1)
+    np.testing.assert_array_equal(again.model_fitness, servo_run.fault_check.model_fitness)
+    assert again.index == servo_run.fault_check.index
+
+
+def test_an_experiments_file_that_is_not_one_is_named(tmp_path):
+    with pytest.raises(FileError, match="does not exist"):
+        eea.load_experiments(tmp_path / "missing.npz")
+    (tmp_path / "bad.npz").write_bytes(b"not a zip")
+    with pytest.raises(FileError, match="is not an experiments file"):
+        eea.load_experiments(tmp_path / "bad.npz")
+    np.savez(tmp_path / "other.npz", action=np.zeros((2, 3)))
+    with pytest.raises(FileError, match="is not an experiments file"):
+        eea.load_experiments(tmp_path / "other.npz")
+    with pytest.raises(ValueError, match="no experiments"):
+        eea.save_experiments(tmp_path / "empty.npz", [])
