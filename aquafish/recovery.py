@@ -14,7 +14,9 @@ seed's cells, which load them from there (``run_case_study(shared_dir=...)``).
 The cells run in two passes: first every new cell's **triage** (the healthy and the oracle
 gaits, scored on the damaged robot; ``run_case_study(triage_only=True)``), then the other
 rows of the cells whose damage breaks the healthy gait (every triaged cell with
-``all_rows``), so which cells break, and so what the rest will cost, is known early. A
+``all_rows``), so which cells break, and so what the rest will cost, is known early. The
+second pass goes seed by seed (every breaking damage of the first seed, then of the next),
+so a run stopped part-way has a cross-section of the damages. A
 triaged cell whose damage breaks the healthy gait is not finished: the summary lists it as
 missing until its rows have run.
 
@@ -306,7 +308,10 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     for stage, cells, triage_only in (("triage", [c for c in todo if reports[c] is None], True),
                                       ("recovery rows", None, False)):
         if cells is None:
-            cells = [c for c in todo if rows_to_run(reports[c], all_rows)]
+            # seed by seed, every damage of a seed before the next seed: a run stopped part-way
+            # leaves a cross-section of the breaking damages, not the first few complete
+            cells = sorted((c for c in todo if rows_to_run(reports[c], all_rows)),
+                           key=lambda c: (spec.seeds.index(c[1]), spec.damages.index(c[0])))
         bar = progress_bar(len(cells), desc=stage, unit="cell", disable=not progress or not cells)
         tasks = [DirTask(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)),
                                      str(shared_dir(out, seed)), duration, cell_workers, inner_progress,

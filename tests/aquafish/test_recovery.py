@@ -263,14 +263,15 @@ def test_every_cell_is_triaged_before_any_cell_runs_its_other_rows_and_a_broken_
     assert by_damage["sampled:5"]["breaks"] and by_damage["sampled:5"]["shares"] == {"healthy": pytest.approx(0.2)}
     assert summary["totals"]["rows"]["self_model"] == {"recovers": 1, "of": 1, "rate": 1.0}
 
-    calls.clear()  # a rerun runs only what is left: the broken cell's rows, not its triage
-    summary = run_recovery(tmp_path, preset="smoke", damages=damages, seeds=[0], progress=False)
-    assert calls == [("rows", "sampled:5")] and summary["missing"] == []
-    assert summary["totals"]["breaking"] == 2 and summary["totals"]["rows"]["self_model"]["of"] == 2
+    calls.clear()  # a second seed: its triages, then the rows seed by seed (seed 0's unfinished cell first)
+    summary = run_recovery(tmp_path, preset="smoke", damages=damages, seeds=[0, 1], progress=False)
+    assert calls == [("triage", d) for d in damages] + [("rows", "sampled:5"), ("rows", "reversed_left_pectoral"),
+                                                        ("rows", "sampled:5")]
+    assert summary["missing"] == [] and summary["totals"]["breaking"] == 4
+    assert summary["totals"]["rows"]["self_model"]["of"] == 4
     calls.clear()
     run_recovery(tmp_path, preset="smoke", damages=damages, seeds=[0], progress=False, all_rows=True)
     assert calls == [("rows", "left_pectoral_half"), ("rows", "caudal_half")]  # all_rows completes the triaged
-
 
 def test_rows_to_run_and_triage_only_needs_all_rows_off(tmp_path):
     from aquafish.case_study import run_case_study
