@@ -479,8 +479,8 @@ def _gains_text(cell: dict) -> str:
 
 def render_summary(summary: dict) -> str:
     """``summary.md``: per damage and seed whether the damage breaks the healthy gait and each row's
-    share of the oracle (marked where the row recovers), then each row's recoveries among the
-    breaking cells."""
+    share of the oracle (marked where the row recovers), per damage on how many seeds it breaks
+    the healthy gait, then each row's recoveries among the breaking cells."""
     from aquafish.case_study import BREAKS_SHARE, RECOVERS_OVER_HEALTHY, RECOVERS_SHARE
 
     s, totals = summary["settings"], summary["totals"]
@@ -497,6 +497,10 @@ def render_summary(summary: dict) -> str:
     for cell in summary["cells"]:
         lines.append(f"| `{cell['damage']}` | {cell['seed']} | {'yes' if cell['breaks'] else 'no'} | "
                      + " | ".join(_share_text(cell, k) for k in keys) + f" | {_gains_text(cell)} |")
+    damages = list(dict.fromkeys(c["damage"] for c in summary["cells"]))
+    per_damage = [(d, [c["breaks"] for c in summary["cells"] if c["damage"] == d]) for d in damages]
+    lines += ["", "Breaks the healthy gait (seeds): " + ", ".join(
+        f"`{d}` {sum(b)}/{len(b)}" for d, b in per_damage) + "."]
     lines += ["", f"Recovers in the {totals['breaking']} of {totals['cells']} cells that break: "
               + (", ".join(f"`{k}` {r['recovers']}/{r['of']}" for k, r in totals["rows"].items()) or "no rows") + "."]
     identified = totals.get("identified")

@@ -64,6 +64,7 @@ def test_summary_totals_hand_computed():
     md = render_summary({"settings": {"preset": "smoke", "episode_duration_s": 20.0}, **summary})
     assert "| `a` | 0 | yes | 20% | 50% | 85% ✓ | 90% ✓ | 30% | 90% ✓ | 10% |" in md
     assert "| `d` | 0 | no | n/a | n/a | n/a | n/a | n/a |  |  |" in md
+    assert "Breaks the healthy gait (seeds): `a` 1/1, `b` 1/1, `c` 0/1, `d` 0/1." in md
     assert "Recovers in the 2 of 4 cells that break: `plain_eea` 1/2, `out_of_band` 1/2, `self_model` 2/2" in md
     assert "| 50% | +0.25, +1 (+0.5, +1) ✓ |" in md and "| 10% |  |" in md
     assert "Pectoral signs right: 1 of the 1 cells with a self-model of servo gains." in md
