@@ -17,7 +17,11 @@ def _recovery(args: argparse.Namespace) -> int:
     if args.summary_only:
         summary = summary_so_far(args.out)
         print(render_summary(summary))
-        print(f"{summary['totals']['cells']} cells finished, {len(summary['missing'])} to run (nothing written)")
+        missing = {(m["damage"], m["seed"]) for m in summary["missing"]}
+        triaged = missing & {(c["damage"], c["seed"]) for c in summary["cells"]}  # broken, rows still to run
+        print(f"{summary['totals']['cells'] - len(triaged)} cells finished, {len(missing)} to run"
+              + (f" ({len(triaged)} of them triaged, their other rows to run)" if triaged else "")
+              + " (nothing written)")
         return 0
     summary = run_recovery(args.out, preset=args.budget, damages=args.damages, seeds=args.seeds,
                            episode_duration_s=args.episode_duration_s, processes=args.processes, workers=args.workers,

@@ -226,7 +226,7 @@ def test_the_summary_so_far_reads_the_finished_cells_lists_the_rest_and_writes_n
 
 
 def test_every_cell_is_triaged_before_any_cell_runs_its_other_rows_and_a_broken_cell_left_at_triage_is_missing(
-        tmp_path, monkeypatch):
+        tmp_path, monkeypatch, capsys):
     from aquafish.recovery import run_recovery, summary_so_far
 
     calls = []
@@ -263,6 +263,8 @@ def test_every_cell_is_triaged_before_any_cell_runs_its_other_rows_and_a_broken_
     by_damage = {c["damage"]: c for c in summary["cells"]}
     assert by_damage["sampled:5"]["breaks"] and by_damage["sampled:5"]["shares"] == {"healthy": pytest.approx(0.2)}
     assert summary["totals"]["rows"]["self_model"] == {"recovers": 1, "of": 1, "rate": 1.0}
+    assert main(["recovery", "--out", str(tmp_path), "--summary-only"]) == 0
+    assert "3 cells finished, 1 to run (1 of them triaged, their other rows to run)" in capsys.readouterr().out
 
     calls.clear()  # a second seed: its triages, then the rows seed by seed (seed 0's unfinished cell first)
     summary = run_recovery(tmp_path, preset="smoke", damages=damages, seeds=[0, 1], progress=False)
