@@ -206,8 +206,9 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
 
     Raises:
         ValueError: unknown preset, damage, method or model space, a bad seed, duration or
-            worker count, ``triage_only`` with ``all_rows``, or an ``out_dir`` or ``shared_dir`` that cannot be written (all checked
-            before anything is created); an ``out_dir`` that another process is writing
+            worker count, ``triage_only`` with ``all_rows``, or an ``out_dir`` or ``shared_dir``
+            that cannot be written (all checked before anything is created); an ``out_dir``
+            that another process is writing
             (:class:`~aquafish_gym.rundir.BusyError`) or whose steps were made with other
             settings (:class:`~aquafish_gym.rundir.MismatchError`, naming the fields).
     """

@@ -16,9 +16,9 @@ gaits, scored on the damaged robot; ``run_case_study(triage_only=True)``), then 
 rows of the cells whose damage breaks the healthy gait (every triaged cell with
 ``all_rows``), so which cells break, and so what the rest will cost, is known early. The
 second pass goes seed by seed (every breaking damage of the first seed, then of the next),
-so a run stopped part-way has a cross-section of the damages. A
-triaged cell whose damage breaks the healthy gait is not finished: the summary lists it as
-missing until its rows have run.
+so a run stopped part-way has a cross-section of the damages. A triaged cell whose damage
+breaks the healthy gait is not finished: the summary lists it as missing until its rows
+have run.
 
 ``OUT/recovery.json`` is the run's manifest (preset, episode duration, damages, seeds): a
 rerun with another preset or duration is refused naming the fields; one with other damages

@@ -6,7 +6,9 @@ A run directory holds ``config.json`` (the :class:`~eea.config.EEAConfig`, neste
 ``state.pkl``; a run with ``lineages`` >= 2 also ``lineages.csv`` (:func:`write_lineages`, from
 the history of :class:`eea.search.lineages.Lineages`); a finished ``morphology+servos`` run also
 ``fault_check.json`` (:mod:`eea.fault_check`: its final model against servo-fault hypotheses,
-and the self-model kept, :attr:`RunResult.self_model`). Columns of ``rounds.csv``:
+and the self-model kept, :attr:`RunResult.self_model`). A run's target experiments can be
+written to and read from a plain-array file (:func:`save_experiments`,
+:func:`load_experiments`; a mission keeps its recovery's so). Columns of ``rounds.csv``:
 
 * ``round`` (1-based), ``objective_fitness`` (eq. 4 of the best model, an oracle),
   ``model_fitness`` (its MOD_FIT, eq. 3), ``action_fitness`` (ACT_FIT, eq. 1, of the
