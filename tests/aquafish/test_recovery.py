@@ -276,6 +276,19 @@ def test_every_cell_is_triaged_before_any_cell_runs_its_other_rows_and_a_broken_
     run_recovery(tmp_path, preset="smoke", damages=damages, seeds=[0], progress=False, all_rows=True)
     assert calls == [("rows", "left_pectoral_half"), ("rows", "caudal_half")]  # all_rows completes the triaged
 
+
+def test_a_case_study_that_goes_on_from_its_triage_counts_the_triages_seconds(tmp_path):
+    from aquafish.case_study import _triage_seconds
+
+    assert _triage_seconds(tmp_path) == 0.0  # no report
+    (tmp_path / "report.json").write_text(json.dumps({"triaged": True, "wall_seconds": 55.5}))
+    assert _triage_seconds(tmp_path) == 55.5
+    (tmp_path / "report.json").write_text(json.dumps({"wall_seconds": 900.0}))  # a finished case study's
+    assert _triage_seconds(tmp_path) == 0.0
+    (tmp_path / "report.json").write_text("{not json")
+    assert _triage_seconds(tmp_path) == 0.0
+
+
 def test_rows_to_run_and_triage_only_needs_all_rows_off(tmp_path):
     from aquafish.case_study import run_case_study
     from aquafish.recovery import rows_to_run
