@@ -304,14 +304,7 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     for _ in _run_tasks(shared_tasks, backend, processes, address):
         bar.update()
     bar.close()
-    # 1. triage every new cell (the healthy and oracle rows), 2. the other rows where they are due
-    for stage, cells, triage_only in (("triage", [c for c in todo if reports[c] is None], True),
-                                      ("recovery rows", None, False)):
-        if cells is None:
-            # seed by seed, every damage of a seed before the next seed: a run stopped part-way
-            # leaves a cross-section of the breaking damages, not the first few complete
-            cells = sorted((c for c in todo if rows_to_run(reports[c], all_rows)),
-                           key=lambda c: (spec.seeds.index(c[1]), spec.damages.index(c[0])))
+    def run_pass(stage: str, cells: list, triage_only: bool) -> None:
         bar = progress_bar(len(cells), desc=stage, unit="cell", disable=not progress or not cells)
         tasks = [DirTask(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)),
                                      str(shared_dir(out, seed)), duration, cell_workers, inner_progress,
@@ -322,6 +315,13 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
             reports[(report["damage"], report["seed"])] = report
             bar.update()
         bar.close()
+
+    # 1. triage every new cell (the healthy and oracle rows); 2. the other rows where they are due,
+    # seed by seed (every damage of a seed before the next seed): a run stopped part-way leaves a
+    # cross-section of the breaking damages, not the first few complete
+    run_pass("triage", [c for c in todo if reports[c] is None], True)
+    run_pass("recovery rows", sorted((c for c in todo if rows_to_run(reports[c], all_rows)),
+                                     key=lambda c: (spec.seeds.index(c[1]), spec.damages.index(c[0]))), False)
     summary = _summary(manifest, reports)
     atomic_write(out / SUMMARY_JSON, json.dumps(summary, indent=2).encode())
     atomic_write(out / SUMMARY_MD, render_summary(summary).encode())

@@ -53,7 +53,7 @@ from aquafish_gym.rundir import FileError, read_json
 from eea.checkpoint import CONFIG_FILE
 from eea.config import EEAConfig
 from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, model_space_of, servo_gains
-from eea.experiment import FLIPPERS, Context, Experiment, angle_errors_deg
+from eea.experiment import FLIPPERS, Experiment, angle_errors_deg
 from eea.fault_check import FaultCheck, read_fault_check
 from eea.fitness import objective_fitness
 
@@ -459,12 +459,11 @@ def save_experiments(path: str | os.PathLike, experiments) -> None:
     if len({e.imu_log.shape for e in experiments}) != 1:
         raise ValueError("experiments of different lengths cannot share one file: "
                          f"IMU logs {sorted({e.imu_log.shape for e in experiments})}")
-    arrays = {"index": np.array([e.index for e in experiments]),
-              **{name: np.stack([getattr(e, name) for e in experiments])
-                 for name in ("action", "imu_log", "summary", "true_angles")},
-              "context_starts": np.array([e.context.starts for e in experiments]),
-              "context_widths": np.array([e.context.widths for e in experiments]),
-              "context_confidence": np.array([e.context.confidence for e in experiments])}
+    states = [e.state_dict() for e in experiments]  # the experiment's own plain-data form
+    arrays = {**{name: np.array([state[name] for state in states])
+                 for name in ("index", "action", "imu_log", "summary", "true_angles")},
+              **{f"context_{key}": np.array([state["context"][key] for state in states])
+                 for key in ("starts", "widths", "confidence")}}
     buffer = io.BytesIO()
     np.savez(buffer, **arrays)
     atomic_write(Path(path), buffer.getvalue())
@@ -481,9 +480,11 @@ def load_experiments(path: str | os.PathLike) -> tuple[Experiment, ...]:
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {name: data[name] for name in _EXPERIMENT_ARRAYS}
-        return tuple(Experiment(int(i), a, log, summ, true, Context(tuple(s), tuple(w), float(c)))
-                     for i, a, log, summ, true, s, w, c in zip(*(arrays[name] for name in _EXPERIMENT_ARRAYS),
-                                                               strict=True))
+        rows = zip(*(arrays[name] for name in _EXPERIMENT_ARRAYS), strict=True)
+        return tuple(Experiment.from_state_dict({
+            "index": i, "action": a, "imu_log": log, "summary": summ, "true_angles": true,
+            "context": {"starts": starts.tolist(), "widths": widths.tolist(), "confidence": float(c)}})
+            for i, a, log, summ, true, starts, widths, c in rows)
     except FileNotFoundError:
         raise FileError(path, "does not exist", "give the experiments file a run wrote") from None
     except (OSError, KeyError, ValueError, TypeError) as err:
