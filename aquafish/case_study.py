@@ -357,7 +357,7 @@ def _gait_dir(key: str, duration_s: float) -> str:
 
 def model_robot(result, label: str) -> Robot:
     """The robot a run's self-model (:attr:`eea.RunResult.self_model`: in ``morphology+servos``
-    the model its check against servo-fault hypotheses kept) describes: its morphology, and in
+    the model its check against fault hypotheses kept) describes: its morphology, and in
     ``morphology+servos`` its servo
     gains as ``ServoFaults(speed_scale=gains)`` (so a gait evolved on it meets the modelled
     servos, e.g. a reversed pectoral as gain -1).
@@ -684,8 +684,8 @@ def render_report(report: dict) -> str:
         if check and check["replaced"]:
             final = ", ".join(f"{v:+.3f}" for v in check["final_servo_gains"].values())
             lines += ["", f"The {CONTROLLER_KEYS[k].removeprefix('the ')}'s search ended on servo gains ({final}) "
-                      f"(objective fitness {check['final_objective_fitness']:.3f}); its check against servo-fault "
-                      "hypotheses at the design found a fault that explains the experiments better, shown above."]
+                      f"(objective fitness {check['final_objective_fitness']:.3f}); its check against fault "
+                      "hypotheses about the design found a fault that explains the experiments better, shown above."]
     lines += ["", "## Gait transfer (paper Figure 12)", "", "![trajectories](" + report["figures"]["trajectories"] + ")", ""]
     episodes = report["settings"]["transfer_episodes"]
     duration = report.get("episode_duration_s", 20.0)

@@ -635,7 +635,7 @@ def _recover_model(mission: _Mission, genome: np.ndarray | None, config: EEAConf
                    progress: bool):
     """The EEA's rounds with the mission's robot as the target, warm-started at the current
     self-model ``genome`` (None: from a random population), then the final model's check against
-    servo-fault hypotheses (:mod:`eea.fault_check`): ``(round records, the MissionTarget, the
+    fault hypotheses (:mod:`eea.fault_check`): ``(round records, the MissionTarget, the
     new self-model robot, the check, wall seconds of compute)``.
     The target's simulated seconds are not compute: they are the mission's."""
     rng = np.random.default_rng(config.seed)

@@ -163,7 +163,7 @@ def _run_eea(args: argparse.Namespace) -> int:
     check = result.fault_check
     if check is not None:
         gains = ", ".join(f"{g:+.3f}" for g in check.model[9:])
-        verdict = "replaced by a servo-fault hypothesis at the design" if check.index else "kept"
+        verdict = "replaced by a fault hypothesis about the design" if check.index else "kept"
         print(f"fault check: the final model {verdict}; self-model servo gains ({gains}), "
               f"objective fitness {result.self_model_objective_fitness:.4f} ({check.simulations} simulations)")
     return 0

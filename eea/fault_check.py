@@ -1,19 +1,21 @@
-"""The last step of a ``morphology+servos`` run: its final model against servo-fault hypotheses.
+"""The last step of a ``morphology+servos`` run: its final model against fault hypotheses.
 
 The self-model search in ``morphology+servos`` (not the paper's space) can end on a model that
 explains the experiments with a wrong servo sign and a morphology bent to fit: under its own
 fitted initial angles the truth scores a higher MOD_FIT, but the search does not get there
 (docs/studies/recovery.md). A robot knows the morphology it was built to, and a servo fault
-leaves that morphology as it was; so after the last round, :func:`eea.run` fits the initial
-angles of the final model and of 25 servo-fault hypotheses at the design (the healthy
-morphology, pectoral gains -1, -0.5, 0, 0.5, 1 each, caudal gain 1:
-:func:`eea.inference.selection.fault_hypotheses`) equally hard on all the run's experiments and
-keeps the highest MOD_FIT (eq. 3): the run's **self-model**
-(:attr:`eea.record.RunResult.self_model`). It costs about 38,000 simulations, under one round of
-the case study's self-model search (``profile_lineages`` at ``quick``: about 50,000).
+leaves that morphology as it was, a flipper fault its servos; so after the last round,
+:func:`eea.run` fits the initial angles of the final model and of 45 fault hypotheses about the
+design (:func:`eea.inference.selection.fault_hypotheses`: the healthy morphology with pectoral
+gains -1, -0.5, 0, 0.5, 1 each; and one pectoral flipper shortened to half its length or lost,
+beside the other pectoral's gain at those levels; caudal gain 1) equally hard on all the run's
+experiments and keeps the highest MOD_FIT (eq. 3): the run's **self-model**
+(:attr:`eea.record.RunResult.self_model`). It costs about 68,000 simulations (a quarter of the
+case study's ``quick`` self-model search).
 
 The record is ``DIR/fault_check.json`` (:class:`FaultCheck`), written atomically once the last
-round is done; a run extended by more rounds is checked again.
+round is done; a run extended by more rounds, or checked against other hypotheses (a record
+made before the flipper faults joined them), is checked again (:meth:`FaultCheck.is_current`).
 """
 
 from __future__ import annotations
@@ -32,7 +34,7 @@ from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, read_json
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
-from eea.inference.selection import check_fault_hypotheses
+from eea.inference.selection import check_fault_hypotheses, fault_hypotheses
 
 __all__ = ["FAULT_CHECK_FILE", "FAULT_CHECK_SEED", "FaultCheck", "check_final_model", "read_fault_check",
            "write_fault_check"]
@@ -50,10 +52,10 @@ class FaultCheck:
 
     Attributes:
         round: the round whose final model was checked (1-based; the run's last).
-        models: ``(26, 12)`` the candidates (``morphology+servos`` values: 9 dimensions in
+        models: ``(46, 12)`` the candidates (``morphology+servos`` values: 9 dimensions in
             simulator units, then the left, right pectoral and caudal servo gains): row 0 the
             final model, then the hypotheses.
-        model_fitness: ``(26,)`` each candidate's MOD_FIT (eq. 3) under its own fitted angles.
+        model_fitness: ``(46,)`` each candidate's MOD_FIT (eq. 3) under its own fitted angles.
         index: the kept row (the highest MOD_FIT; 0 when no hypothesis fits better).
         simulations: model simulations the check ran.
         wall_seconds: how long it took.
@@ -75,6 +77,13 @@ class FaultCheck:
     def model(self) -> np.ndarray:
         """``(12,)`` the kept model: the run's self-model."""
         return self.models[self.index]
+
+    def is_current(self, round_number: int) -> bool:
+        """Whether this record is the check :func:`check_final_model` makes today of a run whose
+        last round is ``round_number``: of that round, and against today's hypotheses
+        (:func:`eea.inference.selection.fault_hypotheses` at the design)."""
+        hypotheses = fault_hypotheses(Morphology.healthy().to_array())
+        return self.round == round_number and np.array_equal(self.models[1:], hypotheses)
 
     def to_dict(self) -> dict:
         """A JSON-ready dict (floats round-trip exact)."""
@@ -99,7 +108,7 @@ class FaultCheck:
 
 
 def check_final_model(model, experiments: Sequence[Experiment], evaluator: Evaluator, round_number: int) -> FaultCheck:
-    """Check a run's final ``morphology+servos`` model against servo-fault hypotheses at the
+    """Check a run's final ``morphology+servos`` model against fault hypotheses about the
     design (the healthy morphology): :func:`eea.inference.selection.check_fault_hypotheses` with
     the angle fit's starts drawn from :data:`FAULT_CHECK_SEED`.
 

@@ -5,7 +5,7 @@ A run directory holds ``config.json`` (the :class:`~eea.config.EEAConfig`, neste
 ``rounds.csv`` (one row per round, columns :data:`ROUND_COLUMNS`) and the checkpoint
 ``state.pkl``; a run with ``lineages`` >= 2 also ``lineages.csv`` (:func:`write_lineages`, from
 the history of :class:`eea.search.lineages.Lineages`); a finished ``morphology+servos`` run also
-``fault_check.json`` (:mod:`eea.fault_check`: its final model against servo-fault hypotheses,
+``fault_check.json`` (:mod:`eea.fault_check`: its final model against fault hypotheses,
 and the self-model kept, :attr:`RunResult.self_model`). A run's target experiments can be
 written to and read from a plain-array file (:func:`save_experiments`,
 :func:`load_experiments`; a mission keeps its recovery's so). Columns of ``rounds.csv``:
@@ -140,10 +140,10 @@ class RunResult:
 
     @property
     def fault_check(self) -> "FaultCheck | None":
-        """The check of the final model against servo-fault hypotheses
+        """The check of the final model against fault hypotheses
         (:class:`eea.fault_check.FaultCheck`, ``fault_check.json``), or None: in the ``morphology``
         space, before the last round is done, or when the record is of an earlier round (a run
-        extended since).
+        extended since) or of other hypotheses (:meth:`~eea.fault_check.FaultCheck.is_current`).
 
         Raises:
             FileError: (a ``ValueError``) a corrupt ``fault_check.json``.
@@ -151,12 +151,12 @@ class RunResult:
         if not self.model_space.servos or not self.rounds:
             return None
         check = read_fault_check(self.out_dir)
-        return check if check is not None and check.round == self.rounds[-1]["round"] else None
+        return check if check is not None and check.is_current(self.rounds[-1]["round"]) else None
 
     @property
     def self_model(self) -> np.ndarray:
         """``(n,)`` the run's self-model: in ``morphology+servos`` the model its check against
-        servo-fault hypotheses kept (:mod:`eea.fault_check`) once made, else (and in the paper's
+        fault hypotheses kept (:mod:`eea.fault_check`) once made, else (and in the paper's
         ``morphology`` space) :attr:`best_model`.
 
         Raises:

@@ -9,7 +9,7 @@
                       inference strategy choosing the models' initial angles
         record        OBJ_FIT (eq. 4) of the best model, angles, counters -> rounds.csv
     and in the ``morphology+servos`` model space, after the last round:
-        check         the final model against servo-fault hypotheses at the design
+        check         the final model against fault hypotheses about the design
                       (:mod:`eea.fault_check`) -> fault_check.json, the run's self-model
 
 and writes ``DIR/config.json``, ``DIR/rounds.csv`` and the checkpoint ``DIR/state.pkl``
@@ -94,7 +94,7 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
         out_dir: run directory (created if missing). If it holds a checkpoint of the same
             config, the run continues after its last finished round; a finished run is
             returned without simulating (but for a ``morphology+servos`` run's check against
-            servo-fault hypotheses, :mod:`eea.fault_check`, when it has none yet).
+            fault hypotheses, :mod:`eea.fault_check`, when it has none yet).
             ``rounds``, ``workers`` and ``max_batch_robots`` may differ from the stored config
             (they do not change results; a larger ``rounds`` extends the run, a smaller one
             leaves ``config.json`` as it is).

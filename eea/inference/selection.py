@@ -20,10 +20,15 @@ from eea.experiment import Experiment, angle_errors_deg
 from eea.fitness import model_fitness_from_similarities
 from eea.inference.profile import Profile
 
-__all__ = ["FAULT_GAIN_LEVELS", "Selection", "check_fault_hypotheses", "fault_hypotheses", "select_model"]
+__all__ = ["FAULT_GAIN_LEVELS", "FLIPPER_FAULT_SCALES", "Selection", "check_fault_hypotheses", "fault_hypotheses",
+           "select_model"]
 
 #: The pectoral servo gains of :func:`fault_hypotheses`: reversed, half reversed, dead, weak, healthy.
 FAULT_GAIN_LEVELS: tuple[float, ...] = (-1.0, -0.5, 0.0, 0.5, 1.0)
+#: The flipper faults of :func:`fault_hypotheses`: a pectoral flipper's length (``*_y``) times 0.5
+#: (shortened; the sampled faults shorten it to 0.25-0.75), or all three of its dimensions times 0 (lost).
+FLIPPER_FAULT_SCALES: tuple[tuple[str, tuple[float, float, float]], ...] = (("shortened", (1.0, 0.5, 1.0)),
+                                                                          ("lost", (0.0, 0.0, 0.0)))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -121,11 +126,18 @@ def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator
 
 
 def fault_hypotheses(design, levels: Sequence[float] = FAULT_GAIN_LEVELS, caudal_gain: float = 1.0) -> np.ndarray:
-    """Servo-fault hypotheses at a known morphology: every pair of pectoral gains from ``levels``.
+    """Fault hypotheses about a robot of known design: servo faults, then flipper faults.
 
-    A robot knows the morphology it was built to (its design); a servo fault leaves that
-    morphology as it was and changes only how a servo turns. These are the candidate models of
-    :func:`check_fault_hypotheses`.
+    A robot knows the morphology it was built to (its design). A servo fault leaves that
+    morphology as it was and changes only how a servo turns; a flipper fault changes one
+    flipper and leaves the servos as they were. These are the candidate models of
+    :func:`check_fault_hypotheses`, one or two faults at a time:
+
+    * ``L * L`` servo faults: the design with every pair of pectoral gains from ``levels``
+      (left gain varying slowest);
+    * ``2 * 2 * L`` flipper faults: for the left, then the right pectoral, each fault of
+      :data:`FLIPPER_FAULT_SCALES` (shortened, lost), with that flipper's gain 1 and the other
+      pectoral's gain at every level (so a lost flipper beside a weak or reversed servo is there).
 
     Args:
         design: ``(9,)`` the robot's flipper dimensions (simulator units, ``MORPHOLOGY_FIELDS``).
@@ -133,8 +145,8 @@ def fault_hypotheses(design, levels: Sequence[float] = FAULT_GAIN_LEVELS, caudal
         caudal_gain: every hypothesis's caudal gain, in [0, 1].
 
     Returns:
-        ``(L * L, 12)`` models of the ``morphology+servos`` space: the design and the gains
-        (left, right pectoral, caudal), left gain varying slowest.
+        ``(L * L + 4 * L, 12)`` models of the ``morphology+servos`` space: the dimensions and
+        the gains (left, right pectoral, caudal); 45 with the default levels.
 
     Raises:
         ValueError: ``design`` not 9 finite numbers, no level, or a gain out of its range.
@@ -148,14 +160,22 @@ def fault_hypotheses(design, levels: Sequence[float] = FAULT_GAIN_LEVELS, caudal
     if not 0.0 <= caudal_gain <= 1.0:
         raise ValueError(f"caudal_gain must be in [0, 1], got {caudal_gain!r}")
     left, right = np.meshgrid(gains, gains, indexing="ij")
-    n = left.size
-    return np.column_stack([np.tile(design, (n, 1)), left.ravel(), right.ravel(), np.full(n, float(caudal_gain))])
+    rows = [np.column_stack([np.tile(design, (left.size, 1)), left.ravel(), right.ravel()])]
+    for side in (0, 1):  # the faulty flipper: left (dimensions 0-2), right (3-5)
+        for _, scale in FLIPPER_FAULT_SCALES:
+            shape = design.copy()
+            shape[3 * side:3 * side + 3] *= scale
+            pectoral = np.ones((len(gains), 2))
+            pectoral[:, 1 - side] = gains
+            rows.append(np.column_stack([np.tile(shape, (len(gains), 1)), pectoral]))
+    models = np.vstack(rows)
+    return np.column_stack([models, np.full(len(models), float(caudal_gain))])
 
 
 def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], evaluator: Evaluator,
                            rng: np.random.Generator, *, levels: Sequence[float] = FAULT_GAIN_LEVELS,
                            generations: int = 10, scan_cycles: int = 2) -> Selection:
-    """A found self-model against servo-fault hypotheses at the design, fitted equally hard.
+    """A found self-model against fault hypotheses about the design, fitted equally hard.
 
     The search of a self-model in ``morphology+servos`` can settle on a model that explains the
     experiments with a wrong servo sign and a morphology bent to fit (docs/studies/recovery.md):
@@ -176,7 +196,8 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
         scan_cycles: the angle fit's scan cycles, as :func:`select_model`.
 
     Returns:
-        A :class:`Selection` of ``1 + L * L`` models: row 0 is ``model``; ``index`` the chosen
+        A :class:`Selection` of ``1 + L * L + 4 * L`` models (46 with the default levels): row 0
+        is ``model``, then :func:`fault_hypotheses` in its order; ``index`` the chosen
         one (``model`` itself when no hypothesis fits better).
 
     Raises:

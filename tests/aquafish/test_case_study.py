@@ -66,7 +66,7 @@ def test_tiny_case_study_new_rows_servo_gains_and_video(tmp_path, capsys):
     gains = report["models"]["self_model"]["servo_gains"]
     assert set(gains) == set(case_study.GAIN_NAMES) and -1 <= gains["left_pectoral_gain"] <= 1
     assert report["target_servo_gains"] == {"left_pectoral_gain": -1.0, "right_pectoral_gain": 1.0, "caudal_gain": 1.0}
-    # the self-model is what the run's check against servo-fault hypotheses kept
+    # the self-model is what the run's check against fault hypotheses kept
     run = eea.load_result(out / "eea_profile_lineages_servos_signed")
     assert [gains[k] for k in case_study.GAIN_NAMES] == run.fault_check.model[9:].tolist()
     assert report["models"]["self_model"]["fault_check"]["replaced"] == (run.fault_check.index != 0)

@@ -75,7 +75,7 @@ def test_the_smoke_mission_writes_its_report_with_sane_relations(smoke_mission):
     saved = json.loads((out / "recovered" / "self_model.json").read_text())
     values = SPACE.decode(np.asarray(saved["genome"], dtype=np.uint8)[None])[0]
     assert dict(zip(SPACE.fields, np.round(values, 4).tolist())) == report["self_model_after"]
-    # the model the rounds' search ended on was checked against servo-fault hypotheses at the design
+    # the model the rounds' search ended on was checked against fault hypotheses about the design
     check = report["fault_check"]
     assert set(check["final_model"]) == set(SPACE.fields) and check["simulations"] > 0
     assert (check["final_model"] != report["self_model_after"]) == check["replaced"]

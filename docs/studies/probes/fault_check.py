@@ -1,18 +1,23 @@
-"""A finished self-model run's final model against servo-fault hypotheses at the design (docs/studies/recovery.md).
+"""A finished self-model run's final model against fault hypotheses about the design (docs/studies/recovery.md).
 
 For every finished ``morphology+servos`` run under the given directories (each needs its
 checkpoint, ``state.pkl``, for the experiments' IMU logs), this fits the initial angles of the
-run's final model and of the 25 hypotheses of :func:`eea.inference.selection.fault_hypotheses`
-(the design morphology, pectoral gains -1, -0.5, 0, 0.5, 1 each, caudal 1) equally hard on all
-the run's experiments (:func:`eea.fault_check.check_final_model`, the check every such run now
-ends with: 10 generations, 2 scan cycles, the polish; it does not write into the run) and
-prints one JSON line per run: the damage, the true, final and chosen gains, whether each has both pectoral signs right (as the recovery benchmark judges
-them: a lost flipper's servo is not judged), the MOD_FITs, the three best candidates, the
-simulations and seconds.
+run's final model and of the 45 hypotheses of :func:`eea.inference.selection.fault_hypotheses`
+(25 servo faults: the design morphology, pectoral gains -1, -0.5, 0, 0.5, 1 each; 20 flipper
+faults: one pectoral flipper halved in length or lost, the other pectoral's gain at those
+levels; caudal 1) equally hard on all the run's experiments
+(:func:`eea.fault_check.check_final_model`, the check every such run now ends with: 10
+generations, 2 scan cycles, the polish; it does not write into the run) and prints one JSON
+line per run: the damage, the true, final and chosen gains, whether each has both pectoral signs
+right (as the recovery benchmark judges them: a lost flipper's servo is not judged), the
+MOD_FITs, the chosen model's pectoral lengths, the three best candidates (gains, lengths,
+MOD_FIT), the simulations and seconds.
 
     python docs/studies/probes/fault_check.py runs/lean1
 
-About 38,000 simulations a run of 8 experiments of 1.28 s (70-115 s on one core).
+About 68,000 simulations a run of 8 experiments of 1.28 s (150-210 s on one core). Before
+2026-11-27 the check had the 25 servo faults only (about 38,000 simulations); the rows in
+``docs/results/fault_check/`` were written then.
 """
 
 from __future__ import annotations
@@ -58,7 +63,9 @@ def check_run(run_dir) -> dict:
             "final_fit": round(float(check.model_fitness[0]), 4),
             "chosen": "final" if check.index == 0 else "hypothesis", "chosen_gains": chosen[9:].tolist(),
             "chosen_signs": signs(chosen, truth), "chosen_fit": round(float(check.model_fitness[check.index]), 4),
-            "top3": [[check.models[i, 9:11].tolist(), round(float(check.model_fitness[i]), 4)] for i in order[:3]],
+            "chosen_pectoral_lengths": chosen[[1, 4]].tolist(),
+            "top3": [[check.models[i, 9:11].tolist(), check.models[i, [1, 4]].tolist(),
+                      round(float(check.model_fitness[i]), 4)] for i in order[:3]],
             "simulations": check.simulations, "seconds": round(check.wall_seconds)}
 
 
