@@ -124,7 +124,7 @@ def test_angle_sensitivity_is_zero_for_the_same_start_and_body_and_grows_with_th
 
 def test_fault_check_names_the_true_fault_of_a_servo_run(tmp_path, tiny_config, capsys):
     """fault_check on a tiny reversed-left-servo run: one JSON line; the chosen model is the run's final model or a
-    hypothesis at the design, and its MOD_FIT is the best of the candidates listed."""
+    hypothesis about the design, and its MOD_FIT is the best of the candidates listed."""
     import json
 
     from eea.run import run
@@ -134,7 +134,7 @@ def test_fault_check_names_the_true_fault_of_a_servo_run(tmp_path, tiny_config, 
     _load("fault_check").main([str(tmp_path)])
     line = json.loads(capsys.readouterr().out.strip())
     assert line["damage"] == "reversed_left_pectoral" and line["true_gains"] == [-1.0, 1.0, 1.0]
-    assert line["chosen_fit"] == max(fit for _, fit in line["top3"]) >= line["final_fit"]
+    assert line["chosen_fit"] == max(fit for _, _, fit in line["top3"]) >= line["final_fit"]
     if line["chosen"] == "final":                       # ties go to the run's own model
         assert line["chosen_gains"] == line["final_gains"] and line["chosen_fit"] == line["final_fit"]
     else:
