@@ -10,8 +10,8 @@ design (:func:`eea.inference.selection.fault_hypotheses`: the healthy morphology
 gains -1, -0.5, 0, 0.5, 1 each; and one pectoral flipper shortened to half its length or lost,
 beside the other pectoral's gain at those levels; caudal gain 1) equally hard on all the run's
 experiments and keeps the highest MOD_FIT (eq. 3): the run's **self-model**
-(:attr:`eea.record.RunResult.self_model`). It costs about 68,000 simulations (a quarter of the
-case study's ``quick`` self-model search).
+(:attr:`eea.record.RunResult.self_model`). It costs about 68,000 simulations (about a sixth of
+the case study's ``quick`` self-model search).
 
 The record is ``DIR/fault_check.json`` (:class:`FaultCheck`), written atomically once the last
 round is done; a run extended by more rounds, or checked against other hypotheses (a record
