@@ -5,17 +5,20 @@ explains the experiments with a wrong servo sign and a morphology bent to fit: u
 fitted initial angles the truth scores a higher MOD_FIT, but the search does not get there
 (docs/studies/recovery.md). A robot knows the morphology it was built to, and a servo fault
 leaves that morphology as it was, a flipper fault its servos; so after the last round,
-:func:`eea.run` fits the initial angles of the final model and of 45 fault hypotheses about the
-design (:func:`eea.inference.selection.fault_hypotheses`: the healthy morphology with pectoral
-gains -1, -0.5, 0, 0.5, 1 each; and one pectoral flipper shortened to half its length or lost,
-beside the other pectoral's gain at those levels; caudal gain 1) equally hard on all the run's
+:func:`eea.run` fits the initial angles of the final model and of 97 fault hypotheses about the
+design (:func:`eea.inference.selection.fault_hypotheses`, one or two faults on different parts:
+pectoral gains -1, -0.5, 0, 0.5, 1 each; one pectoral flipper shortened to half its length or
+lost, beside the other pectoral's gain at those levels; the caudal servo dead or at half gain, or
+the caudal fin halved or lost, beside healthy pectorals or one pectoral fault) on all the run's
 experiments and keeps the highest MOD_FIT (eq. 3): the run's **self-model**
-(:attr:`eea.record.RunResult.self_model`). It costs about 68,000 simulations (about a sixth of
-the case study's ``quick`` self-model search).
+(:attr:`eea.record.RunResult.self_model`). The fit is in two stages (a cheap screen of all 98
+candidates, then the best 8 fitted again, each keeping its better fit:
+:func:`~eea.inference.selection.check_fault_hypotheses`). It costs about 120,000 simulations
+(about a third of the case study's ``quick`` self-model search).
 
 The record is ``DIR/fault_check.json`` (:class:`FaultCheck`), written atomically once the last
 round is done; a run extended by more rounds, or checked against other hypotheses (a record
-made before the flipper faults joined them), is checked again (:meth:`FaultCheck.is_current`).
+made before the caudal faults joined them), is checked again (:meth:`FaultCheck.is_current`).
 """
 
 from __future__ import annotations
@@ -110,7 +113,7 @@ class FaultCheck:
 def check_final_model(model, experiments: Sequence[Experiment], evaluator: Evaluator, round_number: int) -> FaultCheck:
     """Check a run's final ``morphology+servos`` model against fault hypotheses about the
     design (the healthy morphology): :func:`eea.inference.selection.check_fault_hypotheses` with
-    the angle fit's starts drawn from :data:`FAULT_CHECK_SEED`.
+    the starts of its stages drawn from :data:`FAULT_CHECK_SEED` on.
 
     Args:
         model: ``(12,)`` the final model's values.
@@ -124,7 +127,7 @@ def check_final_model(model, experiments: Sequence[Experiment], evaluator: Evalu
     """
     started, simulations = time.perf_counter(), evaluator.simulations
     selection = check_fault_hypotheses(model, Morphology.healthy().to_array(), experiments, evaluator,
-                                       np.random.default_rng(FAULT_CHECK_SEED))
+                                       FAULT_CHECK_SEED)
     return FaultCheck(int(round_number), selection.models, selection.model_fitness, selection.index,
                       int(evaluator.simulations - simulations), time.perf_counter() - started)
 

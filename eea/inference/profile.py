@@ -421,7 +421,8 @@ class Profile(InferenceStrategy):
             evaluator: an :class:`eea.evaluation.Evaluator` of the experiments' length.
             rng: draws the random starts and perturbations.
             generations: search generations, >= 1.
-            start: optional ``(P, E, 3)`` angles (rad) tried beside the random starts.
+            start: optional ``(P, E, 3)`` angles (rad) tried beside the random starts, or
+                ``(S, P, E, 3)``: S such sets.
 
         Returns:
             ``(angles, fitness)``: ``(P, E, 3)`` each model's best angles (rad) and ``(P,)``
@@ -448,7 +449,8 @@ class Profile(InferenceStrategy):
                 if generation == 0 and start is not None:
                     angles = np.stack([self._memory[k][0] for k in keys])
                     sims = np.stack([self._memory[k][1] for k in keys])
-                    self._try(np.asarray(start, dtype=np.float64)[None], genomes, angles, sims, experiments, evaluator)
+                    sets = np.asarray(start, dtype=np.float64)
+                    self._try(sets[None] if sets.ndim == 3 else sets, genomes, angles, sims, experiments, evaluator)
                     self._memory = {key: (angles[u], sims[u]) for u, key in enumerate(keys)}
         finally:
             self.refine = refine

@@ -24,7 +24,7 @@ def servo_run(tmp_path_factory, session_tiny_config):
 def test_a_finished_servo_run_keeps_the_best_of_its_final_model_and_the_hypotheses(servo_run):
     check = servo_run.fault_check
     assert check is not None and (servo_run.out_dir / FAULT_CHECK_FILE).is_file()
-    assert check.round == 1 and check.models.shape == (46, 12) and check.model_fitness.shape == (46,)
+    assert check.round == 1 and check.models.shape == (98, 12) and check.model_fitness.shape == (98,)
     np.testing.assert_array_equal(check.final_model, servo_run.best_model)
     np.testing.assert_array_equal(check.models[1:], fault_hypotheses(Morphology.healthy().to_array()))
     assert check.index == int(np.argmax(check.model_fitness)) and check.simulations > 0
@@ -48,9 +48,9 @@ def test_the_record_round_trips_and_a_stale_one_is_ignored(servo_run, tmp_path):
     record = check.to_dict()
     (tmp_path / FAULT_CHECK_FILE).write_text(json.dumps(record))
     assert stale.fault_check is not None  # the same record as the run's own: current
-    older = {**record, "models": record["models"][:26], "model_fitness": record["model_fitness"][:26], "index": 0}
+    older = {**record, "models": record["models"][:46], "model_fitness": record["model_fitness"][:46], "index": 0}
     (tmp_path / FAULT_CHECK_FILE).write_text(json.dumps(older))
-    assert stale.fault_check is None  # a record against other hypotheses (the servo faults alone): checked again
+    assert stale.fault_check is None  # a record against fewer hypotheses (before the caudal faults): checked again
     np.testing.assert_array_equal(stale.self_model, servo_run.best_model)
 
 

@@ -7,7 +7,7 @@ from aquafish_gym import Morphology
 from eea.behaviour import behaviour_summary
 from eea.evaluation import Evaluator
 from eea.experiment import Context, Experiment
-from eea.inference.selection import FAULT_GAIN_LEVELS, check_fault_hypotheses, fault_hypotheses
+from eea.inference.selection import FAULT_GAIN_LEVELS, check_fault_hypotheses, fault_hypotheses, select_model
 from eea.target import Target
 
 DESIGN = Morphology.healthy().to_array()
@@ -18,13 +18,12 @@ def test_servo_hypotheses_are_every_pectoral_gain_pair_at_the_design():
     np.testing.assert_array_equal(h[:, :9], np.tile(DESIGN, (25, 1)))
     assert {(l, r) for l, r in h[:, 9:11]} == {(l, r) for l in FAULT_GAIN_LEVELS for r in FAULT_GAIN_LEVELS}
     assert np.all(h[:, 11] == 1.0) and h[0, 9:11].tolist() == [-1.0, -1.0] and h[1, 9:11].tolist() == [-1.0, -0.5]
-    assert fault_hypotheses(DESIGN, (0.0, 1.0), caudal_gain=0.5)[:4, 9:].tolist() == [
-        [0, 0, 0.5], [0, 1, 0.5], [1, 0, 0.5], [1, 1, 0.5]]
+    assert fault_hypotheses(DESIGN, (0.0, 1.0))[:4, 9:].tolist() == [[0, 0, 1], [0, 1, 1], [1, 0, 1], [1, 1, 1]]
 
 
 def test_flipper_hypotheses_shorten_or_remove_one_pectoral_beside_every_gain_of_the_other():
     h = fault_hypotheses(DESIGN)
-    assert h.shape == (25 + 4 * 5, 12)
+    assert h.shape == (25 + 4 * 5 + 4 * 13, 12)
     # (left x, y, z), (right x, y, z): the healthy design's 0.25, 1, 0.0625 each
     expected = [([0.25, 0.5, 0.0625], [0.25, 1.0, 0.0625]), ([0.0, 0.0, 0.0], [0.25, 1.0, 0.0625]),
                 ([0.25, 1.0, 0.0625], [0.25, 0.5, 0.0625]), ([0.25, 1.0, 0.0625], [0.0, 0.0, 0.0])]
@@ -35,13 +34,33 @@ def test_flipper_hypotheses_shorten_or_remove_one_pectoral_beside_every_gain_of_
         faulty, other = (9, 10) if block < 2 else (10, 9)
         assert np.all(rows[:, faulty] == 1.0) and rows[:, other].tolist() == list(FAULT_GAIN_LEVELS)
         assert np.all(rows[:, 11] == 1.0)
-    assert fault_hypotheses(DESIGN, (0.0, 1.0)).shape == (4 + 4 * 2, 12)
+    assert fault_hypotheses(DESIGN, (0.0, 1.0)).shape == (4 + 4 * 2 + 4 * (5 + 2), 12)
+
+
+def test_caudal_hypotheses_put_each_caudal_fault_beside_healthy_pectorals_or_one_pectoral_fault():
+    h = fault_hypotheses(DESIGN)[45:]
+    halved_left, lost_left = DESIGN.copy(), DESIGN.copy()
+    halved_left[1], lost_left[:3] = 0.5, 0.0
+    caudal = [(0.0, DESIGN[6:]), (0.5, DESIGN[6:]), (1.0, [0.25, 0.4375, 0.375]), (1.0, [0.0, 0.0, 0.0])]
+    for block, (gain, fin) in enumerate(caudal):  # dead, weak servo; fin halved (caudal_y 0.875 -> 0.4375), lost
+        rows = h[13 * block: 13 * block + 13]
+        np.testing.assert_array_equal(rows[:, 11], gain)
+        np.testing.assert_array_equal(rows[:, 6:9], np.tile(fin, (13, 1)))
+        # healthy pectorals, the left gain at -1, -0.5, 0, 0.5, the right likewise, then the flipper faults
+        assert rows[:9, 9:11].tolist() == [[1, 1], [-1, 1], [-0.5, 1], [0, 1], [0.5, 1], [1, -1], [1, -0.5], [1, 0],
+                                           [1, 0.5]]
+        np.testing.assert_array_equal(rows[:9, :6], np.tile(DESIGN[:6], (9, 1)))
+        np.testing.assert_array_equal(rows[9, :6], halved_left[:6])
+        np.testing.assert_array_equal(rows[10, :6], lost_left[:6])
+        np.testing.assert_array_equal(rows[11, :6], np.r_[DESIGN[:3], 0.25, 0.5, 0.0625])
+        np.testing.assert_array_equal(rows[12, :6], np.r_[DESIGN[:3], 0.0, 0.0, 0.0])
+        assert np.all(rows[9:, 9:11] == 1.0)
+    assert len(np.unique(fault_hypotheses(DESIGN), axis=0)) == 97  # no hypothesis twice
 
 
 @pytest.mark.parametrize("kwargs, match", [({"design": np.zeros(8)}, "9 flipper dimensions"),
                                            ({"levels": ()}, "one or more pectoral gains"),
-                                           ({"levels": (1.5,)}, r"in \[-1, 1\]"),
-                                           ({"caudal_gain": -0.1}, r"caudal_gain must be in \[0, 1\]")])
+                                           ({"levels": (1.5,)}, r"in \[-1, 1\]")])
 def test_bad_hypotheses_are_refused(kwargs, match):
     with pytest.raises(ValueError, match=match):
         fault_hypotheses(**{"design": DESIGN, **kwargs})
@@ -57,29 +76,60 @@ def _experiments(damage, actions, steps=64, seed=0):
     return out
 
 
+#: A rough fit for the fast tests: two pectoral gain levels (40 hypotheses), a screen without
+#: scan, 4 candidates refitted (two rounds) with 2 generations.
+QUICK_FIT = {"levels": (-1.0, 1.0), "screen_generations": 1, "screen_scan_cycles": 0, "refit": 4, "generations": 2,
+             "scan_cycles": 1}
+
+
+def test_the_check_refits_the_screens_best_in_rounds_that_share_their_angles():
+    """Stage 0 is select_model's screen of all the candidates (seed); the `refit` best of it are
+    fitted again in `refit_rounds` rounds (seed + 1, seed + 2), each from every refitted
+    candidate's angles so far, and keep their best fit; no other candidate changes."""
+    experiments = _experiments("reversed_left_pectoral", [(0.45, 0.4, 0.5)], steps=32)
+    found = np.concatenate([DESIGN, [1.0, -1.0, 1.0]])
+    candidates = np.vstack([found[None], fault_hypotheses(DESIGN, (-1.0, 1.0))])
+    with Evaluator(32, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:
+        sel = check_fault_hypotheses(found, DESIGN, experiments, ev, 3, **QUICK_FIT)
+        screen = select_model(candidates, experiments, ev, np.random.default_rng(3), generations=1, scan_cycles=0)
+        best = np.argsort(-screen.model_fitness, kind="stable")[:4]
+        fitness, angles = screen.model_fitness.copy(), screen.angles.copy()
+        for stage in (1, 2):
+            shared = np.stack([np.tile(angles[b], (4, 1, 1)) for b in best])  # set s: candidate s's angles for all
+            again = select_model(candidates[best], experiments, ev, np.random.default_rng(3 + stage), generations=2,
+                                 scan_cycles=1, start=shared)
+            better = again.model_fitness > fitness[best]
+            fitness[best[better]], angles[best[better]] = again.model_fitness[better], again.angles[better]
+    rest = np.setdiff1d(np.arange(len(candidates)), best)
+    np.testing.assert_array_equal(sel.model_fitness[rest], screen.model_fitness[rest])
+    np.testing.assert_array_equal(sel.angles[rest], screen.angles[rest])
+    np.testing.assert_array_equal(sel.model_fitness, fitness)
+    np.testing.assert_array_equal(sel.angles, angles)
+    assert np.all(sel.model_fitness[best] >= screen.model_fitness[best])
+    assert sel.index in best and sel.index == int(np.argmax(sel.model_fitness))
+
+
 def test_the_check_replaces_a_mirror_image_model_by_the_true_fault():
     """A reversed left servo: a self-model with the mirror-image fault (left healthy, right reversed)
     and a morphology bent away from the design loses to the hypothesis (-1, +1) at the design."""
     experiments = _experiments("reversed_left_pectoral", [(0.45, 0.4, 0.5), (-0.3, 0.5, 0.2)])
     mirror = np.concatenate([DESIGN * np.array([1.2, 0.8, 1, 1, 1.3, 1, 1, 1, 1]), [1.0, -1.0, 1.0]])
     with Evaluator(64, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:
-        sel = check_fault_hypotheses(mirror, DESIGN, experiments, ev, np.random.default_rng(0), generations=2,
-                                     scan_cycles=1)
-    assert sel.models.shape == (46, 12) and sel.index != 0
+        sel = check_fault_hypotheses(mirror, DESIGN, experiments, ev, 0, **QUICK_FIT)
+    assert sel.models.shape == (41, 12) and sel.index != 0
     assert sel.model[9:].tolist() == [-1.0, 1.0, 1.0]
     assert sel.model_fitness[sel.index] > sel.model_fitness[0]
 
 
 @pytest.mark.slow
 def test_the_check_keeps_a_model_no_hypothesis_explains_better():
-    """A found model that no hypothesis beats (the truth, a reversed left servo and a halved right
-    flipper, which no hypothesis holds together) keeps its place."""
-    fault = '{"gains": [-1, 1, 1], "scale": {"right_pectoral_y": 0.5}}'
+    """A found model that no hypothesis beats (the truth: three faults, a reversed left servo, a
+    halved right flipper and a weak caudal servo; no hypothesis has more than two) keeps its place."""
+    fault = '{"gains": [-1, 1, 0.5], "scale": {"right_pectoral_y": 0.5}}'
     experiments = _experiments(fault, [(0.45, 0.4, 0.5), (-0.3, 0.5, 0.2)])
-    truth = np.concatenate([Target(fault, 64, np.random.default_rng(0)).morphology.to_array(), [-1.0, 1.0, 1.0]])
+    truth = np.concatenate([Target(fault, 64, np.random.default_rng(0)).morphology.to_array(), [-1.0, 1.0, 0.5]])
     with Evaluator(64, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:
-        sel = check_fault_hypotheses(truth, DESIGN, experiments, ev, np.random.default_rng(0), generations=2,
-                                     scan_cycles=1)
+        sel = check_fault_hypotheses(truth, DESIGN, experiments, ev, 0, **QUICK_FIT)
     assert sel.index == 0
 
 
@@ -87,18 +137,21 @@ def test_the_check_keeps_a_model_no_hypothesis_explains_better():
 def test_the_check_finds_a_halved_flipper_a_search_took_for_a_servo_fault():
     """A halved left flipper: a found model with a slightly reversed left servo at the design (as a
     benchmark run ended) loses to the hypothesis of the halved flipper with healthy servos, at the
-    check's own fit budget (10 generations, 2 scan cycles; about 100 s). With 2 generations the fit
-    is too rough to tell the fault classes apart on a few short experiments."""
+    check's own fit budget (its screen and refit; about 3 minutes). With a rougher fit the fault
+    classes are not told apart on a few short experiments."""
     actions = [(0.45, 0.4, 0.5), (-0.3, 0.5, 0.2), (0.1, -0.4, 0.6), (0.5, 0.1, 0.3)]
     experiments = _experiments("left_pectoral_half", actions, steps=128)
     found = np.concatenate([DESIGN, [-0.125, 0.875, 1.0]])
     with Evaluator(128, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:
-        sel = check_fault_hypotheses(found, DESIGN, experiments, ev, np.random.default_rng(0))
+        sel = check_fault_hypotheses(found, DESIGN, experiments, ev, 0)
     assert sel.model[9:].tolist() == [1.0, 1.0, 1.0]
     np.testing.assert_array_equal(sel.model[:9], DESIGN * np.array([1, 0.5, 1, 1, 1, 1, 1, 1, 1]))
     assert sel.model_fitness[sel.index] > sel.model_fitness[0]
 
 
-def test_the_model_must_be_a_servo_self_model():
+def test_the_model_must_be_a_servo_self_model_and_the_refit_at_least_one():
     with pytest.raises(ValueError, match="12 values of a morphology"):
-        check_fault_hypotheses(DESIGN, DESIGN, [], None, np.random.default_rng(0))
+        check_fault_hypotheses(DESIGN, DESIGN, [], None, 0)
+    model = np.concatenate([DESIGN, [1.0, 1.0, 1.0]])
+    with pytest.raises(ValueError, match="refit and refit_rounds must be >= 1, got 8 and 0"):
+        check_fault_hypotheses(model, DESIGN, [], None, 0, refit_rounds=0)

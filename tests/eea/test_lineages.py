@@ -59,7 +59,13 @@ def test_the_truth_started_at_its_true_angles_scores_exactly_one(experiments):
     assert with_start.model_fitness[0] < 0.99
     without = select_model(models, experiments, evaluator, np.random.default_rng(0), generations=1, scan_cycles=0)
     assert without.model_fitness[1] < with_start.model_fitness[1]
-    with pytest.raises(ValueError, match=r"start must be \(N, E, 3\) = \(2, 2, 3\), got \(2, 1, 3\)"):
+    # several start sets: the true angles in the second set are found as well as alone
+    sets = np.stack([np.zeros_like(start), start])
+    from_sets = select_model(models, experiments, evaluator, np.random.default_rng(0), generations=1,
+                             scan_cycles=0, start=sets)
+    assert from_sets.model_fitness[1] == pytest.approx(1.0, abs=1e-12)
+    with pytest.raises(ValueError, match=r"start must be \(N, E, 3\) = \(2, 2, 3\) or \(S, N, E, 3\), "
+                                         r"got \(2, 1, 3\)"):
         select_model(models, experiments, evaluator, np.random.default_rng(0), start=start[:, :1])
 
 
