@@ -225,11 +225,12 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
         seed: stage ``i`` (0: the screen, then the refit rounds) draws its random starts from
             ``numpy.random.default_rng(seed + i)``.
         levels: the hypotheses' pectoral gains.
-        screen_generations, screen_scan_cycles: the screen's fit, as ``generations`` and
-            ``scan_cycles`` of :func:`select_model`.
+        screen_generations: the screen's fit, as ``generations`` of :func:`select_model`.
+        screen_scan_cycles: the screen's fit, as ``scan_cycles`` of :func:`select_model`.
         refit: candidates fitted again, >= 1.
         refit_rounds: rounds of the refit, >= 1.
-        generations, scan_cycles: the refit's fit.
+        generations: the refit's fit, as :func:`select_model`'s.
+        scan_cycles: the refit's fit, as :func:`select_model`'s.
 
     Returns:
         A :class:`Selection` of the ``1 + H`` candidates (98 with the default levels): row 0
