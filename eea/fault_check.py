@@ -11,10 +11,10 @@ pectoral gains -1, -0.5, 0, 0.5, 1 each; one pectoral flipper shortened to half 
 lost, beside the other pectoral's gain at those levels; the caudal servo dead or at half gain, or
 the caudal fin halved or lost, beside healthy pectorals or one pectoral fault) on all the run's
 experiments and keeps the highest MOD_FIT (eq. 3): the run's **self-model**
-(:attr:`eea.record.RunResult.self_model`). The fit is in two stages (a cheap screen of all 98
-candidates, then the best 8 fitted again, each keeping its better fit:
-:func:`~eea.inference.selection.check_fault_hypotheses`). It costs about 120,000 simulations
-(about a third of the case study's ``quick`` self-model search).
+(:attr:`eea.record.RunResult.self_model`). The fit has stages (a cheap screen of all 98
+candidates, then the best 8 fitted again in two rounds that start each from the others' angles
+too, each keeping its best fit: :func:`~eea.inference.selection.check_fault_hypotheses`). It
+costs about 128,000 simulations (about a third of the case study's ``quick`` self-model search).
 
 The record is ``DIR/fault_check.json`` (:class:`FaultCheck`), written atomically once the last
 round is done; a run extended by more rounds, or checked against other hypotheses (a record
