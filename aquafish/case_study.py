@@ -44,6 +44,7 @@ import dataclasses
 import importlib.util
 import json
 import logging
+import shutil
 import time
 from pathlib import Path
 
@@ -210,7 +211,10 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             that cannot be written (all checked before anything is created); an ``out_dir``
             that another process is writing
             (:class:`~aquafish_gym.rundir.BusyError`) or whose steps were made with other
-            settings (:class:`~aquafish_gym.rundir.MismatchError`, naming the fields).
+            settings (:class:`~aquafish_gym.rundir.MismatchError`, naming the fields). A
+            gait or PPO policy trained on an earlier self-model of the same run (its EEA run or
+            check made again) is not an error: it is moved aside and trained again
+            (:func:`retire_if_other_robot`).
     """
     settings = preset_settings(preset, episode_duration_s)
     resolved = get_damage(damage)
@@ -307,6 +311,48 @@ def _train_ppo(native: Robot, run_dir: Path, settings: CaseStudyPreset, seed: in
     # policy does not depend on the machine's core count
     return gait.train_or_load_rl("ppo", native, settings.rl_timesteps, seed, run_dir,
                                  episode_duration_s=settings.episode_duration_s, num_threads=1, progress=progress)
+
+
+#: The suffix a gait or policy directory trained on an earlier self-model is moved to.
+REPLACED_SUFFIX = ".replaced"
+
+
+def retire_if_other_robot(run_dir: Path, robot: Robot) -> bool:
+    """Move aside a gait or PPO run in ``run_dir`` trained on another robot than ``robot``.
+
+    A self-model row's gait is trained on the run's self-model; when that model changes (an EEA
+    run made again, or its check against fault hypotheses recorded anew with other hypotheses),
+    the gait or policy trained on the old model no longer belongs to the case study. It is
+    renamed to ``<run_dir>.replaced`` (an older one there is deleted) and a warning names the
+    directory, so the row is trained again on the new model instead of refusing to go on.
+    A run of other settings on the same robot is left where it is (reusing it still raises
+    :class:`~aquafish_gym.rundir.MismatchError`).
+
+    Args:
+        run_dir: a NEAT run (``fitness_settings.json``) or PPO run (``model.json``) directory;
+            a missing or empty directory is left alone.
+        robot: the robot the row trains on now.
+
+    Returns:
+        Whether the directory was moved aside.
+    """
+    for record, key in (("fitness_settings.json", "robot"), ("model.json", "robot")):
+        path = run_dir / record
+        if path.is_file():
+            recorded = json.loads(path.read_text()).get(key)
+            break
+    else:
+        return False
+    if recorded == json.loads(json.dumps(robot.to_dict())):
+        return False
+    replaced = run_dir.with_name(run_dir.name + REPLACED_SUFFIX)
+    if replaced.exists():
+        shutil.rmtree(replaced)
+    run_dir.rename(replaced)
+    logging.getLogger(__name__).warning(
+        "case-study: %s was trained on another self-model than this run's; moved to %s and trained again",
+        run_dir, replaced.name)
+    return True
 
 
 def _rl_dir(name: str, duration_s: float) -> str:
@@ -415,8 +461,12 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
     def base(key: str) -> Path:
         return shared if shared is not None and key in SHARED_KEYS else out
 
+    eea_results = {}  # the EEA runs' results by row key (filled in step 2)
+
     def evolve(key: str, native: Robot):
         def run(run_dir=base(key) / _gait_dir(key, duration)):
+            if key in eea_results:  # trained on a self-model: not on one it no longer holds
+                retire_if_other_robot(run_dir, native)
             return _evolve(native, run_dir, settings, seed, workers, progress)
 
         # a shared gait may be being loaded by another case study at this moment: wait for it
@@ -436,7 +486,6 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
                                   stages, time.perf_counter() - t0, shared)
 
     # 2. self-model
-    eea_results = {}
     for key, (name, space, summary) in runs.items():
         run_dir = out / _eea_dir(name, space, summary)
         timed(f"eea_{key}", lambda key=key, run_dir=run_dir: eea.run(configs[key], run_dir, progress=progress))
@@ -456,8 +505,11 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         logging.getLogger(__name__).warning("case-study: %s: the two PPO rows are left out", MISSING_RL)
     else:  # the two PPO rows, each for rl_timesteps
         for key, native, name in (("ppo", "self_model", "self_model"), ("robust_ppo", "robust", "random_damage")):
-            path = timed(f"ppo_{key}", lambda native=native, key=key, name=name: _train_ppo(
-                natives[native], base(key) / _rl_dir(name, duration), settings, seed, progress))
+            run_dir = base(key) / _rl_dir(name, duration)
+            if native in eea_results:
+                retire_if_other_robot(run_dir, natives[native])
+            path = timed(f"ppo_{key}", lambda native=native, run_dir=run_dir: _train_ppo(
+                natives[native], run_dir, settings, seed, progress))
             controllers[key] = gait.load_controller(path)
             natives[key] = natives[native]
 

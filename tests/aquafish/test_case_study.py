@@ -45,6 +45,42 @@ def test_a_case_study_without_the_rl_extra_says_its_ppo_rows_are_left_out(tmp_pa
     assert report["left_out"] and "aquafish[rl]" in report["left_out"][0]
     assert f"Left out: {report['left_out'][0]}." in (tmp_path / "report.md").read_text()
     assert "PPO rows are left out" in caplog.text
+    # a self-model gait trained on another model (its EEA run or check made again since) is
+    # moved aside and trained again on the model the run holds now; the other gaits are reused
+    gait_dir = tmp_path / "gait_self_model"
+    settings = json.loads((gait_dir / "fitness_settings.json").read_text())
+    now = settings["robot"]
+    settings["robot"] = {**now, "faults": {**now["faults"], "speed_scale": [-1.0, 1.0, 1.0]}}
+    (gait_dir / "fitness_settings.json").write_text(json.dumps(settings))
+    healthy_run = (tmp_path / "gait_plain_eea" / "run.json").read_text()
+    caplog.clear()
+    again = run_case_study("smoke", "left_pectoral_half", 0, tmp_path, workers=1, progress=False, video=False)
+    replaced = tmp_path / ("gait_self_model" + case_study.REPLACED_SUFFIX)
+    assert json.loads((replaced / "fitness_settings.json").read_text())["robot"]["faults"]["speed_scale"] == [-1, 1, 1]
+    assert json.loads((gait_dir / "fitness_settings.json").read_text())["robot"] == now
+    assert (tmp_path / "gait_plain_eea" / "run.json").read_text() == healthy_run
+    assert "trained on another self-model" in caplog.text and again["controllers"] == report["controllers"]
+
+
+def test_retire_if_other_robot_moves_only_a_run_of_another_robot(tmp_path):
+    from gait.robots import Robot
+    from aquafish_gym import Morphology, ServoFaults
+    model = Robot(Morphology.healthy(), "none", "self_model", ServoFaults(speed_scale=(-1.0, 1.0, 1.0)))
+    other = Robot(Morphology.healthy(), "none", "self_model")
+    assert not case_study.retire_if_other_robot(tmp_path / "missing", model)
+    for name, record in (("neat", "fitness_settings.json"), ("ppo", "model.json")):
+        run_dir = tmp_path / name
+        run_dir.mkdir()
+        (run_dir / record).write_text(json.dumps({"robot": model.to_dict(), "seed": 0}))
+        assert not case_study.retire_if_other_robot(run_dir, model) and run_dir.is_dir()
+        assert case_study.retire_if_other_robot(run_dir, other) and not run_dir.exists()
+        replaced = tmp_path / (name + case_study.REPLACED_SUFFIX)
+        assert json.loads((replaced / record).read_text())["robot"] == model.to_dict()
+        # a second replacement deletes the first one
+        run_dir.mkdir()
+        (run_dir / record).write_text(json.dumps({"robot": other.to_dict()}))
+        assert case_study.retire_if_other_robot(run_dir, model)
+        assert json.loads((replaced / record).read_text())["robot"] == other.to_dict()
 
 
 def test_tiny_case_study_new_rows_servo_gains_and_video(tmp_path, capsys):
