@@ -122,7 +122,7 @@ def test_angle_sensitivity_is_zero_for_the_same_start_and_body_and_grows_with_th
     assert np.all(rates["other angles"] == 0) and np.all(rates["random model"] > rates["near"])
 
 
-def test_fault_check_names_the_true_fault_of_a_servo_run(tmp_path, tiny_config, capsys):
+def test_fault_check_and_identification_judge_a_servo_run(tmp_path, tiny_config, capsys):
     """fault_check on a tiny reversed-left-servo run: one JSON line; the chosen model is the run's final model or a
     hypothesis about the design, and its MOD_FIT is the best of the candidates listed."""
     import json
@@ -140,3 +140,16 @@ def test_fault_check_names_the_true_fault_of_a_servo_run(tmp_path, tiny_config, 
     else:
         assert line["chosen"] == "hypothesis" and line["chosen_fit"] > line["final_fit"]
     assert line["simulations"] > 0
+    # identification (no simulation): the run's recorded self-model judged against its truth
+    from eea.analysis.identification import servo_faults_named
+    from eea.record import load_result
+
+    result = load_result(tmp_path)
+    _load("identification").main([str(tmp_path)])
+    line, counts = (json.loads(text) for text in capsys.readouterr().out.strip().splitlines())
+    assert line["self_model_gains"] == result.self_model[9:].tolist() and line["checked"]
+    assert line["self_model_named"] == servo_faults_named(result.self_model, result.true_model)
+    assert line["self_model_named"] == (line["self_model_gains"][0] < 0)  # truth (-1, 1, 1): a negative left gain
+    assert counts == {"runs": 1, "checked": 1,
+                      **{name: {"judged": 1, "named": int(line[f"{name}_named"]),
+                                "parts_named": int(line[f"{name}_parts_named"])} for name in ("final", "self_model")}}
