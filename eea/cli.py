@@ -163,7 +163,8 @@ def _run_eea(args: argparse.Namespace) -> int:
     check = result.fault_check
     if check is not None:
         gains = ", ".join(f"{g:+.3f}" for g in check.model[9:])
-        verdict = "replaced by a fault hypothesis about the design" if check.index else "kept"
+        verdict = ("kept" if check.index == 0 else "replaced by a fault hypothesis about the design"
+                   + (", its servo gains polished" if check.polished else ""))
         print(f"fault check: the final model {verdict}; self-model servo gains ({gains}), "
               f"objective fitness {result.self_model_objective_fitness:.4f} ({check.simulations} simulations)")
     return 0

@@ -13,12 +13,14 @@ the caudal fin halved or lost, beside healthy pectorals or one pectoral fault) o
 experiments and keeps the highest MOD_FIT (eq. 3): the run's **self-model**
 (:attr:`eea.record.RunResult.self_model`). The fit has stages (a cheap screen of all 98
 candidates, then the best 8 fitted again in two rounds that start each from the others' angles
-too, each keeping its best fit: :func:`~eea.inference.selection.check_fault_hypotheses`). It
-costs about 128,000 simulations (about a third of the case study's ``quick`` self-model search).
+too, each keeping its best fit, then the servo gains of the best 2 polished one step of 0.125
+at a time: :func:`~eea.inference.selection.check_fault_hypotheses`). It costs about 150,000
+simulations (about a third of the case study's ``quick`` self-model search).
 
 The record is ``DIR/fault_check.json`` (:class:`FaultCheck`), written atomically once the last
-round is done; a run extended by more rounds, or checked against other hypotheses (a record
-made before the caudal faults joined them), is checked again (:meth:`FaultCheck.is_current`).
+round is done; a run extended by more rounds, or checked by another procedure (a record made
+before the caudal faults joined the hypotheses, or before the gain polish), is checked again
+(:meth:`FaultCheck.is_current`).
 """
 
 from __future__ import annotations
@@ -39,14 +41,18 @@ from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from eea.inference.selection import check_fault_hypotheses, fault_hypotheses
 
-__all__ = ["FAULT_CHECK_FILE", "FAULT_CHECK_SEED", "FaultCheck", "check_final_model", "read_fault_check",
-           "write_fault_check"]
+__all__ = ["FAULT_CHECK_FILE", "FAULT_CHECK_PROCEDURE", "FAULT_CHECK_SEED", "FaultCheck", "check_final_model",
+           "read_fault_check", "write_fault_check"]
 
 #: The check's record in a run directory.
 FAULT_CHECK_FILE = "fault_check.json"
 #: Seed of the angle fit's random starts: fixed, so a finished run is checked alike whenever (and
 #: by whichever command) the check is made.
 FAULT_CHECK_SEED = 0
+#: The name of the check :func:`check_final_model` makes (its stages at their defaults), kept in
+#: every record: a record of another procedure is made again. Records made before the name was
+#: kept (no gain polish) have none.
+FAULT_CHECK_PROCEDURE = "screen, 2 shared refits of 8, gain polish of 2 x 3"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -55,13 +61,15 @@ class FaultCheck:
 
     Attributes:
         round: the round whose final model was checked (1-based; the run's last).
-        models: ``(46, 12)`` the candidates (``morphology+servos`` values: 9 dimensions in
+        models: ``(98 + P, 12)`` the candidates (``morphology+servos`` values: 9 dimensions in
             simulator units, then the left, right pectoral and caudal servo gains): row 0 the
-            final model, then the hypotheses.
-        model_fitness: ``(46,)`` each candidate's MOD_FIT (eq. 3) under its own fitted angles.
-        index: the kept row (the highest MOD_FIT; 0 when no hypothesis fits better).
+            final model, then the 97 hypotheses, then the P (0-2) polished models.
+        model_fitness: ``(98 + P,)`` each candidate's MOD_FIT (eq. 3) under its own fitted angles.
+        index: the kept row (the highest MOD_FIT; 0 when nothing fits better than the final model).
         simulations: model simulations the check ran.
         wall_seconds: how long it took.
+        procedure: the check's procedure (:data:`FAULT_CHECK_PROCEDURE` when made today; ""
+            in a record made before the name was kept).
     """
 
     round: int
@@ -70,6 +78,7 @@ class FaultCheck:
     index: int
     simulations: int
     wall_seconds: float
+    procedure: str = ""
 
     @property
     def final_model(self) -> np.ndarray:
@@ -81,18 +90,25 @@ class FaultCheck:
         """``(12,)`` the kept model: the run's self-model."""
         return self.models[self.index]
 
+    @property
+    def polished(self) -> bool:
+        """Whether the kept model is a polished one (a row after the hypotheses)."""
+        return self.index > len(fault_hypotheses(Morphology.healthy().to_array()))
+
     def is_current(self, round_number: int) -> bool:
         """Whether this record is the check :func:`check_final_model` makes today of a run whose
-        last round is ``round_number``: of that round, and against today's hypotheses
+        last round is ``round_number``: of that round, by today's procedure
+        (:data:`FAULT_CHECK_PROCEDURE`) and against today's hypotheses
         (:func:`eea.inference.selection.fault_hypotheses` at the design)."""
         hypotheses = fault_hypotheses(Morphology.healthy().to_array())
-        return self.round == round_number and np.array_equal(self.models[1:], hypotheses)
+        return (self.round == round_number and self.procedure == FAULT_CHECK_PROCEDURE
+                and np.array_equal(self.models[1:1 + len(hypotheses)], hypotheses))
 
     def to_dict(self) -> dict:
         """A JSON-ready dict (floats round-trip exact)."""
         return {"round": self.round, "index": self.index, "models": self.models.tolist(),
                 "model_fitness": self.model_fitness.tolist(), "simulations": self.simulations,
-                "wall_seconds": self.wall_seconds}
+                "wall_seconds": self.wall_seconds, "procedure": self.procedure}
 
     @classmethod
     def from_dict(cls, data: dict) -> "FaultCheck":
@@ -107,13 +123,15 @@ class FaultCheck:
         if models.ndim != 2 or models.shape[1] != 12 or fitness.shape != (len(models),) \
                 or not 0 <= index < len(models):
             raise ValueError(f"models {models.shape}, model_fitness {fitness.shape} and index {index} do not agree")
-        return cls(int(data["round"]), models, fitness, index, int(data["simulations"]), float(data["wall_seconds"]))
+        return cls(int(data["round"]), models, fitness, index, int(data["simulations"]), float(data["wall_seconds"]),
+                   str(data.get("procedure", "")))
 
 
 def check_final_model(model, experiments: Sequence[Experiment], evaluator: Evaluator, round_number: int) -> FaultCheck:
     """Check a run's final ``morphology+servos`` model against fault hypotheses about the
-    design (the healthy morphology): :func:`eea.inference.selection.check_fault_hypotheses` with
-    the starts of its stages drawn from :data:`FAULT_CHECK_SEED` on.
+    design (the healthy morphology): :func:`eea.inference.selection.check_fault_hypotheses` at
+    its defaults (:data:`FAULT_CHECK_PROCEDURE`), the starts of its stages drawn from
+    :data:`FAULT_CHECK_SEED` on.
 
     Args:
         model: ``(12,)`` the final model's values.
@@ -129,7 +147,7 @@ def check_final_model(model, experiments: Sequence[Experiment], evaluator: Evalu
     selection = check_fault_hypotheses(model, Morphology.healthy().to_array(), experiments, evaluator,
                                        FAULT_CHECK_SEED)
     return FaultCheck(int(round_number), selection.models, selection.model_fitness, selection.index,
-                      int(evaluator.simulations - simulations), time.perf_counter() - started)
+                      int(evaluator.simulations - simulations), time.perf_counter() - started, FAULT_CHECK_PROCEDURE)
 
 
 def write_fault_check(out_dir: str | os.PathLike, check: FaultCheck) -> None:

@@ -14,14 +14,14 @@ from typing import Sequence
 
 import numpy as np
 
-from eea.encoding import get_model_space
+from eea.encoding import SERVO_GAIN_BOUNDS, decode_gains, encode_gains, get_model_space
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment, angle_errors_deg
 from eea.fitness import model_fitness_from_similarities
 from eea.inference.profile import Profile
 
-__all__ = ["CAUDAL_FAULTS", "FAULT_GAIN_LEVELS", "FLIPPER_FAULT_SCALES", "Selection", "check_fault_hypotheses",
-           "fault_hypotheses", "select_model"]
+__all__ = ["CAUDAL_FAULTS", "FAULT_GAIN_LEVELS", "FLIPPER_FAULT_SCALES", "GAIN_POLISH_STEP", "Selection",
+           "check_fault_hypotheses", "fault_hypotheses", "gain_neighbours", "select_model"]
 
 #: The pectoral servo gains of :func:`fault_hypotheses`: reversed, half reversed, dead, weak, healthy.
 FAULT_GAIN_LEVELS: tuple[float, ...] = (-1.0, -0.5, 0.0, 0.5, 1.0)
@@ -35,6 +35,14 @@ FLIPPER_FAULT_SCALES: tuple[tuple[str, tuple[float, float, float]], ...] = (("sh
 CAUDAL_FAULTS: tuple[tuple[str, float, tuple[float, float, float]], ...] = (
     ("dead", 0.0, (1.0, 1.0, 1.0)), ("weak", 0.5, (1.0, 1.0, 1.0)),
     ("shortened", 1.0, (1.0, 0.5, 1.0)), ("lost", 1.0, (0.0, 0.0, 0.0)))
+
+#: How far the gain polish of :func:`check_fault_hypotheses` moves one servo gain a step (gain units).
+GAIN_POLISH_STEP = 0.125
+
+#: ``(3, 16)`` every level of each servo gain's grid in the ``morphology+servos`` space, ascending
+#: (the distinct gains a fine sweep of each range encodes to).
+_GAIN_LEVELS = np.stack([np.unique(g) for g in decode_gains(encode_gains(
+    SERVO_GAIN_BOUNDS[:, 0] + np.linspace(0.0, 1.0, 161)[:, None] * np.ptp(SERVO_GAIN_BOUNDS, axis=1))).T])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -190,10 +198,44 @@ def fault_hypotheses(design, levels: Sequence[float] = FAULT_GAIN_LEVELS) -> np.
     return np.vstack(rows)
 
 
+def gain_neighbours(model) -> np.ndarray:
+    """The models one gain step away from ``model``: the moves of the gain polish of
+    :func:`check_fault_hypotheses`.
+
+    For each servo (left pectoral, right pectoral, caudal) and each direction, the gain is
+    moved to the level of the ``morphology+servos`` gain grid (:mod:`eea.encoding`) nearest to
+    ``gain -/+`` :data:`GAIN_POLISH_STEP` on that side of it (so from -1 up is -0.75, the
+    grid's next pectoral level); a gain at its bound has no move past it. The dimensions stay.
+
+    Args:
+        model: ``(12,)`` a ``morphology+servos`` model whose gains are grid levels.
+
+    Returns:
+        ``(M, 12)``, 3 <= M <= 6: left down, left up, right down, right up, caudal down, caudal
+        up, those that exist.
+
+    Raises:
+        ValueError: not 12 finite values.
+    """
+    model = np.asarray(model, dtype=np.float64)
+    if model.shape != (12,) or not np.all(np.isfinite(model)):
+        raise ValueError(f"model must be the 12 finite values of a morphology+servos model, got {model.tolist()!r}")
+    rows = []
+    for servo, levels in enumerate(_GAIN_LEVELS):
+        gain = model[9 + servo]
+        for direction in (-1.0, 1.0):
+            side = levels[(levels - gain) * direction > 1e-9]
+            if len(side):
+                moved = model.copy()
+                moved[9 + servo] = side[np.argmin(np.abs(side - (gain + direction * GAIN_POLISH_STEP)))]
+                rows.append(moved)
+    return np.array(rows)
+
+
 def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], evaluator: Evaluator, seed: int, *,
                            levels: Sequence[float] = FAULT_GAIN_LEVELS, screen_generations: int = 3,
                            screen_scan_cycles: int = 1, refit: int = 8, refit_rounds: int = 2, generations: int = 10,
-                           scan_cycles: int = 2) -> Selection:
+                           scan_cycles: int = 2, polish: int = 2, polish_steps: int = 3) -> Selection:
     """A found self-model against fault hypotheses about the design, fitted equally hard.
 
     The search of a self-model in ``morphology+servos`` can settle on a model that explains the
@@ -211,10 +253,21 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
        target's, whichever model is fitted, so a candidate that missed an experiment's angles
        takes them from another that found them.
 
-    The chosen model is the highest MOD_FIT at the end (always one of those refitted). A
+    3. a gain polish: from each of the ``polish`` best distinct candidates, coordinate ascent
+       over the servo gains. A step fits the current model and its :func:`gain_neighbours`
+       (``generations``, ``scan_cycles``) from the current model's angles; the current model
+       keeps its better fit, and the best neighbour becomes the current model if it fits
+       better still; at most ``polish_steps`` steps. A polish that moved appends its end point
+       as a new candidate (with its fit and angles); one that did not keeps its better fit in
+       its own row. The hypotheses' gains are coarse levels (-1, -0.5, 0, 0.5, 1; the caudal
+       servo's 0 and 0.5); the polish takes a weak servo at 0.26 or 0.7 to the grid's 0.25 or
+       0.75, where the nearest hypothesis may be a shortened flipper instead.
+
+    The chosen model is the highest MOD_FIT at the end (one of those refitted or polished). A
     single fit of a candidate can miss one experiment's angles and lose 0.001-0.004 of MOD_FIT,
     as much as separates the best candidates; the rounds of shared starts take that noise out
-    of the ranking (docs/self_modeling.md).
+    of the ranking (docs/self_modeling.md). A polish step refits the current model beside its
+    neighbours, so a neighbour must beat a fit as hard as its own, not an older one.
 
     Args:
         model: ``(12,)`` the found self-model (``morphology+servos`` values).
@@ -222,30 +275,36 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
         experiments: the run's target experiments, E >= 1.
         evaluator: an :class:`~eea.evaluation.Evaluator` of the ``morphology+servos`` space and
             the run's length and behaviour summary.
-        seed: stage ``i`` (0: the screen, then the refit rounds) draws its random starts from
-            ``numpy.random.default_rng(seed + i)``.
+        seed: stage ``i`` (0: the screen, then the refit rounds, then the polish steps in
+            order) draws its random starts from ``numpy.random.default_rng(seed + i)``.
         levels: the hypotheses' pectoral gains.
         screen_generations: the screen's fit, as ``generations`` of :func:`select_model`.
         screen_scan_cycles: the screen's fit, as ``scan_cycles`` of :func:`select_model`.
         refit: candidates fitted again, >= 1.
         refit_rounds: rounds of the refit, >= 1.
         generations: the refit's fit, as :func:`select_model`'s.
-        scan_cycles: the refit's fit, as :func:`select_model`'s.
+        scan_cycles: the refit's fit, as :func:`select_model`'s (the polish's too).
+        polish: candidates whose gains are polished, >= 0 (0: no polish).
+        polish_steps: the most steps of each polish, >= 1.
 
     Returns:
-        A :class:`Selection` of the ``1 + H`` candidates (98 with the default levels): row 0
-        is ``model``, then :func:`fault_hypotheses` in its order; each one's best MOD_FIT
-        and its angles; ``index`` the chosen one (``model`` itself when no hypothesis fits better).
+        A :class:`Selection` of the ``1 + H + P`` candidates (98 + P with the default levels):
+        row 0 is ``model``, then :func:`fault_hypotheses` in its order, then the P <= ``polish``
+        polished models that moved from where they started; each one's best MOD_FIT and its
+        angles; ``index`` the chosen one (``model`` itself when nothing fits better).
 
     Raises:
-        ValueError: a model that is not 12 values, ``refit`` or ``refit_rounds`` below 1, or as
-            :func:`fault_hypotheses` and :func:`select_model` raise.
+        ValueError: a model that is not 12 values, ``refit`` or ``refit_rounds`` below 1,
+            ``polish`` below 0 or ``polish_steps`` below 1, or as :func:`fault_hypotheses` and
+            :func:`select_model` raise.
     """
     model = np.asarray(model, dtype=np.float64)
     if model.shape != (12,):
         raise ValueError(f"model must be the 12 values of a morphology+servos self-model, got shape {model.shape}")
     if refit < 1 or refit_rounds < 1:
         raise ValueError(f"refit and refit_rounds must be >= 1, got {refit} and {refit_rounds}")
+    if polish < 0 or polish_steps < 1:
+        raise ValueError(f"polish must be >= 0 and polish_steps >= 1, got {polish} and {polish_steps}")
     candidates = np.vstack([model[None], fault_hypotheses(design, levels)])
     screen = select_model(candidates, experiments, evaluator, np.random.default_rng(seed),
                           generations=screen_generations, scan_cycles=screen_scan_cycles,
@@ -259,4 +318,40 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
                              model_space="morphology+servos")
         better = again.model_fitness > fitness[best]
         fitness[best[better]], angles[best[better]] = again.model_fitness[better], again.angles[better]
+    stage = refit_rounds + 1
+    moved = []  # (model, MOD_FIT, angles) of each polish that left its start
+    for row in _best_distinct(candidates, fitness, polish):
+        current, fit, current_angles, steps = candidates[row], fitness[row], angles[row], 0
+        for _ in range(polish_steps):
+            trial = np.vstack([current[None], gain_neighbours(current)])
+            again = select_model(trial, experiments, evaluator, np.random.default_rng(seed + stage),
+                                 generations=generations, scan_cycles=scan_cycles,
+                                 start=np.repeat(current_angles[None], len(trial), axis=0),
+                                 model_space="morphology+servos")
+            stage += 1
+            if again.model_fitness[0] > fit:
+                fit, current_angles = again.model_fitness[0], again.angles[0]
+            step = 1 + int(np.argmax(again.model_fitness[1:]))
+            if again.model_fitness[step] <= fit:
+                break
+            current, fit, current_angles, steps = trial[step], again.model_fitness[step], again.angles[step], steps + 1
+        if not steps:
+            fitness[row], angles[row] = fit, current_angles
+        else:
+            moved.append((current, fit, current_angles))
+    if moved:
+        candidates = np.vstack([candidates] + [m[None] for m, _, _ in moved])
+        fitness = np.concatenate([fitness, [f for _, f, _ in moved]])
+        angles = np.concatenate([angles] + [a[None] for _, _, a in moved])
     return Selection(candidates, fitness, angles, int(np.argmax(fitness)))
+
+
+def _best_distinct(models: np.ndarray, fitness: np.ndarray, n: int) -> list[int]:
+    """The rows of the ``n`` highest ``fitness`` among distinct ``models`` (the first row of equal ones)."""
+    rows: list[int] = []
+    for row in np.argsort(-fitness, kind="stable"):
+        if len(rows) == n:
+            break
+        if not any(np.array_equal(models[row], models[r]) for r in rows):
+            rows.append(int(row))
+    return rows

@@ -8,7 +8,7 @@ import pytest
 import eea
 from aquafish_gym import Morphology
 from aquafish_gym.rundir import FileError
-from eea.fault_check import FAULT_CHECK_FILE, FaultCheck, read_fault_check
+from eea.fault_check import FAULT_CHECK_FILE, FAULT_CHECK_PROCEDURE, FaultCheck, read_fault_check
 from eea.fitness import objective_fitness
 from eea.inference.selection import fault_hypotheses
 
@@ -24,9 +24,11 @@ def servo_run(tmp_path_factory, session_tiny_config):
 def test_a_finished_servo_run_keeps_the_best_of_its_final_model_and_the_hypotheses(servo_run):
     check = servo_run.fault_check
     assert check is not None and (servo_run.out_dir / FAULT_CHECK_FILE).is_file()
-    assert check.round == 1 and check.models.shape == (98, 12) and check.model_fitness.shape == (98,)
+    n = len(check.models)  # the final model, the 97 hypotheses, and the polished models that moved (0-2)
+    assert check.round == 1 and 98 <= n <= 100 and check.models.shape == (n, 12) and check.model_fitness.shape == (n,)
+    assert check.procedure == FAULT_CHECK_PROCEDURE and check.polished == (check.index >= 98)
     np.testing.assert_array_equal(check.final_model, servo_run.best_model)
-    np.testing.assert_array_equal(check.models[1:], fault_hypotheses(Morphology.healthy().to_array()))
+    np.testing.assert_array_equal(check.models[1:98], fault_hypotheses(Morphology.healthy().to_array()))
     assert check.index == int(np.argmax(check.model_fitness)) and check.simulations > 0
     np.testing.assert_array_equal(servo_run.self_model, check.models[check.index])
     # the self-model's OBJ_FIT is eq. 4 of the kept model; the round's column stays the search's
@@ -51,6 +53,8 @@ def test_the_record_round_trips_and_a_stale_one_is_ignored(servo_run, tmp_path):
     older = {**record, "models": record["models"][:46], "model_fitness": record["model_fitness"][:46], "index": 0}
     (tmp_path / FAULT_CHECK_FILE).write_text(json.dumps(older))
     assert stale.fault_check is None  # a record against fewer hypotheses (before the caudal faults): checked again
+    (tmp_path / FAULT_CHECK_FILE).write_text(json.dumps({k: v for k, v in record.items() if k != "procedure"}))
+    assert read_fault_check(tmp_path).procedure == "" and stale.fault_check is None  # before the gain polish
     np.testing.assert_array_equal(stale.self_model, servo_run.best_model)
 
 

@@ -7,7 +7,8 @@ from aquafish_gym import Morphology
 from eea.behaviour import behaviour_summary
 from eea.evaluation import Evaluator
 from eea.experiment import Context, Experiment
-from eea.inference.selection import FAULT_GAIN_LEVELS, check_fault_hypotheses, fault_hypotheses, select_model
+from eea.inference.selection import (FAULT_GAIN_LEVELS, check_fault_hypotheses, fault_hypotheses, gain_neighbours,
+                                     select_model)
 from eea.target import Target
 
 DESIGN = Morphology.healthy().to_array()
@@ -77,9 +78,9 @@ def _experiments(damage, actions, steps=64, seed=0):
 
 
 #: A rough fit for the fast tests: two pectoral gain levels (40 hypotheses), a screen without
-#: scan, 4 candidates refitted (two rounds) with 2 generations.
+#: scan, 4 candidates refitted (two rounds) with 2 generations, no gain polish.
 QUICK_FIT = {"levels": (-1.0, 1.0), "screen_generations": 1, "screen_scan_cycles": 0, "refit": 4, "generations": 2,
-             "scan_cycles": 1}
+             "scan_cycles": 1, "polish": 0}
 
 
 def test_the_check_refits_the_screens_best_in_rounds_that_share_their_angles():
@@ -107,6 +108,65 @@ def test_the_check_refits_the_screens_best_in_rounds_that_share_their_angles():
     np.testing.assert_array_equal(sel.angles, angles)
     assert np.all(sel.model_fitness[best] >= screen.model_fitness[best])
     assert sel.index in best and sel.index == int(np.argmax(sel.model_fitness))
+
+
+def test_gain_neighbours_move_one_gain_to_the_grid_level_nearest_one_step_away():
+    model = np.concatenate([DESIGN, [-1.0, 0.25, 0.125]])
+    moved = gain_neighbours(model)
+    np.testing.assert_array_equal(moved[:, :9], np.tile(DESIGN, (len(moved), 1)))
+    # -1 has no level below and -0.875 is not a level (the grid's next is -0.75); the caudal grid
+    # steps by 0.0625 but the move is 0.125, and it has 0 below 0.125 (0.0625 is not a level)
+    assert moved[:, 9:].tolist() == [[-0.75, 0.25, 0.125], [-1.0, 0.125, 0.125], [-1.0, 0.375, 0.125],
+                                     [-1.0, 0.25, 0.0], [-1.0, 0.25, 0.25]]
+    assert gain_neighbours(np.concatenate([DESIGN, [1.0, 1.0, 1.0]]))[:, 9:].tolist() == [
+        [0.875, 1.0, 1.0], [1.0, 0.875, 1.0], [1.0, 1.0, 0.875]]
+    with pytest.raises(ValueError, match="12 finite values"):
+        gain_neighbours(np.r_[DESIGN, np.nan, 1.0, 1.0])
+
+
+def test_the_gain_polish_climbs_from_the_best_candidates_one_gain_step_at_a_time():
+    """After the screen and the refits, stage 3 (seed + 3, + 4, ...) fits the best distinct
+    candidate and its gain neighbours from its angles, moves to the best neighbour while one fits
+    better than the candidate's own refit, and appends the end point; replayed step by step."""
+    experiments = _experiments('{"gains": [1, 0.5, 1]}', [(0.45, 0.4, 0.5), (-0.3, 0.5, 0.2)], steps=32)
+    found = np.concatenate([DESIGN, [1.0, 1.0, 1.0]])
+    fit = {**QUICK_FIT, "polish": 1, "polish_steps": 3}
+    with Evaluator(32, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:
+        sel = check_fault_hypotheses(found, DESIGN, experiments, ev, 3, **fit)
+        plain = check_fault_hypotheses(found, DESIGN, experiments, ev, 3, **{**fit, "polish": 0})
+        n = len(plain.models)
+        start = int(np.argmax(plain.model_fitness))
+        current, best, angles = plain.models[start], plain.model_fitness[start], plain.angles[start]
+        for step in range(3):
+            trial = np.vstack([current[None], gain_neighbours(current)])
+            again = select_model(trial, experiments, ev, np.random.default_rng(3 + 3 + step), generations=2,
+                                 scan_cycles=1, start=np.repeat(angles[None], len(trial), axis=0))
+            if again.model_fitness[0] > best:
+                best, angles = again.model_fitness[0], again.angles[0]
+            j = 1 + int(np.argmax(again.model_fitness[1:]))
+            if again.model_fitness[j] <= best:
+                break
+            current, best, angles = trial[j], again.model_fitness[j], again.angles[j]
+    np.testing.assert_array_equal(sel.models[:n], plain.models)
+    np.testing.assert_array_equal(sel.model_fitness[:n], plain.model_fitness)
+    assert len(sel.models) == n + 1 and sel.index == n  # the polish moved, and its end point is kept
+    np.testing.assert_array_equal(sel.models[n], current)
+    assert sel.model_fitness[n] == best > plain.model_fitness[start]
+    np.testing.assert_array_equal(sel.angles[n], angles)
+
+
+@pytest.mark.slow
+def test_the_gain_polish_names_a_weak_servo_between_the_hypotheses_levels():
+    """A right servo at gain 0.25 (the hypotheses hold 0 and 0.5, and a halved right flipper): at
+    the check's own budget the kept model holds the right servo weak, 0.125-0.375, the rest healthy
+    (about 3 minutes)."""
+    actions = [(0.45, 0.4, 0.5), (-0.3, 0.5, 0.2), (0.1, -0.4, 0.6), (0.5, 0.1, 0.3)]
+    experiments = _experiments('{"gains": [1, 0.25, 1]}', actions, steps=128)
+    found = np.concatenate([DESIGN, [1.0, 1.0, 1.0]])
+    with Evaluator(128, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:
+        sel = check_fault_hypotheses(found, DESIGN, experiments, ev, 0)
+    np.testing.assert_array_equal(sel.model[:9], DESIGN)
+    assert sel.model[9] == 1.0 and 0.125 <= sel.model[10] <= 0.375 and sel.model[11] == 1.0
 
 
 def test_the_check_replaces_a_mirror_image_model_by_the_true_fault():
@@ -155,3 +215,5 @@ def test_the_model_must_be_a_servo_self_model_and_the_refit_at_least_one():
     model = np.concatenate([DESIGN, [1.0, 1.0, 1.0]])
     with pytest.raises(ValueError, match="refit and refit_rounds must be >= 1, got 8 and 0"):
         check_fault_hypotheses(model, DESIGN, [], None, 0, refit_rounds=0)
+    with pytest.raises(ValueError, match="polish must be >= 0 and polish_steps >= 1, got -1 and 3"):
+        check_fault_hypotheses(model, DESIGN, [], None, 0, polish=-1)

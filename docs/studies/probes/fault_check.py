@@ -9,17 +9,19 @@ those levels; 52 caudal faults: the caudal servo dead or at half gain, or the fi
 lost, beside healthy pectorals or one pectoral fault) on all the run's experiments
 (:func:`eea.fault_check.check_final_model`, the check every such run now ends with: a screen of
 3 generations and 1 scan cycle, then the best 8 fitted again in two rounds of 10 generations
-and 2 scan cycles that start each from the others' angles too; it does not write into the run) and prints one JSON line per run: the damage, the true,
+and 2 scan cycles that start each from the others' angles too, then the gains of the best 2
+polished, one step of 0.125 at a time; it does not write into the run) and prints one JSON line per run: the damage, the true,
 final and chosen gains, whether each has both pectoral signs right (as the recovery benchmark
 judges them: a lost flipper's servo is not judged), the MOD_FITs, the chosen model's pectoral
 lengths, the three best candidates (gains, lengths, MOD_FIT), the simulations and seconds.
 
     python docs/studies/probes/fault_check.py runs/lean1
 
-About 128,000 simulations a run of 8-9 experiments of 1.28 s (about 4 minutes on one core).
+About 150,000 simulations a run of 8-9 experiments of 1.28 s (about 4.5 minutes on one core).
 Before 2026-11-27 the check had the 25 servo faults only (about 38,000 simulations), then the
-45 servo and pectoral flipper faults, all fitted at the refit's budget (about 68,000); the rows
-in ``docs/results/fault_check/`` say which check wrote them.
+45 servo and pectoral flipper faults, all fitted at the refit's budget (about 68,000), then the 97
+without the gain polish (about 128,000); the rows in ``docs/results/fault_check/`` say which
+check wrote them.
 """
 
 from __future__ import annotations
