@@ -404,6 +404,34 @@ def signs_right(gains: dict, target_morphology: dict | None = None) -> bool | No
     return all(_sign(model[k]) == _sign(target[k]) for k in judged)
 
 
+def faults_named(report: dict) -> bool | None:
+    """Whether a cell's self-model names every faulty servo of its target with the sign of its
+    gain (:func:`eea.analysis.identification.servo_faults_named`: a reversed servo needs a
+    negative gain, a weak one a gain in (0, 1), a dead or seized one 0; a servo whose flipper
+    the target lost is not judged).
+
+    Args:
+        report: a case-study report (``models.self_model``'s ``morphology`` and
+            ``servo_gains``, ``target_morphology``, ``target_servo_gains``).
+
+    Returns:
+        None when the cell has no self-model of servo gains or its target no judged faulty
+        servo, else the verdict.
+    """
+    from aquafish_gym import MORPHOLOGY_FIELDS
+    from eea.analysis.identification import servo_faults_named
+
+    model = report.get("models", {}).get("self_model") or {}
+    parts = (model.get("morphology"), model.get("servo_gains"), report.get("target_morphology"),
+             report.get("target_servo_gains"))
+    if not all(parts):
+        return None
+    dims, gains, target_dims, target_gains = parts
+    names = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")
+    return servo_faults_named([dims[f] for f in MORPHOLOGY_FIELDS] + [gains[k] for k in names],
+                              [target_dims[f] for f in MORPHOLOGY_FIELDS] + [target_gains[k] for k in names])
+
+
 def _sign(x: float) -> int:
     """-1, 0 or +1."""
     return (x > 0) - (x < 0)
@@ -413,8 +441,8 @@ def cell_summary(report: dict) -> dict:
     """One cell of ``summary.json`` from its case study's report: ``damage``, ``seed``, ``breaks``,
     ``shares``, ``recovers`` (per row but ``healthy``: the verdict's test), ``gains`` (the
     self-model's and the target's servo gains), ``signs_right`` (:func:`signs_right`),
-    ``target_experiments`` (per EEA model) and ``wall_seconds`` (of the case-study run that
-    finished the cell).
+    ``faults_named`` (:func:`faults_named`), ``target_experiments`` (per EEA model) and
+    ``wall_seconds`` (of the case-study run that finished the cell).
 
     Raises:
         KeyError: the report lacks a field every case-study report has.
@@ -428,6 +456,7 @@ def cell_summary(report: dict) -> dict:
         "shares": row_shares,
         "recovers": {key: key in recovering for key in row_shares if key != "healthy"},
         "gains": gains, "signs_right": signs_right(gains, report.get("target_morphology")),
+        "faults_named": faults_named(report),
         "target_experiments": {key: m["target_experiments"] for key, m in models.items()},
         "wall_seconds": report["wall_seconds"],
     }
@@ -437,8 +466,9 @@ def summarize(reports: Iterable[dict]) -> dict:
     """``cells`` (:func:`cell_summary` of every report) and ``totals``: the number of ``cells``,
     of cells whose damage ``breaks`` the healthy gait, per row (but ``healthy``) how many of
     the breaking cells that have the row it recovers in (``recovers``, ``of``, ``rate``: None
-    without such a cell), and ``identified``: in how many of the cells whose self-model's signs
-    are judged (:func:`signs_right` not None) they are right (``right``, ``of``, ``rate``).
+    without such a cell), ``identified``: in how many of the cells whose self-model's signs
+    are judged (:func:`signs_right` not None) they are right (``right``, ``of``, ``rate``), and
+    ``faults_named``: likewise for :func:`faults_named` (``named``, ``of``, ``rate``).
 
     Raises:
         KeyError: a report lacks a field every case-study report has.
@@ -453,8 +483,10 @@ def summarize(reports: Iterable[dict]) -> dict:
             rows[key] = {"recovers": n, "of": len(having), "rate": n / len(having) if having else None}
     judged = [c["signs_right"] for c in cells if c["signs_right"] is not None]
     identified = {"right": sum(judged), "of": len(judged), "rate": sum(judged) / len(judged) if judged else None}
+    named = [c["faults_named"] for c in cells if c.get("faults_named") is not None]
+    faults = {"named": sum(named), "of": len(named), "rate": sum(named) / len(named) if named else None}
     return {"cells": cells, "totals": {"cells": len(cells), "breaking": len(breaking), "rows": rows,
-                                       "identified": identified}}
+                                       "identified": identified, "faults_named": faults}}
 
 
 def _share_text(cell: dict, key: str) -> str:
@@ -507,6 +539,10 @@ def render_summary(summary: dict) -> str:
     if identified and identified["of"]:
         lines += ["", f"Pectoral signs right: {identified['right']} of the {identified['of']} cells with a "
                       "self-model of servo gains."]
+    named = totals.get("faults_named")
+    if named and named["of"]:
+        lines += ["", f"Faulty servos named, each with the sign of its gain: {named['named']} of the {named['of']} "
+                      "cells whose target has a faulty servo on a flipper it still has."]
     if summary.get("missing"):
         lines += ["", "Not finished (run the command again to finish them): "
                   + ", ".join(f"`{m['damage']}` seed {m['seed']}" for m in summary["missing"]) + "."]

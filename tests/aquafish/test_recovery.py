@@ -7,20 +7,26 @@ import pytest
 
 from aquafish.case_study import BREAKS_SHARE, breaks, verdict
 from aquafish.cli import main
-from aquafish.recovery import (MANIFEST_FILE, cell_dir, check_spec, merge_manifest, render_summary, signs_right,
-                               summarize)
+from aquafish.recovery import (MANIFEST_FILE, cell_dir, check_spec, faults_named, merge_manifest, render_summary,
+                               signs_right, summarize)
+from aquafish_gym import MORPHOLOGY_FIELDS, Morphology
 from aquafish_gym.rundir import MismatchError
 
 
-def _report(damage, seed, distances, gains=None):
-    """A case-study report with the fields the summary reads; ``distances``: target distance per row."""
+DESIGN = dict(zip(MORPHOLOGY_FIELDS, Morphology.healthy().to_array().tolist()))
+
+
+def _report(damage, seed, distances, gains=None, shapes=False):
+    """A case-study report with the fields the summary reads; ``distances``: target distance per row;
+    ``shapes``: the self-model's and the target's morphology (the design) too."""
     controllers = {key: {"target_distance": d} for key, d in distances.items()}
     return {"preset": "smoke", "episode_duration_s": 20.0, "damage": damage, "seed": seed,
             "controllers": controllers, "verdict": verdict(controllers),
             "models": {"plain_eea": {"servo_gains": None, "target_experiments": 3},
-                       "self_model": {"servo_gains": gains, "target_experiments": 4}},
+                       "self_model": {"servo_gains": gains, "target_experiments": 4,
+                                      **({"morphology": DESIGN} if shapes else {})}},
             "target_servo_gains": {"left_pectoral_gain": 0.5, "right_pectoral_gain": 1.0, "caudal_gain": 1.0},
-            "wall_seconds": 12.5}
+            **({"target_morphology": DESIGN} if shapes else {}), "wall_seconds": 12.5}
 
 
 #: Four cells (oracle = true_damaged): A and B break the healthy gait (20 % and 40 % of the
@@ -30,7 +36,7 @@ REPORTS = [
                      "robust": 3, "ppo": 1, "robust_ppo": 9}, gains={"left_pectoral_gain": 0.4}),
     _report("b", 0, {"healthy": 4, "plain_eea": 9, "self_model": 8.5, "out_of_band": 2, "true_damaged": 10,
                      "robust": 8, "ppo": 5, "robust_ppo": 1},
-            gains={"left_pectoral_gain": 0.25, "right_pectoral_gain": 1.0, "caudal_gain": 0.5}),
+            gains={"left_pectoral_gain": 0.25, "right_pectoral_gain": 1.0, "caudal_gain": 0.5}, shapes=True),
     _report("c", 0, {"healthy": 8, "plain_eea": 9, "self_model": 9.5, "out_of_band": 9, "true_damaged": 10,
                      "robust": 9, "ppo": 9, "robust_ppo": 9}),
     _report("d", 0, {"healthy": 1, "plain_eea": 1, "self_model": 1, "out_of_band": 1, "true_damaged": -1,
@@ -60,6 +66,14 @@ def test_summary_totals_hand_computed():
     # a's self-model lacks the right gain: not judged; b's has both signs of the truth (+0.5, +1)
     assert [x["signs_right"] for x in (a, b, c, d)] == [None, True, None, None]
     assert totals["identified"] == {"right": 1, "of": 1, "rate": 1.0}
+    # b's target has a weak left servo (0.5): its self-model's 0.25 names it (a healthy caudal held at
+    # 0.5 is a false alarm, not a miss); the others lack the shapes or the gains
+    assert [x["faults_named"] for x in (a, b, c, d)] == [None, True, None, None]
+    assert totals["faults_named"] == {"named": 1, "of": 1, "rate": 1.0}
+    weak = {**REPORTS[1], "models": {"self_model": {**REPORTS[1]["models"]["self_model"],
+                                                    "servo_gains": {**REPORTS[1]["models"]["self_model"]["servo_gains"],
+                                                                    "left_pectoral_gain": 1.0}}}}
+    assert faults_named(weak) is False  # the weak servo held healthy
 
     md = render_summary({"settings": {"preset": "smoke", "episode_duration_s": 20.0}, **summary})
     assert "| `a` | 0 | yes | 20% | 50% | 85% ✓ | 90% ✓ | 30% | 90% ✓ | 10% |" in md
@@ -68,6 +82,7 @@ def test_summary_totals_hand_computed():
     assert "Recovers in the 2 of 4 cells that break: `plain_eea` 1/2, `out_of_band` 1/2, `self_model` 2/2" in md
     assert "| 50% | +0.25, +1 (+0.5, +1) ✓ |" in md and "| 10% |  |" in md
     assert "Pectoral signs right: 1 of the 1 cells with a self-model of servo gains." in md
+    assert "Faulty servos named, each with the sign of its gain: 1 of the 1 cells" in md
 
 
 @pytest.mark.parametrize("model, target, right", [
