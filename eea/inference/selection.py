@@ -20,8 +20,8 @@ from eea.experiment import Experiment, angle_errors_deg
 from eea.fitness import model_fitness_from_similarities
 from eea.inference.profile import Profile
 
-__all__ = ["CAUDAL_FAULTS", "FAULT_GAIN_LEVELS", "FLIPPER_FAULT_SCALES", "GAIN_POLISH_STEP", "Selection",
-           "check_fault_hypotheses", "fault_hypotheses", "gain_neighbours", "select_model"]
+__all__ = ["CAUDAL_FAULTS", "FAULT_GAIN_LEVELS", "FLIPPER_FAULT_SCALES", "GAIN_POLISH_MARGIN", "GAIN_POLISH_STEP",
+           "Selection", "check_fault_hypotheses", "fault_hypotheses", "gain_neighbours", "polish_gains", "select_model"]
 
 #: The pectoral servo gains of :func:`fault_hypotheses`: reversed, half reversed, dead, weak, healthy.
 FAULT_GAIN_LEVELS: tuple[float, ...] = (-1.0, -0.5, 0.0, 0.5, 1.0)
@@ -38,6 +38,10 @@ CAUDAL_FAULTS: tuple[tuple[str, float, tuple[float, float, float]], ...] = (
 
 #: How far the gain polish of :func:`check_fault_hypotheses` moves one servo gain a step (gain units).
 GAIN_POLISH_STEP = 0.125
+#: How much better (MOD_FIT) a neighbour must fit than the current model for the gain polish to
+#: move: above the few millionths by which two equal fits from shared angles differ, below the
+#: 0.0005-0.002 a step toward a weak servo's true gain gains (docs/self_modeling.md).
+GAIN_POLISH_MARGIN = 1e-4
 
 #: ``(3, 16)`` every level of each servo gain's grid in the ``morphology+servos`` space, ascending
 #: (the distinct gains a fine sweep of each range encodes to).
@@ -253,21 +257,22 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
        target's, whichever model is fitted, so a candidate that missed an experiment's angles
        takes them from another that found them.
 
-    3. a gain polish: from each of the ``polish`` best distinct candidates, coordinate ascent
-       over the servo gains. A step fits the current model and its :func:`gain_neighbours`
-       (``generations``, ``scan_cycles``) from the current model's angles; the current model
-       keeps its better fit, and the best neighbour becomes the current model if it fits
-       better still; at most ``polish_steps`` steps. A polish that moved appends its end point
-       as a new candidate (with its fit and angles); one that did not keeps its better fit in
-       its own row. The hypotheses' gains are coarse levels (-1, -0.5, 0, 0.5, 1; the caudal
-       servo's 0 and 0.5); the polish takes a weak servo at 0.26 or 0.7 to the grid's 0.25 or
-       0.75, where the nearest hypothesis may be a shortened flipper instead.
+    3. a gain polish (:func:`polish_gains`, its fits drawn from ``seed + refit_rounds + 1``
+       on): from each of the ``polish`` best distinct candidates, coordinate ascent over the
+       servo gains, one gain moved a step (:func:`gain_neighbours`) when the move fits better
+       than the current model by more than :data:`GAIN_POLISH_MARGIN`, also after the two
+       have shared their angles; at most ``polish_steps`` steps. A polish that moved appends
+       its end point as a new candidate. The hypotheses' gains are coarse levels (-1, -0.5, 0,
+       0.5, 1; the caudal servo's 0 and 0.5); the polish takes a weak servo at 0.26 or 0.7
+       toward the grid's 0.25 or 0.75, where the nearest hypothesis may be a shortened flipper
+       instead.
 
     The chosen model is the highest MOD_FIT at the end (one of those refitted or polished). A
     single fit of a candidate can miss one experiment's angles and lose 0.001-0.004 of MOD_FIT,
     as much as separates the best candidates; the rounds of shared starts take that noise out
     of the ranking (docs/self_modeling.md). A polish step refits the current model beside its
-    neighbours, so a neighbour must beat a fit as hard as its own, not an older one.
+    neighbours and duels the best of them from both their angles, so a neighbour must beat a
+    fit as hard as its own, with the same angles to hand, not an older or unluckier one.
 
     Args:
         model: ``(12,)`` the found self-model (``morphology+servos`` values).
@@ -275,7 +280,7 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
         experiments: the run's target experiments, E >= 1.
         evaluator: an :class:`~eea.evaluation.Evaluator` of the ``morphology+servos`` space and
             the run's length and behaviour summary.
-        seed: stage ``i`` (0: the screen, then the refit rounds, then the polish steps in
+        seed: stage ``i`` (0: the screen, then the refit rounds, then the polish's fits in
             order) draws its random starts from ``numpy.random.default_rng(seed + i)``.
         levels: the hypotheses' pectoral gains.
         screen_generations: the screen's fit, as ``generations`` of :func:`select_model`.
@@ -318,32 +323,86 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
                              model_space="morphology+servos")
         better = again.model_fitness > fitness[best]
         fitness[best[better]], angles[best[better]] = again.model_fitness[better], again.angles[better]
-    stage = refit_rounds + 1
+    return polish_gains(candidates, fitness, angles, experiments, evaluator, seed + refit_rounds + 1, polish=polish,
+                        polish_steps=polish_steps, generations=generations, scan_cycles=scan_cycles)
+
+
+def polish_gains(models, model_fitness, angles, experiments: Sequence[Experiment], evaluator: Evaluator, seed: int, *,
+                 polish: int = 2, polish_steps: int = 3, generations: int = 10, scan_cycles: int = 2) -> Selection:
+    """The gain polish, the last stage of :func:`check_fault_hypotheses`: coordinate ascent over
+    the servo gains from the ``polish`` best distinct candidates.
+
+    A step fits the current model and its :func:`gain_neighbours` from the current model's
+    angles (:func:`select_model` with ``generations`` and ``scan_cycles``); the current model
+    keeps its better fit. The best neighbour is then fitted again beside the current model in a
+    duel, each from both of their angles (a candidate that found better angles by luck hands
+    them to the other, as in the refit rounds), and becomes the current model only if it
+    still fits better by more than :data:`GAIN_POLISH_MARGIN`; at most ``polish_steps`` steps.
+
+    Args:
+        models: ``(N, 12)`` the candidates (``morphology+servos`` values).
+        model_fitness: ``(N,)`` their MOD_FITs so far.
+        angles: ``(N, E, 3)`` their fitted angles (rad).
+        experiments: the E experiments.
+        evaluator: as :func:`select_model`'s, in the ``morphology+servos`` space.
+        seed: the i-th fit (a step, then its duel, candidate after candidate) draws its random
+            starts from ``numpy.random.default_rng(seed + i)``.
+        polish: candidates polished, >= 0.
+        polish_steps: the most steps of each, >= 1.
+        generations: as :func:`select_model`'s.
+        scan_cycles: as :func:`select_model`'s.
+
+    Returns:
+        A :class:`Selection`: the N candidates (a polish that did not move keeps its better fit
+        in its own row), then the end point of each polish that moved; ``index`` the highest
+        MOD_FIT.
+
+    Raises:
+        ValueError: ``polish`` below 0 or ``polish_steps`` below 1, or as :func:`select_model`.
+    """
+    if polish < 0 or polish_steps < 1:
+        raise ValueError(f"polish must be >= 0 and polish_steps >= 1, got {polish} and {polish_steps}")
+    models, fitness = np.asarray(models, dtype=np.float64), np.array(model_fitness, dtype=np.float64)
+    angles = np.array(angles, dtype=np.float64)
+    fits = 0
+
+    def fit(trial, starts):
+        nonlocal fits
+        fits += 1
+        return select_model(trial, experiments, evaluator, np.random.default_rng(seed + fits - 1),
+                            generations=generations, scan_cycles=scan_cycles, start=starts,
+                            model_space="morphology+servos")
+
     moved = []  # (model, MOD_FIT, angles) of each polish that left its start
-    for row in _best_distinct(candidates, fitness, polish):
-        current, fit, current_angles, steps = candidates[row], fitness[row], angles[row], 0
+    for row in _best_distinct(models, fitness, polish):
+        current, best, current_angles, steps = models[row], fitness[row], angles[row], 0
         for _ in range(polish_steps):
             trial = np.vstack([current[None], gain_neighbours(current)])
-            again = select_model(trial, experiments, evaluator, np.random.default_rng(seed + stage),
-                                 generations=generations, scan_cycles=scan_cycles,
-                                 start=np.repeat(current_angles[None], len(trial), axis=0),
-                                 model_space="morphology+servos")
-            stage += 1
-            if again.model_fitness[0] > fit:
-                fit, current_angles = again.model_fitness[0], again.angles[0]
+            again = fit(trial, np.repeat(current_angles[None], len(trial), axis=0))
+            if again.model_fitness[0] > best:
+                best, current_angles = again.model_fitness[0], again.angles[0]
             step = 1 + int(np.argmax(again.model_fitness[1:]))
-            if again.model_fitness[step] <= fit:
+            if again.model_fitness[step] <= best + GAIN_POLISH_MARGIN:
                 break
-            current, fit, current_angles, steps = trial[step], again.model_fitness[step], again.angles[step], steps + 1
+            pair = np.vstack([current[None], trial[step][None]])
+            duel = fit(pair, np.stack([np.stack([current_angles] * 2), np.stack([again.angles[step]] * 2)]))
+            if duel.model_fitness[0] > best:
+                best, current_angles = duel.model_fitness[0], duel.angles[0]
+            challenger, challenger_angles = again.model_fitness[step], again.angles[step]
+            if duel.model_fitness[1] > challenger:
+                challenger, challenger_angles = duel.model_fitness[1], duel.angles[1]
+            if challenger <= best + GAIN_POLISH_MARGIN:
+                break
+            current, best, current_angles, steps = trial[step], challenger, challenger_angles, steps + 1
         if not steps:
-            fitness[row], angles[row] = fit, current_angles
+            fitness[row], angles[row] = best, current_angles
         else:
-            moved.append((current, fit, current_angles))
+            moved.append((current, best, current_angles))
     if moved:
-        candidates = np.vstack([candidates] + [m[None] for m, _, _ in moved])
+        models = np.vstack([models] + [m[None] for m, _, _ in moved])
         fitness = np.concatenate([fitness, [f for _, f, _ in moved]])
         angles = np.concatenate([angles] + [a[None] for _, _, a in moved])
-    return Selection(candidates, fitness, angles, int(np.argmax(fitness)))
+    return Selection(models, fitness, angles, int(np.argmax(fitness)))
 
 
 def _best_distinct(models: np.ndarray, fitness: np.ndarray, n: int) -> list[int]:

@@ -7,8 +7,8 @@ from aquafish_gym import Morphology
 from eea.behaviour import behaviour_summary
 from eea.evaluation import Evaluator
 from eea.experiment import Context, Experiment
-from eea.inference.selection import (FAULT_GAIN_LEVELS, check_fault_hypotheses, fault_hypotheses, gain_neighbours,
-                                     select_model)
+from eea.inference.selection import (FAULT_GAIN_LEVELS, GAIN_POLISH_MARGIN, check_fault_hypotheses, fault_hypotheses,
+                                     gain_neighbours, select_model)
 from eea.target import Target
 
 DESIGN = Morphology.healthy().to_array()
@@ -125,33 +125,45 @@ def test_gain_neighbours_move_one_gain_to_the_grid_level_nearest_one_step_away()
 
 
 def test_the_gain_polish_climbs_from_the_best_candidates_one_gain_step_at_a_time():
-    """After the screen and the refits, stage 3 (seed + 3, + 4, ...) fits the best distinct
-    candidate and its gain neighbours from its angles, moves to the best neighbour while one fits
-    better than the candidate's own refit, and appends the end point; replayed step by step."""
+    """After the screen and the refits, the polish (seed + 3 on) fits the best distinct candidate
+    and its gain neighbours from its angles, duels the best neighbour from both their angles, and
+    moves while the neighbour fits better by more than the margin; the end point is appended.
+    Replayed step by step."""
     experiments = _experiments('{"gains": [1, 0.5, 1]}', [(0.45, 0.4, 0.5), (-0.3, 0.5, 0.2)], steps=32)
     found = np.concatenate([DESIGN, [1.0, 1.0, 1.0]])
     fit = {**QUICK_FIT, "polish": 1, "polish_steps": 3}
     with Evaluator(32, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:
         sel = check_fault_hypotheses(found, DESIGN, experiments, ev, 3, **fit)
         plain = check_fault_hypotheses(found, DESIGN, experiments, ev, 3, **{**fit, "polish": 0})
-        n = len(plain.models)
+        n, seeds = len(plain.models), iter(range(6, 100))
         start = int(np.argmax(plain.model_fitness))
         current, best, angles = plain.models[start], plain.model_fitness[start], plain.angles[start]
+
+        def again(trial, starts):
+            return select_model(trial, experiments, ev, np.random.default_rng(next(seeds)), generations=2,
+                                scan_cycles=1, start=starts)
+
         for step in range(3):
             trial = np.vstack([current[None], gain_neighbours(current)])
-            again = select_model(trial, experiments, ev, np.random.default_rng(3 + 3 + step), generations=2,
-                                 scan_cycles=1, start=np.repeat(angles[None], len(trial), axis=0))
-            if again.model_fitness[0] > best:
-                best, angles = again.model_fitness[0], again.angles[0]
-            j = 1 + int(np.argmax(again.model_fitness[1:]))
-            if again.model_fitness[j] <= best:
+            first = again(trial, np.repeat(angles[None], len(trial), axis=0))
+            if first.model_fitness[0] > best:
+                best, angles = first.model_fitness[0], first.angles[0]
+            j = 1 + int(np.argmax(first.model_fitness[1:]))
+            if first.model_fitness[j] <= best + GAIN_POLISH_MARGIN:
                 break
-            current, best, angles = trial[j], again.model_fitness[j], again.angles[j]
+            duel = again(trial[[0, j]], np.stack([np.stack([angles] * 2), np.stack([first.angles[j]] * 2)]))
+            if duel.model_fitness[0] > best:
+                best, angles = duel.model_fitness[0], duel.angles[0]
+            challenger, its_angles = max((first.model_fitness[j], first.angles[j]), (duel.model_fitness[1], duel.angles[1]),
+                                         key=lambda pair: pair[0])
+            if challenger <= best + GAIN_POLISH_MARGIN:
+                break
+            current, best, angles = trial[j], challenger, its_angles
     np.testing.assert_array_equal(sel.models[:n], plain.models)
     np.testing.assert_array_equal(sel.model_fitness[:n], plain.model_fitness)
     assert len(sel.models) == n + 1 and sel.index == n  # the polish moved, and its end point is kept
     np.testing.assert_array_equal(sel.models[n], current)
-    assert sel.model_fitness[n] == best > plain.model_fitness[start]
+    assert sel.model_fitness[n] == best > plain.model_fitness[start] + GAIN_POLISH_MARGIN
     np.testing.assert_array_equal(sel.angles[n], angles)
 
 
