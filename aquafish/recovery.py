@@ -406,7 +406,7 @@ def signs_right(gains: dict, target_morphology: dict | None = None) -> bool | No
 
 def faults_named(report: dict) -> bool | None:
     """Whether a cell's self-model names every faulty servo of its target with the sign of its
-    gain (:func:`eea.analysis.identification.servo_faults_named`: a reversed servo needs a
+    gain (:func:`eea.identification.servo_faults_named`: a reversed servo needs a
     negative gain, a weak one a gain in (0, 1), a dead or seized one 0; a servo whose flipper
     the target lost is not judged).
 
@@ -419,7 +419,7 @@ def faults_named(report: dict) -> bool | None:
         servo, else the verdict.
     """
     from aquafish_gym import MORPHOLOGY_FIELDS
-    from eea.analysis.identification import servo_faults_named
+    from eea.identification import servo_faults_named
 
     model = report.get("models", {}).get("self_model") or {}
     parts = (model.get("morphology"), model.get("servo_gains"), report.get("target_morphology"),

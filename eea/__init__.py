@@ -14,6 +14,7 @@ The layout (``tests/eea/test_layering.py`` checks it)::
                                the estimation's model GA and out-of-band inference all evolve with it
       behaviour.py             DFT behaviour summaries and their similarity (eq. 2)
       fitness.py               action, model and objective fitness (eqs. 1, 3, 4)
+      identification.py        does a model name the truth's faulty servos (not the paper's)
       arc.py                   smallest inclusive arcs of initial angles (3.3)
       diversity.py             distances between model genomes, diverse selections (not the paper's)
       experiment.py            experiments on the target and their context (angle ranges)

@@ -1,10 +1,10 @@
-"""Judging identification of servo faults (eea.analysis.identification), case by case."""
+"""Judging identification of servo faults (eea.identification), case by case."""
 
 import numpy as np
 import pytest
 
 from aquafish_gym import Morphology
-from eea.analysis.identification import fault_parts_named, faulty_servos, healthy_servos_named_faulty, servo_faults_named
+from eea.identification import fault_parts_named, faulty_servos, healthy_servos_named_faulty, servo_faults_named
 from eea.encoding import get_model_space
 
 DESIGN = Morphology.healthy().to_array()

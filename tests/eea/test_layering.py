@@ -43,7 +43,7 @@ EEA = ROOT / "eea"
 #: The paper's core (and its configuration, and :mod:`eea.compat`, which lets the configs and
 #: checkpoints of earlier versions load and imports nothing of eea), at the top of eea/.
 CORE = {"arc", "behaviour", "compat", "config", "diversity", "encoding", "estimation", "evaluation", "experiment", "exploration",
-        "fitness", "ga", "methods", "round", "target"}
+        "fitness", "ga", "identification", "methods", "round", "target"}
 #: The run and its I/O, at the top of eea/.
 RUN_IO = {"__init__", "checkpoint", "cli", "fault_check", "record", "replay", "run"}
 #: The subpackages of the algorithm and their modules.

@@ -141,7 +141,7 @@ def test_fault_check_and_identification_judge_a_servo_run(tmp_path, tiny_config,
         assert line["chosen"] == "hypothesis" and line["chosen_fit"] > line["final_fit"]
     assert line["simulations"] > 0
     # identification (no simulation): the run's recorded self-model judged against its truth
-    from eea.analysis.identification import servo_faults_named
+    from eea.identification import servo_faults_named
     from eea.record import load_result
 
     result = load_result(tmp_path)

@@ -4,7 +4,7 @@ For every finished ``morphology+servos`` run under the given directories this pr
 line: the damage (and a sampled fault's description), the true gains, the search's final
 model's gains and the self-model's (what the run's check against fault hypotheses kept,
 ``fault_check.json``), and for both whether they name every faulty servo with the sign of its
-gain (``eea.analysis.identification.servo_faults_named``: None when the target has no servo
+gain (``eea.identification.servo_faults_named``: None when the target has no servo
 fault on a flipper it still has) and, looser, on the right part by its gain or its flipper
 (``fault_parts_named``), whether both pectoral signs are right (as the recovery
 benchmark judges them) and how many healthy servos they hold at another gain. A last line
@@ -22,7 +22,7 @@ import numpy as np
 
 from aquafish.recovery import signs_right
 from aquafish_gym import MORPHOLOGY_FIELDS, get_damage
-from eea.analysis.identification import fault_parts_named, healthy_servos_named_faulty, servo_faults_named
+from eea.identification import fault_parts_named, healthy_servos_named_faulty, servo_faults_named
 from eea.analysis.plot import find_runs
 
 GAINS = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")

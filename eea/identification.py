@@ -1,5 +1,6 @@
-"""Did a self-model name the target's servo faults? The judgement of identification on
-sampled faults: the faulty servo and the sign of its gain.
+"""Did a self-model name the target's servo faults? The judgement of identification (not the
+paper's): the faulty servo and the sign of its gain, beside OBJ_FIT (:mod:`eea.fitness`), the
+other measure of a model against the truth.
 
 A ``morphology+servos`` model and the truth are ``(12,)`` arrays: the 9 dimensions of
 :data:`aquafish_gym.MORPHOLOGY_FIELDS`, then the servo gains of the left pectoral, right
