@@ -54,6 +54,13 @@ def faulty_servos(truth) -> np.ndarray:
     return (t != 1.0) & present
 
 
+def _judged(model, truth) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The gains ``(3,)`` of ``model`` and ``truth``, the servos named by their gain (below 1, on
+    the truth's side of 0) and the judged ones (:func:`faulty_servos`), each ``(3,)`` bool."""
+    m, t, present = _split(model, truth)
+    return m, t, (m < 1.0) & (np.sign(m) == np.sign(t)), (t != 1.0) & present
+
+
 def servo_faults_named(model, truth) -> bool | None:
     """Whether ``model`` names every faulty servo of ``truth`` with the sign of its gain.
 
@@ -72,11 +79,8 @@ def servo_faults_named(model, truth) -> bool | None:
     Raises:
         ValueError: not finite ``(12,)`` arrays.
     """
-    m, t, _ = _split(model, truth)
-    judged = faulty_servos(truth)
-    if not judged.any():
-        return None
-    return bool(np.all((m[judged] < 1.0) & (np.sign(m[judged]) == np.sign(t[judged]))))
+    _, _, by_gain, judged = _judged(model, truth)
+    return bool(np.all(by_gain[judged])) if judged.any() else None
 
 
 def fault_parts_named(model, truth) -> bool | None:
@@ -100,13 +104,11 @@ def fault_parts_named(model, truth) -> bool | None:
     Raises:
         ValueError: not finite ``(12,)`` arrays.
     """
-    m, t, _ = _split(model, truth)
-    judged = faulty_servos(truth)
+    _, t, by_gain, judged = _judged(model, truth)
     if not judged.any():
         return None
     dims = np.asarray(model, dtype=np.float64)[:_N_DIMS].reshape(3, 3)[:, :2]  # (servo, (x, y))
     design = _DESIGN.reshape(3, 3)[:, :2]
-    by_gain = (m < 1.0) & (np.sign(m) == np.sign(t))
     by_flipper = np.where(t == 0.0, (dims == 0).any(axis=1), (t > 0) & (t < 1) & (dims < design).any(axis=1))
     return bool(np.all((by_gain | by_flipper)[judged]))
 
