@@ -57,9 +57,11 @@ from aquafish_gym.drawing import plot_morphologies
 from aquafish_gym.env import FRAME_SKIP
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
-from aquafish_gym.rundir import BusyError, check_output_dir, run_lock
+from aquafish_gym.rundir import BusyError, check_output_dir, read_json, run_lock
 from eea import EEAConfig
 from eea.methods import BEST_METHOD
+from gait.controller import SB3_MODEL_FILE, sb3_sidecar
+from gait.neat_evolution import SETTINGS_FILE as NEAT_SETTINGS_FILE
 from gait.robots import RANDOM_DAMAGE, Robot
 from gait.video import record_video
 
@@ -336,10 +338,9 @@ def retire_if_other_robot(run_dir: Path, robot: Robot) -> bool:
     Returns:
         Whether the directory was moved aside.
     """
-    for record, key in (("fitness_settings.json", "robot"), ("model.json", "robot")):
-        path = run_dir / record
+    for path in (run_dir / NEAT_SETTINGS_FILE, sb3_sidecar(run_dir / SB3_MODEL_FILE)):
         if path.is_file():
-            recorded = json.loads(path.read_text()).get(key)
+            recorded = read_json(path).get("robot")
             break
     else:
         return False
