@@ -371,13 +371,13 @@ def shares(controllers: dict) -> dict[str, float | None]:
             for key in ROWS if key in controllers}
 
 
-#: The two pectoral servos' keys in a report's gains.
-_PECTORAL_GAINS = ("left_pectoral_gain", "right_pectoral_gain")
+#: The servos' keys in a report's gains, in gain order.
+_SERVO_GAINS = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")
 
 
 def signs_right(gains: dict, target_morphology: dict | None = None) -> bool | None:
     """Whether the self-model identified the pectoral servos: each of its pectoral gains on the
-    target's side of 0 (as :func:`eea.analysis.compare.pectoral_signs_right` judges a run: a
+    target's side of 0 (:func:`eea.identification.pectoral_signs_right` on a report's dicts: a
     reversed servo needs a negative gain, a healthy or weak one a positive gain, a dead or
     seized one 0). A pectoral whose flipper the target has lost (length or width 0) is not
     judged: its servo moves nothing, so no experiment shows its gain.
@@ -393,15 +393,16 @@ def signs_right(gains: dict, target_morphology: dict | None = None) -> bool | No
         None when the cell has no self-model with servo gains (it did not run, or its model
         space holds none) or the target has lost both pectoral flippers, else the verdict.
     """
+    from aquafish_gym import MORPHOLOGY_FIELDS, Morphology
+    from eea.identification import pectoral_signs_right
+
     model, target = gains.get("self_model"), gains.get("target")
-    if not model or not target or any(k not in model or k not in target for k in _PECTORAL_GAINS):
+    if not model or not target or any(k not in model or k not in target for k in _SERVO_GAINS):
         return None
-    shape = target_morphology or {}
-    judged = [k for k, side in zip(_PECTORAL_GAINS, ("left", "right"))
-              if shape.get(f"{side}_pectoral_x", 1.0) > 0 and shape.get(f"{side}_pectoral_y", 1.0) > 0]
-    if not judged:
-        return None
-    return all(_sign(model[k]) == _sign(target[k]) for k in judged)
+    design = dict(zip(MORPHOLOGY_FIELDS, Morphology.healthy().to_array().tolist()))
+    shape = design | (target_morphology or {})
+    return pectoral_signs_right([design[f] for f in MORPHOLOGY_FIELDS] + [model[k] for k in _SERVO_GAINS],
+                                [shape[f] for f in MORPHOLOGY_FIELDS] + [target[k] for k in _SERVO_GAINS])
 
 
 def faults_named(report: dict) -> bool | None:
@@ -427,14 +428,8 @@ def faults_named(report: dict) -> bool | None:
     if not all(parts):
         return None
     dims, gains, target_dims, target_gains = parts
-    names = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")
-    return servo_faults_named([dims[f] for f in MORPHOLOGY_FIELDS] + [gains[k] for k in names],
-                              [target_dims[f] for f in MORPHOLOGY_FIELDS] + [target_gains[k] for k in names])
-
-
-def _sign(x: float) -> int:
-    """-1, 0 or +1."""
-    return (x > 0) - (x < 0)
+    return servo_faults_named([dims[f] for f in MORPHOLOGY_FIELDS] + [gains[k] for k in _SERVO_GAINS],
+                              [target_dims[f] for f in MORPHOLOGY_FIELDS] + [target_gains[k] for k in _SERVO_GAINS])
 
 
 def cell_summary(report: dict) -> dict:
@@ -504,8 +499,8 @@ def _gains_text(cell: dict) -> str:
     if right is None:
         return ""
     model, target = cell["gains"]["self_model"], cell["gains"]["target"]
-    pair = ", ".join(f"{model[k]:+g}" for k in _PECTORAL_GAINS)
-    truth = ", ".join(f"{target[k]:+g}" for k in _PECTORAL_GAINS)
+    pair = ", ".join(f"{model[k]:+g}" for k in _SERVO_GAINS[:2])
+    truth = ", ".join(f"{target[k]:+g}" for k in _SERVO_GAINS[:2])
     return f"{pair} ({truth}){f' {RECOVERS_MARK}' if right else ''}"
 
 

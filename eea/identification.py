@@ -5,8 +5,10 @@ other measure of a model against the truth.
 A ``morphology+servos`` model and the truth are ``(12,)`` arrays: the 9 dimensions of
 :data:`aquafish_gym.MORPHOLOGY_FIELDS`, then the servo gains of the left pectoral, right
 pectoral and caudal servos (:meth:`eea.encoding.ModelSpace.truth`; a seized servo's gain is 0,
-:func:`eea.encoding.servo_gains`). Both pectoral signs alone are judged by
-:func:`eea.analysis.compare.pectoral_signs_right`.
+:func:`eea.encoding.servo_gains`). Three judgements of a model: every faulty servo named with
+its sign and size (:func:`servo_faults_named`), or on the right part (:func:`fault_parts_named`),
+and both pectoral signs alone (:func:`pectoral_signs_right`, the judgement of the
+``reversed_left_pectoral`` studies).
 """
 
 from __future__ import annotations
@@ -15,7 +17,8 @@ import numpy as np
 
 from aquafish_gym import MORPHOLOGY_FIELDS, Morphology
 
-__all__ = ["SERVO_PARTS", "fault_parts_named", "faulty_servos", "healthy_servos_named_faulty", "servo_faults_named"]
+__all__ = ["SERVO_PARTS", "fault_parts_named", "faulty_servos", "healthy_servos_named_faulty", "pectoral_signs_right",
+           "servo_faults_named"]
 
 #: The servos in gain order, each named by its flipper's field prefix.
 SERVO_PARTS = ("left_pectoral", "right_pectoral", "caudal")
@@ -126,3 +129,24 @@ def healthy_servos_named_faulty(model, truth) -> int:
     """
     m, t, present = _split(model, truth)
     return int(np.sum((t == 1.0) & present & (m != 1.0)))
+
+
+def pectoral_signs_right(model, truth) -> bool | None:
+    """Whether both pectoral gains of ``model`` are on the truth's side of 0 (``np.sign`` equal:
+    a reversed servo needs a negative gain, a healthy or weak one a positive gain, a dead or
+    seized one 0). A pectoral whose flipper the truth has lost is not judged: its servo moves
+    nothing, so no experiment shows its gain.
+
+    Args:
+        model: ``(12,)`` the self-model (9 dimensions, 3 gains).
+        truth: ``(12,)`` the target's values, likewise.
+
+    Returns:
+        None when the truth has lost both pectoral flippers, else the verdict.
+
+    Raises:
+        ValueError: not finite ``(12,)`` arrays.
+    """
+    m, t, present = _split(model, truth)
+    judged = present[:2]
+    return bool(np.all((np.sign(m[:2]) == np.sign(t[:2]))[judged])) if judged.any() else None

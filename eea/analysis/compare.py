@@ -26,10 +26,11 @@ import numpy as np
 
 from aquafish_gym.files import save_figure
 from eea.analysis.plot import welch_p_value
-from eea.record import GAIN_COLUMNS, RunResult
+from eea.identification import pectoral_signs_right
+from eea.record import GAIN_COLUMNS, MODEL_COLUMNS, RunResult
 
 __all__ = ["VariantSummary", "compare_variants", "comparison_table", "fisher_p_value", "parse_variant",
-           "plot_variants", "pectoral_signs_right"]
+           "plot_variants"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -53,8 +54,8 @@ class VariantSummary:
             machine's and its load's, not the method's alone).
         left_out: runs that had not finished round R (not counted).
         signs_right: ``(n,)`` bool, seed for seed: whether the round-R model's two pectoral
-            gains have the truth's signs (:func:`pectoral_signs_right`); None for runs without
-            servo gains in the model.
+            gains have the truth's signs (:func:`eea.identification.pectoral_signs_right`); None for
+            runs without servo gains in the model, or whose target lost both pectoral flippers.
     """
 
     label: str
@@ -93,21 +94,6 @@ class VariantSummary:
         """``(len(seeds),)`` :attr:`signs_right` of the given seeds, in their order (each must be
         counted; runs with servo gains only)."""
         return self.signs_right[self._rows(seeds)]
-
-
-def pectoral_signs_right(model_gains, true_gains) -> bool:
-    """Whether both pectoral gains of a model are on the truth's side of 0.
-
-    Args:
-        model_gains: ``(>= 2,)`` the model's servo gains (left pectoral, right pectoral, ...).
-        true_gains: ``(>= 2,)`` the target's, likewise.
-
-    Returns:
-        ``sign(model) == sign(truth)`` for both pectorals: a reversed servo (-1) needs a
-        negative gain, a healthy or weak one a positive gain, a seized one (0) a gain of 0.
-    """
-    m, t = np.asarray(model_gains, dtype=np.float64)[:2], np.asarray(true_gains, dtype=np.float64)[:2]
-    return bool(np.all(np.sign(m) == np.sign(t)))
 
 
 def fisher_p_value(right_a: int, n_a: int, right_b: int, n_b: int) -> float:
@@ -161,8 +147,9 @@ def _summarise(label: str, results: list[RunResult], rounds: int, level: float) 
     sims = np.mean([r.rounds[rounds - 1]["simulations"] / rounds for r in done.values()])
     signs = None
     if all(r.model_space.servos for r in done.values()):
-        signs = np.array([pectoral_signs_right([r.rounds[rounds - 1][c] for c in GAIN_COLUMNS], r.true_model[9:])
-                          for r in done.values()])
+        verdicts = [pectoral_signs_right([r.rounds[rounds - 1][c] for c in (*MODEL_COLUMNS, *GAIN_COLUMNS)], r.true_model)
+                    for r in done.values()]
+        signs = None if None in verdicts else np.array(verdicts)
     wall = np.mean([r.rounds[rounds - 1]["wall_seconds"] for r in done.values()])
     return VariantSummary(label, rounds, np.array(list(done)), values[:, -1], reached, float(level),
                           values.mean(axis=0), np.median(errors, axis=0), float(sims), len(by_seed) - len(done),

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from aquafish_gym import Morphology
-from eea.identification import fault_parts_named, faulty_servos, healthy_servos_named_faulty, servo_faults_named
+from eea.identification import (fault_parts_named, faulty_servos, healthy_servos_named_faulty, pectoral_signs_right,
+                                servo_faults_named)
 from eea.encoding import get_model_space
 
 DESIGN = Morphology.healthy().to_array()
@@ -51,6 +52,22 @@ def test_a_lost_flippers_servo_is_not_judged():
     assert faulty_servos(truth).tolist() == [False, True, False]
     assert servo_faults_named(full([0.5, -1, 1]), truth) is True
     assert servo_faults_named(full([1, 1, 1], DESIGN), full([1, 1, 1])) is None  # no servo fault at all
+
+
+@pytest.mark.parametrize("model_gains, truth_gains, right", [
+    ([-0.25, 0.5, 1], [-1, 1, 1], True), ([0.25, 0.5, 1], [-1, 1, 1], False),   # any negative gain for reversed
+    ([-0.5, -0.25, 1], [-1, 1, 1], False),                                      # the mirror image
+    ([0, 1, 1], [-1, 1, 1], False), ([0, 1, 0.5], [0, 1, 1], True),              # seized: exactly 0; caudal not judged
+    ([0.125, 1, 1], [0, 1, 1], False)])
+def test_pectoral_signs_right_compares_both_pectoral_signs_only(model_gains, truth_gains, right):
+    assert pectoral_signs_right(full(model_gains), full(truth_gains)) is right
+
+
+def test_pectoral_signs_right_leaves_out_a_lost_flipper():
+    assert pectoral_signs_right(full([-1, -1, 1]), full([-1, 1, 1], lost("right_pectoral"))) is True
+    both = lost("right_pectoral")
+    both[:3] = 0.0
+    assert pectoral_signs_right(full([-1, -1, 1]), full([-1, 1, 1], both)) is None
 
 
 def test_healthy_servos_named_faulty_counts_false_alarms_on_flippers_that_are_there():

@@ -31,23 +31,13 @@ import json
 
 import numpy as np
 
-from aquafish.recovery import signs_right
-from aquafish_gym import MORPHOLOGY_FIELDS
 from eea.analysis.plot import find_runs
 from eea.checkpoint import load_state
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from eea.fault_check import check_final_model
+from eea.identification import pectoral_signs_right
 from eea.record import load_result
-
-GAINS = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")
-
-
-def signs(model, truth) -> bool | None:
-    """Both pectoral signs of ``model`` ``(12,)`` right for ``truth`` ``(12,)`` (a lost flipper's not judged)."""
-    shape = {k: float(v) for k, v in zip(MORPHOLOGY_FIELDS, truth[:9])}
-    return signs_right({"self_model": dict(zip(GAINS, map(float, model[9:]))),
-                        "target": dict(zip(GAINS, map(float, truth[9:])))}, shape)
 
 
 def check_run(run_dir) -> dict:
@@ -63,10 +53,10 @@ def check_run(run_dir) -> dict:
     order = np.argsort(-check.model_fitness, kind="stable")
     chosen = check.model
     return {"run": str(run_dir), "damage": result.config.damage, "true_gains": truth[9:].tolist(),
-            "final_gains": final[9:].tolist(), "final_signs": signs(final, truth),
+            "final_gains": final[9:].tolist(), "final_signs": pectoral_signs_right(final, truth),
             "final_fit": round(float(check.model_fitness[0]), 4),
             "chosen": "final" if check.index == 0 else "hypothesis", "chosen_gains": chosen[9:].tolist(),
-            "chosen_signs": signs(chosen, truth), "chosen_fit": round(float(check.model_fitness[check.index]), 4),
+            "chosen_signs": pectoral_signs_right(chosen, truth), "chosen_fit": round(float(check.model_fitness[check.index]), 4),
             "chosen_pectoral_lengths": chosen[[1, 4]].tolist(),
             "top3": [[check.models[i, 9:11].tolist(), check.models[i, [1, 4]].tolist(),
                       round(float(check.model_fitness[i]), 4)] for i in order[:3]],

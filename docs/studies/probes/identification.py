@@ -20,19 +20,9 @@ import json
 
 import numpy as np
 
-from aquafish.recovery import signs_right
-from aquafish_gym import MORPHOLOGY_FIELDS, get_damage
-from eea.identification import fault_parts_named, healthy_servos_named_faulty, servo_faults_named
+from aquafish_gym import get_damage
+from eea.identification import fault_parts_named, healthy_servos_named_faulty, pectoral_signs_right, servo_faults_named
 from eea.analysis.plot import find_runs
-
-GAINS = ("left_pectoral_gain", "right_pectoral_gain", "caudal_gain")
-
-
-def signs(model, truth) -> bool | None:
-    """Both pectoral signs of ``model`` ``(12,)`` right for ``truth`` ``(12,)`` (a lost flipper's not judged)."""
-    shape = {k: float(v) for k, v in zip(MORPHOLOGY_FIELDS, truth[:9])}
-    return signs_right({"self_model": dict(zip(GAINS, map(float, model[9:]))),
-                        "target": dict(zip(GAINS, map(float, truth[9:])))}, shape)
 
 
 def judge(result) -> dict:
@@ -45,7 +35,8 @@ def judge(result) -> dict:
             "true_gains": truth[9:].tolist(), "checked": checked}
     for name, m in (("final", final), ("self_model", model)):
         line |= {f"{name}_gains": m[9:].tolist(), f"{name}_named": servo_faults_named(m, truth),
-                 f"{name}_parts_named": fault_parts_named(m, truth), f"{name}_signs": signs(m, truth), f"{name}_false_faults": healthy_servos_named_faulty(m, truth)}
+                 f"{name}_parts_named": fault_parts_named(m, truth), f"{name}_signs": pectoral_signs_right(m, truth),
+                 f"{name}_false_faults": healthy_servos_named_faulty(m, truth)}
     return line
 
 
