@@ -426,15 +426,16 @@ def _model_gains(result) -> list[float] | None:
 
 def _fault_check_report(result) -> dict | None:
     """A ``morphology+servos`` run's check for the report: the final model's servo gains and
-    OBJ_FIT before the check, whether a hypothesis replaced it and whether the kept model's
-    gains were polished (None without a check)."""
+    OBJ_FIT before the check, whether a hypothesis replaced it, whether the kept model's
+    gains were polished and the check's ``procedure`` (:data:`eea.fault_check.FAULT_CHECK_PROCEDURE`
+    when made by today's; None without a check)."""
     check = result.fault_check
     if check is None:
         return None
     return {"replaced": check.index != 0, "polished": check.polished,
             "final_servo_gains": dict(zip(GAIN_NAMES, check.final_model[len(MORPHOLOGY_FIELDS):].tolist())),
             "final_objective_fitness": float(result.rounds[-1]["objective_fitness"]),
-            "simulations": check.simulations}
+            "simulations": check.simulations, "procedure": check.procedure}
 
 
 def _true_gains(damage: str) -> list[float]:

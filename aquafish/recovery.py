@@ -436,8 +436,10 @@ def cell_summary(report: dict) -> dict:
     """One cell of ``summary.json`` from its case study's report: ``damage``, ``seed``, ``breaks``,
     ``shares``, ``recovers`` (per row but ``healthy``: the verdict's test), ``gains`` (the
     self-model's and the target's servo gains), ``signs_right`` (:func:`signs_right`),
-    ``faults_named`` (:func:`faults_named`), ``target_experiments`` (per EEA model) and
-    ``wall_seconds`` (of the case-study run that finished the cell).
+    ``faults_named`` (:func:`faults_named`), ``check_procedure`` (the procedure of the check
+    that made the self-model, :data:`eea.fault_check.FAULT_CHECK_PROCEDURE` when today's; ""
+    for a report made before checks named theirs; None without a check), ``target_experiments``
+    (per EEA model) and ``wall_seconds`` (of the case-study run that finished the cell).
 
     Raises:
         KeyError: the report lacks a field every case-study report has.
@@ -452,9 +454,17 @@ def cell_summary(report: dict) -> dict:
         "recovers": {key: key in recovering for key in row_shares if key != "healthy"},
         "gains": gains, "signs_right": signs_right(gains, report.get("target_morphology")),
         "faults_named": faults_named(report),
+        "check_procedure": _check_procedure(models.get("self_model")),
         "target_experiments": {key: m["target_experiments"] for key, m in models.items()},
         "wall_seconds": report["wall_seconds"],
     }
+
+
+def _check_procedure(model: dict | None) -> str | None:
+    """The procedure of the check that made a report's self-model ("" when the report predates
+    named procedures; None without a check)."""
+    check = (model or {}).get("fault_check")
+    return None if check is None else check.get("procedure", "")
 
 
 def summarize(reports: Iterable[dict]) -> dict:
@@ -462,8 +472,10 @@ def summarize(reports: Iterable[dict]) -> dict:
     of cells whose damage ``breaks`` the healthy gait, per row (but ``healthy``) how many of
     the breaking cells that have the row it recovers in (``recovers``, ``of``, ``rate``: None
     without such a cell), ``identified``: in how many of the cells whose self-model's signs
-    are judged (:func:`signs_right` not None) they are right (``right``, ``of``, ``rate``), and
-    ``faults_named``: likewise for :func:`faults_named` (``named``, ``of``, ``rate``).
+    are judged (:func:`signs_right` not None) they are right (``right``, ``of``, ``rate``),
+    ``faults_named``: likewise for :func:`faults_named` (``named``, ``of``, ``rate``), and
+    ``check_procedures``: how many cells' self-models each check procedure made (a table
+    gathered over changes of the check says so).
 
     Raises:
         KeyError: a report lacks a field every case-study report has.
@@ -480,8 +492,13 @@ def summarize(reports: Iterable[dict]) -> dict:
     identified = {"right": sum(judged), "of": len(judged), "rate": sum(judged) / len(judged) if judged else None}
     named = [c["faults_named"] for c in cells if c.get("faults_named") is not None]
     faults = {"named": sum(named), "of": len(named), "rate": sum(named) / len(named) if named else None}
+    procedures = {}
+    for c in cells:
+        if c["check_procedure"] is not None:
+            procedures[c["check_procedure"]] = procedures.get(c["check_procedure"], 0) + 1
     return {"cells": cells, "totals": {"cells": len(cells), "breaking": len(breaking), "rows": rows,
-                                       "identified": identified, "faults_named": faults}}
+                                       "identified": identified, "faults_named": faults,
+                                       "check_procedures": procedures}}
 
 
 def _share_text(cell: dict, key: str) -> str:
@@ -538,6 +555,10 @@ def render_summary(summary: dict) -> str:
     if named and named["of"]:
         lines += ["", f"Faulty servos named, each with the sign of its gain: {named['named']} of the {named['of']} "
                       "cells whose target has a faulty servo on a flipper it still has."]
+    procedures = totals.get("check_procedures")
+    if procedures:
+        lines += ["", "Self-models checked against fault hypotheses by: " + "; ".join(
+            f"{p or 'an earlier, unnamed procedure'} ({n} cells)" for p, n in procedures.items()) + "."]
     if summary.get("missing"):
         lines += ["", "Not finished (run the command again to finish them): "
                   + ", ".join(f"`{m['damage']}` seed {m['seed']}" for m in summary["missing"]) + "."]

@@ -16,15 +16,17 @@ from aquafish_gym.rundir import MismatchError
 DESIGN = dict(zip(MORPHOLOGY_FIELDS, Morphology.healthy().to_array().tolist()))
 
 
-def _report(damage, seed, distances, gains=None, shapes=False):
+def _report(damage, seed, distances, gains=None, shapes=False, check=None):
     """A case-study report with the fields the summary reads; ``distances``: target distance per row;
-    ``shapes``: the self-model's and the target's morphology (the design) too."""
+    ``shapes``: the self-model's and the target's morphology (the design) too; ``check``: the
+    self-model's ``fault_check`` record."""
     controllers = {key: {"target_distance": d} for key, d in distances.items()}
     return {"preset": "smoke", "episode_duration_s": 20.0, "damage": damage, "seed": seed,
             "controllers": controllers, "verdict": verdict(controllers),
             "models": {"plain_eea": {"servo_gains": None, "target_experiments": 3},
                        "self_model": {"servo_gains": gains, "target_experiments": 4,
-                                      **({"morphology": DESIGN} if shapes else {})}},
+                                      **({"morphology": DESIGN} if shapes else {}),
+                                      **({"fault_check": check} if check is not None else {})}},
             "target_servo_gains": {"left_pectoral_gain": 0.5, "right_pectoral_gain": 1.0, "caudal_gain": 1.0},
             **({"target_morphology": DESIGN} if shapes else {}), "wall_seconds": 12.5}
 
@@ -33,10 +35,12 @@ def _report(damage, seed, distances, gains=None, shapes=False):
 #: oracle), C does not (80 %), D's oracle does not swim forward (and has no PPO rows).
 REPORTS = [
     _report("a", 0, {"healthy": 2, "plain_eea": 5, "self_model": 9, "out_of_band": 8.5, "true_damaged": 10,
-                     "robust": 3, "ppo": 1, "robust_ppo": 9}, gains={"left_pectoral_gain": 0.4}),
+                     "robust": 3, "ppo": 1, "robust_ppo": 9}, gains={"left_pectoral_gain": 0.4},
+            check={"replaced": False}),
     _report("b", 0, {"healthy": 4, "plain_eea": 9, "self_model": 8.5, "out_of_band": 2, "true_damaged": 10,
                      "robust": 8, "ppo": 5, "robust_ppo": 1},
-            gains={"left_pectoral_gain": 0.25, "right_pectoral_gain": 1.0, "caudal_gain": 0.5}, shapes=True),
+            gains={"left_pectoral_gain": 0.25, "right_pectoral_gain": 1.0, "caudal_gain": 0.5}, shapes=True,
+            check={"replaced": True, "procedure": "screen, polish"}),
     _report("c", 0, {"healthy": 8, "plain_eea": 9, "self_model": 9.5, "out_of_band": 9, "true_damaged": 10,
                      "robust": 9, "ppo": 9, "robust_ppo": 9}),
     _report("d", 0, {"healthy": 1, "plain_eea": 1, "self_model": 1, "out_of_band": 1, "true_damaged": -1,
@@ -74,6 +78,9 @@ def test_summary_totals_hand_computed():
                                                     "servo_gains": {**REPORTS[1]["models"]["self_model"]["servo_gains"],
                                                                     "left_pectoral_gain": 1.0}}}}
     assert faults_named(weak) is False  # the weak servo held healthy
+    # a's check predates named procedures, b's names its own; c and d have none
+    assert [x["check_procedure"] for x in (a, b, c, d)] == ["", "screen, polish", None, None]
+    assert totals["check_procedures"] == {"": 1, "screen, polish": 1}
 
     md = render_summary({"settings": {"preset": "smoke", "episode_duration_s": 20.0}, **summary})
     assert "| `a` | 0 | yes | 20% | 50% | 85% ✓ | 90% ✓ | 30% | 90% ✓ | 10% |" in md
@@ -83,6 +90,8 @@ def test_summary_totals_hand_computed():
     assert "| 50% | +0.25, +1 (+0.5, +1) ✓ |" in md and "| 10% |  |" in md
     assert "Pectoral signs right: 1 of the 1 cells with a self-model of servo gains." in md
     assert "Faulty servos named, each with the sign of its gain: 1 of the 1 cells" in md
+    assert ("checked against fault hypotheses by: an earlier, unnamed procedure (1 cells); "
+            "screen, polish (1 cells).") in md
 
 
 @pytest.mark.parametrize("model, target, right", [
