@@ -10,7 +10,9 @@ serial) or, with ``backend="ray"``, as Ray tasks on a cluster (the ``[cluster]``
 the address or without the token a token-authenticated cluster asks for). On Ray a run works in
 a temporary directory on its node and its finished files come back to this process, which
 writes them into ``OUT`` (:mod:`aquafish.shipping`): no shared file system is needed, and which
-runs are finished is decided here, as on the local pool.
+runs are finished is decided here, as on the local pool. A finished ``morphology+servos`` run
+whose check against fault hypotheses is missing or was made by an earlier procedure
+(:mod:`eea.fault_check`) is run again for its check only (:func:`run_pending`).
 The results are read back and plotted by :mod:`eea.analysis.plot` (``aquafish plot``).
 """
 
@@ -29,8 +31,9 @@ from aquafish_gym.progress import progress_bar
 from aquafish_gym.rundir import FileError, check_output_dir, read_json, run_lock
 from eea.compat import upgrade_flat_fields
 from eea.config import FLAT_DEFAULTS, EEAConfig, nest_flat
+from eea.encoding import get_model_space
 from eea.methods import METHODS, method_fields
-from eea.record import read_rounds
+from eea.record import load_result, read_rounds
 
 
 
@@ -137,6 +140,20 @@ def rounds_done(run_dir: Path) -> int:
     return len(read_rounds(run_dir))
 
 
+def run_pending(config: EEAConfig, run_dir: Path) -> bool:
+    """Whether a study's run has work left: rounds to run, or, for a finished
+    ``morphology+servos`` run, its check against fault hypotheses to make (none yet, or one of
+    another round or an earlier procedure: :attr:`eea.record.RunResult.fault_check` is None),
+    which :func:`eea.run` then makes without running a round.
+
+    Raises:
+        ValueError: a corrupt record in ``run_dir`` (:class:`~aquafish_gym.rundir.FileError`).
+    """
+    if rounds_done(run_dir) < config.rounds:
+        return True
+    return get_model_space(config.model_space).servos and load_result(run_dir).fault_check is None
+
+
 def _run_one(config_dict: dict, run_dir: str) -> str:
     """Run (or resume) one EEA run; top-level so process pools and Ray can ship it."""
     import eea
@@ -191,7 +208,7 @@ def _run_study_locked(spec: StudySpec, out_dir: Path, backend: str, address: str
                       progress: bool) -> list[Path]:
     _write_spec(spec, out_dir)
     runs = spec.runs(out_dir)
-    todo = [(c, d) for c, d in runs if rounds_done(d) < c.rounds]
+    todo = [(c, d) for c, d in runs if run_pending(c, d)]
     bar = progress_bar(len(runs), initial=len(runs) - len(todo), desc="study runs", unit="run", disable=not progress)
     best = {}
 

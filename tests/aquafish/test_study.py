@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from aquafish.cli import main
-from aquafish.study import StudySpec, rounds_done, run_study
+from aquafish.study import StudySpec, rounds_done, run_pending, run_study
 from eea.config import FLAT_DEFAULTS, EEAConfig
 from eea.analysis.plot import find_runs, summarise_runs
 
@@ -90,6 +90,26 @@ def test_local_study_runs_skips_finished_and_plots(tmp_path):
     assert json.loads((tmp_path / "study.json").read_text())["seeds"] == [0, 1]
     assert main(["plot", str(tmp_path)]) == 0
     assert (tmp_path / "objective_fitness.png").stat().st_size > 1000
+
+
+def test_a_finished_servo_run_whose_check_is_stale_is_checked_again_and_nothing_else(tmp_path):
+    from eea.fault_check import FAULT_CHECK_FILE, FAULT_CHECK_PROCEDURE
+
+    spec = tiny_spec(conditions=("known",), replicates=1, base={**TINY, "model_space": "morphology+servos",
+                                                                "damage": "reversed_left_pectoral"})
+    (config, run_dir), = spec.runs(tmp_path)
+    assert run_pending(config, run_dir)  # not started
+    run_study(spec, tmp_path, processes=1, progress=False)
+    record = json.loads((run_dir / FAULT_CHECK_FILE).read_text())
+    assert not run_pending(config, run_dir) and record["procedure"] == FAULT_CHECK_PROCEDURE
+    rounds = (run_dir / "rounds.csv").read_text()
+    # a record made before checks named their procedure (or by another one) is stale
+    (run_dir / FAULT_CHECK_FILE).write_text(json.dumps({k: v for k, v in record.items() if k != "procedure"}))
+    assert run_pending(config, run_dir)
+    run_study(spec, tmp_path, processes=1, progress=False)
+    again = json.loads((run_dir / FAULT_CHECK_FILE).read_text())
+    assert again["procedure"] == FAULT_CHECK_PROCEDURE and again["models"] == record["models"]
+    assert (run_dir / "rounds.csv").read_text() == rounds and not run_pending(config, run_dir)
 
 
 @pytest.mark.cluster
