@@ -7,8 +7,8 @@ import pytest
 
 from aquafish.case_study import BREAKS_SHARE, breaks, verdict
 from aquafish.cli import main
-from aquafish.recovery import (MANIFEST_FILE, cell_dir, check_spec, faults_named, merge_manifest, render_summary,
-                               signs_right, summarize)
+from aquafish.recovery import (MANIFEST_FILE, cell_dir, check_spec, check_stale, faults_named, merge_manifest,
+                               render_summary, signs_right, summarize)
 from aquafish_gym import MORPHOLOGY_FIELDS, Morphology
 from aquafish_gym.rundir import MismatchError
 
@@ -181,6 +181,22 @@ def test_two_cells_share_the_healthy_and_robust_rows_and_a_rerun_is_a_no_op(tmp_
     assert json.loads((out / "summary.json").read_text()) == summary
     assert [(cell_dir(out, d, 0) / "report.json").stat().st_mtime_ns
             for d in ("left_pectoral_half", "reversed_left_pectoral")] == stamps
+
+    # a cell whose self-model was checked by an earlier procedure runs again: today's check on the
+    # same experiments (the same self-model here), the other cell is left alone
+    from eea.fault_check import FAULT_CHECK_PROCEDURE
+
+    path = cell_dir(out, "reversed_left_pectoral", 0) / "report.json"
+    assert not check_stale(reports[0]) and not check_stale(reports[1]) and not check_stale(None)
+    assert reports[1]["models"]["self_model"]["fault_check"]["procedure"] == FAULT_CHECK_PROCEDURE
+    del reports[1]["models"]["self_model"]["fault_check"]["procedure"]
+    path.write_text(json.dumps(reports[1]))
+    assert check_stale(reports[1])
+    assert main(argv) == 0
+    again = json.loads(path.read_text())
+    assert again["models"]["self_model"]["fault_check"]["procedure"] == FAULT_CHECK_PROCEDURE
+    assert again["models"]["self_model"]["servo_gains"] == reports[1]["models"]["self_model"]["servo_gains"]
+    assert (cell_dir(out, "left_pectoral_half", 0) / "report.json").stat().st_mtime_ns == stamps[0]
 
     # another preset is refused naming the field, before any work
     with pytest.raises(SystemExit):
