@@ -546,7 +546,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
                         "compute_seconds": eea_s + gait_s, "compute_seconds_eea": eea_s,
                         "compute_seconds_gait": gait_s, "self_model": _model_dict(new_genome),
                         "fault_check": {"replaced": check.index != 0, "polished": check.polished,
-                                        "simulations": check.simulations,
+                                        "simulations": check.simulations, "procedure": check.procedure,
                                         "final_model": _model_dict(records[-1].best_genome)},
                         "experiment_s": target.steps * DT_S, "experiments": _experiments(records, target)}
             experiments = records[-1].experiments  # the robot's own data, kept to be scored again offline
