@@ -29,6 +29,7 @@ from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
 from aquafish_gym.rundir import FileError, check_output_dir, read_json, run_lock
+from eea.checkpoint import STATE_FILE
 from eea.compat import upgrade_flat_fields
 from eea.config import FLAT_DEFAULTS, EEAConfig, nest_flat
 from eea.encoding import get_model_space
@@ -142,16 +143,19 @@ def rounds_done(run_dir: Path) -> int:
 
 def run_pending(config: EEAConfig, run_dir: Path) -> bool:
     """Whether a study's run has work left: rounds to run, or, for a finished
-    ``morphology+servos`` run, its check against fault hypotheses to make (none yet, or one of
-    another round or an earlier procedure: :attr:`eea.record.RunResult.fault_check` is None),
-    which :func:`eea.run` then makes without running a round.
+    ``morphology+servos`` run with its checkpoint, its check against fault hypotheses to make
+    (none yet, or one of another round or an earlier procedure:
+    :attr:`eea.record.RunResult.fault_check` is None), which :func:`eea.run` then makes from
+    the checkpoint's experiments without running a round. A finished run without a checkpoint
+    (a published one) has nothing left that can be done.
 
     Raises:
         ValueError: a corrupt record in ``run_dir`` (:class:`~aquafish_gym.rundir.FileError`).
     """
     if rounds_done(run_dir) < config.rounds:
         return True
-    return get_model_space(config.model_space).servos and load_result(run_dir).fault_check is None
+    return (get_model_space(config.model_space).servos and (run_dir / STATE_FILE).is_file()
+            and load_result(run_dir).fault_check is None)
 
 
 def _run_one(config_dict: dict, run_dir: str) -> str:

@@ -37,7 +37,8 @@ from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from eea.fault_check import check_final_model, write_fault_check
 from eea.search.lineages import Lineages, estimation_from_state
-from eea.record import ROUNDS_FILE, RunResult, read_config, round_row, write_config, write_lineages, write_rounds
+from eea.record import (ROUNDS_FILE, RunResult, read_config, read_rounds, round_row, write_config, write_lineages,
+                        write_rounds)
 from eea.round import RoundParts, run_round
 
 __all__ = ["check_run_memory", "run"]
@@ -63,6 +64,17 @@ def _check_checkpoint(out_dir: Path, config: EEAConfig, state: RunState | None) 
                       f"{ROUNDS_FILE} to start this one over)")
     if len(state.rows) != state.rounds_done:
         raise FileError(out_dir / STATE_FILE, f"holds {len(state.rows)} rows for {state.rounds_done} rounds")
+
+
+def _check_resumable(out_dir: Path, state: RunState | None) -> None:
+    """Refuse a directory whose ``rounds.csv`` holds rounds but which has no checkpoint (a
+    published run, or a copy without ``state.pkl``): starting it over would overwrite its
+    rounds, and without its experiments it can be neither resumed nor checked."""
+    if state is None and (rows := read_rounds(out_dir)):
+        raise FileError(out_dir / ROUNDS_FILE,
+                        f"holds {len(rows)} finished rounds but the run has no checkpoint ({STATE_FILE}) to resume "
+                        "or check from (read it with eea.load_result, aquafish plot or compare)",
+                        f"to run it again use another --out, or delete {ROUNDS_FILE} to start this one over")
 
 
 _FIX = "use another --out, or the same settings to resume it"
@@ -107,7 +119,8 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
     Raises:
         ValueError: if ``out_dir`` cannot be written (checked before anything is created),
             holds a run with a different config, or a checkpoint of another run (the message
-            lists the differing fields); if another process is writing it
+            lists the differing fields), or rounds without a checkpoint to resume from (a
+            published run: :class:`~aquafish_gym.rundir.FileError`, nothing is written); if another process is writing it
             (:class:`~aquafish_gym.rundir.BusyError`); if a file in it is corrupt
             (:class:`~aquafish_gym.rundir.FileError`); or if the config cannot fit in memory.
     """
@@ -122,6 +135,7 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
     _check_manifest(out, config, existing)  # before the checkpoint is unpickled
     state = load_state(out)
     _check_checkpoint(out, config, state)
+    _check_resumable(out, state)
     if existing is None or config.rounds >= existing.rounds:
         write_config(out, config)
     else:  # fewer rounds asked than planned: the run's record keeps its plan

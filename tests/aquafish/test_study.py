@@ -110,6 +110,12 @@ def test_a_finished_servo_run_whose_check_is_stale_is_checked_again_and_nothing_
     again = json.loads((run_dir / FAULT_CHECK_FILE).read_text())
     assert again["procedure"] == FAULT_CHECK_PROCEDURE and again["models"] == record["models"]
     assert (run_dir / "rounds.csv").read_text() == rounds and not run_pending(config, run_dir)
+    # a published run (no checkpoint) cannot be checked: the study leaves it as it is
+    (run_dir / FAULT_CHECK_FILE).unlink()
+    (run_dir / "state.pkl").unlink()
+    assert not run_pending(config, run_dir)
+    run_study(spec, tmp_path, processes=1, progress=False)
+    assert (run_dir / "rounds.csv").read_text() == rounds and not (run_dir / FAULT_CHECK_FILE).exists()
 
 
 @pytest.mark.cluster

@@ -100,6 +100,21 @@ def test_a_different_config_in_the_directory_raises(tmp_path, tiny_config):
     eea.run(tiny_config(rounds=1, workers=2, max_batch_robots=5), tmp_path, progress=False)  # results-neutral
 
 
+def test_rounds_without_a_checkpoint_are_refused_and_left_as_they_are(tmp_path, tiny_config):
+    # a published run keeps config.json and rounds.csv but no state.pkl: starting it over would
+    # overwrite its rounds with a new run's
+    eea.run(tiny_config(rounds=2), tmp_path, progress=False)
+    (tmp_path / "state.pkl").unlink()
+    rounds = (tmp_path / "rounds.csv").read_bytes()
+    for rounds_asked in (2, 3):  # finished, or to be extended
+        with pytest.raises(ValueError, match=r"rounds.csv: holds 2 finished rounds but the run has no checkpoint "
+                                             r"\(state.pkl\).*use another --out"):
+            eea.run(tiny_config(rounds=rounds_asked), tmp_path, progress=False)
+    assert (tmp_path / "rounds.csv").read_bytes() == rounds
+    (tmp_path / "rounds.csv").unlink()  # as the message says: the run starts over
+    assert len(eea.run(tiny_config(rounds=1), tmp_path, progress=False).rounds) == 1
+
+
 def test_workers_do_not_change_results(tmp_path, tiny_config):
     eea.run(tiny_config(inference="out_of_band", workers=1), tmp_path / "one", progress=False)
     eea.run(tiny_config(inference="out_of_band", workers=2), tmp_path / "two", progress=False)
