@@ -390,7 +390,7 @@ def model_fields(method: str = DEFAULT_METHOD, model_space: str = DEFAULT_MODEL_
     return {"model_space": model_space, "behaviour_summary": behaviour_summary, **flips}
 
 
-def _eea_dir(method: str, space: str, summary: str) -> str:
+def eea_dir_name(method: str, space: str, summary: str) -> str:
     """``eea_<method>`` in the paper's model space and summary, ``_servos`` added in
     ``morphology+servos``, ``_signed`` with the signed summary."""
     return (f"eea_{method}" + ("" if space == PAPER_MODEL_SPACE else f"_{space.removeprefix('morphology+')}")
@@ -490,7 +490,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
 
     # 2. self-model
     for key, (name, space, summary) in runs.items():
-        run_dir = out / _eea_dir(name, space, summary)
+        run_dir = out / eea_dir_name(name, space, summary)
         timed(f"eea_{key}", lambda key=key, run_dir=run_dir: eea.run(configs[key], run_dir, progress=progress))
         eea_results[key] = eea.load_result(run_dir)
     models = {key: result.self_model_morphology for key, result in eea_results.items()}

@@ -4,10 +4,10 @@ A **cell** is one case study (:func:`aquafish.case_study.run_case_study`) of one
 seed, in ``OUT/cells/<damage>/seed<S>`` (``<damage>``: a preset's name, ``sampled_SEED``, or
 ``fault_`` and a short hash of a JSON fault; :func:`aquafish.damage_table.gait_dir_name`). A
 cell whose ``report.json`` exists is finished and read back, never run again, unless its
-self-model was checked against fault hypotheses by an earlier procedure than today's
-(:func:`check_stale`): then its case study runs again, makes today's check on the same
-experiments and retrains only the gaits of a self-model that changed. An interrupted cell
-resumes from its finished steps.
+self-model was checked against fault hypotheses by an earlier procedure than today's and its
+EEA checkpoint is there (:func:`check_stale`): then its case study runs again, makes today's
+check on the same experiments and retrains only the gaits of a self-model that changed. An
+interrupted cell resumes from its finished steps.
 
 The rows that do not depend on the damage (:data:`aquafish.case_study.SHARED_KEYS`: the
 healthy gait, the damage-robust gait and the damage-robust PPO policy) are trained once per
@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 from pathlib import Path
 from typing import Iterable, Iterator
 
@@ -217,15 +218,24 @@ def _run_cell(preset: str, damage: str, seed: int, cell: str, shared: str, episo
                           triage_only=triage_only)
 
 
-def check_stale(report: dict | None) -> bool:
+def check_stale(report: dict | None, cell: str | os.PathLike) -> bool:
     """Whether a finished cell's self-model was checked against fault hypotheses by another
     procedure than today's (:data:`eea.fault_check.FAULT_CHECK_PROCEDURE`; a report made before
-    checks named theirs counts as another), so that its cell is run again; False without a
-    report or without a check (a triaged cell, a ``morphology`` self-model)."""
+    checks named theirs counts as another) and its EEA run's checkpoint is in ``cell``, so that
+    running the cell again makes today's check on the run's own experiments. False without a
+    report, without a check (a triaged cell, a ``morphology`` self-model), or without the
+    checkpoint (a cell copied from published results: it is read back as it is, and the
+    summary names its check's procedure)."""
+    from aquafish.case_study import eea_dir_name
+    from eea.checkpoint import STATE_FILE
     from eea.fault_check import FAULT_CHECK_PROCEDURE
 
-    check = ((report or {}).get("models") or {}).get("self_model", {}).get("fault_check")
-    return check is not None and check.get("procedure", "") != FAULT_CHECK_PROCEDURE
+    model = ((report or {}).get("models") or {}).get("self_model") or {}
+    check = model.get("fault_check")
+    if check is None or check.get("procedure", "") == FAULT_CHECK_PROCEDURE:
+        return False
+    run = Path(cell) / eea_dir_name(model["method"], model["model_space"], model["behaviour_summary"])
+    return (run / STATE_FILE).is_file()
 
 
 def rows_to_run(report: dict | None, all_rows: bool = False) -> bool:
@@ -307,7 +317,8 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     manifest = merge_manifest(out, spec)
     reports = {cell: read_cell(out, *cell, manifest) for cell in manifest.cells()}
     todo = [cell for cell in spec.cells()
-            if reports[cell] is None or rows_to_run(reports[cell], all_rows) or check_stale(reports[cell])]
+            if reports[cell] is None or rows_to_run(reports[cell], all_rows)
+            or check_stale(reports[cell], cell_dir(out, *cell))]
     alone = backend == "local" and processes == 1  # one cell at a time, in this process
     cell_workers, inner_progress = (workers, progress) if alone else (1, False)
     duration = spec.episode_duration_s
@@ -335,8 +346,8 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     # seed by seed (every damage of a seed before the next seed): a run stopped part-way leaves a
     # cross-section of the breaking damages, not the first few complete
     run_pass("triage", [c for c in todo if reports[c] is None], True)
-    run_pass("recovery rows", sorted((c for c in todo if rows_to_run(reports[c], all_rows) or check_stale(reports[c])),
-                                     key=lambda c: (spec.seeds.index(c[1]), spec.damages.index(c[0]))), False)
+    due = [c for c in todo if rows_to_run(reports[c], all_rows) or check_stale(reports[c], cell_dir(out, *c))]
+    run_pass("recovery rows", sorted(due, key=lambda c: (spec.seeds.index(c[1]), spec.damages.index(c[0]))), False)
     summary = _summary(manifest, reports)
     atomic_write(out / SUMMARY_JSON, json.dumps(summary, indent=2).encode())
     atomic_write(out / SUMMARY_MD, render_summary(summary).encode())

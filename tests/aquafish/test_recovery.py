@@ -186,12 +186,14 @@ def test_two_cells_share_the_healthy_and_robust_rows_and_a_rerun_is_a_no_op(tmp_
     # same experiments (the same self-model here), the other cell is left alone
     from eea.fault_check import FAULT_CHECK_PROCEDURE
 
-    path = cell_dir(out, "reversed_left_pectoral", 0) / "report.json"
-    assert not check_stale(reports[0]) and not check_stale(reports[1]) and not check_stale(None)
+    cell = cell_dir(out, "reversed_left_pectoral", 0)
+    path = cell / "report.json"
+    assert not check_stale(reports[0], cell) and not check_stale(reports[1], cell) and not check_stale(None, cell)
     assert reports[1]["models"]["self_model"]["fault_check"]["procedure"] == FAULT_CHECK_PROCEDURE
     del reports[1]["models"]["self_model"]["fault_check"]["procedure"]
     path.write_text(json.dumps(reports[1]))
-    assert check_stale(reports[1])
+    assert check_stale(reports[1], cell)
+    assert not check_stale(reports[1], tmp_path)  # a copy of the report alone (published): read back as it is
     assert main(argv) == 0
     again = json.loads(path.read_text())
     assert again["models"]["self_model"]["fault_check"]["procedure"] == FAULT_CHECK_PROCEDURE
