@@ -56,6 +56,14 @@ class VariantSummary:
         signs_right: ``(n,)`` bool, seed for seed: whether the round-R model's two pectoral
             gains have the truth's signs (:func:`eea.identification.pectoral_signs_right`); None for
             runs without servo gains in the model, or whose target lost both pectoral flippers.
+        self_model_final: ``(n,)`` OBJ_FIT of each run's self-model
+            (:attr:`~eea.record.RunResult.self_model`: the model its check against fault
+            hypotheses kept, else the round-R model), seed for seed; None unless every run is
+            ``morphology+servos`` and R is its last round.
+        self_model_signs_right: ``(n,)`` bool, :attr:`signs_right` of the self-models; None as
+            ``self_model_final`` (or as :attr:`signs_right`).
+        checked: ``(n,)`` bool, whether each run's self-model comes from a check made by today's
+            procedure (:attr:`~eea.record.RunResult.fault_check`); None as ``self_model_final``.
     """
 
     label: str
@@ -70,6 +78,9 @@ class VariantSummary:
     left_out: int
     signs_right: np.ndarray | None = None
     wall_seconds: float = float("nan")
+    self_model_final: np.ndarray | None = None
+    self_model_signs_right: np.ndarray | None = None
+    checked: np.ndarray | None = None
 
     @property
     def mean(self) -> float:
@@ -151,9 +162,15 @@ def _summarise(label: str, results: list[RunResult], rounds: int, level: float) 
                     for r in done.values()]
         signs = None if None in verdicts else np.array(verdicts)
     wall = np.mean([r.rounds[rounds - 1]["wall_seconds"] for r in done.values()])
+    self_final = self_signs = checked = None
+    if all(r.model_space.servos and len(r.rounds) == rounds for r in done.values()):
+        self_final = np.array([r.self_model_objective_fitness for r in done.values()])
+        checked = np.array([r.fault_check is not None for r in done.values()])
+        verdicts = [pectoral_signs_right(r.self_model, r.true_model) for r in done.values()]
+        self_signs = None if None in verdicts else np.array(verdicts)
     return VariantSummary(label, rounds, np.array(list(done)), values[:, -1], reached, float(level),
                           values.mean(axis=0), np.median(errors, axis=0), float(sims), len(by_seed) - len(done),
-                          signs, float(wall))
+                          signs, float(wall), self_final, self_signs, checked)
 
 
 def compare_variants(variants: dict[str, list[RunResult]], rounds: int | None = None,
@@ -200,7 +217,10 @@ def comparison_table(summary: dict[str, VariantSummary], baseline: str | None = 
     round R (mean; the machine's and its load's); and, when some variant has
     servo gains in its model, runs with both pectoral signs right and Fisher's exact p
     (:func:`fisher_p_value`) against the baseline on the seeds both ran ("-" where a variant
-    has no gains).
+    has no gains); and, when some variant's round R is its runs' last, the self-models'
+    OBJ_FIT (the models their checks against fault hypotheses kept) and their runs with both
+    signs right, with Fisher's p against the baseline's self-models, and how many runs were
+    checked by today's procedure when not all were (the others' self-model is the round-R model).
 
     Args:
         summary: from :func:`compare_variants`.
@@ -216,10 +236,13 @@ def comparison_table(summary: dict[str, VariantSummary], baseline: str | None = 
         raise ValueError(f"baseline {baseline!r} is not a variant; variants: {', '.join(summary)}")
     base = summary[baseline]
     gains = any(s.signs_right is not None for s in summary.values())
+    selves = any(s.self_model_final is not None for s in summary.values())
     lines = [f"| variant | seeds | final OBJ_FIT (round {base.rounds}) | per seed | p vs {baseline} (seeds) | "
              f"reach {base.level:g} (median round) | >= 0.95 | median angle error L / R / C (°) | simulations per round |"
-             " wall min a run |" + (f" pectoral signs right (Fisher p vs {baseline}) |" if gains else ""),
-             "|---|---|---|---|---|---|---|---|---|---|" + ("---|" if gains else "")]
+             " wall min a run |" + (f" pectoral signs right (Fisher p vs {baseline}) |" if gains else "")
+             + (f" self-model OBJ_FIT (after the check) | self-model signs right (Fisher p vs {baseline}) |"
+                if selves else ""),
+             "|---|---|---|---|---|---|---|---|---|---|" + ("---|" if gains else "") + ("---|---|" if selves else "")]
     for label, s in summary.items():
         common = np.intersect1d(s.seeds, base.seeds)
         p = np.nan if label == baseline else welch_p_value(s.final_on(common), base.final_on(common))
@@ -233,22 +256,31 @@ def comparison_table(summary: dict[str, VariantSummary], baseline: str | None = 
                f"{p_text} | {reach} | {int((s.final >= 0.95).sum())}/{len(s.seeds)} | {errors} | "
                f"{s.simulations_per_round:.0f} | {s.wall_seconds / 60:.1f} |")
         if gains:
-            row += f" {_signs_text(s, base, label == baseline)} |"
+            row += f" {_signs_text(s, base, label == baseline, 'signs_right')} |"
+        if selves:
+            final = "-" if s.self_model_final is None else f"{s.self_model_final.mean():.3f} ± {s.self_model_final.std():.3f}"
+            signs = _signs_text(s, base, label == baseline, "self_model_signs_right")
+            if s.checked is not None and not s.checked.all():
+                signs += f"; {int(s.checked.sum())} checked"
+            row += f" {final} | {signs} |"
         lines.append(row)
     return "\n".join(lines)
 
 
-def _signs_text(s: VariantSummary, base: VariantSummary, is_baseline: bool) -> str:
-    """``"k/n"`` with Fisher's p against the baseline on the seeds both ran, or ``"-"``."""
-    if s.signs_right is None:
+def _signs_text(s: VariantSummary, base: VariantSummary, is_baseline: bool, field: str) -> str:
+    """``"k/n"`` of the runs with ``field`` (:attr:`VariantSummary.signs_right` or
+    :attr:`~VariantSummary.self_model_signs_right`) true, with Fisher's p against the
+    baseline's on the seeds both ran, or ``"-"``."""
+    mine_all, theirs_all = getattr(s, field), getattr(base, field)
+    if mine_all is None:
         return "-"
-    text = f"{int(s.signs_right.sum())}/{len(s.seeds)}"
-    if is_baseline or base.signs_right is None:
+    text = f"{int(mine_all.sum())}/{len(s.seeds)}"
+    if is_baseline or theirs_all is None:
         return text
     common = np.intersect1d(s.seeds, base.seeds)
     if not len(common):
         return text
-    mine, theirs = s.signs_right_on(common), base.signs_right_on(common)
+    mine, theirs = mine_all[s._rows(common)], theirs_all[base._rows(common)]
     p = fisher_p_value(int(mine.sum()), len(common), int(theirs.sum()), len(common))
     return f"{text} (p {p:.2g}, {len(common)})"
 

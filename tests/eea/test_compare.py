@@ -138,7 +138,41 @@ def test_pectoral_signs_are_counted_and_compared_with_fishers_exact_test(tmp_pat
     summary = compare_variants({"base": find_runs([tmp_path / "base"]), "new": find_runs([tmp_path / "new"])})
     assert summary["base"].signs_right.tolist() == [True, False, True, False]
     table = comparison_table(summary).splitlines()
-    assert table[0].endswith("| pectoral signs right (Fisher p vs base) |")
-    assert table[2].endswith("| 2/4 |")
+    header = table[0].split(" | ")
+    assert header[-3:] == ["pectoral signs right (Fisher p vs base)", "self-model OBJ_FIT (after the check)",
+                           "self-model signs right (Fisher p vs base) |"]
     p = fisher_exact([[4, 0], [2, 2]])[1]                                # seeds 0-3, the ones both ran
-    assert table[3].endswith(f"| 5/5 (p {p:.2g}, 4) |")
+    assert table[2].split(" | ")[-3] == "2/4" and table[3].split(" | ")[-3] == f"5/5 (p {p:.2g}, 4)"
+    # unchecked runs: the self-model is the round's model
+    assert table[2].endswith("| 2/4; 0 checked |")
+
+
+def test_the_self_model_columns_read_the_check_against_fault_hypotheses(tmp_path):
+    from aquafish_gym import Morphology
+    from eea.fault_check import FAULT_CHECK_PROCEDURE, FaultCheck, write_fault_check
+    from eea.fitness import objective_fitness
+    from eea.inference.selection import fault_hypotheses
+
+    design = Morphology.healthy().to_array()
+    hypotheses = fault_hypotheses(design)
+    truth = np.concatenate([design, [-1.0, 1.0, 1.0]])
+    for s, (left, right) in enumerate([(1.0, 1.0), (0.5, 1.0), (-1.0, 1.0)]):  # the search: 1 of 3 right
+        _servo_run(tmp_path / "new" / f"seed{s}", s, left, right)
+    # the checks of seeds 0 and 1 keep the truth (a hypothesis); seed 2's is of an earlier procedure
+    kept = int(np.flatnonzero((hypotheses == truth).all(axis=1))[0]) + 1
+    for s, procedure in ((0, FAULT_CHECK_PROCEDURE), (1, FAULT_CHECK_PROCEDURE), (2, "")):
+        run = find_runs([tmp_path / "new" / f"seed{s}"])[0]
+        models = np.vstack([run.best_model, hypotheses])
+        write_fault_check(run.out_dir, FaultCheck(1, models, np.linspace(0.9, 0.99, len(models)), kept, 5, 1.0,
+                                                  procedure))
+    summary = compare_variants({"new": find_runs([tmp_path / "new"])})["new"]
+    assert summary.checked.tolist() == [True, True, False]
+    assert summary.signs_right.tolist() == [False, False, True]
+    assert summary.self_model_signs_right.tolist() == [True, True, True]
+    np.testing.assert_allclose(summary.self_model_final[:2], 1.0)                     # the truth kept
+    bounds = find_runs([tmp_path / "new" / "seed2"])[0].model_space.bounds
+    assert summary.self_model_final[2] == pytest.approx(objective_fitness(
+        find_runs([tmp_path / "new" / "seed2"])[0].best_model, truth, bounds))          # stale: the round's model
+    row = comparison_table({"new": summary}).splitlines()[2]
+    assert row.endswith(f"| 1/3 | {summary.self_model_final.mean():.3f} ± {summary.self_model_final.std():.3f} "
+                        "| 3/3; 2 checked |")
