@@ -120,9 +120,10 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
         ValueError: if ``out_dir`` cannot be written (checked before anything is created),
             holds a run with a different config, or a checkpoint of another run (the message
             lists the differing fields), or rounds without a checkpoint to resume from (a
-            published run: :class:`~aquafish_gym.rundir.FileError`, nothing is written); if another process is writing it
-            (:class:`~aquafish_gym.rundir.BusyError`); if a file in it is corrupt
-            (:class:`~aquafish_gym.rundir.FileError`); or if the config cannot fit in memory.
+            published run: :class:`~aquafish_gym.rundir.FileError`, nothing is written); if
+            another process is writing it (:class:`~aquafish_gym.rundir.BusyError`); if a file
+            in it is corrupt (:class:`~aquafish_gym.rundir.FileError`); or if the config cannot
+            fit in memory.
     """
     out = check_output_dir(out_dir)
     check_run_memory(config)

@@ -158,8 +158,8 @@ def _summarise(label: str, results: list[RunResult], rounds: int, level: float) 
     sims = np.mean([r.rounds[rounds - 1]["simulations"] / rounds for r in done.values()])
     signs = None
     if all(r.model_space.servos for r in done.values()):
-        verdicts = [pectoral_signs_right([r.rounds[rounds - 1][c] for c in (*MODEL_COLUMNS, *GAIN_COLUMNS)], r.true_model)
-                    for r in done.values()]
+        verdicts = [pectoral_signs_right([r.rounds[rounds - 1][c] for c in (*MODEL_COLUMNS, *GAIN_COLUMNS)],
+                                         r.true_model) for r in done.values()]
         signs = None if None in verdicts else np.array(verdicts)
     wall = np.mean([r.rounds[rounds - 1]["wall_seconds"] for r in done.values()])
     self_final = self_signs = checked = None
@@ -258,7 +258,8 @@ def comparison_table(summary: dict[str, VariantSummary], baseline: str | None = 
         if gains:
             row += f" {_signs_text(s, base, label == baseline, 'signs_right')} |"
         if selves:
-            final = "-" if s.self_model_final is None else f"{s.self_model_final.mean():.3f} ± {s.self_model_final.std():.3f}"
+            final = ("-" if s.self_model_final is None
+                     else f"{s.self_model_final.mean():.3f} ± {s.self_model_final.std():.3f}")
             signs = _signs_text(s, base, label == baseline, "self_model_signs_right")
             if s.checked is not None and not s.checked.all():
                 signs += f"; {int(s.checked.sum())} checked"
