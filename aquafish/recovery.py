@@ -316,9 +316,9 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     """The body of :func:`run_recovery`, under the lock of ``out``."""
     manifest = merge_manifest(out, spec)
     reports = {cell: read_cell(out, *cell, manifest) for cell in manifest.cells()}
-    todo = [cell for cell in spec.cells()
-            if reports[cell] is None or rows_to_run(reports[cell], all_rows)
-            or check_stale(reports[cell], cell_dir(out, *cell))]
+    stale = {cell for cell in spec.cells() if check_stale(reports[cell], cell_dir(out, *cell))}
+    todo = [cell for cell in spec.cells() if reports[cell] is None or rows_to_run(reports[cell], all_rows)
+            or cell in stale]
     alone = backend == "local" and processes == 1  # one cell at a time, in this process
     cell_workers, inner_progress = (workers, progress) if alone else (1, False)
     duration = spec.episode_duration_s
@@ -346,7 +346,7 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     # seed by seed (every damage of a seed before the next seed): a run stopped part-way leaves a
     # cross-section of the breaking damages, not the first few complete
     run_pass("triage", [c for c in todo if reports[c] is None], True)
-    due = [c for c in todo if rows_to_run(reports[c], all_rows) or check_stale(reports[c], cell_dir(out, *c))]
+    due = [c for c in todo if rows_to_run(reports[c], all_rows) or c in stale]
     run_pass("recovery rows", sorted(due, key=lambda c: (spec.seeds.index(c[1]), spec.damages.index(c[0]))), False)
     summary = _summary(manifest, reports)
     atomic_write(out / SUMMARY_JSON, json.dumps(summary, indent=2).encode())
@@ -426,9 +426,7 @@ def signs_right(gains: dict, target_morphology: dict | None = None) -> bool | No
     if not model or not target or any(k not in model or k not in target for k in _SERVO_GAINS):
         return None
     design = dict(zip(MORPHOLOGY_FIELDS, Morphology.healthy().to_array().tolist()))
-    shape = design | (target_morphology or {})
-    return pectoral_signs_right([design[f] for f in MORPHOLOGY_FIELDS] + [model[k] for k in _SERVO_GAINS],
-                                [shape[f] for f in MORPHOLOGY_FIELDS] + [target[k] for k in _SERVO_GAINS])
+    return pectoral_signs_right(_model_values(design, model), _model_values(design | (target_morphology or {}), target))
 
 
 def faults_named(report: dict) -> bool | None:
@@ -445,7 +443,6 @@ def faults_named(report: dict) -> bool | None:
         None when the cell has no self-model of servo gains or its target no judged faulty
         servo, else the verdict.
     """
-    from aquafish_gym import MORPHOLOGY_FIELDS
     from eea.identification import servo_faults_named
 
     model = report.get("models", {}).get("self_model") or {}
@@ -454,8 +451,15 @@ def faults_named(report: dict) -> bool | None:
     if not all(parts):
         return None
     dims, gains, target_dims, target_gains = parts
-    return servo_faults_named([dims[f] for f in MORPHOLOGY_FIELDS] + [gains[k] for k in _SERVO_GAINS],
-                              [target_dims[f] for f in MORPHOLOGY_FIELDS] + [target_gains[k] for k in _SERVO_GAINS])
+    return servo_faults_named(_model_values(dims, gains), _model_values(target_dims, target_gains))
+
+
+def _model_values(dims: dict, gains: dict) -> list[float]:
+    """A report's flipper dimensions and servo gains (dicts keyed by field) as the ``(12,)``
+    ``morphology+servos`` values :mod:`eea.identification` judges."""
+    from aquafish_gym import MORPHOLOGY_FIELDS
+
+    return [dims[f] for f in MORPHOLOGY_FIELDS] + [gains[k] for k in _SERVO_GAINS]
 
 
 def cell_summary(report: dict) -> dict:

@@ -53,8 +53,7 @@ def faulty_servos(truth) -> np.ndarray:
     Raises:
         ValueError: not a finite ``(12,)`` array.
     """
-    _, t, present = _split(truth, truth)
-    return (t != 1.0) & present
+    return _judged(truth, truth)[3]
 
 
 def _judged(model, truth) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
