@@ -62,7 +62,8 @@ except _PackageNotFoundError:  # run from a source tree that is not installed
 
 from eea.arc import in_arc, sample_arc, smallest_inclusive_arc, smallest_inclusive_interval
 from eea.arc import widen_arc
-from eea.behaviour import CHANNELS, MAX_COEFFICIENT, behaviour_summary, similarity
+from eea.behaviour import (CHANNELS, MAX_COEFFICIENT, MAX_COEFFICIENTS, angular_rates, behaviour_summary, similarity,
+                           summarise)
 from eea.encoding import ACTION_BITS, ACTION_FIELD_BITS, MODEL_BITS, MODEL_FIELD_BITS
 from eea.encoding import decode_actions, decode_fields, decode_models
 from eea.encoding import encode_actions, encode_fields, encode_models

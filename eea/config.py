@@ -114,6 +114,7 @@ FLAT_FIELDS: dict[str, tuple[str, str | None]] = {
     "oob_population": ("inference.population", "out_of_band"),
     "oob_generations": ("inference.generations", "out_of_band"),
     "oob_bits": ("inference.bits", "out_of_band"),
+    "oob_draw": ("inference.draw", "out_of_band"),
     "profile_proposals": ("inference.proposals", "profile"),
     "profile_initial": ("inference.initial", "profile"),
     "profile_refine": ("inference.refine", "profile"),
@@ -134,8 +135,9 @@ FIELD_HELP: dict[str, str] = {
     "inference": f"context inference strategy, one of {', '.join(INFERENCE_NAMES)} (paper 3.3, 3.4, 4)",
     "damage": "damage of the target robot (paper section 5): a preset name (aquafish_gym.DAMAGES), a JSON fault "
               "inline or as FILE.json (keys scale, seized, gains; recorded as its canonical JSON) or sampled:SEED",
-    "behaviour_summary": "dft (the paper's DFT magnitudes) or signed_dft (the zero-frequency term keeps its sign, "
-                         "so a robot and its mirror image differ; not the paper's)",
+    "behaviour_summary": "dft (the paper's DFT magnitudes), signed_dft (the zero-frequency term keeps its sign, "
+                         "so a robot and its mirror image differ; not the paper's) or gyro_dft (the DFT magnitudes "
+                         "of the angular rates, a gyroscope's signal, eq. 2 at MAX 1000; a reading of the paper)",
     "model_space": "what a self-model holds: morphology (the paper's 9 flipper dimensions, 45-bit genomes) or "
                    "morphology+servos (those and a gain per servo, pectorals in [-1, 1], caudal in [0, 1], 57-bit "
                    "genomes, OBJ_FIT over 12; eea.encoding; not the paper's)",
@@ -185,6 +187,8 @@ FIELD_HELP: dict[str, str] = {
     "oob_population": "out_of_band: candidate angle sets per inner GA generation",
     "oob_generations": "out_of_band: inner GA generations per inference",
     "oob_bits": "out_of_band: bits per angle in the inner GA genome (3 angles)",
+    "oob_draw": "out_of_band: which oob_sample models score candidate angles: best (the best distinct ones, the "
+                "default) or random (drawn from the population each inference; Figure 10's reading, in measurement)",
     "profile_proposals": "profile: perturbed angle sets tried per model, experiment and generation (not the paper's)",
     "profile_initial": "profile: random angle sets tried per model for a new experiment",
     "profile_refine": "profile: extra perturbation rounds of the angles of each contender, a model new this "
@@ -297,7 +301,7 @@ class EEAConfig:
     Args:
         damage: the target's damage (``--damage``; recorded as its canonical text).
         model_space: what a self-model holds (:data:`MODEL_SPACE_NAMES`).
-        behaviour_summary: ``dft`` or ``signed_dft`` (:data:`eea.behaviour.SUMMARIES`).
+        behaviour_summary: ``dft``, ``signed_dft`` or ``gyro_dft`` (:data:`eea.behaviour.SUMMARIES`).
         duration_s: seconds of every experiment, a multiple of 0.01 s, at least 2 steps.
         rounds: EEA rounds, >= 1.
         seed: seed of the run's one generator, >= 0.

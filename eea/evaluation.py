@@ -40,7 +40,7 @@ import numpy as np
 from aquafish_gym import SimParams, simulate_batch
 from aquafish_gym.checks import check_int
 from aquafish_gym.rundir import die_with_parent
-from eea.behaviour import SUMMARIES, behaviour_summary, similarity
+from eea.behaviour import MAX_COEFFICIENTS, SUMMARIES, similarity, summarise
 from eea.encoding import ModelSpace, get_model_space
 from eea.experiment import Experiment, check_params, quantise_angles
 
@@ -75,13 +75,13 @@ class RuntimeSettings:
         check_int("EEAConfig.max_batch_robots", self.max_batch_robots, 1)
 
 
-def _simulate_chunk(morphologies, actions, angles, steps, params, signed, faults=None) -> np.ndarray:
+def _simulate_chunk(morphologies, actions, angles, steps, params, summary, faults=None) -> np.ndarray:
     """Worker: behaviour summaries ``(n, 3, F)`` of one contiguous chunk of robots (``faults``:
-    None for healthy servos, or one ServoFaults per robot; ``signed``: see behaviour_summary)."""
+    None for healthy servos, or one ServoFaults per robot; ``summary``: a name of
+    :data:`eea.behaviour.SUMMARIES`)."""
     if faults is None:
-        return behaviour_summary(simulate_batch(morphologies, actions, angles, steps, params=params), signed)
-    return behaviour_summary(simulate_batch(morphologies, actions, angles, steps, faults=faults, params=params),
-                             signed)
+        return summarise(simulate_batch(morphologies, actions, angles, steps, params=params), summary)
+    return summarise(simulate_batch(morphologies, actions, angles, steps, faults=faults, params=params), summary)
 
 
 def _genome_keys(genomes: np.ndarray) -> list[bytes]:
@@ -112,7 +112,9 @@ class Evaluator:
             (default ``"morphology"``, the paper's 45-bit genomes; ``"morphology+servos"``: 57
             bits, each model simulated with its own servo gains).
         summary: the behaviour summary (:data:`eea.behaviour.SUMMARIES`): ``"dft"`` (the
-            paper's) or ``"signed_dft"`` (the zero-frequency term signed).
+            paper's), ``"signed_dft"`` (the zero-frequency term signed) or ``"gyro_dft"``
+            (the angular rates'); eq. 2 compares summaries at its
+            :data:`eea.behaviour.MAX_COEFFICIENTS` entry.
 
     Attributes:
         simulations: number of robot simulations run so far (cache hits excluded).
@@ -133,6 +135,8 @@ class Evaluator:
         if summary not in SUMMARIES:
             raise ValueError(f"unknown behaviour summary {summary!r}; valid: {', '.join(SUMMARIES)}")
         self.summary = summary
+        #: MAX of eq. 2 for this evaluator's summary (:data:`eea.behaviour.MAX_COEFFICIENTS`).
+        self.max_coefficient = MAX_COEFFICIENTS[summary]
         self.simulations = 0
         self._similarity: dict[bytes, float] = {}
         self._summaries: dict[bytes, np.ndarray] = {}
@@ -176,7 +180,7 @@ class Evaluator:
             return np.zeros((0, 3, self.steps // 2 + 1))
         n_chunks = min(n, max(self.workers, -(-n // self.max_batch_robots)))
         bounds = np.linspace(0, n, n_chunks + 1).astype(int)
-        chunks = [(morphologies[a:b], actions[a:b], angles[a:b], self.steps, self.params, self.summary == "signed_dft")
+        chunks = [(morphologies[a:b], actions[a:b], angles[a:b], self.steps, self.params, self.summary)
                   + (() if faults is None else (list(faults[a:b]),))
                   for a, b in zip(bounds[:-1], bounds[1:])]
         if self.workers == 1:
@@ -237,7 +241,7 @@ class Evaluator:
             actions = np.stack([experiments[j].action for j in first % e])
             summaries = self._simulate_models(genomes[first // e], actions, values[first])
             targets = np.stack([experiments[j].summary for j in first % e])
-            sims = similarity(summaries, targets)
+            sims = similarity(summaries, targets, self.max_coefficient)
             for (key, rows), s in zip(missing.items(), sims.tolist()):
                 self._similarity[key] = s
                 result[rows] = s
@@ -251,7 +255,7 @@ class Evaluator:
             if self._checked.get(x.index) is x.summary:
                 continue
             # to round-off: a checkpoint may be resumed on another machine's FFT
-            if not np.allclose(x.summary, behaviour_summary(x.imu_log, self.summary == "signed_dft"),
+            if not np.allclose(x.summary, summarise(x.imu_log, self.summary),
                                rtol=1e-9, atol=1e-9):
                 raise ValueError(f"experiment {x.index}'s summary is not the {self.summary!r} behaviour summary of "
                                  "its IMU log: build the Evaluator with the run's behaviour summary "

@@ -148,11 +148,11 @@ class Exploration:
             actions = decode_actions(genomes)
             if angle_sets is None:
                 summaries = evaluator.summaries(models, genomes, actions, EXPLORATION_ANGLES_RAD)  # (A, M, 3, F)
-                ga.tell(np.atleast_1d(action_fitness(summaries)))
+                ga.tell(np.atleast_1d(action_fitness(summaries, evaluator.max_coefficient)))
             else:
                 summaries = np.stack([evaluator.summaries(models, genomes, actions, angles) for angles in angle_sets],
                                      axis=1)                                                # (A, K, M, 3, F)
-                ga.tell(np.atleast_1d(robust_action_fitness(summaries)))
+                ga.tell(np.atleast_1d(robust_action_fitness(summaries, evaluator.max_coefficient)))
             if on_generation is not None:
                 on_generation(generation, ga.best_fitness)
         evaluator.clear_summaries()

@@ -17,7 +17,7 @@ import os
 import numpy as np
 
 from aquafish_gym import get_damage, simulate_batch
-from eea.behaviour import behaviour_summary
+from eea.behaviour import summarise
 from eea.experiment import FLIPPERS, Context, Experiment
 from eea.record import ACTION_COLUMNS, RunResult, load_result
 
@@ -47,8 +47,8 @@ def rebuild_experiments(result: RunResult) -> list[Experiment]:
     true = np.array([[row[f"true_{f}_rad"] for f in FLIPPERS] for row in result.rounds])
     logs = simulate_batch(np.repeat(truth[None], len(actions), axis=0), actions, true, result.config.steps,
                           faults=preset.faults, params=result.config.sim_params)
-    signed = result.config.behaviour_summary == "signed_dft"
-    return [Experiment(i, actions[i], logs[i], behaviour_summary(logs[i], signed), true[i], Context.exact(np.zeros(3)))
+    summary = result.config.behaviour_summary
+    return [Experiment(i, actions[i], logs[i], summarise(logs[i], summary), true[i], Context.exact(np.zeros(3)))
             for i in range(len(actions))]
 
 

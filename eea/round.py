@@ -20,7 +20,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from eea.behaviour import behaviour_summary
+from eea.behaviour import summarise
 from eea.config import EEAConfig
 from eea.estimation import Estimation
 from eea.experiment import Experiment
@@ -84,7 +84,7 @@ class RoundParts:
         initial angles, its behaviour summary, and the strategy's context for it."""
         imu_log, true_angles = self.target.perform(action)
         return Experiment(index, action, imu_log,
-                          behaviour_summary(imu_log, self.config.behaviour_summary == "signed_dft"), true_angles,
+                          summarise(imu_log, self.config.behaviour_summary), true_angles,
                           self.strategy.new_context(true_angles))
 
 

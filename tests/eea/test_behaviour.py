@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from eea.behaviour import behaviour_summary, similarity
+from eea.behaviour import MAX_COEFFICIENTS, angular_rates, behaviour_summary, similarity, summarise
 
 
 def test_summary_shape_and_unnormalised_scale():
@@ -116,3 +116,34 @@ def test_signed_summary_keeps_the_sign_of_the_zero_frequency_term_only():
     np.testing.assert_array_equal(behaviour_summary(mirror), plain)     # the paper's summary: the same
     assert similarity(behaviour_summary(mirror, signed=True), signed) < similarity(behaviour_summary(mirror), plain) == 1.0
     np.testing.assert_allclose(behaviour_summary(mirror, signed=True)[[0, 2], 0], -signed[[0, 2], 0])
+
+
+def test_angular_rates_are_the_change_per_step_over_10_ms():
+    """A yaw ramp of 0.5 degrees a step is 50 degrees/s from the second row on; the first row's
+    rate is 0; roll and pitch follow their own differences."""
+    steps = np.arange(8)
+    log = np.stack([np.where(steps >= 4, 2.0, 0.0), np.zeros(8), 0.5 * steps], axis=-1)   # roll steps up at row 4
+    rates = angular_rates(log)
+    np.testing.assert_allclose(rates[:, 2], [0.0] + [50.0] * 7)
+    np.testing.assert_allclose(rates[:, 0], [0, 0, 0, 0, 200.0, 0, 0, 0])               # 2 degrees in 0.01 s
+    np.testing.assert_array_equal(rates[:, 1], 0.0)
+    np.testing.assert_allclose(angular_rates(np.stack([log, 2 * log]))[1], 2 * rates)     # batched alike
+    with pytest.raises(ValueError, match="NaN"):
+        angular_rates(np.where(steps[:, None] == 3, np.nan, log))
+
+
+def test_summaries_by_name_and_their_max():
+    """gyro_dft is the paper's DFT of the rates (a constant turn of 50 degrees/s over 63 of 64
+    rows: zero-frequency term 50 * 63) and is compared at MAX 1000; dft and signed_dft are
+    behaviour_summary's."""
+    t = np.arange(64) * 0.01
+    log = np.stack([3.0 + np.sin(2 * np.pi * t), np.zeros(64), -50.0 * t], axis=-1)
+    np.testing.assert_array_equal(summarise(log, "dft"), behaviour_summary(log))
+    np.testing.assert_array_equal(summarise(log, "signed_dft"), behaviour_summary(log, signed=True))
+    gyro = summarise(log, "gyro_dft")
+    assert gyro.shape == (3, 33)
+    np.testing.assert_allclose(gyro[2, 0], 50.0 * 63)
+    np.testing.assert_array_equal(gyro, behaviour_summary(angular_rates(log)))
+    assert MAX_COEFFICIENTS == {"dft": 100.0, "signed_dft": 100.0, "gyro_dft": 1000.0}
+    with pytest.raises(ValueError, match="unknown behaviour summary 'gyro'; valid names: dft, signed_dft, gyro_dft"):
+        summarise(log, "gyro")

@@ -9,7 +9,8 @@ from eea.analysis.diagnosis import RunDiagnosis, diagnose_run
 from eea.run import run
 
 
-@pytest.mark.parametrize("inference, summary", [("known", "dft"), ("none", "dft"), ("known", "signed_dft")])
+@pytest.mark.parametrize("inference, summary", [("known", "dft"), ("none", "dft"), ("known", "signed_dft"),
+                                                ("known", "gyro_dft")])
 def test_truth_reproduces_the_target_exactly_under_true_angles(tmp_path, tiny_config, inference, summary):
     # the diagnosis simulates the models with the run's own behaviour summary (a signed run's
     # target summaries keep the zero-frequency term's sign: scored against plain DFT

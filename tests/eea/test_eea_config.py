@@ -49,6 +49,7 @@ def test_every_flat_name_has_help_and_a_default():
     ({"max_batch_robots": 0}, "EEAConfig.max_batch_robots must be an int >= 1"),
     ({"exploration_angles": 1}, "EEAConfig.exploration_angles must be 0"),
     ({"oob_period": 0}, "EEAConfig.oob_period must be an int >= 1"),
+    ({"oob_draw": "worst"}, "EEAConfig.oob_draw must be one of best, random, got 'worst'"),
     ({"estimation_search": "cma", "cma_sigma": 0.0}, r"EEAConfig.cma_sigma must be in \(0, 1\]"),
     ({"inference": "profile", "profile_library": -1}, "EEAConfig.profile_library must be an int >= 0"),
 ])
@@ -104,6 +105,9 @@ def test_a_flag_of_a_strategy_or_search_the_run_does_not_use_raises_unless_a_bud
     oob = F({"oob_period": 10})
     assert oob.replace(inference="in_band").inference == InBandSettings()
     assert oob.replace(oob_sample=2).inference == OutOfBandSettings(period=10, sample=2)
+    assert oob.replace(oob_draw="random").inference == OutOfBandSettings(period=10, draw="random")
+    assert EEAConfig.from_dict({**oob.to_dict(), "inference": {k: v for k, v in oob.to_dict()["inference"].items()
+                                                               if k != "draw"}}) == oob   # a record before draw
     with pytest.raises(ValueError, match="EEAConfig.oob_period needs inference='out_of_band', got 'none'"):
         oob.replace(inference="none", oob_period=12)
     assert dataclasses.replace(oob, inference=InBandSettings(k_best=2)).to_flat()["k_best"] == 2  # a whole section
@@ -229,5 +233,6 @@ def test_a_flat_published_config_and_its_nested_upgrade_are_the_same_run():
 def test_behaviour_summary_is_named_and_checked():
     assert EEAConfig().behaviour_summary == "dft"                        # the paper's
     assert F({"behaviour_summary": "signed_dft"}).behaviour_summary == "signed_dft"
-    with pytest.raises(ValueError, match="unknown behaviour_summary 'signed'; valid names: dft, signed_dft"):
+    assert F({"behaviour_summary": "gyro_dft"}).behaviour_summary == "gyro_dft"
+    with pytest.raises(ValueError, match="unknown behaviour_summary 'signed'; valid names: dft, signed_dft, gyro_dft"):
         EEAConfig(behaviour_summary="signed")

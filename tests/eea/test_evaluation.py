@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from aquafish_gym import simulate_batch
-from eea.behaviour import behaviour_summary, similarity
+from eea.behaviour import angular_rates, behaviour_summary, similarity, summarise
 from eea.encoding import decode_actions, decode_models
 from eea.evaluation import Evaluator
 from eea.experiment import quantise_angles
@@ -44,6 +44,26 @@ def test_a_target_summarised_otherwise_than_the_models_is_refused(make_experimen
         with Evaluator(16, summary=summary) as ev:
             with pytest.raises(ValueError, match=f"experiment 0's summary is not the '{summary}' behaviour summary"):
                 ev.similarities(_genomes(1), [wrong], angles)
+
+
+def test_a_gyro_evaluator_scores_eq2_of_the_rates_at_max_1000(make_experiment):
+    """With ``summary="gyro_dft"`` a model is scored by eq. 2 at MAX 1000 between the DFTs of its
+    angular rates and the target's (checked against the hand-built summaries)."""
+    import dataclasses
+
+    x = make_experiment(0)
+    target = dataclasses.replace(x, summary=summarise(x.imu_log, "gyro_dft"))
+    genomes = _genomes(2)
+    with Evaluator(16, summary="gyro_dft") as ev:
+        assert ev.max_coefficient == 1000.0
+        sims = ev.similarities(genomes, [target], np.zeros((2, 1, 3)))
+    with Evaluator(16, summary="gyro_dft") as ev:
+        with pytest.raises(ValueError, match="not the 'gyro_dft' behaviour summary"):
+            ev.similarities(genomes, [x], np.zeros((2, 1, 3)))        # the paper's summary of the same log
+    log = simulate_batch(decode_models(genomes), np.repeat(x.action[None], 2, axis=0), np.zeros((2, 3)), 16)
+    expected = similarity(behaviour_summary(angular_rates(log)), target.summary, 1000.0)
+    np.testing.assert_array_equal(sims[:, 0], expected)
+    assert not np.allclose(expected, similarity(behaviour_summary(angular_rates(log)), target.summary))  # MAX matters
 
 
 def test_cache_never_simulates_a_key_twice(simulator_spy, make_experiment):

@@ -143,6 +143,8 @@ def test_exploration_diversity_must_be_a_distance(tiny_config):
 class SpreadEvaluator:
     """Fake evaluator: model m's summary is m * 100 * caudal frequency: disagreement grows with Hz."""
 
+    max_coefficient = 100.0          # eq. 2's MAX for the paper's summary, as Evaluator("dft") has it
+
     def __init__(self):
         self.angles, self.cleared = [], 0
 
