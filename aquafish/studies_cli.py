@@ -10,7 +10,7 @@ from aquafish_gym.argtypes import (add_alias, add_config_option, add_episode_dur
                                    add_workers, csv_list, damage_list, int_at_least, path)
 from aquafish_gym.rundir import check_output_dir, check_output_file, run_lock
 from eea.cli import add_config_flags, config_fields, config_flag_names, given_flags
-from eea import INFERENCE_NAMES, MODEL_SPACES
+from eea import INFERENCE_NAMES
 from eea.methods import BEST_METHOD, METHODS, PAPER_METHODS
 
 
@@ -152,7 +152,7 @@ def add_commands(sub) -> None:
                    help=f"the self-model's method (default {BEST_METHOD}, the best; eea.methods); unless the "
                         "self-model is out_of_band in morphology, the paper's out_of_band run in morphology is a "
                         "row too")
-    c.add_argument("--model-space", default="morphology+servos", choices=list(MODEL_SPACES),
+    c.add_argument("--model-space", default="morphology+servos", choices=["morphology", "morphology+servos"],
                    help="the self-model's model space (default morphology+servos: the nine flipper dimensions and a "
                         "gain per servo, which the self-model gait's robot gets as servo faults); the plain-EEA and "
                         "out-of-band rows keep the paper's morphology")

@@ -138,7 +138,9 @@ FIELD_HELP: dict[str, str] = {
     "behaviour_summary": "dft (the paper's DFT magnitudes), signed_dft (the zero-frequency term keeps its sign, "
                          "so a robot and its mirror image differ; not the paper's) or gyro_dft (the DFT magnitudes "
                          "of the angular rates, a gyroscope's signal, eq. 2 at MAX 1000; a reading of the paper)",
-    "model_space": "what a self-model holds: morphology (the paper's 9 flipper dimensions, 45-bit genomes) or "
+    "model_space": "what a self-model holds: morphology (the paper's 9 flipper dimensions, 45-bit genomes), "
+                   "morphology_nonzero (the same on a grid one level up, no zero-size flipper; a reading of the "
+                   "paper, GA and one lineage only) or "
                    "morphology+servos (those and a gain per servo, pectorals in [-1, 1], caudal in [0, 1], 57-bit "
                    "genomes, OBJ_FIT over 12; eea.encoding; not the paper's)",
     "duration_s": "length of every experiment in seconds, a multiple of 0.01 s (paper: 1.28 ... 10.24)",
@@ -372,6 +374,10 @@ class EEAConfig:
         if flat.get("cma_flip_gains") and self.model_space != "morphology+servos":
             raise ValueError(f"EEAConfig.cma_flip_gains = 1 needs model_space='morphology+servos' (gains to flip), "
                              f"got {self.model_space!r}")
+        if self.model_space == "morphology_nonzero" and (flat["estimation_search"] != "ga" or flat["lineages"] != 1):
+            raise ValueError("EEAConfig.model_space='morphology_nonzero' (a variant of the paper's methods) runs with "
+                             f"estimation_search='ga' and lineages=1, got {flat['estimation_search']!r} and "
+                             f"{flat['lineages']}")
         share, population = flat.get("cma_global_share", 0), self.estimation.population
         if share and not 2 <= share <= population - 2:
             raise ValueError(f"EEAConfig.cma_global_share must be 0 or in [2, estimation_population - 2] "

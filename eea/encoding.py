@@ -26,6 +26,11 @@ The two genomes use them as follows:
 Model spaces (``EEAConfig.model_space``, :data:`MODEL_SPACES`): what a model genome holds.
 
 * ``morphology`` (the paper's, the default): the 45-bit genome above, 9 flipper dimensions.
+* ``morphology_nonzero`` (a reading of the paper, in measurement): the paper's 45 bits on a
+  grid one level up, ``lo + (hi - lo) (k + 1) / 2**nbits``, so no flipper dimension is 0 (a
+  zero-size flipper makes its initial angle irrelevant, an attractor under unknown angles;
+  docs/studies.md) and the top of each range is a level. Every nonzero level of the paper's
+  grid is a level here, so every damage that keeps its flippers is an exact model.
 * ``morphology+servos`` (not the paper's): the same 45 bits followed by 12 bits of servo
   gains, 4 per servo in the order left pectoral, right pectoral, caudal
   (:data:`SERVO_GAIN_FIELDS`), 57 bits, 12 values. A gain multiplies the commanded speed
@@ -395,12 +400,26 @@ class ModelSpace:
     Get one with :func:`get_model_space` (by name) or :func:`model_space_of` (by genome width).
 
     Attributes:
-        name: ``"morphology"`` or ``"morphology+servos"`` (:data:`MODEL_SPACES`).
+        name: ``"morphology"``, ``"morphology_nonzero"`` or ``"morphology+servos"``
+            (:data:`MODEL_SPACES`).
         servos: whether the genome appends the 12 gain bits.
+        nonzero: whether the flipper dimensions sit on the grid one level up (no level 0; see
+            the module docstring).
     """
 
     name: str
     servos: bool
+    nonzero: bool = False
+
+    @property
+    def grid_bounds(self) -> np.ndarray:
+        """``(9, 2)`` the half-open ranges the flipper fields decode onto: ``MORPHOLOGY_BOUNDS``,
+        or with ``nonzero`` each moved up by one level (``(hi - lo) / 2**nbits``)."""
+        bounds = np.asarray(MORPHOLOGY_BOUNDS, dtype=np.float64)
+        if not self.nonzero:
+            return bounds
+        step = (bounds[:, 1] - bounds[:, 0]) / np.left_shift(1, np.asarray(MODEL_FIELD_BITS))
+        return bounds + step[:, None]
 
     @property
     def n_bits(self) -> int:
@@ -429,6 +448,8 @@ class ModelSpace:
         Raises:
             ValueError: a genome of another width, or an entry that is not 0 or 1.
         """
+        if self.nonzero:
+            return decode_fields(genomes, MODEL_FIELD_BITS, self.grid_bounds, half_open=True)
         if not self.servos:
             return decode_models(genomes)
         g = np.asarray(genomes)
@@ -441,8 +462,17 @@ class ModelSpace:
         """The nearest model genomes ``(P, n_bits)`` (or ``(n_bits,)``) of ``(P, n)`` values.
 
         Raises:
-            ValueError: values of another width, or a value outside its range or not finite.
+            ValueError: values of another width, or a value outside its range or not finite
+                (with ``nonzero``: below the lowest level, e.g. a lost flipper's 0).
         """
+        if self.nonzero:
+            v = np.asarray(values, dtype=np.float64)
+            lowest = self.grid_bounds[:, 0]
+            if v.shape[-1:] == lowest.shape and np.any(v < lowest * (1 - 1e-9)):
+                col = int(np.argwhere(np.atleast_2d(v) < lowest * (1 - 1e-9))[0, 1])
+                raise ValueError(f"{self.name} has no level below {float(lowest[col])!r} for {MORPHOLOGY_FIELDS[col]} "
+                                 f"(a zero-size flipper is not a model of this space), got {float(v[..., col].min())!r}")
+            return encode_fields(v, MODEL_FIELD_BITS, self.grid_bounds, half_open=True)
         if not self.servos:
             return encode_models(values)
         v = np.asarray(values, dtype=np.float64)
@@ -476,6 +506,7 @@ class ModelSpace:
 
 #: The model spaces by name (``EEAConfig.model_space``); ``morphology`` is the paper's.
 MODEL_SPACES: dict[str, ModelSpace] = {s.name: s for s in (ModelSpace("morphology", False),
+                                                           ModelSpace("morphology_nonzero", False, nonzero=True),
                                                            ModelSpace("morphology+servos", True))}
 
 
@@ -494,7 +525,9 @@ def get_model_space(space) -> ModelSpace:
 
 
 def model_space_of(n_bits: int) -> ModelSpace:
-    """The model space whose genomes are ``n_bits`` long (45: morphology, 57: morphology+servos).
+    """The first model space whose genomes are ``n_bits`` long (45: morphology, 57:
+    morphology+servos). ``morphology_nonzero``'s genomes are 45 bits too: code that may meet
+    them takes its space from the run (``config.model_space``, ``search.model_space``) instead.
 
     Raises:
         ValueError: if no space has genomes of that length.

@@ -32,7 +32,7 @@ import numpy as np
 from aquafish_gym.checks import check_int
 from eea.compat import upgrade_estimation_state
 from eea.diversity import diverse_ranked
-from eea.encoding import genome_keys, genomes_from_keys, model_space_of
+from eea.encoding import genome_keys, genomes_from_keys, get_model_space, model_space_of
 from eea.experiment import Experiment
 from eea.fitness import model_fitness_from_similarities
 from eea.inference import InferenceStrategy
@@ -126,7 +126,8 @@ class Estimation:
     def __init__(self, search: ModelSearch) -> None:
         check_model_search(search)
         try:
-            self.model_space = model_space_of(search.n_bits)
+            self.model_space = (get_model_space(search.model_space) if hasattr(search, "model_space")
+                                else model_space_of(search.n_bits))
         except ValueError as err:
             raise ValueError(f"the estimation search must evolve 45-bit model genomes (57 with servo gains): "
                              f"{err}") from None

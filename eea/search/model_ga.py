@@ -40,7 +40,11 @@ class ModelGA(BitGA):
 
     def __init__(self, population_size: int, rng: np.random.Generator, *, model_space="morphology",
                  **options) -> None:
-        super().__init__(get_model_space(model_space).n_bits, population_size, rng, **options)
+        space = get_model_space(model_space)
+        super().__init__(space.n_bits, population_size, rng, **options)
+        #: The :class:`~eea.encoding.ModelSpace` of the genomes (saved with the state: two spaces
+        #: have 45-bit genomes).
+        self.model_space = space
 
     @classmethod
     def from_settings(cls, estimation, ga, model_space, rng: np.random.Generator) -> "ModelGA":
@@ -65,8 +69,8 @@ class ModelGA(BitGA):
         return cls(estimation.population, rng, model_space=space, **ga.options(space.n_bits))
 
     def state_dict(self) -> dict:
-        """:meth:`BitGA.state_dict` with ``"search": "ga"``."""
-        return {"search": self.name, **super().state_dict()}
+        """:meth:`BitGA.state_dict` with ``"search": "ga"`` and the ``"model_space"`` name."""
+        return {"search": self.name, "model_space": self.model_space.name, **super().state_dict()}
 
     @classmethod
     def _build(cls, n_bits: int, population_size: int, rng: np.random.Generator, **options) -> "ModelGA":
@@ -84,4 +88,11 @@ class ModelGA(BitGA):
         Raises:
             ValueError: if the state is not a model GA's, or as :meth:`BitGA.from_state_dict`.
         """
-        return super().from_state_dict({k: v for k, v in state.items() if k != "search"}, rng)
+        ga = super().from_state_dict({k: v for k, v in state.items() if k not in ("search", "model_space")}, rng)
+        if "model_space" in state:                     # a state saved before the name was kept: by width
+            space = get_model_space(str(state["model_space"]))
+            if space.n_bits != ga.n_bits:
+                raise ValueError(f"a model GA state of {ga.n_bits}-bit genomes names the {space.name} model space "
+                                 f"({space.n_bits} bits)")
+            ga.model_space = space
+        return ga
