@@ -467,11 +467,19 @@ class ModelSpace:
         """
         if self.nonzero:
             v = np.asarray(values, dtype=np.float64)
-            lowest = self.grid_bounds[:, 0]
-            if v.shape[-1:] == lowest.shape and np.any(v < lowest * (1 - 1e-9)):
-                col = int(np.argwhere(np.atleast_2d(v) < lowest * (1 - 1e-9))[0, 1])
-                raise ValueError(f"{self.name} has no level below {float(lowest[col])!r} for {MORPHOLOGY_FIELDS[col]} "
-                                 f"(a zero-size flipper is not a model of this space), got {float(v[..., col].min())!r}")
+            lowest, highest = self.grid_bounds[:, 0], np.asarray(MORPHOLOGY_BOUNDS, dtype=np.float64)[:, 1]
+            if v.shape[-1:] == lowest.shape and np.all(np.isfinite(v)):
+                below = np.atleast_2d(v) < lowest * (1 - _RANGE_TOLERANCE)
+                if np.any(below):
+                    col = int(np.argwhere(below)[0, 1])
+                    raise ValueError(f"{self.name} has no level below {float(lowest[col])!r} for "
+                                     f"{MORPHOLOGY_FIELDS[col]} (a zero-size flipper is not a model of this "
+                                     f"space), got {float(np.atleast_2d(v)[below].min())!r}")
+                above = np.atleast_2d(v) > highest * (1 + _RANGE_TOLERANCE)
+                if np.any(above):
+                    col = int(np.argwhere(above)[0, 1])
+                    raise ValueError(f"{MORPHOLOGY_FIELDS[col]} = {float(np.atleast_2d(v)[above][0])!r} is above "
+                                     f"its range's top {float(highest[col])!r}")
             return encode_fields(v, MODEL_FIELD_BITS, self.grid_bounds, half_open=True)
         if not self.servos:
             return encode_models(values)

@@ -89,7 +89,7 @@ class ModelGA(BitGA):
             ValueError: if the state is not a model GA's, or as :meth:`BitGA.from_state_dict`.
         """
         ga = super().from_state_dict({k: v for k, v in state.items() if k not in ("search", "model_space")}, rng)
-        if "model_space" in state:                     # a state saved before the name was kept: by width
+        if "model_space" in state:                     # else a state saved before the name was kept: by width
             space = get_model_space(str(state["model_space"]))
             if space.n_bits != ga.n_bits:
                 raise ValueError(f"a model GA state of {ga.n_bits}-bit genomes names the {space.name} model space "

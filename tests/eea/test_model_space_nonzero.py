@@ -43,6 +43,10 @@ def test_a_zero_size_flipper_is_refused_by_name():
     lost = get_damage("left_pectoral_missing").apply().to_array()
     with pytest.raises(ValueError, match="morphology_nonzero has no level below 0.03125 for left_pectoral_x"):
         NONZERO.encode(lost)
+    too_long = NONZERO.truth("left_pectoral_half")
+    too_long[1] = 2.01                                   # left pectoral length above its range's top, 2
+    with pytest.raises(ValueError, match="left_pectoral_y = 2.01 is above its range's top 2.0"):
+        NONZERO.encode(too_long)
 
 
 def test_the_space_runs_only_with_the_papers_search():
