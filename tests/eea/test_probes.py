@@ -139,7 +139,14 @@ def test_fault_check_and_identification_judge_a_servo_run(tmp_path, tiny_config,
         assert line["chosen_gains"] == line["final_gains"] and line["chosen_fit"] == line["final_fit"]
     else:
         assert line["chosen"] == "hypothesis" and line["chosen_fit"] > line["final_fit"]
-    assert line["simulations"] > 0
+    assert line["simulations"] > 0 and line["experiments"] == "checkpoint"
+    # a published run keeps no checkpoint: its experiments are simulated again, the same check
+    (tmp_path / "state.pkl").rename(tmp_path / "state.pkl.moved")
+    _load("fault_check").main([str(tmp_path)])
+    replayed = json.loads(capsys.readouterr().out.strip())
+    assert replayed.pop("experiments") == "replayed" and replayed.pop("seconds") is not None
+    assert replayed == {k: v for k, v in line.items() if k not in ("experiments", "seconds")}
+    (tmp_path / "state.pkl.moved").rename(tmp_path / "state.pkl")
     # identification (no simulation): the run's recorded self-model judged against its truth
     from eea.identification import servo_faults_named
     from eea.record import load_result

@@ -1,7 +1,9 @@
 """A finished self-model run's final model against fault hypotheses about the design (docs/studies/recovery.md).
 
-For every finished ``morphology+servos`` run under the given directories (each needs its
-checkpoint, ``state.pkl``, for the experiments' IMU logs), this fits the initial angles of the
+For every finished ``morphology+servos`` run under the given directories (the experiments'
+IMU logs from its checkpoint, ``state.pkl``; a published run keeps none, and its experiments
+are simulated again from ``rounds.csv``'s actions and true angles by
+:func:`eea.replay.rebuild_experiments`, the same logs bit for bit), this fits the initial angles of the
 run's final model and of the 97 hypotheses of :func:`eea.inference.selection.fault_hypotheses`
 (25 servo faults: the design morphology, pectoral gains -1, -0.5, 0, 0.5, 1 each; 20 pectoral
 flipper faults: one pectoral flipper halved in length or lost, the other pectoral's gain at
@@ -16,6 +18,7 @@ judges them: a lost flipper's servo is not judged), the MOD_FITs, the chosen mod
 lengths, the three best candidates (gains, lengths, MOD_FIT), the simulations and seconds.
 
     python docs/studies/probes/fault_check.py runs/lean1
+    python docs/studies/probes/fault_check.py docs/results/mirror_signed_flip   # published: replayed
 
 About 150,000 simulations a run of 8-9 experiments of 1.28 s (about 4.5 minutes on one core).
 Before 2026-11-27 the check had the 25 servo faults only (about 38,000 simulations), then the
@@ -38,6 +41,7 @@ from eea.experiment import Experiment
 from eea.fault_check import check_final_model
 from eea.identification import pectoral_signs_right
 from eea.record import load_result
+from eea.replay import rebuild_experiments
 
 
 def check_run(run_dir) -> dict:
@@ -45,7 +49,8 @@ def check_run(run_dir) -> dict:
     result, state = load_result(run_dir), load_state(run_dir)
     if result.config.model_space != "morphology+servos":
         raise ValueError(f"{run_dir}: a morphology+servos run is needed, got {result.config.model_space}")
-    experiments = [Experiment.from_state_dict(e) for e in state.experiments]
+    experiments = ([Experiment.from_state_dict(e) for e in state.experiments] if state is not None
+                   else rebuild_experiments(result))
     final, truth = np.asarray(result.best_model, dtype=float), result.true_model
     with Evaluator(result.config.steps, workers=1, params=result.config.sim_params, model_space="morphology+servos",
                    summary=result.config.behaviour_summary) as evaluator:
@@ -61,7 +66,8 @@ def check_run(run_dir) -> dict:
             "chosen_pectoral_lengths": chosen[[1, 4]].tolist(),
             "top3": [[check.models[i, 9:11].tolist(), check.models[i, [1, 4]].tolist(),
                       round(float(check.model_fitness[i]), 4)] for i in order[:3]],
-            "simulations": check.simulations, "seconds": round(check.wall_seconds)}
+            "simulations": check.simulations, "seconds": round(check.wall_seconds),
+            "experiments": "checkpoint" if state is not None else "replayed"}
 
 
 def main(argv=None) -> None:
