@@ -443,15 +443,14 @@ class ModelSpace:
 
     def decode(self, genomes) -> np.ndarray:
         """``(P, n)`` (or ``(n,)``) values of ``(P, n_bits)`` model genomes: the 9 dimensions
-        (:func:`decode_models`), then the 3 gains (:func:`decode_gains`) with ``servos``.
+        (:func:`decode_models`, on :attr:`grid_bounds`), then the 3 gains (:func:`decode_gains`)
+        with ``servos``.
 
         Raises:
             ValueError: a genome of another width, or an entry that is not 0 or 1.
         """
-        if self.nonzero:
-            return decode_fields(genomes, MODEL_FIELD_BITS, self.grid_bounds, half_open=True)
         if not self.servos:
-            return decode_models(genomes)
+            return decode_fields(genomes, MODEL_FIELD_BITS, self.grid_bounds, half_open=True)
         g = np.asarray(genomes)
         if g.ndim not in (1, 2) or g.shape[-1] != self.n_bits:
             raise ValueError(f"{self.name} genomes must have shape ({self.n_bits},) or (P, {self.n_bits}), "
@@ -466,28 +465,33 @@ class ModelSpace:
                 (with ``nonzero``: below the lowest level, e.g. a lost flipper's 0).
         """
         if self.nonzero:
-            v = np.asarray(values, dtype=np.float64)
-            lowest, highest = self.grid_bounds[:, 0], np.asarray(MORPHOLOGY_BOUNDS, dtype=np.float64)[:, 1]
-            if v.shape[-1:] == lowest.shape and np.all(np.isfinite(v)):
-                below = np.atleast_2d(v) < lowest * (1 - _RANGE_TOLERANCE)
-                if np.any(below):
-                    col = int(np.argwhere(below)[0, 1])
-                    raise ValueError(f"{self.name} has no level below {float(lowest[col])!r} for "
-                                     f"{MORPHOLOGY_FIELDS[col]} (a zero-size flipper is not a model of this "
-                                     f"space), got {float(np.atleast_2d(v)[below].min())!r}")
-                above = np.atleast_2d(v) > highest * (1 + _RANGE_TOLERANCE)
-                if np.any(above):
-                    col = int(np.argwhere(above)[0, 1])
-                    raise ValueError(f"{MORPHOLOGY_FIELDS[col]} = {float(np.atleast_2d(v)[above][0])!r} is above "
-                                     f"its range's top {float(highest[col])!r}")
-            return encode_fields(v, MODEL_FIELD_BITS, self.grid_bounds, half_open=True)
+            self._check_nonzero_range(values)
         if not self.servos:
-            return encode_models(values)
+            return encode_fields(values, MODEL_FIELD_BITS, self.grid_bounds, half_open=True)
         v = np.asarray(values, dtype=np.float64)
         n = len(self.fields)
         if v.ndim not in (1, 2) or v.shape[-1] != n:
             raise ValueError(f"{self.name} values must have shape ({n},) or (P, {n}), got {v.shape}")
         return np.concatenate([encode_models(v[..., :9]), encode_gains(v[..., 9:])], axis=-1)
+
+    def _check_nonzero_range(self, values) -> None:
+        """Refuse, by name, a dimension below the nonzero grid's lowest level or above its
+        range's top (``encode_fields`` would read the grid's ranges, one level up, as the
+        allowed ones); other malformed values are left to ``encode_fields``."""
+        rows = np.atleast_2d(np.asarray(values, dtype=np.float64))
+        lowest, highest = self.grid_bounds[:, 0], np.asarray(MORPHOLOGY_BOUNDS, dtype=np.float64)[:, 1]
+        if rows.shape[-1:] != lowest.shape or not np.all(np.isfinite(rows)):
+            return
+        below = rows < lowest * (1 - _RANGE_TOLERANCE)
+        if np.any(below):
+            col = int(np.argwhere(below)[0, 1])
+            raise ValueError(f"{self.name} has no level below {float(lowest[col])!r} for {MORPHOLOGY_FIELDS[col]} "
+                             f"(a zero-size flipper is not a model of this space), got {float(rows[below].min())!r}")
+        above = rows > highest * (1 + _RANGE_TOLERANCE)
+        if np.any(above):
+            col = int(np.argwhere(above)[0, 1])
+            raise ValueError(f"{MORPHOLOGY_FIELDS[col]} = {float(rows[above][0])!r} is above its range's top "
+                             f"{float(highest[col])!r}")
 
     def morphologies(self, values) -> np.ndarray:
         """``(..., 9)`` the flipper dimensions of decoded values."""
