@@ -46,6 +46,7 @@ import json
 import logging
 import shutil
 import time
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -157,6 +158,15 @@ PRESETS: dict[str, CaseStudyPreset] = {
 MISSING_RL = "stable-baselines3 is not installed (pip install 'aquafish[rl]')"
 
 
+#: EEA settings the case study sets itself, which ``self_model_fields`` may not hold, and how
+#: they are set instead.
+CASE_STUDY_FIELDS = {"inference": "the method: --method / method=", "damage": "--damage / damage=",
+                     "seed": "--seed / seed=", "model_space": "--model-space / model_space=",
+                     "behaviour_summary": "--behaviour-summary / behaviour_summary=",
+                     "workers": "--workers / workers=",
+                     "waterline": "the case study's robots swim at the surface; deep water is for EEA studies"}
+
+
 def _rl_available() -> bool:
     return importlib.util.find_spec("stable_baselines3") is not None
 
@@ -165,7 +175,8 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
                    model_space: str = DEFAULT_MODEL_SPACE, behaviour_summary: str = DEFAULT_SUMMARY,
                    episode_duration_s: float | None = None,
                    video: bool = True, workers: int | None = None, progress: bool = True,
-                   shared_dir=None, all_rows: bool = True, triage_only: bool = False) -> dict:
+                   shared_dir=None, all_rows: bool = True, triage_only: bool = False,
+                   self_model_fields: Mapping | None = None) -> dict:
     """Run the case study and write its report; return the report as a dict.
 
     Args:
@@ -206,10 +217,16 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             report holds the two rows and says whether the damage breaks the healthy gait
             (``"triaged": true``). A later run without it on the same ``out_dir`` goes on
             from there (the recovery benchmark triages every cell before the rest).
+        self_model_fields: :class:`~eea.config.EEAConfig` settings of the self-model's run, by
+            flat name (:data:`eea.config.FLAT_FIELDS`), over its method's and budget's, e.g.
+            ``{"lineages": 1, "estimation_generations": 15}`` (default: none). The other rows
+            keep theirs. Not one the case study sets itself (:data:`CASE_STUDY_FIELDS`); the
+            report records them as ``self_model_fields``.
 
     Raises:
         ValueError: unknown preset, damage, method or model space, a bad seed, duration or
-            worker count, ``triage_only`` with ``all_rows``, or an ``out_dir`` or ``shared_dir``
+            worker count, ``triage_only`` with ``all_rows``, a self-model field that is unknown,
+            out of its range or set by the case study itself, or an ``out_dir`` or ``shared_dir``
             that cannot be written (all checked before anything is created); an ``out_dir``
             that another process is writing
             (:class:`~aquafish_gym.rundir.BusyError`) or whose steps were made with other
@@ -230,15 +247,41 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             "self_model": (method, model_space, behaviour_summary)}
     if (method, model_space, behaviour_summary) != ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY):
         runs["out_of_band"] = ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY)
-    configs = {key: EEAConfig.from_method(name, settings.budget, damage=damage, seed=seed,
-                                          **model_fields(name, space, summary),
-                                          **({"workers": workers} if workers else {}))
-               for key, (name, space, summary) in runs.items()}
+    own = check_self_model_fields(self_model_fields)
+    try:
+        configs = {key: EEAConfig.from_method(name, settings.budget, damage=damage, seed=seed,
+                                              **{**model_fields(name, space, summary),
+                                                 **(own if key == "self_model" else {})},
+                                              **({"workers": workers} if workers else {}))
+                   for key, (name, space, summary) in runs.items()}
+    except ValueError as err:  # the damage and seed were checked above: the fields are at fault
+        if own:
+            raise ValueError(f"self_model_fields: {err}") from None
+        raise
     out = check_output_dir(out_dir)
     shared = None if shared_dir is None else check_output_dir(shared_dir, "shared_dir")
     with run_lock(out, command="case-study"):
         return _run_locked(preset, settings, damage, target, seed, out, method, model_space, video, workers,
-                           progress, runs, configs, shared, all_rows, triage_only)
+                           progress, runs, configs, shared, all_rows, triage_only, own)
+
+
+def check_self_model_fields(fields: Mapping | None) -> dict:
+    """``run_case_study``'s ``self_model_fields`` as a plain dict (``{}`` for None).
+
+    Raises:
+        ValueError: not a mapping of flat names, or a name of :data:`CASE_STUDY_FIELDS` (the
+            message names the argument that sets it); unknown names and values out of range are
+            refused when the config is built (:meth:`eea.config.EEAConfig.from_flat`).
+    """
+    if fields is None:
+        return {}
+    if not isinstance(fields, Mapping) or not all(isinstance(k, str) for k in fields):
+        raise ValueError(f"self_model_fields must map EEAConfig flat names to values, got {fields!r}")
+    for name in fields:
+        if name in CASE_STUDY_FIELDS:
+            raise ValueError(f"self_model_fields may not set {name!r}: the case study sets it "
+                             f"({CASE_STUDY_FIELDS[name]})")
+    return dict(fields)
 
 
 def preset_settings(preset: str, episode_duration_s: float | None = None) -> CaseStudyPreset:
@@ -447,7 +490,7 @@ def _true_gains(damage: str) -> list[float]:
 def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int, out: Path,
                 method: str, model_space: str, video: bool, workers: int | None, progress: bool, runs: dict,
                 configs: dict, shared: Path | None = None, all_rows: bool = True,
-                triage_only: bool = False) -> dict:
+                triage_only: bool = False, own: dict | None = None) -> dict:
     """The body of :func:`run_case_study`, under the lock of ``out`` (the rows of
     :data:`SHARED_KEYS` in ``shared`` when given)."""
     t0 = time.perf_counter()
@@ -486,7 +529,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         healthy, oracle = (transfers[k].target_distance for k in ("healthy", "true_damaged"))
         if triage_only or not breaks(healthy, oracle):
             return _write_triaged(out, preset, settings, damage, target, seed, method, model_space, transfers,
-                                  stages, time.perf_counter() - t0, shared)
+                                  stages, time.perf_counter() - t0, shared, own or {})
 
     # 2. self-model
     for key, (name, space, summary) in runs.items():
@@ -545,7 +588,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
     }
     report = {
         "preset": preset, "damage": damage, "seed": seed, "method": method, "model_space": model_space,
-        "episode_duration_s": duration,
+        "self_model_fields": own or {}, "episode_duration_s": duration,
         "settings": {**dataclasses.asdict(settings), "rl_timesteps": settings.rl_timesteps},
         "target_morphology": _dims(target),
         "target_servo_gains": dict(zip(GAIN_NAMES, _true_gains(damage))),
@@ -562,6 +605,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
                 "initial_angle_error_deg": dict(zip(("left", "right", "caudal"),
                                                     result.inference_error_deg[-1].round(2).tolist())),
                 "target_experiments": int(result.rounds[-1]["target_experiments"]),
+                "search_simulations": int(result.rounds[-1]["simulations"]),
             }
             for key, result in eea_results.items()
         },
@@ -598,7 +642,7 @@ def _triage_seconds(out: Path) -> float:
 
 def _write_triaged(out: Path, preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int,
                    method: str, model_space: str, transfers: dict, stages: dict, wall_seconds: float,
-                   shared: Path | None) -> dict:
+                   shared: Path | None, own: dict) -> dict:
     """The report of a case study stopped at its triage (``all_rows=False``): the healthy and the
     oracle rows only, because the damage does not break the healthy gait or because the
     triage was all that was asked (``triage_only``; ``verdict.breaks`` then says whether the
@@ -616,7 +660,7 @@ def _write_triaged(out: Path, preset: str, settings: CaseStudyPreset, damage: st
             " The other rows are still to run." if broken else " The other rows were not run (triage).")
     report = {
         "preset": preset, "damage": damage, "seed": seed, "method": method, "model_space": model_space,
-        "episode_duration_s": settings.episode_duration_s,
+        "self_model_fields": own, "episode_duration_s": settings.episode_duration_s,
         "settings": {**dataclasses.asdict(settings), "rl_timesteps": settings.rl_timesteps},
         "target_morphology": _dims(target), "target_servo_gains": dict(zip(GAIN_NAMES, _true_gains(damage))),
         "models": {}, "controllers": controllers, "triaged": True,
@@ -723,6 +767,10 @@ def render_report(report: dict) -> str:
                      + " | ".join(f"{m[k]['morphology'][name]:.3f}" for k in keys) + " |")
     lines.append("| **objective fitness** (eq. 4) | | 1.000 | " + " | ".join(f"{m[k]['objective_fitness']:.3f}" for k in keys) + " |")
     lines.append("| target experiments used | | | " + " | ".join(str(m[k]["target_experiments"]) for k in keys) + " |")
+    if all("search_simulations" in m[k] for k in keys):
+        lines.append("| robot simulations (search + check) | | | " + " | ".join(
+            f"{m[k]['search_simulations']:,}" + (f" + {m[k]['fault_check']['simulations']:,}" if m[k].get("fault_check")
+                                                 else "") for k in keys) + " |")
     if any(m[k].get("servo_gains") for k in keys):
         target_gains = report.get("target_servo_gains") or {}
         for name in GAIN_NAMES:
@@ -734,6 +782,9 @@ def render_report(report: dict) -> str:
     if any(errors):
         lines.append("| initial-angle error, last experiment (deg: left, right, caudal) | | | " + " | ".join(
             f"{e['left']:.1f}, {e['right']:.1f}, {e['caudal']:.1f}" if e else "(not inferred)" for e in errors) + " |")
+    if report.get("self_model_fields"):
+        lines += ["", "The self-model's run has settings of its own over its method's and budget's: "
+                  + ", ".join(f"`{k} = {v!r}`" for k, v in report["self_model_fields"].items()) + "."]
     for k in keys:
         check = m[k].get("fault_check")
         if check and check["replaced"]:

@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from aquafish_gym.argtypes import (add_alias, add_config_option, add_episode_duration, add_no_progress, add_processes,
-                                   add_workers, csv_list, damage_list, int_at_least, path)
+                                   add_workers, csv_list, damage_list, int_at_least, json_object, path)
 from aquafish_gym.rundir import check_output_dir, check_output_file, run_lock
 from eea.cli import add_config_flags, config_fields, config_flag_names, given_flags
 from eea import INFERENCE_NAMES
@@ -37,7 +37,8 @@ def _case_study(args: argparse.Namespace) -> int:
     report = run_case_study(args.budget, args.damage, args.seed, args.out, method=args.method,
                             model_space=args.model_space, behaviour_summary=args.behaviour_summary,
                             episode_duration_s=args.episode_duration_s,
-                            video=args.video, workers=args.workers, progress=not args.no_progress)
+                            video=args.video, workers=args.workers, progress=not args.no_progress,
+                            self_model_fields=args.self_model_fields)
     print((Path(args.out) / "report.md").read_text())
     video = f", {report['video']}" if report.get("video") else ""
     print(f"wrote {Path(args.out) / 'report.md'}, report.json{video} ({report['wall_seconds'] / 60:.1f} min)")
@@ -172,6 +173,11 @@ def add_commands(sub) -> None:
     c.add_argument("--seed", type=int_at_least(0), default=0, help="seeds every run (default 0)")
     c.add_argument("--out", type=path, default="case_study_out",
                    help="output directory (finished steps are reused; default case_study_out)")
+    c.add_argument("--self-model-fields", type=json_object, default=None, metavar="JSON",
+                   help="EEA settings of the self-model's run over its method's and budget's, as a JSON object of "
+                        "aquafish eea's flags by flat name, inline or as FILE.json, e.g. "
+                        "'{\"lineages\": 1, \"estimation_generations\": 15}' (default: none; the other rows keep "
+                        "theirs)")
     add_workers(c, None, "all cores")
     add_no_progress(c, "round, generation or training chunk")
     add_config_option(c)

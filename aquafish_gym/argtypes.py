@@ -5,12 +5,13 @@ command line is parsed, before any work, with a message that names the flag and 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 from pathlib import Path
 
 __all__ = ["CONFIG_HELP", "EPISODE_DURATION_HELP", "PROCESSES_HELP", "WORKERS_HELP", "add_alias", "add_config_option",
            "add_episode_duration", "add_no_progress", "add_processes", "add_workers", "csv_list", "damage_list",
-           "int_at_least", "is_comma_separated", "path", "positive_float"]
+           "int_at_least", "is_comma_separated", "json_object", "path", "positive_float"]
 
 #: How every command's ``--workers`` help begins: processes that evaluate in parallel within one
 #: run (a run's population, a case study's steps); ``--processes`` is the other count.
@@ -54,6 +55,32 @@ def positive_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}") from None
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return value
+
+
+def json_object(text: str) -> dict:
+    """An argparse ``type``: a JSON object, inline (``'{"lineages": 1}'``) or the content of a
+    ``.json`` file named by ``text``; a key given twice is refused."""
+
+    def pairs(items):
+        keys = [key for key, _ in items]
+        twice = sorted({key for key in keys if keys.count(key) > 1})
+        if twice:
+            raise argparse.ArgumentTypeError(f"key {twice[0]!r} given twice")
+        return dict(items)
+
+    source = text
+    if text.strip().endswith(".json") and not text.lstrip().startswith("{"):
+        try:
+            source = Path(text).read_text()
+        except OSError as err:
+            raise argparse.ArgumentTypeError(f"cannot read {text}: {err.strerror or err}") from None
+    try:
+        value = json.loads(source, object_pairs_hook=pairs)
+    except json.JSONDecodeError as err:
+        raise argparse.ArgumentTypeError(f"is not valid JSON ({err}): {text!r}") from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(f"must be a JSON object ({{\"name\": value, ...}}), got {text!r}")
     return value
 
 

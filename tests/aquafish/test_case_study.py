@@ -89,9 +89,17 @@ def test_tiny_case_study_new_rows_servo_gains_and_video(tmp_path, capsys):
     the verdict and the video."""
     out = tmp_path / "cs"
     assert main(["case-study", "--preset", "smoke", "--damage", "reversed_left_pectoral", "--episode-duration", "2",
-                 "--workers", "1", "--out", str(out)]) == 0
+                 "--workers", "1", "--out", str(out),
+                 "--self-model-fields", '{"lineages": 1, "estimation_generations": 2}']) == 0
     report = json.loads((out / "report.json").read_text())
     assert report["episode_duration_s"] == 2.0 and report["model_space"] == "morphology+servos"
+    # the self-model's own settings reached its run only, over the method's 2 lineages and smoke's 3 generations
+    assert report["self_model_fields"] == {"lineages": 1, "estimation_generations": 2}
+    configs = {key: json.loads((out / d / "config.json").read_text())["estimation"] for key, d in
+               (("self_model", "eea_profile_lineages_servos_signed"), ("plain_eea", "eea_none"))}
+    assert (configs["self_model"]["lineages"], configs["self_model"]["generations"]) == (1, 2)
+    assert configs["plain_eea"]["generations"] == BUDGETS["smoke"]["estimation_generations"] == 3
+    assert "`lineages = 1`, `estimation_generations = 2`" in (out / "report.md").read_text()
     assert {k: m["behaviour_summary"] for k, m in report["models"].items()} == {
         "plain_eea": "dft", "self_model": "signed_dft", "out_of_band": "dft"}
     assert (out / "eea_profile_lineages_servos_signed" / "rounds.csv").exists()
@@ -108,6 +116,7 @@ def test_tiny_case_study_new_rows_servo_gains_and_video(tmp_path, capsys):
     assert report["models"]["self_model"]["fault_check"]["replaced"] == (run.fault_check.index != 0)
     assert report["models"]["self_model"]["objective_fitness"] == run.self_model_objective_fitness
     assert report["models"]["plain_eea"]["fault_check"] is None
+    assert report["models"]["self_model"]["search_simulations"] == run.rounds[-1]["simulations"] > 0
     # the model's gains reached the robot its gait was evolved on, and the 2 s runs have their own directories
     robot = json.loads((out / "gait_self_model_2s" / "run.json").read_text())["robot"]
     assert robot["faults"]["speed_scale"] == pytest.approx([gains[k] for k in case_study.GAIN_NAMES])
@@ -139,6 +148,21 @@ def test_case_study_rejects_bad_duration_and_model_space(tmp_path):
     with pytest.raises(ValueError, match="model_space"):
         run_case_study("smoke", "left_pectoral_half", 0, tmp_path, model_space="servos")
     assert not any(tmp_path.iterdir())
+
+
+def test_self_model_fields_are_refused_by_name_before_anything_is_written(tmp_path, capsys):
+    with pytest.raises(ValueError, match="may not set 'seed'.*--seed"):
+        run_case_study("smoke", "left_pectoral_half", 0, tmp_path, self_model_fields={"seed": 3})
+    with pytest.raises(ValueError, match="self_model_fields: unknown EEAConfig keys .'lineagez'."):
+        run_case_study("smoke", "left_pectoral_half", 0, tmp_path, self_model_fields={"lineagez": 1})
+    with pytest.raises(ValueError, match="self_model_fields: EEAConfig.lineages must be an int >= 1, got 0"):
+        run_case_study("smoke", "left_pectoral_half", 0, tmp_path, self_model_fields={"lineages": 0})
+    with pytest.raises(ValueError, match="must map"):
+        run_case_study("smoke", "left_pectoral_half", 0, tmp_path, self_model_fields=[("lineages", 1)])
+    assert not any(tmp_path.iterdir())
+    with pytest.raises(SystemExit):
+        main(["case-study", "--self-model-fields", "[1]", "--out", str(tmp_path / "x")])
+    assert "--self-model-fields: must be a JSON object" in capsys.readouterr().err
 
 
 def test_unknown_preset_is_a_clear_error(tmp_path, capsys):

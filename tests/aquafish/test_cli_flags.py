@@ -193,3 +193,15 @@ def test_episode_length_and_mission_length_are_told_apart():
     have = {c for c, p in PARSERS.items() if "--episode-duration-s" in p._option_string_actions}
     assert have == {"swim", "gait", "rl", "case-study", "recovery"}
     assert "whole mission" in PARSERS["mission"]._option_string_actions["--duration-s"].help
+
+
+def test_json_object_reads_inline_json_or_a_file_and_refuses_anything_else(tmp_path):
+    from aquafish_gym.argtypes import json_object
+
+    assert json_object('{"lineages": 1, "duration_s": 2.56}') == {"lineages": 1, "duration_s": 2.56}
+    (tmp_path / "lean.json").write_text('{"profile_refine": 0}')
+    assert json_object(str(tmp_path / "lean.json")) == {"profile_refine": 0}
+    for text, message in (('[1, 2]', "must be a JSON object"), ('{"a": 1, "a": 2}', "key 'a' given twice"),
+                          ('{lineages: 1}', "is not valid JSON"), (str(tmp_path / "none.json"), "cannot read")):
+        with pytest.raises(argparse.ArgumentTypeError, match=message):
+            json_object(text)

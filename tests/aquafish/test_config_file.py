@@ -80,10 +80,16 @@ def test_gait_takes_neat_ini_as_neat_config_and_refuses_it_as_a_run_config(tmp_p
     assert "an INI file" in line and "--neat-config" in line
 
 
+def test_a_json_flag_takes_its_json_as_a_string(tmp_path):
+    config = _write(tmp_path / "cs.toml", 'self_model_fields = \'{"lineages": 1, "profile_refine": 0}\'\n')
+    args, _ = _parse(["case-study", "--config", config])
+    assert args.self_model_fields == {"lineages": 1, "profile_refine": 0}
+
+
 def test_keys_are_the_canonical_long_flags():
     keys = config_keys(_command("case-study"))
     assert list(keys) == ["budget", "method", "model_space", "behaviour_summary", "episode_duration_s", "video",
-                          "damage", "seed", "out", "workers", "no_progress"]   # no preset, no config, no debug
+                          "damage", "seed", "out", "self_model_fields", "workers", "no_progress"]   # no preset, config, debug
     assert "duration_s" in config_keys(_command("eea")) and "duration" not in config_keys(_command("eea"))
     assert "methods" in config_keys(_command("study"))                         # the flag's name, not its dest
 
@@ -219,15 +225,15 @@ def test_a_finished_run_records_its_config_file_and_effective_flags(tmp_path, mo
     assert main(["case-study", "--config", str(config), "--seed", "4", "--workers", "1"]) == 0
     assert calls == [("smoke", "left_pectoral_half", 4, dict(method="profile_lineages",
                       model_space="morphology+servos", behaviour_summary="signed_dft", episode_duration_s=None,
-                      video=False, workers=1, progress=True))]
+                      video=False, workers=1, progress=True, self_model_fields=None))]
     record = json.loads((out / RECORD_FILE).read_text())
     assert record["command"] == "case-study" and record["config_file"] == str(config)
     assert record["config"] == {"budget": "smoke", "seed": 3, "video": False, "out": str(out)}
     assert record["argv"] == ["--config", str(config), "--seed", "4", "--workers", "1"]
     assert record["flags"] == {"budget": "smoke", "method": "profile_lineages", "model_space": "morphology+servos",
                                "behaviour_summary": "signed_dft", "episode_duration_s": None, "video": False,
-                               "damage": "left_pectoral_half", "seed": 4, "out": str(out), "workers": 1,
-                               "no_progress": False}
+                               "damage": "left_pectoral_half", "seed": 4, "out": str(out),
+                               "self_model_fields": None, "workers": 1, "no_progress": False}
 
 
 def test_no_record_without_config_after_a_failure_or_in_another_commands_directory(tmp_path, monkeypatch, capsys):
