@@ -90,7 +90,8 @@ class Selection:
 
 
 def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator, rng: np.random.Generator, *,
-                 generations: int = 30, scan_cycles: int = 2, start=None, model_space=None) -> Selection:
+                 generations: int = 30, scan_cycles: int = 2, polish: bool = True, start=None,
+                 model_space=None) -> Selection:
     """Fit every model's angles equally hard on the experiments; the highest MOD_FIT wins.
 
     Args:
@@ -103,6 +104,9 @@ def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator
         rng: draws the fit's random starts and perturbations.
         generations: random-perturbation generations of :meth:`eea.inference.profile.Profile.fit`, >= 1.
         scan_cycles: cycles of the per-flipper angle scan before the compass polish, >= 0.
+        polish: end with the compass polish (:meth:`eea.inference.profile.Profile.polish_angles`,
+            about 60-90 simulations a model and experiment); False scores the angles the fit
+            and the scan found.
         start: optional ``(N, E, 3)`` angles (rad) per model and experiment, tried beside the
             fit's random starts (e.g. the angles a run already found for its model; a model
             given twice starts from its first row's), or ``(S, N, E, 3)``: S such sets.
@@ -140,7 +144,8 @@ def select_model(models, experiments: Sequence[Experiment], evaluator: Evaluator
     sims = evaluator.similarities(genomes, experiments, angles)
     if scan_cycles:
         profile.scan_angles(genomes, angles, sims, experiments, evaluator, scan_cycles)
-    profile.polish_angles(genomes, angles, sims, experiments, evaluator)
+    if polish:
+        profile.polish_angles(genomes, angles, sims, experiments, evaluator)
     fitness = model_fitness_from_similarities(sims)[inverse]
     return Selection(models, fitness, angles[inverse], int(np.argmax(fitness)))
 
@@ -238,7 +243,8 @@ def gain_neighbours(model) -> np.ndarray:
 
 def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], evaluator: Evaluator, seed: int, *,
                            levels: Sequence[float] = FAULT_GAIN_LEVELS, screen_generations: int = 3,
-                           screen_scan_cycles: int = 1, refit: int = 8, refit_rounds: int = 2, generations: int = 10,
+                           screen_scan_cycles: int = 1, screen_polish: bool = True, refit: int = 8,
+                           refit_rounds: int = 2, generations: int = 10,
                            scan_cycles: int = 2, polish: int = 2, polish_steps: int = 3) -> Selection:
     """A found self-model against fault hypotheses about the design, fitted equally hard.
 
@@ -285,6 +291,7 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
         levels: the hypotheses' pectoral gains.
         screen_generations: the screen's fit, as ``generations`` of :func:`select_model`.
         screen_scan_cycles: the screen's fit, as ``scan_cycles`` of :func:`select_model`.
+        screen_polish: the screen's fit, as ``polish`` of :func:`select_model`.
         refit: candidates fitted again, >= 1.
         refit_rounds: rounds of the refit, >= 1.
         generations: the refit's fit, as :func:`select_model`'s.
@@ -312,7 +319,7 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
         raise ValueError(f"polish must be >= 0 and polish_steps >= 1, got {polish} and {polish_steps}")
     candidates = np.vstack([model[None], fault_hypotheses(design, levels)])
     screen = select_model(candidates, experiments, evaluator, np.random.default_rng(seed),
-                          generations=screen_generations, scan_cycles=screen_scan_cycles,
+                          generations=screen_generations, scan_cycles=screen_scan_cycles, polish=screen_polish,
                           model_space="morphology+servos")
     fitness, angles = screen.model_fitness.copy(), screen.angles.copy()
     best = np.argsort(-fitness, kind="stable")[:refit]

@@ -6,6 +6,7 @@ import pytest
 from aquafish_gym import Morphology
 from eea.behaviour import behaviour_summary
 from eea.evaluation import Evaluator
+from eea.fitness import model_fitness_from_similarities
 from eea.experiment import Context, Experiment
 from eea.inference.selection import (FAULT_GAIN_LEVELS, GAIN_POLISH_MARGIN, check_fault_hypotheses, fault_hypotheses,
                                      gain_neighbours, select_model)
@@ -108,6 +109,31 @@ def test_the_check_refits_the_screens_best_in_rounds_that_share_their_angles():
     np.testing.assert_array_equal(sel.angles, angles)
     assert np.all(sel.model_fitness[best] >= screen.model_fitness[best])
     assert sel.index in best and sel.index == int(np.argmax(sel.model_fitness))
+
+
+def test_a_screen_without_the_polish_scores_the_fits_angles_at_a_fraction_of_the_cost():
+    """select_model(polish=False): the same fit (same seed) and scan, no compass polish; each
+    model's MOD_FIT is eq. 3 of its returned angles' similarities, at most the polished fit's,
+    for fewer simulations; the check's screen takes it through screen_polish."""
+    experiments = _experiments("reversed_left_pectoral", [(0.45, 0.4, 0.5), (-0.3, 0.2, 0.8)], steps=32)
+    found = np.concatenate([DESIGN, [1.0, -1.0, 1.0]])
+    candidates = np.vstack([found[None], fault_hypotheses(DESIGN, (-1.0, 1.0))])
+    with Evaluator(32, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:
+        before = ev.simulations
+        bare = select_model(candidates, experiments, ev, np.random.default_rng(5), generations=1, scan_cycles=0,
+                            polish=False)
+        bare_cost, before = ev.simulations - before, ev.simulations
+        polished = select_model(candidates, experiments, ev, np.random.default_rng(5), generations=1, scan_cycles=0)
+        polished_cost = ev.simulations - before
+        rescored = model_fitness_from_similarities(
+            ev.similarities(ev.model_space.encode(candidates), experiments, bare.angles))
+        check = check_fault_hypotheses(found, DESIGN, experiments, ev, 5, **{**QUICK_FIT, "screen_polish": False})
+    np.testing.assert_allclose(bare.model_fitness, rescored, rtol=0, atol=1e-12)
+    assert np.all(bare.model_fitness <= polished.model_fitness + 1e-12)
+    assert np.any(bare.model_fitness < polished.model_fitness)
+    assert bare_cost < polished_cost / 2
+    rest = np.setdiff1d(np.arange(len(candidates)), np.argsort(-bare.model_fitness, kind="stable")[:4])
+    np.testing.assert_array_equal(check.model_fitness[rest], bare.model_fitness[rest])  # the screen, unrefitted
 
 
 def test_gain_neighbours_move_one_gain_to_the_grid_level_nearest_one_step_away():

@@ -147,9 +147,17 @@ def test_fault_check_and_identification_judge_a_servo_run(tmp_path, tiny_config,
     assert replayed.pop("experiments") == "replayed" and replayed.pop("seconds") is not None
     assert replayed == {k: v for k, v in line.items() if k not in ("experiments", "seconds")}
     (tmp_path / "state.pkl.moved").rename(tmp_path / "state.pkl")
+    # a bare screen (fit only) costs less and names the recorded check beside its own choice
+    from eea.record import load_result
+
+    _load("fault_check").main(["--bare-screen", str(tmp_path)])
+    bare = json.loads(capsys.readouterr().out.strip())
+    recorded = load_result(tmp_path).fault_check
+    assert bare["screen"] == "bare" and bare["simulations"] < line["simulations"]
+    assert bare["recorded_gains"] == recorded.model[9:].tolist() and bare["recorded_procedure"] == recorded.procedure
+    assert bare["chosen_fit"] == max(fit for _, _, fit in bare["top3"])
     # identification (no simulation): the run's recorded self-model judged against its truth
     from eea.identification import servo_faults_named
-    from eea.record import load_result
 
     result = load_result(tmp_path)
     _load("identification").main([str(tmp_path)])

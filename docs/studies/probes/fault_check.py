@@ -19,6 +19,13 @@ lengths, the three best candidates (gains, lengths, MOD_FIT), the simulations an
 
     python docs/studies/probes/fault_check.py runs/lean1
     python docs/studies/probes/fault_check.py docs/results/mirror_signed_flip   # published: replayed
+    python docs/studies/probes/fault_check.py --bare-screen runs/lean1_check    # a cheaper screen
+
+``--bare-screen`` makes the check with a screen that only fits (its 3 generations, no scan cycle
+and no compass polish: ``check_fault_hypotheses(screen_scan_cycles=0, screen_polish=False)``),
+the rest as today; the line then also gives the run's recorded check (``recorded_gains``,
+``recorded_procedure``) to compare with. The screen is about 80 % of today's check; bare, about
+a tenth of itself.
 
 About 150,000 simulations a run of 8-9 experiments of 1.28 s (about 4.5 minutes on one core).
 Before 2026-11-27 the check had the 25 servo faults only (about 38,000 simulations), then the
@@ -31,6 +38,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import time
 
 import numpy as np
 
@@ -38,13 +46,15 @@ from eea.analysis.plot import find_runs
 from eea.checkpoint import load_state
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
-from eea.fault_check import check_final_model
+from aquafish_gym import Morphology
+from eea.fault_check import FAULT_CHECK_SEED, FaultCheck, check_final_model
+from eea.inference.selection import check_fault_hypotheses
 from eea.identification import pectoral_signs_right
 from eea.record import load_result
 from eea.replay import rebuild_experiments
 
 
-def check_run(run_dir) -> dict:
+def check_run(run_dir, bare_screen: bool = False) -> dict:
     """The check of one finished run (see the module docstring); its JSON line as a dict."""
     result, state = load_result(run_dir), load_state(run_dir)
     if result.config.model_space != "morphology+servos":
@@ -54,7 +64,14 @@ def check_run(run_dir) -> dict:
     final, truth = np.asarray(result.best_model, dtype=float), result.true_model
     with Evaluator(result.config.steps, workers=1, params=result.config.sim_params, model_space="morphology+servos",
                    summary=result.config.behaviour_summary) as evaluator:
-        check = check_final_model(final, experiments, evaluator, len(result.rounds))
+        if bare_screen:
+            started, simulations = time.perf_counter(), evaluator.simulations
+            selection = check_fault_hypotheses(final, Morphology.healthy().to_array(), experiments, evaluator,
+                                               FAULT_CHECK_SEED, screen_scan_cycles=0, screen_polish=False)
+            check = FaultCheck(len(result.rounds), selection.models, selection.model_fitness, selection.index,
+                               evaluator.simulations - simulations, time.perf_counter() - started, "bare screen")
+        else:
+            check = check_final_model(final, experiments, evaluator, len(result.rounds))
     order = np.argsort(-check.model_fitness, kind="stable")
     chosen = check.model
     return {"run": str(run_dir), "damage": result.config.damage, "true_gains": truth[9:].tolist(),
@@ -67,16 +84,22 @@ def check_run(run_dir) -> dict:
             "top3": [[check.models[i, 9:11].tolist(), check.models[i, [1, 4]].tolist(),
                       round(float(check.model_fitness[i]), 4)] for i in order[:3]],
             "simulations": check.simulations, "seconds": round(check.wall_seconds),
-            "experiments": "checkpoint" if state is not None else "replayed"}
+            "experiments": "checkpoint" if state is not None else "replayed"} | ({
+            "screen": "bare",
+            "recorded_gains": None if result.fault_check is None else result.fault_check.model[9:].tolist(),
+            "recorded_procedure": None if result.fault_check is None else result.fault_check.procedure}
+        if bare_screen else {})
 
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dirs", nargs="+", help="directories searched for finished morphology+servos runs")
+    parser.add_argument("--bare-screen", action="store_true",
+                        help="screen by the fit alone (no scan cycle, no polish); the rest as today's check")
     args = parser.parse_args(argv)
     for result in find_runs(args.dirs):
         if result.config.model_space == "morphology+servos":  # the paper's morphology runs have no servo gains
-            print(json.dumps(check_run(result.out_dir)), flush=True)
+            print(json.dumps(check_run(result.out_dir, args.bare_screen)), flush=True)
 
 
 if __name__ == "__main__":
