@@ -529,7 +529,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         healthy, oracle = (transfers[k].target_distance for k in ("healthy", "true_damaged"))
         if triage_only or not breaks(healthy, oracle):
             return _write_triaged(out, preset, settings, damage, target, seed, method, model_space, transfers,
-                                  stages, time.perf_counter() - t0, shared, own or {})
+                                  stages, time.perf_counter() - t0, shared, own)
 
     # 2. self-model
     for key, (name, space, summary) in runs.items():
@@ -642,7 +642,7 @@ def _triage_seconds(out: Path) -> float:
 
 def _write_triaged(out: Path, preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int,
                    method: str, model_space: str, transfers: dict, stages: dict, wall_seconds: float,
-                   shared: Path | None, own: dict) -> dict:
+                   shared: Path | None, own: dict | None = None) -> dict:
     """The report of a case study stopped at its triage (``all_rows=False``): the healthy and the
     oracle rows only, because the damage does not break the healthy gait or because the
     triage was all that was asked (``triage_only``; ``verdict.breaks`` then says whether the
@@ -660,7 +660,7 @@ def _write_triaged(out: Path, preset: str, settings: CaseStudyPreset, damage: st
             " The other rows are still to run." if broken else " The other rows were not run (triage).")
     report = {
         "preset": preset, "damage": damage, "seed": seed, "method": method, "model_space": model_space,
-        "self_model_fields": own, "episode_duration_s": settings.episode_duration_s,
+        "self_model_fields": own or {}, "episode_duration_s": settings.episode_duration_s,
         "settings": {**dataclasses.asdict(settings), "rl_timesteps": settings.rl_timesteps},
         "target_morphology": _dims(target), "target_servo_gains": dict(zip(GAIN_NAMES, _true_gains(damage))),
         "models": {}, "controllers": controllers, "triaged": True,
