@@ -56,6 +56,7 @@ import dataclasses
 import json
 import os
 from pathlib import Path
+from collections.abc import Mapping
 from typing import Iterable, Iterator
 
 from aquafish import backends
@@ -85,12 +86,14 @@ class RecoverySpec:
         episode_duration_s: simulated seconds of every episode (the preset's when not given).
         damages: damages as canonical text (:func:`aquafish_gym.get_damage`'s ``name``).
         seeds: the case-study seeds, ascending.
+        self_model_fields: every cell's ``run_case_study(self_model_fields=...)`` (``{}``: none).
     """
 
     preset: str
     episode_duration_s: float
     damages: tuple[str, ...]
     seeds: tuple[int, ...]
+    self_model_fields: dict = dataclasses.field(default_factory=dict)
 
     def cells(self) -> list[tuple[str, int]]:
         """Every ``(damage, seed)``, damage by damage."""
@@ -98,7 +101,8 @@ class RecoverySpec:
 
     def settings(self) -> dict:
         """The fields a rerun must keep (other damages and seeds extend the run)."""
-        return {"preset": self.preset, "episode_duration_s": self.episode_duration_s}
+        return {"preset": self.preset, "episode_duration_s": self.episode_duration_s,
+                "self_model_fields": dict(self.self_model_fields)}
 
     def to_dict(self) -> dict:
         """The manifest (``recovery.json``) and the summary's ``settings``."""
@@ -106,7 +110,7 @@ class RecoverySpec:
 
 
 def check_spec(preset: str, damages: Iterable[str] | None, seeds: Iterable[int],
-               episode_duration_s: float | None = None) -> RecoverySpec:
+               episode_duration_s: float | None = None, self_model_fields: Mapping | None = None) -> RecoverySpec:
     """The benchmark's settings, checked; a JSON fault file is read here, once.
 
     Args:
@@ -115,16 +119,23 @@ def check_spec(preset: str, damages: Iterable[str] | None, seeds: Iterable[int],
             None: every preset but ``none``.
         seeds: case-study seeds (ints >= 0).
         episode_duration_s: simulated seconds per episode (None: the preset's).
+        self_model_fields: as ``run_case_study``'s (None: none).
 
     Raises:
         ValueError: an unknown preset, an unknown or empty damage (``none``), an invalid fault, a
-            damage given twice, no seeds, a seed that is no int >= 0 or is given twice, or a bad
-            duration.
+            damage given twice, no seeds, a seed that is no int >= 0 or is given twice, a bad
+            duration, or self-model fields ``run_case_study`` refuses.
     """
-    from aquafish.case_study import preset_settings
+    from aquafish.case_study import DEFAULT_METHOD, check_self_model_fields, model_fields, preset_settings
     from aquafish.damage_table import check_damages
+    from eea import EEAConfig
 
     settings = preset_settings(preset, episode_duration_s)
+    own = check_self_model_fields(self_model_fields)
+    try:
+        EEAConfig.from_method(DEFAULT_METHOD, settings.budget, **{**model_fields(), **own})
+    except ValueError as err:
+        raise ValueError(f"self_model_fields: {err}") from None
     names = check_damages(None if damages is None else list(damages))
     _check_unique("damage", names)
     seeds = list(seeds)
@@ -133,7 +144,20 @@ def check_spec(preset: str, damages: Iterable[str] | None, seeds: Iterable[int],
     for seed in seeds:
         check_int("seed", seed, 0)
     _check_unique("seed", seeds)
-    return RecoverySpec(preset, settings.episode_duration_s, tuple(names), tuple(sorted(seeds)))
+    return RecoverySpec(preset, settings.episode_duration_s, tuple(names), tuple(sorted(seeds)), own)
+
+
+def fingerprint(recorded: dict, settings: dict) -> tuple[dict, dict]:
+    """``(recorded, wanted)`` fingerprints of ``settings`` for :func:`~aquafish_gym.rundir.check_fingerprint`:
+    the keys of ``settings`` that ``recorded`` (a manifest or a cell's report) holds, a record made
+    before ``self_model_fields`` existed holding none (``{}``); the fields compared as one JSON
+    text, so that a field one side lacks is a difference too."""
+    def flat(values: dict) -> dict:
+        return {k: json.dumps(v, sort_keys=True) if k == "self_model_fields" else v for k, v in values.items()}
+
+    held = {k: recorded.get(k, {}) if k == "self_model_fields" else recorded[k] for k in settings
+            if k in recorded or k == "self_model_fields"}
+    return flat(held), flat(settings)
 
 
 def _check_unique(what: str, values: list) -> None:
@@ -167,8 +191,9 @@ def merge_manifest(out: Path, spec: RecoverySpec) -> RecoverySpec:
     merged = spec
     if path.is_file():
         recorded = read_json(path)
-        check_fingerprint(out, {k: recorded[k] for k in spec.settings() if k in recorded}, spec.settings(),
-                          "use another --out, or the --budget and --episode-duration-s it was run with")
+        check_fingerprint(out, *fingerprint(recorded, spec.settings()),
+                          "use another --out, or the --budget, --episode-duration-s and --self-model-fields it was "
+                          "run with")
         damages = tuple(dict.fromkeys([*recorded.get("damages", []), *spec.damages]))
         seeds = tuple(sorted({*recorded.get("seeds", []), *spec.seeds}))
         merged = dataclasses.replace(spec, damages=damages, seeds=seeds)
@@ -188,7 +213,7 @@ def read_cell(out: Path, damage: str, seed: int, spec: RecoverySpec) -> dict | N
         return None
     report = read_json(path)
     wanted = {**spec.settings(), "damage": damage, "seed": seed}
-    check_fingerprint(path.parent, {k: report[k] for k in wanted if k in report}, wanted,
+    check_fingerprint(path.parent, *fingerprint(report, wanted),
                       "remove the cell's directory to run it again")
     return report
 
@@ -207,7 +232,8 @@ def _train_shared(preset: str, seed: int, shared: str, episode_duration_s: float
 
 
 def _run_cell(preset: str, damage: str, seed: int, cell: str, shared: str, episode_duration_s: float,
-              workers: int | None, progress: bool, all_rows: bool = False, triage_only: bool = False) -> dict:
+              workers: int | None, progress: bool, all_rows: bool = False, triage_only: bool = False,
+              self_model_fields: dict | None = None) -> dict:
     """Run one cell's case study (no video) with the shared rows of its seed; return its report
     (``all_rows`` False: the other rows only where the damage breaks the healthy gait;
     ``triage_only``: the healthy and oracle rows only, as ``run_case_study``)."""
@@ -215,7 +241,7 @@ def _run_cell(preset: str, damage: str, seed: int, cell: str, shared: str, episo
 
     return run_case_study(preset, damage, seed, cell, episode_duration_s=episode_duration_s, video=False,
                           workers=workers, progress=progress, shared_dir=shared, all_rows=all_rows,
-                          triage_only=triage_only)
+                          triage_only=triage_only, self_model_fields=self_model_fields)
 
 
 def check_stale(report: dict | None, cell: str | os.PathLike) -> bool:
@@ -269,7 +295,7 @@ def _run_tasks(tasks: list, backend: str, processes: int, address: str | None) -
 def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | None = None, seeds: Iterable[int] = (0,),
                  episode_duration_s: float | None = None, processes: int = 1, workers: int | None = None,
                  backend: str = "local", address: str | None = None, progress: bool = True,
-                 all_rows: bool = False) -> dict:
+                 all_rows: bool = False, self_model_fields: Mapping | None = None) -> dict:
     """Run every unfinished cell (damage x seed) of the benchmark and write its summary; return it.
 
     Every new cell is first triaged: its healthy and oracle gaits are evolved and scored on the
@@ -290,6 +316,8 @@ def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | Non
         backend: ``"local"`` or ``"ray"`` (``address`` as for :func:`aquafish.backends.connect_ray`).
         progress: show progress (over cells; each case study's own bars when cells run one at a time).
         all_rows: every row on every cell, not only on the cells whose damage breaks the healthy gait.
+        self_model_fields: every cell's self-model settings, as ``run_case_study``'s (None: none); a
+            benchmark directory keeps one value (another is a :class:`~aquafish_gym.rundir.MismatchError`).
 
     Raises:
         ValueError: bad settings (:func:`check_spec`, ``processes``, ``workers``, ``backend``) or an
@@ -299,7 +327,7 @@ def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | Non
             naming the fields); a cell's own error.
         aquafish.backends.ClusterError: ``backend="ray"`` without Ray or without a reachable cluster.
     """
-    spec = check_spec(preset, damages, seeds, episode_duration_s)
+    spec = check_spec(preset, damages, seeds, episode_duration_s, self_model_fields)
     backends.check_backend(backend)
     check_int("processes", processes, 1)
     if workers is not None:
@@ -334,7 +362,7 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
         bar = progress_bar(len(cells), desc=stage, unit="cell", disable=not progress or not cells)
         tasks = [DirTask(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)),
                                      str(shared_dir(out, seed)), duration, cell_workers, inner_progress,
-                                     all_rows and not triage_only, triage_only),
+                                     all_rows and not triage_only, triage_only, spec.self_model_fields),
                          outputs=(3,), inputs=(4,), label=f"{stage} of cell {damage} seed {seed}")
                  for damage, seed in cells]
         for report in _run_tasks(tasks, backend, processes, address):
@@ -379,7 +407,8 @@ def summary_so_far(out_dir) -> dict:
     recorded = read_json(out / MANIFEST_FILE)
     try:
         manifest = RecoverySpec(recorded["preset"], float(recorded["episode_duration_s"]),
-                                tuple(recorded["damages"]), tuple(int(s) for s in recorded["seeds"]))
+                                tuple(recorded["damages"]), tuple(int(s) for s in recorded["seeds"]),
+                                dict(recorded.get("self_model_fields", {})))
     except (KeyError, TypeError, ValueError) as err:
         raise FileError(out / MANIFEST_FILE, f"is not a recovery manifest ({type(err).__name__}: {err})") from None
     return _summary(manifest, {cell: read_cell(out, *cell, manifest) for cell in manifest.cells()})
@@ -564,6 +593,9 @@ def render_summary(summary: dict) -> str:
              f"damaged robot); {RECOVERS_MARK}: the row recovers (at least {RECOVERS_SHARE:.0%} of the oracle and "
              f"{RECOVERS_OVER_HEALTHY:g}x the healthy gait). A damage breaks the healthy gait when it keeps at most "
              f"{BREAKS_SHARE:.0%} of the oracle; n/a: the oracle does not swim forward.", "",
+             *([f"Every cell's self-model has settings of its own: "
+                + ", ".join(f"`{k} = {v!r}`" for k, v in s["self_model_fields"].items()) + ".", ""]
+               if s.get("self_model_fields") else []),
              f"The self-model's pectoral gains (left, right) are given beside the truth's; {RECOVERS_MARK}: each "
              f"on the truth's side of 0 (a pectoral whose flipper the target lost is not judged).", "",
              "| damage | seed | breaks | " + " | ".join(f"`{k}`" for k in keys) + " | self-model gains (truth) |",

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from aquafish.studies_cli import CASE_STUDY_BUDGETS
 from aquafish_gym.argtypes import (add_alias, add_config_option, add_episode_duration, add_no_progress, add_processes,
-                                   add_workers, csv_list, damage_list, int_at_least, path)
+                                   add_workers, csv_list, damage_list, int_at_least, json_object, path)
 
 
 def _recovery(args: argparse.Namespace) -> int:
@@ -26,7 +26,7 @@ def _recovery(args: argparse.Namespace) -> int:
     summary = run_recovery(args.out, preset=args.budget, damages=args.damages, seeds=args.seeds,
                            episode_duration_s=args.episode_duration_s, processes=args.processes, workers=args.workers,
                            backend=args.backend, address=args.address, progress=not args.no_progress,
-                           all_rows=args.all_rows)
+                           all_rows=args.all_rows, self_model_fields=args.self_model_fields)
     print((Path(args.out) / SUMMARY_MD).read_text())
     print(f"wrote {Path(args.out) / SUMMARY_MD} and summary.json ({summary['totals']['cells']} cells)")
     return 0
@@ -53,6 +53,9 @@ def add_commands(sub) -> None:
     r.add_argument("--all-rows", action="store_true",
                    help="run every row on every cell (default: the self-models, their gaits and PPO only where the "
                         "damage breaks the healthy gait; the recovery rates count those cells only)")
+    r.add_argument("--self-model-fields", type=json_object, default=None, metavar="JSON",
+                   help="every cell's self-model EEA settings, as aquafish case-study --self-model-fields (default: "
+                        "none); a benchmark directory keeps one value")
     r.add_argument("--summary-only", action="store_true",
                    help="print the summary of the cells OUT holds so far and run nothing (reads only: works while "
                         "another process runs the benchmark)")

@@ -8,7 +8,7 @@ import pytest
 from aquafish.case_study import BREAKS_SHARE, breaks, verdict
 from aquafish.cli import main
 from aquafish.recovery import (MANIFEST_FILE, cell_dir, check_spec, check_stale, faults_named, merge_manifest,
-                               render_summary, signs_right, summarize)
+                               render_summary, signs_right, summarize, summary_so_far)
 from aquafish_gym import MORPHOLOGY_FIELDS, Morphology
 from aquafish_gym.rundir import MismatchError
 
@@ -130,6 +130,30 @@ def test_a_rerun_extends_the_manifest_with_damages_and_seeds_but_refuses_another
     assert cell_dir(tmp_path, "sampled:3", 1) == tmp_path / "cells" / "sampled_3" / "seed1"
 
 
+def test_a_benchmark_keeps_one_set_of_self_model_fields_and_passes_them_to_every_cell(tmp_path, monkeypatch):
+    from aquafish import recovery
+
+    lean = {"lineages": 1, "estimation_generations": 2}
+    merge_manifest(tmp_path, check_spec("smoke", ["left_pectoral_half"], [0]))
+    manifest = json.loads((tmp_path / MANIFEST_FILE).read_text())
+    assert manifest["self_model_fields"] == {}
+    del manifest["self_model_fields"]  # a manifest written before the fields existed: none
+    (tmp_path / MANIFEST_FILE).write_text(json.dumps(manifest))
+    assert merge_manifest(tmp_path, check_spec("smoke", ["sampled:3"], [0])).self_model_fields == {}
+    with pytest.raises(MismatchError, match=r'self_model_fields: "\{\}" -> "\{\\"estimation_generations'):
+        merge_manifest(tmp_path, check_spec("smoke", ["left_pectoral_half"], [0], self_model_fields=lean))
+    other = tmp_path / "lean"
+    other.mkdir()
+    assert merge_manifest(other, check_spec("smoke", ["left_pectoral_half"], [0], self_model_fields=lean)) \
+        .self_model_fields == lean
+    assert summary_so_far(other)["settings"]["self_model_fields"] == lean
+    calls = []
+    monkeypatch.setattr("aquafish.case_study.run_case_study", lambda *args, **kwargs: calls.append(kwargs) or {})
+    recovery._run_cell("smoke", "left_pectoral_half", 0, str(other / "cell"), str(other / "shared"), 20.0, 1, False,
+                       self_model_fields=lean)
+    assert calls[0]["self_model_fields"] == lean
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--damages", "nope,left_pectoral_half"], "unknown damage(s) ['nope']"),
     (["--damages", "none"], "unknown damage(s) ['none']"),
@@ -137,6 +161,9 @@ def test_a_rerun_extends_the_manifest_with_damages_and_seeds_but_refuses_another
     (["--damages", "left_pectoral_half", "--seeds", "1,1"], "seeds given more than once: 1"),
     (["--damages", "left_pectoral_half", "--seeds", "0,-2"], "argument --seeds: must be an int >= 0"),
     (["--damages", '{"gains": [1, 2]}'], "gains"),
+    (["--damages", "left_pectoral_half", "--self-model-fields", '{"seed": 1}'], "self_model_fields may not set 'seed'"),
+    (["--damages", "left_pectoral_half", "--self-model-fields", '{"lineages": 0}'],
+     "self_model_fields: EEAConfig.lineages must be an int >= 1, got 0"),
 ])
 def test_bad_settings_fail_in_one_line_creating_nothing(tmp_path, capsys, argv, message):
     out = tmp_path / "new" / "bench"
@@ -157,7 +184,7 @@ def test_two_cells_share_the_healthy_and_robust_rows_and_a_rerun_is_a_no_op(tmp_
     summary = json.loads((out / "summary.json").read_text())
     assert [(c["damage"], c["seed"]) for c in summary["cells"]] == [("left_pectoral_half", 0),
                                                                     ("reversed_left_pectoral", 0)]
-    assert summary["settings"] == {"preset": "smoke", "episode_duration_s": 20.0,
+    assert summary["settings"] == {"preset": "smoke", "episode_duration_s": 20.0, "self_model_fields": {},
                                    "damages": ["left_pectoral_half", "reversed_left_pectoral"], "seeds": [0]}
     # the damage-independent rows were trained once, in shared/seed0, and every cell used them
     shared = out / "shared" / "seed0"
@@ -275,7 +302,8 @@ def test_every_cell_is_triaged_before_any_cell_runs_its_other_rows_and_a_broken_
     broken = {"reversed_left_pectoral", "sampled:5"}  # the fake triage's verdicts
     stop_at = {"sampled:5"}  # its rows fail once: the run is interrupted between the passes
 
-    def fake_cell(preset, damage, seed, cell, shared, duration, workers, progress, all_rows, triage_only):
+    def fake_cell(preset, damage, seed, cell, shared, duration, workers, progress, all_rows, triage_only,
+                  self_model_fields=None):
         calls.append(("triage" if triage_only else "rows", damage))
         path = Path(cell)
         path.mkdir(parents=True, exist_ok=True)
