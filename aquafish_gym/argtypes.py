@@ -9,6 +9,8 @@ import json
 import math
 from pathlib import Path
 
+from aquafish_gym.checks import DuplicateKeyError, json_loads_unique_keys
+
 __all__ = ["CONFIG_HELP", "EPISODE_DURATION_HELP", "PROCESSES_HELP", "WORKERS_HELP", "add_alias", "add_config_option",
            "add_episode_duration", "add_no_progress", "add_processes", "add_workers", "csv_list", "damage_list",
            "int_at_least", "is_comma_separated", "json_object", "path", "positive_float"]
@@ -62,13 +64,6 @@ def json_object(text: str) -> dict:
     """An argparse ``type``: a JSON object, inline (``'{"lineages": 1}'``) or the content of a
     ``.json`` file named by ``text``; a key given twice is refused."""
 
-    def pairs(items):
-        keys = [key for key, _ in items]
-        twice = sorted({key for key in keys if keys.count(key) > 1})
-        if twice:
-            raise argparse.ArgumentTypeError(f"key {twice[0]!r} given twice")
-        return dict(items)
-
     source = text
     if text.strip().endswith(".json") and not text.lstrip().startswith("{"):
         try:
@@ -76,7 +71,9 @@ def json_object(text: str) -> dict:
         except OSError as err:
             raise argparse.ArgumentTypeError(f"cannot read {text}: {err.strerror or err}") from None
     try:
-        value = json.loads(source, object_pairs_hook=pairs)
+        value = json_loads_unique_keys(source)
+    except DuplicateKeyError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
     except json.JSONDecodeError as err:
         raise argparse.ArgumentTypeError(f"is not valid JSON ({err}): {text!r}") from None
     if not isinstance(value, dict):

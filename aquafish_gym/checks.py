@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
 
-__all__ = ["check_int", "check_weight"]
+__all__ = ["DuplicateKeyError", "check_int", "check_weight", "json_loads_unique_keys"]
 
 
 def check_int(name: str, value, minimum: int | None = None, maximum: int | None = None) -> int:
@@ -44,3 +45,26 @@ def check_weight(name: str, value) -> float:
     if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value >= 0):
         raise ValueError(f"{name} must be a number >= 0, got {value!r}")
     return float(value)
+
+
+class DuplicateKeyError(ValueError):
+    """A JSON object names one key twice (which :func:`json.loads` would silently resolve to the last)."""
+
+
+def json_loads_unique_keys(text: str):
+    """``json.loads(text)``, refusing an object that gives a key twice.
+
+    Raises:
+        DuplicateKeyError: ``"key '<key>' given twice"``.
+        json.JSONDecodeError: ``text`` is not valid JSON.
+    """
+
+    def pairs(items):
+        seen = set()
+        for key, _ in items:
+            if key in seen:
+                raise DuplicateKeyError(f"key {key!r} given twice")
+            seen.add(key)
+        return dict(items)
+
+    return json.loads(text, object_pairs_hook=pairs)

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from aquafish_gym.checks import DuplicateKeyError, json_loads_unique_keys
 from aquafish_gym.morphology import MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology
 
 __all__ = ["FAULT_KEYS", "SAMPLED_KINDS", "SAMPLED_PREFIX", "Fault", "FaultDraw", "draw_faults", "fault_from_file",
@@ -156,16 +157,10 @@ class Fault:
             ValueError: invalid JSON, a key given twice, or as :meth:`from_dict`.
         """
 
-        def pairs(items):
-            seen = set()
-            for key, _ in items:
-                if key in seen:
-                    raise _error(f"key {key!r} given twice")
-                seen.add(key)
-            return dict(items)
-
         try:
-            data = json.loads(text, object_pairs_hook=pairs)
+            data = json_loads_unique_keys(text)
+        except DuplicateKeyError as err:
+            raise _error(str(err)) from None
         except json.JSONDecodeError as err:
             raise _error(f"{source + ': ' if source else ''}not valid JSON ({err})") from None
         return cls.from_dict(data)
