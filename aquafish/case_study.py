@@ -247,17 +247,12 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             "self_model": (method, model_space, behaviour_summary)}
     if (method, model_space, behaviour_summary) != ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY):
         runs["out_of_band"] = ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY)
-    own = check_self_model_fields(self_model_fields)
-    try:
-        configs = {key: EEAConfig.from_method(name, settings.budget, damage=damage, seed=seed,
-                                              **{**model_fields(name, space, summary),
-                                                 **(own if key == "self_model" else {})},
-                                              **({"workers": workers} if workers else {}))
-                   for key, (name, space, summary) in runs.items()}
-    except ValueError as err:  # the damage and seed were checked above: the fields are at fault
-        if own:
-            raise ValueError(f"self_model_fields: {err}") from None
-        raise
+    own = check_self_model_fields(self_model_fields, settings.budget, method, model_space, behaviour_summary)
+    configs = {key: EEAConfig.from_method(name, settings.budget, damage=damage, seed=seed,
+                                          **{**model_fields(name, space, summary),
+                                             **(own if key == "self_model" else {})},
+                                          **({"workers": workers} if workers else {}))
+               for key, (name, space, summary) in runs.items()}
     out = check_output_dir(out_dir)
     shared = None if shared_dir is None else check_output_dir(shared_dir, "shared_dir")
     with run_lock(out, command="case-study"):
@@ -265,13 +260,21 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
                            progress, runs, configs, shared, all_rows, triage_only, own)
 
 
-def check_self_model_fields(fields: Mapping | None) -> dict:
-    """``run_case_study``'s ``self_model_fields`` as a plain dict (``{}`` for None).
+def check_self_model_fields(fields: Mapping | None, budget: str, method: str = DEFAULT_METHOD,
+                            model_space: str = DEFAULT_MODEL_SPACE,
+                            behaviour_summary: str = DEFAULT_SUMMARY) -> dict:
+    """``run_case_study``'s ``self_model_fields`` as a plain dict (``{}`` for None), checked by
+    building the self-model's :class:`~eea.config.EEAConfig` with them.
+
+    Args:
+        fields: EEAConfig flat names -> values, or None.
+        budget: the case study's EEA budget (its preset's).
+        method, model_space, behaviour_summary: the self-model's, as ``run_case_study``'s.
 
     Raises:
-        ValueError: not a mapping of flat names, or a name of :data:`CASE_STUDY_FIELDS` (the
-            message names the argument that sets it); unknown names and values out of range are
-            refused when the config is built (:meth:`eea.config.EEAConfig.from_flat`).
+        ValueError: not a mapping of flat names; a name of :data:`CASE_STUDY_FIELDS` (the
+            message names the argument that sets it); or, prefixed ``self_model_fields:``, an
+            unknown name or a value out of range (:meth:`eea.config.EEAConfig.from_flat`).
     """
     if fields is None:
         return {}
@@ -281,7 +284,12 @@ def check_self_model_fields(fields: Mapping | None) -> dict:
         if name in CASE_STUDY_FIELDS:
             raise ValueError(f"self_model_fields may not set {name!r}: the case study sets it "
                              f"({CASE_STUDY_FIELDS[name]})")
-    return dict(fields)
+    own = dict(fields)
+    try:
+        EEAConfig.from_method(method, budget, **{**model_fields(method, model_space, behaviour_summary), **own})
+    except ValueError as err:
+        raise ValueError(f"self_model_fields: {err}") from None
+    return own
 
 
 def preset_settings(preset: str, episode_duration_s: float | None = None) -> CaseStudyPreset:

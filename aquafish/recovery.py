@@ -126,16 +126,11 @@ def check_spec(preset: str, damages: Iterable[str] | None, seeds: Iterable[int],
             damage given twice, no seeds, a seed that is no int >= 0 or is given twice, a bad
             duration, or self-model fields ``run_case_study`` refuses.
     """
-    from aquafish.case_study import DEFAULT_METHOD, check_self_model_fields, model_fields, preset_settings
+    from aquafish.case_study import check_self_model_fields, preset_settings
     from aquafish.damage_table import check_damages
-    from eea import EEAConfig
 
     settings = preset_settings(preset, episode_duration_s)
-    own = check_self_model_fields(self_model_fields)
-    try:
-        EEAConfig.from_method(DEFAULT_METHOD, settings.budget, **{**model_fields(), **own})
-    except ValueError as err:
-        raise ValueError(f"self_model_fields: {err}") from None
+    own = check_self_model_fields(self_model_fields, settings.budget)
     names = check_damages(None if damages is None else list(damages))
     _check_unique("damage", names)
     seeds = list(seeds)
