@@ -55,7 +55,8 @@ import numpy as np
 import aquafish_gym  # registers AquaFish-v0  # noqa: F401
 import eea
 import gait
-from aquafish.case_study import DEFAULT_METHOD, DEFAULT_MODEL_SPACE, PRESETS, model_fields, model_robot
+from aquafish.case_study import (DEFAULT_METHOD, DEFAULT_MODEL_SPACE, PRESETS, check_self_model_fields, model_fields,
+                                 model_robot)
 from aquafish.mission_video import ANGLE_COLUMNS, write_mission_video
 from aquafish.monitor import CALIBRATION_FILE, DamageMonitor, MonitorCalibration, calibrate
 from aquafish_gym import ServoFaults, get_damage
@@ -144,10 +145,12 @@ def mission_preset(name: str) -> MissionPreset:
     return MISSION_PRESETS[name]
 
 
-def _eea_config(preset: MissionPreset, damage: str, seed: int, workers: int | None) -> EEAConfig:
-    """The case study's self-model EEA settings at the preset's budget."""
+def _eea_config(preset: MissionPreset, damage: str, seed: int, workers: int | None,
+                own: dict | None = None) -> EEAConfig:
+    """The case study's self-model EEA settings at the preset's budget, with ``own`` (checked
+    :func:`aquafish.case_study.check_self_model_fields`) over them."""
     return EEAConfig.from_method(DEFAULT_METHOD, PRESETS[preset.case_preset].budget, damage=damage, seed=seed,
-                                 **model_fields(), **({"workers": workers} if workers else {}))
+                                 **{**model_fields(), **(own or {})}, **({"workers": workers} if workers else {}))
 
 
 def _gait_kwargs(preset: MissionPreset, seed: int, workers: int | None, progress: bool) -> dict:
@@ -460,7 +463,8 @@ def _write_trajectory(rows: list[dict], path: Path) -> None:
 
 def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: float = 300.0, preset: str = "quick",
                 seed: int = 0, self_model=None, prior_source: str = "design", workers: int | None = None,
-                warm_start: bool = True, video: bool = True, oracle: bool = True, progress: bool = True) -> dict:
+                warm_start: bool = True, self_model_fields: Mapping | None = None, video: bool = True,
+                oracle: bool = True, progress: bool = True) -> dict:
     """Run a mission and write ``mission.json``, ``timeline.png``, ``trajectory.csv`` and a video in ``out_dir``.
 
     Args:
@@ -478,6 +482,10 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         workers: evaluation processes (default 1).
         warm_start: start the recovery's EEA at the current self-model (default); False starts
             it from a random population, as the case study does (the comparison's baseline).
+        self_model_fields: :class:`~eea.config.EEAConfig` settings of the recovery's self-model
+            EEA over the case study's (flat names, e.g. ``{"lineages": 1}``; None: none), as
+            ``aquafish.case_study.run_case_study``'s; recorded in ``mission.json``. The prior
+            (``prior_source="eea"``) is built with the case study's own settings.
         video: write ``mission.mp4`` (or ``.gif``), drawn from the trajectory after the mission
             (:func:`aquafish.mission_video.write_mission_video`).
         oracle: evolve the oracle gait on the true damaged robot for ``oracle_speed``.
@@ -503,16 +511,18 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         check_int("workers", workers, 1)
     if prior_source not in PRIORS:
         raise ValueError(f"unknown prior {prior_source!r}; valid: {', '.join(PRIORS)}")
+    own = check_self_model_fields(self_model_fields, PRESETS[settings.case_preset].budget)
     out = check_output_dir(out_dir)
     with run_lock(out, command="mission"):
         prior = load_prior(self_model) if self_model is not None else \
             prepare_prior(out / "self_model", preset, seed, prior=prior_source, workers=workers, progress=progress)
         return _run(prior, damage, onset_s, float(duration_s), settings, preset, seed, out, workers or 1, video,
-                    oracle, progress, bool(warm_start))
+                    oracle, progress, bool(warm_start), own)
 
 
 def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings: MissionPreset, preset: str, seed: int,
-         out: Path, workers: int, video: bool, oracle: bool, progress: bool, warm: bool = True) -> dict:
+         out: Path, workers: int, video: bool, oracle: bool, progress: bool, warm: bool = True,
+         own: dict | None = None) -> dict:
     mission = _Mission(damage, onset_s, duration_s, seed)
     monitor = DamageMonitor(prior.calibration)
     monitor.update(mission.obs, {"time_s": 0.0})
@@ -529,7 +539,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             alarm_s = mission.time_s
             log.info("mission: alarm at %.1f s", alarm_s)
             stop_robot(mission, settings.stop_max_s)
-            config = _eea_config(settings, damage, seed, workers)
+            config = _eea_config(settings, damage, seed, workers, own)
             records, target, new_model, check, eea_s = _recover_model(
                 mission, prior.genome if warm else None, config, settings, progress)
             t0 = time.perf_counter()
@@ -568,6 +578,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         "heading": "world +y: the robot's initial forward direction; speeds are displacement along it per second "
                    "(units/s, 1 unit = 8 cm)",
         "warm_start": warm,
+        "self_model_fields": dict(own or {}),
         "onset_s": onset_s,
         "damage_in_force_s": next((r["time_s"] for r in rows if r["damaged"]), None),
         "alarm_s": alarm_s, "recovered_s": recovered_s,

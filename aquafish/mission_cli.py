@@ -7,8 +7,8 @@ import argparse
 import json
 from pathlib import Path
 
-from aquafish_gym.argtypes import (add_alias, add_config_option, add_no_progress, add_workers, int_at_least, path,
-                                   positive_float)
+from aquafish_gym.argtypes import (add_alias, add_config_option, add_no_progress, add_workers, int_at_least, json_object,
+                                   path, positive_float)
 
 #: The mission budgets (:data:`aquafish.mission.MISSION_PRESETS`; not imported here, to keep the
 #: command line light: a test checks they agree). Each is the case-study budget of the same name
@@ -33,7 +33,8 @@ def _mission(args: argparse.Namespace) -> int:
 
     report = run_mission(args.damage, args.out, onset_s=args.onset_s, duration_s=args.duration_s, preset=args.budget,
                          seed=args.seed, self_model=args.self_model, prior_source=args.prior, workers=args.workers,
-                         warm_start=not args.cold_start, video=not args.no_video,
+                         warm_start=not args.cold_start, self_model_fields=args.self_model_fields,
+                         video=not args.no_video,
                          oracle=not args.no_oracle, progress=not args.no_progress)
     keys = ("onset_s", "alarm_s", "recovered_s", "target_experiments", "compute_seconds", "speed_before",
             "speed_damaged", "speed_after", "oracle_speed")
@@ -85,6 +86,9 @@ def add_commands(sub) -> None:
     m.add_argument("--cold-start", action="store_true",
                    help="start the recovery's EEA from a random population, not at the self-model from before "
                         "the damage (the warm start's baseline)")
+    m.add_argument("--self-model-fields", type=json_object, default=None, metavar="JSON",
+                   help="EEA settings of the recovery's self-model search over the case study's, as aquafish "
+                        "case-study --self-model-fields (inline or FILE.json; default: none); recorded in mission.json")
     add_workers(m, None, "1")
     m.add_argument("--no-video", action="store_true", help="write no video")
     m.add_argument("--no-oracle", action="store_true", help="skip the oracle gait (oracle_speed null)")

@@ -80,7 +80,8 @@ def mission_row(report: dict) -> dict:
         A dict: ``damage``, ``seed``, ``warm_start``, ``false_alarm``, ``alarm_delay_s`` (alarm
         minus the damage coming in force; None without an alarm or for a false alarm),
         ``target_experiments``, ``compute_s``, ``speed_before``, ``speed_damaged``,
-        ``speed_after``, ``oracle_speed`` (units/s), ``after_share`` (``speed_after`` over
+        ``speed_after``, ``oracle_speed`` (units/s), ``self_model_fields`` (the recovery's own
+        EEA settings; ``{}`` for none or a report made before they were recorded), ``after_share`` (``speed_after`` over
         ``oracle_speed``; None without an oracle that swims forward), ``gains`` (found) and
         ``true_gains`` (three each: left, right pectoral, caudal), ``signs_right`` (as
         :func:`aquafish.recovery.signs_right`; None without a recovery) and the three verdicts
@@ -97,7 +98,8 @@ def mission_row(report: dict) -> dict:
         row = {"damage": report["damage"], "seed": report["seed"], "warm_start": report["warm_start"],
                "false_alarm": false_alarm, "target_experiments": report["target_experiments"],
                "compute_s": report["compute_seconds"], "speed_before": report["speed_before"],
-               "speed_damaged": report["speed_damaged"], "speed_after": after, "oracle_speed": oracle}
+               "speed_damaged": report["speed_damaged"], "speed_after": after, "oracle_speed": oracle,
+               "self_model_fields": dict(report.get("self_model_fields") or {})}
     except KeyError as err:
         raise ValueError(f"not a mission report: no {err.args[0]!r} field") from None
     delay = None if alarm is None or false_alarm or onset is None else alarm - onset
@@ -161,16 +163,27 @@ def format_table(summary: dict) -> str:
     head = ("| damage | seed | EEA start | alarm after the damage (s) | experiments | compute (s) | speed before | "
             "damaged | after | oracle | after / oracle | gains found (L, R, C) | true | signs |")
     lines = [head, "|" + "---|" * head.count(" | ") + "---|"]
+    settings: list[str] = []  # the distinct own EEA settings, marked ‡1, ‡2, ... in the rows
     for r in summary["rows"]:
+        start = "warm" if r["warm_start"] else "cold"
+        if r.get("self_model_fields"):
+            text = ", ".join(f"`{k} = {v!r}`" for k, v in sorted(r["self_model_fields"].items()))
+            if text not in settings:
+                settings.append(text)
+            start += f" ‡{settings.index(text) + 1}"
         alarm = "false alarm" if r["false_alarm"] else _num(r["alarm_delay_s"], 1)
         share = "-" if r["after_share"] is None else f"{100 * r['after_share']:.0f} %" + (" ✓" if r["recovered"] else "")
         signs = {True: "✓", False: "✗", None: "-"}[r["signs_right"]]
-        lines.append(f"| `{r['damage']}` | {r['seed']} | {'warm' if r['warm_start'] else 'cold'} | {alarm} | "
+        lines.append(f"| `{r['damage']}` | {r['seed']} | {start} | {alarm} | "
                      f"{r['target_experiments']} | {_num(r['compute_s'], 0)} | {_num(r['speed_before'])} | "
                      f"{_num(r['speed_damaged'])} | {_num(r['speed_after'])} | {_num(r['oracle_speed'])} | {share} | "
                      f"{_gains(r['gains'])} | {_gains(r['true_gains'])} | {signs} |")
     t = summary["totals"]
     lines.append("")
+    lines.extend(f"‡{i}: the recovery's self-model EEA with {text} (the rest as the case study's)." for i, text
+                 in enumerate(settings, 1))
+    if settings:
+        lines.append("")
     lines.append(f"{t['missions']} missions: alarm within {ALARM_WITHIN_S:g} s of the damage on {t['alarm_in_time']}, "
                  f"{t['false_alarms']} false alarms; recovered to {100 * RECOVERED_SHARE:.0f} % of the oracle on "
                  f"{t['recovered']} of {t['with_oracle']} with an oracle; pectoral signs right on {t['signs_right']} of "

@@ -56,6 +56,7 @@ def test_the_smoke_mission_writes_its_report_with_sane_relations(smoke_mission):
                 "speed_damaged", "speed_after", "oracle_speed", "damage", "seed", "preset", "heading"):
         assert key in report, key
     assert report["warm_start"] is True and report["preset"] == "smoke" and report["seed"] == 0
+    assert report["self_model_fields"] == {}
     assert report["alarm_s"] is not None and report["alarm_s"] > report["onset_s"]
     assert report["recovered_s"] > report["alarm_s"]
     assert report["target_experiments"] == EEAConfig.from_method("profile_lineages", "smoke").rounds
@@ -196,8 +197,34 @@ def test_the_recovery_starts_at_the_prior_model_or_with_cold_start_from_scratch(
     assert (seen[0] == _genome()).all() if warm else seen[0] is None
 
 
+def test_own_self_model_fields_reach_the_recovery_eea_and_bad_ones_are_refused_before_any_work(prior_dir, tmp_path,
+                                                                                                 monkeypatch):
+    import aquafish.mission as mission_module
+
+    seen = []
+
+    def recover(mission, genome, config, *args):
+        seen.append(config)
+        raise _Stop
+
+    monkeypatch.setattr(mission_module, "_recover_model", recover)
+    with pytest.raises(_Stop):
+        run_mission(ALL_SEIZED, tmp_path / "m", onset_s=8.0, duration_s=30.0, preset="smoke", seed=0,
+                    self_model=prior_dir, workers=1, self_model_fields={"lineages": 1, "estimation_generations": 3},
+                    video=False, oracle=False, progress=False)
+    assert seen[0].estimation.lineages == 1 and seen[0].estimation.generations == 3
+    for fields, message in (({"damage": "none"}, "may not set 'damage'"),
+                            ({"no_such_field": 1}, "self_model_fields: .*no_such_field"),
+                            ({"lineages": 0}, "self_model_fields: .*lineages")):
+        with pytest.raises(ValueError, match=message):
+            run_mission(ALL_SEIZED, tmp_path / "bad", preset="smoke", self_model=prior_dir,
+                        self_model_fields=fields, video=False, oracle=False, progress=False)
+    assert not (tmp_path / "bad").exists()
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--damage", "no_such_damage"], "unknown damage"),
+    (["--damage", "caudal_half", "--self-model-fields", "[1]"], "--self-model-fields"),
     (["--damage", "caudal_half", "--onset-s", "-1"], "--onset-s"),
     (["--damage", "caudal_half", "--duration-s", "0"], "--duration-s"),
     (["--damage", "caudal_half", "--onset-s", "50", "--duration-s", "40"], "before the end of the mission"),

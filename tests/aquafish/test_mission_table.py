@@ -90,3 +90,16 @@ def test_the_command_prints_and_writes_the_table(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_:                                     # fails safe, one line
         main(["mission-table", str(tmp_path / "nowhere")])
     assert exit_.value.code == 2 and "no mission.json" in capsys.readouterr().err
+
+
+def test_own_self_model_settings_are_marked_per_row_and_named_once_below_the_table():
+    lean = {"lineages": 1, "estimation_generations": 15}
+    reports = [_report(), {**_report(seed=1), "self_model_fields": lean},
+               {**_report(seed=2), "self_model_fields": dict(reversed(list(lean.items())))}]
+    rows = summarise_missions(reports)["rows"]
+    assert [r["self_model_fields"] for r in rows] == [{}, lean, lean]   # a report from before the field: none
+    table = format_table(summarise_missions(reports))
+    lines = table.splitlines()
+    assert "| warm |" in lines[2] and "| warm ‡1 |" in lines[3] and "| warm ‡1 |" in lines[4]
+    assert table.count("‡1:") == 1 and "‡2" not in table
+    assert "‡1: the recovery's self-model EEA with `estimation_generations = 15`, `lineages = 1`" in table
