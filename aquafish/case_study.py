@@ -269,7 +269,9 @@ def check_self_model_fields(fields: Mapping | None, budget: str, method: str = D
     Args:
         fields: EEAConfig flat names -> values, or None.
         budget: the case study's EEA budget (its preset's).
-        method, model_space, behaviour_summary: the self-model's, as ``run_case_study``'s.
+        method: the self-model's method, as ``run_case_study``'s.
+        model_space: the self-model's model space, as ``run_case_study``'s.
+        behaviour_summary: the self-model's behaviour summary, as ``run_case_study``'s.
 
     Raises:
         ValueError: not a mapping of flat names; a name of :data:`CASE_STUDY_FIELDS` (the
