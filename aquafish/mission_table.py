@@ -81,8 +81,9 @@ def mission_row(report: dict) -> dict:
         minus the damage coming in force; None without an alarm or for a false alarm),
         ``target_experiments``, ``compute_s``, ``speed_before``, ``speed_damaged``,
         ``speed_after``, ``oracle_speed`` (units/s), ``self_model_fields`` (the recovery's own
-        EEA settings; ``{}`` for none or a report made before they were recorded), ``after_share`` (``speed_after`` over
-        ``oracle_speed``; None without an oracle that swims forward), ``gains`` (found) and
+        EEA settings; ``{}`` for none or a report made before they were recorded),
+        ``after_share`` (``speed_after`` over ``oracle_speed``; None without an oracle that
+        swims forward), ``gains`` (found) and
         ``true_gains`` (three each: left, right pectoral, caudal), ``signs_right`` (as
         :func:`aquafish.recovery.signs_right`; None without a recovery) and the three verdicts
         ``alarm_in_time``, ``recovered`` and ``compute_in_budget``.
