@@ -294,6 +294,13 @@ def check_self_model_fields(fields: Mapping | None, budget: str, method: str = D
     return own
 
 
+def format_self_model_fields(fields: Mapping) -> str:
+    """``fields`` (EEAConfig flat names -> values) as Markdown: ```name = value``` items, by name,
+    joined by commas; how the case study's report, the recovery summary and the mission table
+    state a self-model's settings of its own."""
+    return ", ".join(f"`{k} = {v!r}`" for k, v in sorted(fields.items()))
+
+
 def preset_settings(preset: str, episode_duration_s: float | None = None) -> CaseStudyPreset:
     """The settings of ``preset``, with ``episode_duration_s`` (simulated seconds) when given.
 
@@ -794,7 +801,7 @@ def render_report(report: dict) -> str:
             f"{e['left']:.1f}, {e['right']:.1f}, {e['caudal']:.1f}" if e else "(not inferred)" for e in errors) + " |")
     if report.get("self_model_fields"):
         lines += ["", "The self-model's run has settings of its own over its method's and budget's: "
-                  + ", ".join(f"`{k} = {v!r}`" for k, v in report["self_model_fields"].items()) + "."]
+                  + format_self_model_fields(report["self_model_fields"]) + "."]
     for k in keys:
         check = m[k].get("fault_check")
         if check and check["replaced"]:

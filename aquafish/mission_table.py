@@ -161,6 +161,8 @@ def _gains(g) -> str:
 
 def format_table(summary: dict) -> str:
     """``summary`` (:func:`summarise_missions`) as a Markdown table and a line of totals."""
+    from aquafish.case_study import format_self_model_fields
+
     head = ("| damage | seed | EEA start | alarm after the damage (s) | experiments | compute (s) | speed before | "
             "damaged | after | oracle | after / oracle | gains found (L, R, C) | true | signs |")
     lines = [head, "|" + "---|" * head.count(" | ") + "---|"]
@@ -168,7 +170,7 @@ def format_table(summary: dict) -> str:
     for r in summary["rows"]:
         start = "warm" if r["warm_start"] else "cold"
         if r.get("self_model_fields"):
-            text = ", ".join(f"`{k} = {v!r}`" for k, v in sorted(r["self_model_fields"].items()))
+            text = format_self_model_fields(r["self_model_fields"])
             if text not in settings:
                 settings.append(text)
             start += f" ‡{settings.index(text) + 1}"

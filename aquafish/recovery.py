@@ -579,7 +579,7 @@ def render_summary(summary: dict) -> str:
     """``summary.md``: per damage and seed whether the damage breaks the healthy gait and each row's
     share of the oracle (marked where the row recovers), per damage on how many seeds it breaks
     the healthy gait, then each row's recoveries among the breaking cells."""
-    from aquafish.case_study import BREAKS_SHARE, RECOVERS_OVER_HEALTHY, RECOVERS_SHARE
+    from aquafish.case_study import BREAKS_SHARE, RECOVERS_OVER_HEALTHY, RECOVERS_SHARE, format_self_model_fields
 
     s, totals = summary["settings"], summary["totals"]
     keys = [k for k in ROWS if any(k in c["shares"] for c in summary["cells"])]
@@ -589,7 +589,7 @@ def render_summary(summary: dict) -> str:
              f"{RECOVERS_OVER_HEALTHY:g}x the healthy gait). A damage breaks the healthy gait when it keeps at most "
              f"{BREAKS_SHARE:.0%} of the oracle; n/a: the oracle does not swim forward.", "",
              *([f"Every cell's self-model has settings of its own: "
-                + ", ".join(f"`{k} = {v!r}`" for k, v in s["self_model_fields"].items()) + ".", ""]
+                + format_self_model_fields(s["self_model_fields"]) + ".", ""]
                if s.get("self_model_fields") else []),
              f"The self-model's pectoral gains (left, right) are given beside the truth's; {RECOVERS_MARK}: each "
              f"on the truth's side of 0 (a pectoral whose flipper the target lost is not judged).", "",

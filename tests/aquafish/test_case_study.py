@@ -99,7 +99,7 @@ def test_tiny_case_study_new_rows_servo_gains_and_video(tmp_path, capsys):
                (("self_model", "eea_profile_lineages_servos_signed"), ("plain_eea", "eea_none"))}
     assert (configs["self_model"]["lineages"], configs["self_model"]["generations"]) == (1, 2)
     assert configs["plain_eea"]["generations"] == BUDGETS["smoke"]["estimation_generations"] == 3
-    assert "`lineages = 1`, `estimation_generations = 2`" in (out / "report.md").read_text()
+    assert "`estimation_generations = 2`, `lineages = 1`" in (out / "report.md").read_text()
     assert {k: m["behaviour_summary"] for k, m in report["models"].items()} == {
         "plain_eea": "dft", "self_model": "signed_dft", "out_of_band": "dft"}
     assert (out / "eea_profile_lineages_servos_signed" / "rounds.csv").exists()

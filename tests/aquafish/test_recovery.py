@@ -147,6 +147,8 @@ def test_a_benchmark_keeps_one_set_of_self_model_fields_and_passes_them_to_every
     assert merge_manifest(other, check_spec("smoke", ["left_pectoral_half"], [0], self_model_fields=lean)) \
         .self_model_fields == lean
     assert summary_so_far(other)["settings"]["self_model_fields"] == lean
+    assert ("Every cell's self-model has settings of its own: `estimation_generations = 2`, `lineages = 1`."
+            in recovery.render_summary(summary_so_far(other)))
     calls = []
     monkeypatch.setattr("aquafish.case_study.run_case_study", lambda *args, **kwargs: calls.append(kwargs) or {})
     recovery._run_cell("smoke", "left_pectoral_half", 0, str(other / "cell"), str(other / "shared"), 20.0, 1, False,
