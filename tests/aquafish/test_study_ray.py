@@ -1,5 +1,6 @@
 """``aquafish study --backend ray`` fails safe: without Ray, against a token-authenticated
-cluster without its token, and when a run fails (one line each, as on the local pool)."""
+cluster without its token, and when a run fails (one line each, as on the local pool); and
+``aquafish recovery`` on a cluster started by address writes the local pool's summary."""
 
 from __future__ import annotations
 
@@ -124,3 +125,30 @@ def test_a_token_authenticated_cluster_needs_its_token_and_says_so_in_one_line(t
     done = _study(address, out, {"RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": token})
     assert done.returncode == 0, done.stderr
     assert len((next(out.rglob("rounds.csv"))).read_text().splitlines()) == 2  # header and the one round
+
+
+def _summary_without_times(out: Path) -> dict:
+    import json
+
+    summary = json.loads((out / "summary.json").read_text())
+    for cell in summary["cells"]:
+        cell.pop("wall_seconds")
+    return summary
+
+
+@pytest.mark.cluster
+@pytest.mark.slow
+def test_a_recovery_benchmark_on_a_cluster_started_by_address_gives_the_local_pools_summary(token_cluster, tmp_path):
+    address, token = token_cluster
+    settings = ["--budget", "smoke", "--damages", "reversed_left_pectoral", "--seeds", "0", "--no-progress"]
+    base = {k: v for k, v in os.environ.items() if not k.startswith("RAY_AUTH")}
+    local, remote = tmp_path / "local", tmp_path / "ray"
+    for out, extra, env in ((local, ["--processes", "1"], {}),
+                            (remote, ["--backend", "ray", "--address", address],
+                             {"RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": token})):
+        done = subprocess.run([sys.executable, "-m", "aquafish", "recovery", *settings, *extra, "--out", str(out)],
+                              env={**base, **env}, capture_output=True, text=True, timeout=1200)
+        assert done.returncode == 0, done.stderr
+    assert (remote / "summary.md").read_text() == (local / "summary.md").read_text()
+    assert _summary_without_times(remote) == _summary_without_times(local)
+    assert _summary_without_times(local)["totals"]["cells"] == 1
