@@ -558,6 +558,8 @@ def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: in
     path = latest_checkpoint(gait_dir)
     population = neat.Checkpointer.restore_checkpoint(str(path))
     population.reporters = neat.reporting.ReporterSet()
+    for genome in population.population.values():
+        genome.fitness = None  # its fitness was on the old robot: the evaluator keeps a fitness it finds
     task = _make_task(as_robot(robot), seed, None, episode_duration_s, CLOCK_PERIOD_S, episodes_per_genome,
                       DEFAULT_ENV_ID)
     setattr(population.config, FINGERPRINT_ATTR, _settings(task) | {"population_size": population.config.pop_size})

@@ -195,7 +195,8 @@ def test_a_neat_checkpoint_is_unpickled_only_in_a_run_directory_whose_manifest_m
 
 def test_evolve_from_population_continues_a_runs_final_population_on_another_robot(tmp_path):
     """The checkpoint's generation count carries on (1 + 1 = 2), the fitness is the new robot's
-    (the best controller's rollout on it gives the result's rollout), nothing is written."""
+    (every restored genome scored anew: the best fitness is the best controller's distance on
+    the new robot, not a fitness it kept from the old one), nothing is written."""
     from gait import evolve_from_population, evolve_gait, rollout
     from gait.robots import as_robot
 
@@ -209,6 +210,7 @@ def test_evolve_from_population_continues_a_runs_final_population_on_another_rob
     assert result.robot == damaged and result.out_dir is None
     again = rollout(result.best_controller, damaged, seed=3, episode_duration_s=0.5)
     assert again.distance == result.best_rollout.distance
+    assert result.best_fitness == pytest.approx(again.distance, abs=1e-9)  # the batched path's round-off
     assert sorted(p.name for p in (tmp_path / "run").rglob("*")) == before
     with pytest.raises(ValueError, match="generations"):
         evolve_from_population(damaged, tmp_path / "run", 0, **kw)
