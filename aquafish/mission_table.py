@@ -82,6 +82,9 @@ def mission_row(report: dict) -> dict:
         ``target_experiments``, ``compute_s``, ``speed_before``, ``speed_damaged``,
         ``speed_after``, ``oracle_speed`` (units/s), ``self_model_fields`` (the recovery's own
         EEA settings; ``{}`` for none or a report made before they were recorded),
+        ``new_gait_start`` (where the new gait's episodes started,
+        :data:`aquafish.mission.NEW_GAIT_STARTS`; ``"mission_heading"`` for a report made before it
+        was recorded),
         ``after_share`` (``speed_after`` over ``oracle_speed``; None without an oracle that
         swims forward), ``gains`` (found) and
         ``true_gains`` (three each: left, right pectoral, caudal), ``signs_right`` (as
@@ -100,7 +103,8 @@ def mission_row(report: dict) -> dict:
                "false_alarm": false_alarm, "target_experiments": report["target_experiments"],
                "compute_s": report["compute_seconds"], "speed_before": report["speed_before"],
                "speed_damaged": report["speed_damaged"], "speed_after": after, "oracle_speed": oracle,
-               "self_model_fields": dict(report.get("self_model_fields") or {})}
+               "self_model_fields": dict(report.get("self_model_fields") or {}),
+               "new_gait_start": report.get("new_gait_start", "mission_heading")}
     except KeyError as err:
         raise ValueError(f"not a mission report: no {err.args[0]!r} field") from None
     delay = None if alarm is None or false_alarm or onset is None else alarm - onset
@@ -174,6 +178,8 @@ def format_table(summary: dict) -> str:
             if text not in settings:
                 settings.append(text)
             start += f" ‡{settings.index(text) + 1}"
+        if r.get("new_gait_start", "mission_heading") != "mission_heading":
+            start += ", gait from the robot's heading"
         alarm = "false alarm" if r["false_alarm"] else _num(r["alarm_delay_s"], 1)
         share = "-" if r["after_share"] is None else f"{100 * r['after_share']:.0f} %" + (" ✓" if r["recovered"] else "")
         signs = {True: "✓", False: "✗", None: "-"}[r["signs_right"]]

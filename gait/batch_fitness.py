@@ -84,17 +84,19 @@ def batch_fitness(genomes, config, task: FitnessTask, max_world_robots: int = MA
                         max_world_robots=world, **task.robot.env_kwargs(), initial_angles=task.initial_angles,
                         episode_duration_s=task.episode_duration_s)
     try:
-        yaws = [task.start_yaw_deg(episode) for _ in genomes for episode in range(k)] if task.spread_headings else None
-        scores = _run_episodes(envs, controllers, seeds, task.env_id, yaws)
+        yaws = [task.start_yaw_deg(episode) for _ in genomes for episode in range(k)] if task.turned else None
+        scores = _run_episodes(envs, controllers, seeds, task.env_id, yaws, task.spread_headings)
     finally:
         envs.close()
     return scores.reshape(len(genomes), k).mean(axis=1)
 
 
-def _run_episodes(envs, controllers, seeds: list[int], env_id: str, yaws: list[float] | None = None) -> np.ndarray:
+def _run_episodes(envs, controllers, seeds: list[int], env_id: str, yaws: list[float] | None = None,
+                  along_start_heading: bool = False) -> np.ndarray:
     """One episode of every sub-env, sub-env i driven by ``controllers[i]``; ``(N,)`` scores
-    (with ``yaws``, sub-env i starts turned by ``yaws[i]`` degrees and scores its displacement
-    along that heading, as :meth:`FitnessTask.score`).
+    (with ``yaws``, sub-env i starts turned by ``yaws[i]`` degrees; with ``along_start_heading``
+    it scores its displacement along that heading, as :meth:`FitnessTask.score` with
+    ``spread_headings``, else its forward distance along +y).
 
     Each step does what :meth:`~gait.controller.NEATController.act` does, for all sub-envs:
     the observation and the clock (:func:`gait.clock.with_clock`'s ``clock_features``), each
@@ -119,7 +121,7 @@ def _run_episodes(envs, controllers, seeds: list[int], env_id: str, yaws: list[f
         total += rewards
     if env_id != DEFAULT_ENV_ID:
         return total
-    if yaws is not None:
+    if along_start_heading:
         return along_heading(np.column_stack([info["x_position"], info["y_position"]]) - start, np.asarray(yaws))
     return np.array(info["distance"], dtype=np.float64)
 

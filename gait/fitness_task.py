@@ -42,10 +42,15 @@ class FitnessTask:
             headings) and score it by its displacement along its own start heading, so the
             gait is selected to swim alike whichever way it points (its observation holds
             the absolute yaw; AquaFish-v0 only). False (the default): every start heads +y.
+        initial_yaw_deg: every episode starts turned by this many degrees counter-clockwise
+            from +y and is scored, as by default, by its forward distance along +y: the gait is
+            selected to swim along +y from that heading (a mission's new gait, from where the
+            robot points when it starts). None (the default): every start heads +y.
 
     Raises:
         ValueError: ``episodes`` < 1, or > 1 with fixed ``initial_angles``; an unknown env id;
-            ``spread_headings`` on another task than AquaFish-v0.
+            ``spread_headings`` or ``initial_yaw_deg`` on another task than AquaFish-v0; both
+            at once; an ``initial_yaw_deg`` that is not a number in [-180, 180].
     """
 
     robot: Robot
@@ -56,18 +61,35 @@ class FitnessTask:
     episodes: int = 1
     env_id: str = DEFAULT_ENV_ID
     spread_headings: bool = False
+    initial_yaw_deg: float | None = None
 
     def __post_init__(self) -> None:
         check_episodes(self.episodes, self.initial_angles)
         check_env_id(self.env_id)
-        if self.spread_headings and self.env_id != DEFAULT_ENV_ID:
-            raise ValueError(f"spread_headings needs the forward task {DEFAULT_ENV_ID!r} (the other tasks measure "
-                             f"their goals from +y), got {self.env_id!r}")
+        for name, on in (("spread_headings", self.spread_headings), ("initial_yaw_deg", self.initial_yaw_deg is not None)):
+            if on and self.env_id != DEFAULT_ENV_ID:
+                raise ValueError(f"{name} needs the forward task {DEFAULT_ENV_ID!r} (the other tasks measure "
+                                 f"their goals from +y), got {self.env_id!r}")
+        if self.initial_yaw_deg is not None:
+            yaw = self.initial_yaw_deg
+            if isinstance(yaw, bool) or not isinstance(yaw, (int, float, np.floating)) or not -180.0 <= yaw <= 180.0:
+                raise ValueError(f"initial_yaw_deg must be a number of degrees in [-180, 180] or None, got {yaw!r}")
+            if self.spread_headings:
+                raise ValueError("give spread_headings or initial_yaw_deg, not both: one sets every start's heading")
+            object.__setattr__(self, "initial_yaw_deg", float(yaw))
+
+    @property
+    def turned(self) -> bool:
+        """Whether the episodes start turned from +y (``spread_headings`` or ``initial_yaw_deg``)."""
+        return self.spread_headings or self.initial_yaw_deg is not None
 
     def start_yaw_deg(self, episode: int) -> float:
-        """Heading of episode ``episode``'s start, degrees counter-clockwise from +y: 0, or with
-        ``spread_headings`` ``-180 + 360 (k + 1/2) / K`` (K = ``episodes``: -90 and +90 for 2)."""
-        return -180.0 + 360.0 * (episode + 0.5) / self.episodes if self.spread_headings else 0.0
+        """Heading of episode ``episode``'s start, degrees counter-clockwise from +y: 0, with
+        ``spread_headings`` ``-180 + 360 (k + 1/2) / K`` (K = ``episodes``: -90 and +90 for 2),
+        with ``initial_yaw_deg`` that."""
+        if self.spread_headings:
+            return -180.0 + 360.0 * (episode + 0.5) / self.episodes
+        return 0.0 if self.initial_yaw_deg is None else self.initial_yaw_deg
 
     def controller(self, genome, config) -> NEATController:
         """The network of ``genome`` (a ``neat`` genome and its ``neat.Config``) with the task's clock."""
@@ -77,7 +99,7 @@ class FitnessTask:
         """Episode ``episode`` (seed ``seed + episode``, heading :meth:`start_yaw_deg`) of ``controller``."""
         return rollout(controller, self.robot, seed=self.seed + episode, initial_angles=self.initial_angles,
                        episode_duration_s=self.episode_duration_s, env_id=self.env_id,
-                       initial_yaw_deg=self.start_yaw_deg(episode) if self.spread_headings else None)
+                       initial_yaw_deg=self.start_yaw_deg(episode) if self.turned else None)
 
     def score(self, episode: Rollout, k: int = 0) -> float:
         """Episode ``k``'s fitness: forward distance (units) on AquaFish-v0 (with

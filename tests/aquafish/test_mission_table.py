@@ -103,3 +103,11 @@ def test_own_self_model_settings_are_marked_per_row_and_named_once_below_the_tab
     assert "| warm |" in lines[2] and "| warm ‡1 |" in lines[3] and "| warm ‡1 |" in lines[4]
     assert table.count("‡1:") == 1 and "‡2" not in table
     assert "‡1: the recovery's self-model EEA with `estimation_generations = 15`, `lineages = 1`" in table
+
+
+def test_a_new_gait_started_from_the_robots_heading_is_marked_in_its_row():
+    reports = [_report(), {**_report(seed=1), "new_gait_start": "robot_heading"}]
+    rows = summarise_missions(reports)["rows"]
+    assert [r["new_gait_start"] for r in rows] == ["mission_heading", "robot_heading"]  # before the field: +y
+    lines = format_table(summarise_missions(reports)).splitlines()
+    assert "| warm |" in lines[2] and "| warm, gait from the robot's heading |" in lines[3]

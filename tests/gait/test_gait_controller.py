@@ -216,3 +216,21 @@ def test_evolve_from_population_continues_a_runs_final_population_on_another_rob
         evolve_from_population(damaged, tmp_path / "run", 0, **kw)
     with pytest.raises(ValueError, match="checkpoint"):
         evolve_from_population(damaged, tmp_path / "empty", 1, **kw)
+
+
+def test_evolve_from_population_from_a_given_heading_scores_along_plus_y(tmp_path):
+    """A mission's new gait: every episode starts turned by ``initial_yaw_deg`` and the fitness
+    is the distance along +y (the single-env rollout from that heading gives it)."""
+    from gait import evolve_from_population, evolve_gait, rollout
+    from gait.robots import as_robot
+
+    kw = dict(seed=3, episode_duration_s=0.5)
+    evolve_gait(None, generations=1, population_size=4, workers=1, checkpoint_every=1, progress=False,
+                out_dir=tmp_path / "run", **kw)
+    damaged = as_robot("reversed_left_pectoral")
+    result = evolve_from_population(damaged, tmp_path / "run", 1, initial_yaw_deg=-120.0, **kw)
+    turned = rollout(result.best_controller, damaged, seed=3, episode_duration_s=0.5, initial_yaw_deg=-120.0)
+    assert result.best_fitness == pytest.approx(turned.distance, abs=1e-9)
+    assert result.best_rollout.distance == turned.distance
+    with pytest.raises(ValueError, match=r"initial_yaw_deg must be a number of degrees in \[-180, 180\]"):
+        evolve_from_population(damaged, tmp_path / "run", 1, initial_yaw_deg=float("inf"), **kw)
