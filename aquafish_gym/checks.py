@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-__all__ = ["DuplicateKeyError", "check_int", "check_weight", "json_loads_unique_keys"]
+__all__ = ["DuplicateKeyError", "check_int", "check_weight", "check_yaw_deg", "json_loads_unique_keys"]
 
 
 def check_int(name: str, value, minimum: int | None = None, maximum: int | None = None) -> int:
@@ -44,6 +44,25 @@ def check_weight(name: str, value) -> float:
     """
     if not (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value >= 0):
         raise ValueError(f"{name} must be a number >= 0, got {value!r}")
+    return float(value)
+
+
+def check_yaw_deg(name: str, value, note: str = "") -> float:
+    """``value`` as a ``float`` if it is a heading in degrees in [-180, 180] (``bool`` excluded;
+    counter-clockwise from +y, as the env's ``initial_yaw_deg``).
+
+    Args:
+        name: how the message names the argument.
+        value: the argument; ``int``, ``float`` and NumPy numbers are accepted.
+        note: text the message puts after the range (e.g. what the heading is).
+
+    Raises:
+        ValueError: ``"<name> must be a number of degrees in [-180, 180]<note>, got <value!r>"``
+            if ``value`` is not a number, not finite or out of range.
+    """
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+    if not ok or not math.isfinite(float(value)) or abs(float(value)) > 180.0:
+        raise ValueError(f"{name} must be a number of degrees in [-180, 180]{note}, got {value!r}")
     return float(value)
 
 

@@ -19,13 +19,16 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
-from aquafish_gym.checks import check_int, check_weight
+from aquafish_gym.checks import check_int, check_weight, check_yaw_deg
 from aquafish_gym.bullet import p
 from aquafish_gym.damage import DAMAGES, NO_FAULTS, ServoFaults, get_damage
 from aquafish_gym.imu import roll_pitch_yaw_deg
 from aquafish_gym.morphology import Morphology
 from aquafish_gym.params import DT_S, SimParams
 from aquafish_gym.simulator import ACTION_BOUNDS, BatchWorld
+
+#: What ``options["initial_yaw_deg"]``'s message says the heading is.
+_YAW_NOTE = " (the robot's heading at reset, counter-clockwise from +y)"
 
 logger = logging.getLogger(__name__)
 
@@ -592,15 +595,6 @@ class AquaFishEnv(gym.Env, EzPickle):
             self._damage_onsets([self.world], [slice(0, 1)], [self], self._episodes, self.onset_step)
         return bool(self._episodes.damaged[0])
 
-    @staticmethod
-    def _check_yaw(yaw_deg) -> float:
-        """``options["initial_yaw_deg"]``: a finite number of degrees in [-180, 180]."""
-        ok = isinstance(yaw_deg, (int, float, np.integer, np.floating)) and not isinstance(yaw_deg, (bool, np.bool_))
-        if not ok or not math.isfinite(float(yaw_deg)) or abs(float(yaw_deg)) > 180.0:
-            raise ValueError(f"options['initial_yaw_deg'] must be a number of degrees in [-180, 180] (the robot's "
-                             f"heading at reset, counter-clockwise from +y), got {yaw_deg!r}")
-        return float(yaw_deg)
-
     def _check_angles(self, angles) -> np.ndarray:
         arr = np.asarray(angles, dtype=np.float64)
         amp = self.params.caudal_amplitude_rad
@@ -680,7 +674,7 @@ class AquaFishEnv(gym.Env, EzPickle):
             amp = self.params.caudal_amplitude_rad
             angles = np.array([self.np_random.uniform(0, 2 * np.pi), self.np_random.uniform(0, 2 * np.pi), self.np_random.uniform(-amp, amp)])
         self._initial_angles = np.asarray(angles, dtype=np.float64)
-        self._initial_yaw_rad = math.radians(self._check_yaw(options["initial_yaw_deg"])) \
+        self._initial_yaw_rad = math.radians(check_yaw_deg("options['initial_yaw_deg']", options["initial_yaw_deg"], _YAW_NOTE)) \
             if "initial_yaw_deg" in options else 0.0
         self._damage_pending = self.onset_step is not None and self.onset_step > 0
         self._reset_task(options)

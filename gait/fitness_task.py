@@ -13,6 +13,7 @@ import dataclasses
 
 import numpy as np
 
+from aquafish_gym.checks import check_yaw_deg
 from aquafish_gym.heading import along_heading as along_heading_rad
 from gait.clock import CLOCK_PERIOD_S
 from gait.controller import NEATController
@@ -71,12 +72,10 @@ class FitnessTask:
                 raise ValueError(f"{name} needs the forward task {DEFAULT_ENV_ID!r} (the other tasks measure "
                                  f"their goals from +y), got {self.env_id!r}")
         if self.initial_yaw_deg is not None:
-            yaw = self.initial_yaw_deg
-            if isinstance(yaw, bool) or not isinstance(yaw, (int, float, np.floating)) or not -180.0 <= yaw <= 180.0:
-                raise ValueError(f"initial_yaw_deg must be a number of degrees in [-180, 180] or None, got {yaw!r}")
+            yaw = check_yaw_deg("initial_yaw_deg", self.initial_yaw_deg, " or None")
             if self.spread_headings:
                 raise ValueError("give spread_headings or initial_yaw_deg, not both: one sets every start's heading")
-            object.__setattr__(self, "initial_yaw_deg", float(yaw))
+            object.__setattr__(self, "initial_yaw_deg", yaw)
 
     @property
     def turned(self) -> bool:

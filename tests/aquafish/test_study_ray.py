@@ -4,6 +4,7 @@ cluster without its token, and when a run fails (one line each, as on the local 
 
 from __future__ import annotations
 
+import json
 import os
 import secrets
 import shutil
@@ -127,15 +128,6 @@ def test_a_token_authenticated_cluster_needs_its_token_and_says_so_in_one_line(t
     assert len((next(out.rglob("rounds.csv"))).read_text().splitlines()) == 2  # header and the one round
 
 
-def _summary_without_times(out: Path) -> dict:
-    import json
-
-    summary = json.loads((out / "summary.json").read_text())
-    for cell in summary["cells"]:
-        cell.pop("wall_seconds")
-    return summary
-
-
 @pytest.mark.cluster
 @pytest.mark.slow
 def test_a_recovery_benchmark_on_a_cluster_started_by_address_gives_the_local_pools_summary(token_cluster, tmp_path):
@@ -149,6 +141,8 @@ def test_a_recovery_benchmark_on_a_cluster_started_by_address_gives_the_local_po
         done = subprocess.run([sys.executable, "-m", "aquafish", "recovery", *settings, *extra, "--out", str(out)],
                               env={**base, **env}, capture_output=True, text=True, timeout=1200)
         assert done.returncode == 0, done.stderr
+    from test_ray_shipping import _without_times
+
+    summaries = [_without_times(json.loads((out / "summary.json").read_text())) for out in (remote, local)]
     assert (remote / "summary.md").read_text() == (local / "summary.md").read_text()
-    assert _summary_without_times(remote) == _summary_without_times(local)
-    assert _summary_without_times(local)["totals"]["cells"] == 1
+    assert summaries[0] == summaries[1] and summaries[1]["totals"]["cells"] == 1

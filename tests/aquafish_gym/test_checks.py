@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from aquafish_gym.checks import DuplicateKeyError, check_int, check_weight, json_loads_unique_keys
+from aquafish_gym.checks import DuplicateKeyError, check_int, check_weight, check_yaw_deg, json_loads_unique_keys
 
 
 @pytest.mark.parametrize("value", [0, 3, np.int64(5)])
@@ -39,3 +39,11 @@ def test_json_loads_unique_keys_reads_json_and_refuses_a_repeated_key_at_any_dep
             json_loads_unique_keys(text)
     with pytest.raises(json.JSONDecodeError):
         json_loads_unique_keys('{"a": }')
+
+
+def test_check_yaw_deg_accepts_headings_in_range_and_names_the_argument_otherwise():
+    assert check_yaw_deg("yaw", -180) == -180.0 and check_yaw_deg("yaw", np.float32(90.5)) == 90.5
+    assert check_yaw_deg("yaw", np.int64(180)) == 180.0
+    for bad in (180.01, -181, float("nan"), float("inf"), True, np.bool_(False), "10", None):
+        with pytest.raises(ValueError, match=r"^yaw must be a number of degrees in \[-180, 180\] \(note\), got "):
+            check_yaw_deg("yaw", bad, " (note)")
