@@ -25,7 +25,11 @@ the alarm the robot:
    damage (:func:`eea.search.lineages.warm_start`: every lineage's CMA-ES starts at that
    model, which its first estimation generation holds), for the preset's rounds;
 4. evolves a gait on the new self-model starting from the old gait's final NEAT population
-   (:func:`gait.neat_evolution.evolve_from_population`; the preset's generations), and swims on with it.
+   (:func:`gait.neat_evolution.evolve_from_population`; the preset's generations), its
+   episodes started turned away from the mission's heading by
+   :attr:`MissionPreset.new_gait_start_yaws_deg` and scored along it, so the gait is selected
+   to turn to the mission's heading and hold it (its observation holds its yaw), and swims on
+   with it from wherever the robot points.
 
 One alarm, one recovery: the monitor is not re-armed afterwards. (Re-arming it with the new
 gait's range on the new self-model was tried and removed: the range is the model's, and a
@@ -115,6 +119,9 @@ class MissionPreset:
         window_s, warmup_s: the monitor's window and warm-up (:class:`MonitorCalibration`).
         stop_max_s: the longest stop (s) before an experiment is run anyway.
         speed_span_s: seconds before the onset over which ``speed_before`` is measured.
+        new_gait_start_yaws_deg: the new gait's fitness episodes, one per entry: each starts
+            turned by it (degrees counter-clockwise from the mission's heading) and is scored by
+            its distance along the mission's heading.
     """
 
     case_preset: str
@@ -123,17 +130,21 @@ class MissionPreset:
     calibration_episode_s: float
     window_s: float = 6.0
     warmup_s: float = 6.0
-    stop_max_s: float = 5.0
+    stop_max_s: float = 20.0
     speed_span_s: float = 20.0
+    new_gait_start_yaws_deg: tuple[float, ...] = (-135.0, -45.0, 45.0, 135.0)
 
 
 MISSION_PRESETS: dict[str, MissionPreset] = {
     # seconds: the test's end-to-end check (tiny EEA and NEAT budgets, short episodes)
     "smoke": MissionPreset("smoke", gait_episode_s=4.0, calibration_seeds=2, calibration_episode_s=10.0,
-                           window_s=2.0, warmup_s=2.0, stop_max_s=2.0, speed_span_s=5.0),
+                           window_s=2.0, warmup_s=2.0, stop_max_s=2.0, speed_span_s=5.0,
+                           new_gait_start_yaws_deg=(-90.0, 90.0)),
     # the case study's quick budgets, 20 s gait episodes. The calibration's episodes (initial flipper
     # angles) matter more than their length: 6 x 60 s gave 3 false alarms in 4 h of healthy swimming
-    # and alarmed before the onset in 16 of 24 missions, 24 x 60 s none and none (docs/main_job.md)
+    # and alarmed before the onset in 16 of 24 missions, 24 x 60 s none and none (docs/main_job.md).
+    # Stops of up to 20 s, not 5 s: the robot drifts at up to 0.27 units/s after 5 s, and the
+    # experiments that start from it identify worse (docs/main_job.md, "Missions")
     "quick": MissionPreset("quick", gait_episode_s=20.0, calibration_seeds=24, calibration_episode_s=60.0),
     "medium": MissionPreset("medium", gait_episode_s=20.0, calibration_seeds=24, calibration_episode_s=120.0),
 }
@@ -187,10 +198,6 @@ class Prior:
         """The gait's NEAT run directory (its ``checkpoints/`` hold the final population)."""
         return self.directory / "gait"
 
-
-#: Where a mission's new gait starts its fitness episodes (:func:`run_mission`'s ``new_gait_start``):
-#: headed along the mission's heading, or turned as the robot is when the gait is evolved.
-NEW_GAIT_STARTS: tuple[str, ...] = ("mission_heading", "robot_heading")
 
 #: Where the self-model before the damage comes from (:func:`prepare_prior`).
 PRIORS: tuple[str, ...] = ("design", "eea")
@@ -469,7 +476,7 @@ def _write_trajectory(rows: list[dict], path: Path) -> None:
 def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: float = 300.0, preset: str = "quick",
                 seed: int = 0, self_model=None, prior_source: str = "design", workers: int | None = None,
                 warm_start: bool = True, self_model_fields: Mapping | None = None,
-                new_gait_start: str = "mission_heading", video: bool = True, oracle: bool = True,
+                video: bool = True, oracle: bool = True,
                 progress: bool = True) -> dict:
     """Run a mission and write ``mission.json``, ``timeline.png``, ``trajectory.csv`` and a video in ``out_dir``.
 
@@ -492,11 +499,6 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
             EEA over the case study's (flat names, e.g. ``{"lineages": 1}``; None: none), as
             ``aquafish.case_study.run_case_study``'s; recorded in ``mission.json``. The prior
             (``prior_source="eea"``) is built with the case study's own settings.
-        new_gait_start: where the new gait's fitness episodes start (:data:`NEW_GAIT_STARTS`):
-            ``"mission_heading"`` (default), from rest headed along the mission's heading;
-            ``"robot_heading"``, from rest turned as the robot is when its new gait is evolved
-            (its IMU yaw). Either way a gait is scored by its distance along the mission's
-            heading; recorded in ``mission.json``.
         video: write ``mission.mp4`` (or ``.gif``), drawn from the trajectory after the mission
             (:func:`aquafish.mission_video.write_mission_video`).
         oracle: evolve the oracle gait on the true damaged robot for ``oracle_speed``.
@@ -522,20 +524,18 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         check_int("workers", workers, 1)
     if prior_source not in PRIORS:
         raise ValueError(f"unknown prior {prior_source!r}; valid: {', '.join(PRIORS)}")
-    if new_gait_start not in NEW_GAIT_STARTS:
-        raise ValueError(f"unknown new_gait_start {new_gait_start!r}; valid: {', '.join(NEW_GAIT_STARTS)}")
     own = check_self_model_fields(self_model_fields, PRESETS[settings.case_preset].budget)
     out = check_output_dir(out_dir)
     with run_lock(out, command="mission"):
         prior = load_prior(self_model) if self_model is not None else \
             prepare_prior(out / "self_model", preset, seed, prior=prior_source, workers=workers, progress=progress)
         return _run(prior, damage, onset_s, float(duration_s), settings, preset, seed, out, workers or 1, video,
-                    oracle, progress, bool(warm_start), own, new_gait_start)
+                    oracle, progress, bool(warm_start), own)
 
 
 def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings: MissionPreset, preset: str, seed: int,
          out: Path, workers: int, video: bool, oracle: bool, progress: bool, warm: bool = True,
-         own: dict | None = None, new_gait_start: str = "mission_heading") -> dict:
+         own: dict | None = None) -> dict:
     mission = _Mission(damage, onset_s, duration_s, seed)
     monitor = DamageMonitor(prior.calibration)
     monitor.update(mission.obs, {"time_s": 0.0})
@@ -557,11 +557,11 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
                 mission, prior.genome if warm else None, config, settings, progress)
             t0 = time.perf_counter()
             case = PRESETS[settings.case_preset]
-            start_yaw = round(mission.yaw_deg(), 6) if new_gait_start == "robot_heading" else None
+            yaws = settings.new_gait_start_yaws_deg
             result = evolve_from_population(new_model, prior.gait_dir, case.gait_generations, seed=seed,
                                             episode_duration_s=settings.gait_episode_s,
-                                            episodes_per_genome=case.gait_episodes, workers=workers,
-                                            progress=progress, initial_yaw_deg=start_yaw)
+                                            episodes_per_genome=len(yaws), workers=workers,
+                                            progress=progress, start_yaws_deg=yaws)
             gait_s = time.perf_counter() - t0
             controller, gait_start = result.best_controller, mission.time_s
             controller.reset()
@@ -569,7 +569,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             recovery = {"alarm_s": alarm_s, "recovered_s": mission.time_s, "target_experiments": len(records),
                         "compute_seconds": eea_s + gait_s, "compute_seconds_eea": eea_s,
                         "compute_seconds_gait": gait_s, "self_model": _model_dict(new_genome),
-                        "new_gait_start_yaw_deg": 0.0 if start_yaw is None else start_yaw,
+                        "robot_yaw_deg": round(mission.yaw_deg(), 3),
                         "fault_check": {"replaced": check.index != 0, "polished": check.polished,
                                         "simulations": check.simulations, "procedure": check.procedure,
                                         "final_model": _model_dict(records[-1].best_genome)},
@@ -594,8 +594,8 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
                    "(units/s, 1 unit = 8 cm)",
         "warm_start": warm,
         "self_model_fields": dict(own or {}),
-        "new_gait_start": new_gait_start,
-        "new_gait_start_yaw_deg": recovery.get("new_gait_start_yaw_deg"),
+        "new_gait_start_yaws_deg": list(settings.new_gait_start_yaws_deg),
+        "robot_yaw_at_new_gait_deg": recovery.get("robot_yaw_deg"),
         "onset_s": onset_s,
         "damage_in_force_s": next((r["time_s"] for r in rows if r["damaged"]), None),
         "alarm_s": alarm_s, "recovered_s": recovered_s,

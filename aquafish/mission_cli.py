@@ -14,8 +14,6 @@ from aquafish_gym.argtypes import (add_alias, add_config_option, add_no_progress
 #: command line light: a test checks they agree). Each is the case-study budget of the same name
 #: (:attr:`aquafish.mission.MissionPreset.case_preset`) with the monitor's and the episodes' settings.
 PRESET_NAMES = ("smoke", "quick", "medium")
-#: Where the new gait's fitness episodes start (:data:`aquafish.mission.NEW_GAIT_STARTS`; a test checks they agree).
-NEW_GAIT_START_NAMES = ("mission_heading", "robot_heading")
 
 
 def _nonnegative_float(text: str) -> float:
@@ -36,7 +34,7 @@ def _mission(args: argparse.Namespace) -> int:
     report = run_mission(args.damage, args.out, onset_s=args.onset_s, duration_s=args.duration_s, preset=args.budget,
                          seed=args.seed, self_model=args.self_model, prior_source=args.prior, workers=args.workers,
                          warm_start=not args.cold_start, self_model_fields=args.self_model_fields,
-                         new_gait_start=args.new_gait_start, video=not args.no_video,
+                         video=not args.no_video,
                          oracle=not args.no_oracle, progress=not args.no_progress)
     keys = ("onset_s", "alarm_s", "recovered_s", "target_experiments", "compute_seconds", "speed_before",
             "speed_damaged", "speed_after", "oracle_speed")
@@ -88,10 +86,6 @@ def add_commands(sub) -> None:
     m.add_argument("--cold-start", action="store_true",
                    help="start the recovery's EEA from a random population, not at the self-model from before "
                         "the damage (the warm start's baseline)")
-    m.add_argument("--new-gait-start", choices=NEW_GAIT_START_NAMES, default="mission_heading",
-                   help="where the new gait's fitness episodes start: from rest headed along the mission's heading "
-                        "(mission_heading, default) or turned as the robot is when the gait is evolved "
-                        "(robot_heading); either way scored along the mission's heading")
     m.add_argument("--self-model-fields", type=json_object, default=None, metavar="JSON",
                    help="EEA settings of the recovery's self-model search over the case study's, as aquafish "
                         "case-study --self-model-fields (inline or FILE.json; default: none); recorded in mission.json")

@@ -73,6 +73,12 @@ def _share(after, oracle) -> float | None:
     return after / oracle
 
 
+def _new_gait(report: dict) -> str:
+    if "new_gait_start_yaws_deg" in report:
+        return "spread"
+    return report.get("new_gait_start", "mission_heading")
+
+
 def mission_row(report: dict) -> dict:
     """One mission's row of the table, from its ``mission.json`` report.
 
@@ -82,9 +88,10 @@ def mission_row(report: dict) -> dict:
         ``target_experiments``, ``compute_s``, ``speed_before``, ``speed_damaged``,
         ``speed_after``, ``oracle_speed`` (units/s), ``self_model_fields`` (the recovery's own
         EEA settings; ``{}`` for none or a report made before they were recorded),
-        ``new_gait_start`` (where the new gait's episodes started,
-        :data:`aquafish.mission.NEW_GAIT_STARTS`; ``"mission_heading"`` for a report made before it
-        was recorded),
+        ``new_gait`` (how the new gait's episodes started: ``"spread"``, turned by
+        ``new_gait_start_yaws_deg`` and scored along the mission's heading, as today's missions;
+        ``"mission_heading"`` or ``"robot_heading"`` for a report of an earlier version, whose
+        episodes all started one way),
         ``after_share`` (``speed_after`` over ``oracle_speed``; None without an oracle that
         swims forward), ``gains`` (found) and
         ``true_gains`` (three each: left, right pectoral, caudal), ``signs_right`` (as
@@ -104,7 +111,7 @@ def mission_row(report: dict) -> dict:
                "compute_s": report["compute_seconds"], "speed_before": report["speed_before"],
                "speed_damaged": report["speed_damaged"], "speed_after": after, "oracle_speed": oracle,
                "self_model_fields": dict(report.get("self_model_fields") or {}),
-               "new_gait_start": report.get("new_gait_start", "mission_heading")}
+               "new_gait": _new_gait(report)}
     except KeyError as err:
         raise ValueError(f"not a mission report: no {err.args[0]!r} field") from None
     delay = None if alarm is None or false_alarm or onset is None else alarm - onset
@@ -178,8 +185,9 @@ def format_table(summary: dict) -> str:
             if text not in settings:
                 settings.append(text)
             start += f" ‡{settings.index(text) + 1}"
-        if r.get("new_gait_start", "mission_heading") != "mission_heading":
-            start += ", gait from the robot's heading"
+        if r.get("new_gait", "spread") != "spread":
+            start += {"mission_heading": ", gait from +y only", "robot_heading": ", gait from the robot's heading"}[
+                r["new_gait"]]
         alarm = "false alarm" if r["false_alarm"] else _num(r["alarm_delay_s"], 1)
         share = "-" if r["after_share"] is None else f"{100 * r['after_share']:.0f} %" + (" ✓" if r["recovered"] else "")
         signs = {True: "✓", False: "✗", None: "-"}[r["signs_right"]]

@@ -43,15 +43,17 @@ class FitnessTask:
             headings) and score it by its displacement along its own start heading, so the
             gait is selected to swim alike whichever way it points (its observation holds
             the absolute yaw; AquaFish-v0 only). False (the default): every start heads +y.
-        initial_yaw_deg: every episode starts turned by this many degrees counter-clockwise
-            from +y and is scored, as by default, by its forward distance along +y: the gait is
-            selected to swim along +y from that heading (a mission's new gait, from where the
-            robot points when it starts). None (the default): every start heads +y.
+        start_yaws_deg: episode k starts turned by ``start_yaws_deg[k % n]`` degrees
+            counter-clockwise from +y and is scored, as by default, by its forward distance
+            along +y: the gait is selected to turn to +y and swim along it from those headings
+            (a mission's new gait holds the mission's heading this way). None (the default):
+            every start heads +y.
 
     Raises:
         ValueError: ``episodes`` < 1, or > 1 with fixed ``initial_angles``; an unknown env id;
-            ``spread_headings`` or ``initial_yaw_deg`` on another task than AquaFish-v0; both
-            at once; an ``initial_yaw_deg`` that is not a number in [-180, 180].
+            ``spread_headings`` or ``start_yaws_deg`` on another task than AquaFish-v0; both
+            at once; ``start_yaws_deg`` empty or holding a value that is not a number in
+            [-180, 180].
     """
 
     robot: Robot
@@ -62,33 +64,37 @@ class FitnessTask:
     episodes: int = 1
     env_id: str = DEFAULT_ENV_ID
     spread_headings: bool = False
-    initial_yaw_deg: float | None = None
+    start_yaws_deg: tuple[float, ...] | None = None
 
     def __post_init__(self) -> None:
         check_episodes(self.episodes, self.initial_angles)
         check_env_id(self.env_id)
-        for name, on in (("spread_headings", self.spread_headings), ("initial_yaw_deg", self.initial_yaw_deg is not None)):
+        for name, on in (("spread_headings", self.spread_headings), ("start_yaws_deg", self.start_yaws_deg is not None)):
             if on and self.env_id != DEFAULT_ENV_ID:
                 raise ValueError(f"{name} needs the forward task {DEFAULT_ENV_ID!r} (the other tasks measure "
                                  f"their goals from +y), got {self.env_id!r}")
-        if self.initial_yaw_deg is not None:
-            yaw = check_yaw_deg("initial_yaw_deg", self.initial_yaw_deg, " or None")
+        if self.start_yaws_deg is not None:
+            if isinstance(self.start_yaws_deg, (str, bytes)) or not hasattr(self.start_yaws_deg, "__len__") \
+                    or len(self.start_yaws_deg) == 0:
+                raise ValueError(f"start_yaws_deg must be a non-empty sequence of degrees in [-180, 180] or None, "
+                                 f"got {self.start_yaws_deg!r}")
+            yaws = tuple(check_yaw_deg("start_yaws_deg", y) for y in self.start_yaws_deg)
             if self.spread_headings:
-                raise ValueError("give spread_headings or initial_yaw_deg, not both: one sets every start's heading")
-            object.__setattr__(self, "initial_yaw_deg", yaw)
+                raise ValueError("give spread_headings or start_yaws_deg, not both: each sets the starts' headings")
+            object.__setattr__(self, "start_yaws_deg", yaws)
 
     @property
     def turned(self) -> bool:
-        """Whether the episodes start turned from +y (``spread_headings`` or ``initial_yaw_deg``)."""
-        return self.spread_headings or self.initial_yaw_deg is not None
+        """Whether the episodes start turned from +y (``spread_headings`` or ``start_yaws_deg``)."""
+        return self.spread_headings or self.start_yaws_deg is not None
 
     def start_yaw_deg(self, episode: int) -> float:
         """Heading of episode ``episode``'s start, degrees counter-clockwise from +y: 0, with
         ``spread_headings`` ``-180 + 360 (k + 1/2) / K`` (K = ``episodes``: -90 and +90 for 2),
-        with ``initial_yaw_deg`` that."""
+        with ``start_yaws_deg`` ``start_yaws_deg[episode % n]``."""
         if self.spread_headings:
             return -180.0 + 360.0 * (episode + 0.5) / self.episodes
-        return 0.0 if self.initial_yaw_deg is None else self.initial_yaw_deg
+        return 0.0 if self.start_yaws_deg is None else self.start_yaws_deg[episode % len(self.start_yaws_deg)]
 
     def controller(self, genome, config) -> NEATController:
         """The network of ``genome`` (a ``neat`` genome and its ``neat.Config``) with the task's clock."""

@@ -305,8 +305,8 @@ def _settings(task: FitnessTask) -> dict[str, Any]:
                 "episodes": task.episodes}
     if task.spread_headings:
         settings["spread_headings"] = True
-    if task.initial_yaw_deg is not None:
-        settings["initial_yaw_deg"] = task.initial_yaw_deg
+    if task.start_yaws_deg is not None:
+        settings["start_yaws_deg"] = list(task.start_yaws_deg)
     return settings if task.env_id == DEFAULT_ENV_ID else settings | {"env_id": task.env_id}
 
 
@@ -443,7 +443,8 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
 
 
 def _make_task(robot: Robot, seed: int, initial_angles, episode_duration_s, clock_period_s, episodes_per_genome,
-               env_id: str, spread_headings: bool = False, initial_yaw_deg: float | None = None) -> FitnessTask:
+               env_id: str, spread_headings: bool = False,
+               start_yaws_deg: tuple[float, ...] | None = None) -> FitnessTask:
     angles = None if initial_angles is None else tuple(float(a) for a in np.asarray(initial_angles, dtype=float).reshape(3))
     if isinstance(episode_duration_s, bool) or not isinstance(episode_duration_s, (int, float, np.floating)) \
             or not (np.isfinite(episode_duration_s) and episode_duration_s > 0):
@@ -452,7 +453,7 @@ def _make_task(robot: Robot, seed: int, initial_angles, episode_duration_s, cloc
         raise ValueError(f"spread_headings must be True or False, got {spread_headings!r}")
     return FitnessTask(robot, seed, angles, float(episode_duration_s), check_clock_period(clock_period_s),
                        check_int("episodes_per_genome", episodes_per_genome, 1), env_id, spread_headings,
-                       initial_yaw_deg)
+                       start_yaws_deg)
 
 
 def _check_gait_memory(population_size: int, task: FitnessTask, workers: int) -> None:
@@ -534,7 +535,7 @@ def _finish(population: neat.Population, task: FitnessTask, out_dir: Path | None
 
 def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: int = 0, episode_duration_s: float,
                            episodes_per_genome: int = 1, workers: int | None = None,
-                           progress: bool = False, initial_yaw_deg: float | None = None) -> GaitResult:
+                           progress: bool = False, start_yaws_deg: tuple[float, ...] | None = None) -> GaitResult:
     """Evolve a gait on ``robot`` for ``generations`` more generations, starting from the final
     NEAT population of the run in ``gait_dir`` (its latest checkpoint: genomes, species and
     innovation state carry over; every genome is evaluated anew on ``robot``). A damaged
@@ -550,9 +551,9 @@ def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: in
         episode_duration_s: simulated seconds of every episode, as :func:`evolve_gait`.
         episodes_per_genome: episodes a genome is scored on, as :func:`evolve_gait`.
         workers: evaluation processes (default 1).
-        initial_yaw_deg: every episode starts turned by this many degrees counter-clockwise
-            from +y and is scored by its distance along +y (:class:`~gait.fitness_task.FitnessTask`);
-            None: heading +y.
+        start_yaws_deg: episode k starts turned by ``start_yaws_deg[k % n]`` degrees
+            counter-clockwise from +y and is scored by its distance along +y
+            (:class:`~gait.fitness_task.FitnessTask`); None: every start heads +y.
 
     Returns:
         The :class:`GaitResult`; nothing is written (``out_dir`` is None).
@@ -562,7 +563,7 @@ def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: in
     """
     generations = check_int("generations", generations, 1)
     task = _make_task(as_robot(robot), seed, None, episode_duration_s, CLOCK_PERIOD_S, episodes_per_genome,
-                      DEFAULT_ENV_ID, initial_yaw_deg=initial_yaw_deg)
+                      DEFAULT_ENV_ID, start_yaws_deg=start_yaws_deg)
     path = latest_checkpoint(gait_dir)
     population = neat.Checkpointer.restore_checkpoint(str(path))
     population.reporters = neat.reporting.ReporterSet()

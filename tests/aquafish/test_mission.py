@@ -10,7 +10,7 @@ import pytest
 from aquafish.cli import main
 from aquafish.mission import (MISSION_PRESETS, STOP_ACTION, MissionTarget, _Mission, make_prior, run_mission,
                               span_speed, stop_robot)
-from aquafish.mission_cli import NEW_GAIT_START_NAMES, PRESET_NAMES
+from aquafish.mission_cli import PRESET_NAMES
 from gait import load_controller
 from aquafish_gym import Morphology
 from aquafish_gym.params import DT_S
@@ -171,10 +171,7 @@ def test_span_speed_is_displacement_along_the_heading_per_second():
 
 
 def test_cli_presets_match_the_module():
-    from aquafish.mission import NEW_GAIT_STARTS
-
     assert sorted(PRESET_NAMES) == sorted(MISSION_PRESETS)
-    assert NEW_GAIT_START_NAMES == NEW_GAIT_STARTS
 
 
 class _Stop(Exception):
@@ -225,32 +222,26 @@ def test_own_self_model_fields_reach_the_recovery_eea_and_bad_ones_are_refused_b
     assert not (tmp_path / "bad").exists()
 
 
-@pytest.mark.parametrize("start", ["mission_heading", "robot_heading"])
-def test_the_new_gait_starts_its_episodes_headed_along_the_mission_or_as_the_robot_points(prior_dir, tmp_path,
-                                                                                          monkeypatch, start):
+def test_the_new_gait_is_scored_along_the_missions_heading_from_the_presets_spread_starts(prior_dir, tmp_path,
+                                                                                            monkeypatch):
     import aquafish.mission as mission_module
 
-    yaws, seen = [], []
+    seen = []
 
     def recover(mission, genome, config, *args):
-        yaws.append(mission.yaw_deg())  # the robot's heading when its new gait is evolved
         return [], None, None, None, 0.0
 
     def evolve(robot, gait_dir, generations, **kwargs):
-        seen.append(kwargs["initial_yaw_deg"])
+        seen.append((kwargs["start_yaws_deg"], kwargs["episodes_per_genome"]))
         raise _Stop
 
     monkeypatch.setattr(mission_module, "_recover_model", recover)
     monkeypatch.setattr(mission_module, "evolve_from_population", evolve)
     with pytest.raises(_Stop):
         run_mission(ALL_SEIZED, tmp_path / "m", onset_s=8.0, duration_s=30.0, preset="smoke", seed=0,
-                    self_model=prior_dir, workers=1, new_gait_start=start, video=False, oracle=False, progress=False)
-    assert seen == ([None] if start == "mission_heading" else [round(yaws[0], 6)])
-    assert start == "mission_heading" or abs(yaws[0]) > 0.5  # the robot turned before its alarm: a real heading
-    with pytest.raises(ValueError, match="unknown new_gait_start 'north'; valid: mission_heading, robot_heading"):
-        run_mission(ALL_SEIZED, tmp_path / "bad", preset="smoke", self_model=prior_dir, new_gait_start="north",
-                    video=False, oracle=False, progress=False)
-    assert not (tmp_path / "bad").exists()
+                    self_model=prior_dir, workers=1, video=False, oracle=False, progress=False)
+    # one episode a start heading, each turned away from the mission's heading
+    assert seen == [(MISSION_PRESETS["smoke"].new_gait_start_yaws_deg, 2)]
 
 
 @pytest.mark.parametrize("argv, message", [

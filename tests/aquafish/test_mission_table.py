@@ -17,7 +17,8 @@ def _report(damage="reversed_left_pectoral", seed=0, *, alarm=32.2, in_force=30.
             "alarm_s": alarm, "false_alarm": false_alarm, "target_experiments": 8, "compute_seconds": compute,
             "speed_before": 0.71, "speed_damaged": 0.62, "speed_after": after, "oracle_speed": oracle,
             "true_model": {**_DESIGN, **(shape or {}), **dict(zip(gains, truth))},
-            "self_model_after": None if found is None else {**_DESIGN, **dict(zip(gains, found))}}
+            "self_model_after": None if found is None else {**_DESIGN, **dict(zip(gains, found))},
+            "new_gait_start_yaws_deg": [-135.0, -45.0, 45.0, 135.0]}
 
 
 def test_a_row_measures_the_alarm_from_the_damage_in_force_and_the_speed_against_the_oracle():
@@ -105,9 +106,11 @@ def test_own_self_model_settings_are_marked_per_row_and_named_once_below_the_tab
     assert "‡1: the recovery's self-model EEA with `estimation_generations = 15`, `lineages = 1`" in table
 
 
-def test_a_new_gait_started_from_the_robots_heading_is_marked_in_its_row():
-    reports = [_report(), {**_report(seed=1), "new_gait_start": "robot_heading"}]
+def test_an_earlier_versions_new_gait_started_one_way_is_marked_in_its_row():
+    earlier = {k: v for k, v in _report(seed=1).items() if k != "new_gait_start_yaws_deg"}
+    reports = [_report(), earlier, {**earlier, "seed": 2, "new_gait_start": "robot_heading"}]
     rows = summarise_missions(reports)["rows"]
-    assert [r["new_gait_start"] for r in rows] == ["mission_heading", "robot_heading"]  # before the field: +y
+    assert [r["new_gait"] for r in rows] == ["spread", "mission_heading", "robot_heading"]
     lines = format_table(summarise_missions(reports)).splitlines()
-    assert "| warm |" in lines[2] and "| warm, gait from the robot's heading |" in lines[3]
+    assert "| warm |" in lines[2] and "| warm, gait from +y only |" in lines[3]
+    assert "| warm, gait from the robot's heading |" in lines[4]

@@ -170,29 +170,32 @@ def test_evolve_gait_records_spread_headings(tmp_path):
     assert run_json["best_rollout_distance"] != pytest.approx(first.distance)
 
 
-# -- every start turned the same way, scored along +y (a mission's new gait) ------------------------
+# -- starts turned by given headings, scored along +y (a mission's new gait) ------------------------
 
-def test_a_start_at_a_given_heading_scores_along_plus_y_on_both_paths():
+def test_starts_at_given_headings_score_along_plus_y_on_both_paths():
     genomes, config = _genomes(4)
-    turned = FitnessTask(as_robot("reversed_left_pectoral"), 3, None, SHORT_S, episodes=2, initial_yaw_deg=60)
-    assert turned.initial_yaw_deg == 60.0 and [turned.start_yaw_deg(k) for k in range(2)] == [60.0, 60.0]
+    turned = FitnessTask(as_robot("reversed_left_pectoral"), 3, None, SHORT_S, episodes=3, start_yaws_deg=(60, -45))
+    assert turned.start_yaws_deg == (60.0, -45.0)
+    assert [turned.start_yaw_deg(k) for k in range(3)] == [60.0, -45.0, 60.0]  # cycled over the episodes
     batched = batch_fitness(genomes, config, turned, max_world_robots=4)
     np.testing.assert_allclose(batched, _single(genomes, config, turned), rtol=0, atol=1e-9)
-    # by hand for genome 0: each start's displacement along +y, from a start turned 60 degrees
+    # by hand for genome 0: each start's displacement along +y, from starts turned 60, -45 and 60 degrees
     controller = turned.controller(genomes[0], config)
-    runs = [turned.run(controller, k) for k in range(2)]
+    runs = [turned.run(controller, k) for k in range(3)]
     assert batched[0] == pytest.approx(np.mean([r.trajectory[-1][1] - r.trajectory[0][1] for r in runs]), abs=1e-9)
     plain = FitnessTask(as_robot("reversed_left_pectoral"), 3, None, SHORT_S, episodes=2)
     assert not np.allclose(batched, batch_fitness(genomes, config, plain, max_world_robots=4))
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    (dict(initial_yaw_deg=float("nan")), "initial_yaw_deg must be a number of degrees in [-180, 180] or None, got nan"),
-    (dict(initial_yaw_deg="north"), "initial_yaw_deg must be a number of degrees in [-180, 180]"),
-    (dict(initial_yaw_deg=True), "initial_yaw_deg must be a number of degrees in [-180, 180]"),
-    (dict(initial_yaw_deg=181.0), "initial_yaw_deg must be a number of degrees in [-180, 180] or None, got 181.0"),
-    (dict(initial_yaw_deg=30.0, spread_headings=True), "give spread_headings or initial_yaw_deg, not both"),
-    (dict(initial_yaw_deg=30.0, env_id="AquaFishHeading-v0"), "initial_yaw_deg needs the forward task 'AquaFish-v0'"),
+    (dict(start_yaws_deg=(float("nan"),)), "start_yaws_deg must be a number of degrees in [-180, 180], got nan"),
+    (dict(start_yaws_deg=("north",)), "start_yaws_deg must be a number of degrees in [-180, 180], got 'north'"),
+    (dict(start_yaws_deg=(True,)), "start_yaws_deg must be a number of degrees in [-180, 180], got True"),
+    (dict(start_yaws_deg=(0.0, 181.0)), "start_yaws_deg must be a number of degrees in [-180, 180], got 181.0"),
+    (dict(start_yaws_deg=()), "start_yaws_deg must be a non-empty sequence of degrees in [-180, 180] or None, got ()"),
+    (dict(start_yaws_deg=30.0), "start_yaws_deg must be a non-empty sequence of degrees in [-180, 180] or None, got 30.0"),
+    (dict(start_yaws_deg=(30.0,), spread_headings=True), "give spread_headings or start_yaws_deg, not both"),
+    (dict(start_yaws_deg=(30.0,), env_id="AquaFishHeading-v0"), "start_yaws_deg needs the forward task 'AquaFish-v0'"),
 ])
 def test_a_bad_start_heading_is_refused_by_name(kwargs, message):
     with pytest.raises(ValueError, match=re.escape(message)):

@@ -218,9 +218,9 @@ def test_evolve_from_population_continues_a_runs_final_population_on_another_rob
         evolve_from_population(damaged, tmp_path / "empty", 1, **kw)
 
 
-def test_evolve_from_population_from_a_given_heading_scores_along_plus_y(tmp_path):
-    """A mission's new gait: every episode starts turned by ``initial_yaw_deg`` and the fitness
-    is the distance along +y (the single-env rollout from that heading gives it)."""
+def test_evolve_from_population_from_given_headings_scores_along_plus_y(tmp_path):
+    """A mission's new gait: episode k starts turned by ``start_yaws_deg[k]`` and the fitness
+    is the mean distance along +y (the single-env rollouts from those headings give it)."""
     from gait import evolve_from_population, evolve_gait, rollout
     from gait.robots import as_robot
 
@@ -228,9 +228,11 @@ def test_evolve_from_population_from_a_given_heading_scores_along_plus_y(tmp_pat
     evolve_gait(None, generations=1, population_size=4, workers=1, checkpoint_every=1, progress=False,
                 out_dir=tmp_path / "run", **kw)
     damaged = as_robot("reversed_left_pectoral")
-    result = evolve_from_population(damaged, tmp_path / "run", 1, initial_yaw_deg=-120.0, **kw)
-    turned = rollout(result.best_controller, damaged, seed=3, episode_duration_s=0.5, initial_yaw_deg=-120.0)
-    assert result.best_fitness == pytest.approx(turned.distance, abs=1e-9)
-    assert result.best_rollout.distance == turned.distance
-    with pytest.raises(ValueError, match=r"initial_yaw_deg must be a number of degrees in \[-180, 180\]"):
-        evolve_from_population(damaged, tmp_path / "run", 1, initial_yaw_deg=float("inf"), **kw)
+    result = evolve_from_population(damaged, tmp_path / "run", 1, start_yaws_deg=(-120.0, 30.0),
+                                    episodes_per_genome=2, **kw)
+    turned = [rollout(result.best_controller, damaged, seed=3 + k, episode_duration_s=0.5, initial_yaw_deg=yaw)
+              for k, yaw in enumerate((-120.0, 30.0))]
+    assert result.best_fitness == pytest.approx(np.mean([r.distance for r in turned]), abs=1e-9)
+    assert result.best_rollout.distance == turned[0].distance
+    with pytest.raises(ValueError, match=r"start_yaws_deg must be a number of degrees in \[-180, 180\]"):
+        evolve_from_population(damaged, tmp_path / "run", 1, start_yaws_deg=(float("inf"),), **kw)

@@ -1,0 +1,95 @@
+"""Does a mission's new gait hold the mission's heading over minutes? The gait alone, on the true model.
+
+A mission's new gait continues the prior's NEAT population on the new self-model
+(:func:`gait.evolve_from_population`). Here the self-model is the true damaged robot, so what
+is measured is the gait's fitness and nothing of the identification: each variant of the new
+gait's fitness is evolved from the same prior population with the same NEAT budget (the
+``quick`` case study's: 12 generations, 2 episodes a genome), then swims ``--swim-s`` seconds
+on the damaged robot from start headings of -90, -45, 0, 45 and 90 degrees (the robot's
+heading when its new gait takes over is whatever the experiments left). Its score is the
+displacement along the mission's heading (+y) per second, as a share of the oracle's speed
+(a gait evolved from scratch on the damaged robot, scored as the mission scores it).
+
+Variants (``--variants``):
+
+* ``heading20``: every episode starts headed along +y, 20 s (the mission's new gait up to now);
+* ``heading60``: the same, 60 s episodes (three times the simulation);
+* ``spread45``: the two episodes start turned by -45 and +45 degrees, 20 s, scored along +y,
+  so the gait is selected to turn to the mission's heading (its observation holds the yaw);
+* ``spread90``: the same from -90 and +90 degrees;
+* ``spread4``: four episodes a genome (twice the simulation), from -135, -45, 45 and 135 degrees.
+
+The prior is the design prior ``runs/missions/prior_sS/self_model`` that ``aquafish mission
+--damage none --onset-s 0 --duration-s 60 --budget quick --seed S --out runs/missions/prior_sS
+--no-oracle --no-video`` makes. Resumable: each variant's controller is kept in ``--out``.
+
+    python docs/studies/probes/new_gait_heading.py --damage reversed_left_pectoral --seed 0 \\
+        --out runs/new_gait_heading/rlp_s0
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+import gait
+from aquafish.case_study import PRESETS
+from gait.neat_evolution import evolve_from_population
+from gait.rollout import rollout
+
+#: name: (episode seconds, start headings in degrees, episodes a genome)
+VARIANTS = {"heading20": (20.0, (0.0,), 2), "heading60": (60.0, (0.0,), 2), "spread45": (20.0, (-45.0, 45.0), 2),
+            "spread90": (20.0, (-90.0, 90.0), 2), "spread4": (20.0, (-135.0, -45.0, 45.0, 135.0), 4)}
+START_YAWS_DEG = (-90.0, -45.0, 0.0, 45.0, 90.0)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--damage", required=True)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--variants", default=",".join(VARIANTS))
+    parser.add_argument("--swim-s", type=float, default=270.0, help="seconds each test swim lasts")
+    parser.add_argument("--out", required=True)
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    case = PRESETS["quick"]
+    robot = gait.as_robot(args.damage)
+    oracle = gait.evolve_or_load_gait(robot, out / "oracle_gait", generations=case.gait_generations,
+                                      population_size=case.gait_population, seed=args.seed,
+                                      episodes_per_genome=case.gait_episodes, episode_duration_s=20.0)
+    t = gait.score_transfer(oracle, robot, robot, seed=args.seed, episodes=case.transfer_episodes,
+                            episode_duration_s=20.0)
+    oracle_speed = float(t.target_distance / 20.0)
+    old = json.loads((out / "summary.json").read_text())["variants"] if (out / "summary.json").is_file() else {}
+    rows = {"damage": args.damage, "seed": args.seed, "oracle_speed": oracle_speed, "variants": {}}
+    for name in args.variants.split(","):
+        duration, yaws, episodes = VARIANTS[name]
+        if name in old:
+            rows["variants"][name] = old[name]
+            continue
+        path = out / f"{name}.json"
+        if not path.is_file():
+            result = evolve_from_population(robot, Path(f"runs/missions/prior_s{args.seed}/self_model/gait"),
+                                            case.gait_generations, seed=args.seed, episode_duration_s=duration,
+                                            episodes_per_genome=episodes, start_yaws_deg=yaws)
+            result.best_controller.save(path)
+        controller = gait.load_controller(path)
+        speeds = []
+        for k, yaw in enumerate(START_YAWS_DEG):
+            r = rollout(controller, robot, seed=args.seed + 100 + k, episode_duration_s=args.swim_s,
+                        initial_yaw_deg=yaw)
+            speeds.append(float((r.trajectory[-1] - r.trajectory[0])[1] / args.swim_s))
+        share = np.asarray(speeds) / oracle_speed
+        rows["variants"][name] = {"speed_along_heading": speeds, "share_of_oracle": share.round(3).tolist(),
+                                  "mean_share": float(share.mean()), "min_share": float(share.min())}
+        print(name, f"mean {share.mean():.2f} min {share.min():.2f}", share.round(2).tolist(), flush=True)
+        rows["variants"] |= {k: v for k, v in old.items() if k not in rows["variants"]}
+        (out / "summary.json").write_text(json.dumps(rows, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
