@@ -22,7 +22,9 @@ DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 HISTORICAL = {ROOT / "docs/studies/retired_variants.md"}
 #: Commits at which retired fields last ran, where not the retirement's 82b7524: a page that shows
 #: such a field's flag must name its commit.
-RETIRED_FIELD_COMMITS = {"cma_global_flip": "eac968c"}
+RETIRED_FIELD_COMMITS = {"cma_global_flip": "eac968c", "new_gait_start": "0661181"}
+#: Retired flags of commands other than ``eea`` (their last commit is in RETIRED_FIELD_COMMITS).
+RETIRED_FLAGS = ("new_gait_start",)
 #: Retired sub-commands, by the commit they last ran at: a page that shows one must name it.
 RETIRED_COMMANDS = {"select": "aa88ba2"}
 
@@ -34,7 +36,7 @@ def _commands():
         for block in re.findall(r"```(?:bash|sh|console)\n(.*?)```", path.read_text(), flags=re.S):
             for line in block.replace("\\\n", " ").splitlines():
                 line = line.split("#", 1)[0].strip()
-                retired = [f for f in RETIRED_FIELDS if f"--{f.replace('_', '-')} " in line + " "]
+                retired = [f for f in (*RETIRED_FIELDS, *RETIRED_FLAGS) if f"--{f.replace('_', '-')} " in line + " "]
                 if retired:  # a retired variant's command: the page must name the commit it last ran at
                     for field in retired:
                         commit = RETIRED_FIELD_COMMITS.get(field, "82b7524")
