@@ -3,8 +3,8 @@
 A mission's new gait continues the prior's NEAT population on the new self-model
 (:func:`gait.evolve_from_population`). Here the self-model is the true damaged robot, so what
 is measured is the gait's fitness and nothing of the identification: each variant of the new
-gait's fitness is evolved from the same prior population with the same NEAT budget (the
-``quick`` case study's: 12 generations, 2 episodes a genome), then swims ``--swim-s`` seconds
+gait's fitness is evolved from the same prior population with the ``quick`` case study's
+NEAT population (30) and, unless the variant says otherwise, its 12 generations, then swims ``--swim-s`` seconds
 on the damaged robot from start headings of -90, -45, 0, 45 and 90 degrees (the robot's
 heading when its new gait takes over is whatever the experiments left). Its score is the
 displacement along the mission's heading (+y) per second, as a share of the oracle's speed
@@ -17,7 +17,9 @@ Variants (``--variants``):
 * ``spread45``: the two episodes start turned by -45 and +45 degrees, 20 s, scored along +y,
   so the gait is selected to turn to the mission's heading (its observation holds the yaw);
 * ``spread90``: the same from -90 and +90 degrees;
-* ``spread4``: four episodes a genome (twice the simulation), from -135, -45, 45 and 135 degrees.
+* ``spread4``: four episodes a genome (twice the simulation), from -135, -45, 45 and 135 degrees;
+* ``spread4_g24``: the same for 24 generations (four times the simulation);
+* ``spread4_40s``: the same as ``spread4`` with 40 s episodes (four times the simulation).
 
 The prior is the design prior ``runs/missions/prior_sS/self_model`` that ``aquafish mission
 --damage none --onset-s 0 --duration-s 60 --budget quick --seed S --out runs/missions/prior_sS
@@ -40,9 +42,12 @@ from aquafish.case_study import PRESETS
 from gait.neat_evolution import evolve_from_population
 from gait.rollout import rollout
 
-#: name: (episode seconds, start headings in degrees, episodes a genome)
-VARIANTS = {"heading20": (20.0, (0.0,), 2), "heading60": (60.0, (0.0,), 2), "spread45": (20.0, (-45.0, 45.0), 2),
-            "spread90": (20.0, (-90.0, 90.0), 2), "spread4": (20.0, (-135.0, -45.0, 45.0, 135.0), 4)}
+SPREAD4 = (-135.0, -45.0, 45.0, 135.0)
+#: name: (episode seconds, start headings in degrees, episodes a genome, generations)
+VARIANTS = {"heading20": (20.0, (0.0,), 2, 12), "heading60": (60.0, (0.0,), 2, 12),
+            "spread45": (20.0, (-45.0, 45.0), 2, 12), "spread90": (20.0, (-90.0, 90.0), 2, 12),
+            "spread4": (20.0, SPREAD4, 4, 12), "spread4_g24": (20.0, SPREAD4, 4, 24),
+            "spread4_40s": (40.0, SPREAD4, 4, 12)}
 START_YAWS_DEG = (-90.0, -45.0, 0.0, 45.0, 90.0)
 
 
@@ -67,14 +72,14 @@ def main(argv: list[str] | None = None) -> None:
     old = json.loads((out / "summary.json").read_text())["variants"] if (out / "summary.json").is_file() else {}
     rows = {"damage": args.damage, "seed": args.seed, "oracle_speed": oracle_speed, "variants": {}}
     for name in args.variants.split(","):
-        duration, yaws, episodes = VARIANTS[name]
+        duration, yaws, episodes, generations = VARIANTS[name]
         if name in old:
             rows["variants"][name] = old[name]
             continue
         path = out / f"{name}.json"
         if not path.is_file():
             result = evolve_from_population(robot, Path(f"runs/missions/prior_s{args.seed}/self_model/gait"),
-                                            case.gait_generations, seed=args.seed, episode_duration_s=duration,
+                                            generations, seed=args.seed, episode_duration_s=duration,
                                             episodes_per_genome=episodes, start_yaws_deg=yaws)
             result.best_controller.save(path)
         controller = gait.load_controller(path)
