@@ -83,8 +83,8 @@ from gait.neat_evolution import evolve_from_population
 from gait.robots import Robot
 
 __all__ = ["EXPERIMENTS_FILE", "MISSION_FILE", "MISSION_PRESETS", "PRIORS", "RECOVERED_DIR", "MissionPreset",
-           "MissionTarget", "Prior", "load_prior", "make_prior", "mission_preset", "plot_timeline", "prepare_prior",
-           "run_mission", "span_speed", "stop_robot"]
+           "MissionTarget", "Prior", "load_prior", "make_prior", "mission_oracle_speed", "mission_preset",
+           "plot_timeline", "prepare_prior", "run_mission", "span_speed", "stop_robot"]
 
 log = logging.getLogger(__name__)
 
@@ -569,7 +569,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             recovery = {"alarm_s": alarm_s, "recovered_s": mission.time_s, "target_experiments": len(records),
                         "compute_seconds": eea_s + gait_s, "compute_seconds_eea": eea_s,
                         "compute_seconds_gait": gait_s, "self_model": _model_dict(new_genome),
-                        "robot_yaw_deg": round(mission.yaw_deg(), 3),
+                        "robot_yaw_at_new_gait_deg": round(mission.yaw_deg(), 3),
                         "fault_check": {"replaced": check.index != 0, "polished": check.polished,
                                         "simulations": check.simulations, "procedure": check.procedure,
                                         "final_model": _model_dict(records[-1].best_genome)},
@@ -586,7 +586,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     speed_damaged = span_speed(rows, onset_s, alarm_s)
     after_start = None if recovered_s is None else recovered_s + settings.warmup_s
     speed_after = None if after_start is None or after_start >= rows[-1]["time_s"] else span_speed(rows, after_start)
-    oracle_speed = _oracle_speed(damage, settings, seed, out, workers, progress) if oracle else None
+    oracle_speed = mission_oracle_speed(damage, settings, seed, out, workers, progress) if oracle else None
     space = get_model_space("morphology+servos")
     report = {
         "damage": damage, "seed": seed, "preset": preset, "duration_s": duration_s,
@@ -595,7 +595,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         "warm_start": warm,
         "self_model_fields": dict(own or {}),
         "new_gait_start_yaws_deg": list(settings.new_gait_start_yaws_deg),
-        "robot_yaw_at_new_gait_deg": recovery.get("robot_yaw_deg"),
+        "robot_yaw_at_new_gait_deg": recovery.get("robot_yaw_at_new_gait_deg"),
         "onset_s": onset_s,
         "damage_in_force_s": next((r["time_s"] for r in rows if r["damaged"]), None),
         "alarm_s": alarm_s, "recovered_s": recovered_s,
@@ -695,10 +695,16 @@ def _recover_model(mission: _Mission, genome: np.ndarray | None, config: EEAConf
     return records, target, robot, check, time.perf_counter() - t0 - sim_wall
 
 
-def _oracle_speed(damage: str, settings: MissionPreset, seed: int, out: Path, workers: int, progress: bool) -> float:
-    """The oracle: a gait evolved on the true damaged robot with the same NEAT budget, its mean
-    speed along the heading on the damaged robot (distance / episode seconds, over the
-    case preset's transfer starts)."""
+def mission_oracle_speed(damage: str, settings: MissionPreset, seed: int, out: Path, workers: int = 1,
+                         progress: bool = False) -> float:
+    """The oracle's speed (units/s): a gait evolved on the true damaged robot ``damage`` with the
+    preset's NEAT budget (kept in ``out/oracle_gait``, reused when finished), its mean speed
+    along the heading on the damaged robot (distance / episode seconds, 20 s from rest at
+    ``quick``, over the case preset's transfer starts). ``mission.json``'s ``oracle_speed``.
+
+    Raises:
+        ValueError: an unknown damage, or an ``oracle_gait`` made with other settings.
+    """
     robot = gait.as_robot(damage)
     controller = gait.evolve_or_load_gait(robot, out / "oracle_gait", **_gait_kwargs(settings, seed, workers, progress))
     t = gait.score_transfer(controller, robot, robot, seed=seed, episodes=PRESETS[settings.case_preset].transfer_episodes,

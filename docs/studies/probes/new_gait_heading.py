@@ -39,6 +39,7 @@ import numpy as np
 
 import gait
 from aquafish.case_study import PRESETS
+from aquafish.mission import MISSION_PRESETS, mission_oracle_speed
 from gait.neat_evolution import evolve_from_population
 from gait.rollout import rollout
 
@@ -63,12 +64,7 @@ def main(argv: list[str] | None = None) -> None:
     out.mkdir(parents=True, exist_ok=True)
     case = PRESETS["quick"]
     robot = gait.as_robot(args.damage)
-    oracle = gait.evolve_or_load_gait(robot, out / "oracle_gait", generations=case.gait_generations,
-                                      population_size=case.gait_population, seed=args.seed,
-                                      episodes_per_genome=case.gait_episodes, episode_duration_s=20.0)
-    t = gait.score_transfer(oracle, robot, robot, seed=args.seed, episodes=case.transfer_episodes,
-                            episode_duration_s=20.0)
-    oracle_speed = float(t.target_distance / 20.0)
+    oracle_speed = mission_oracle_speed(args.damage, MISSION_PRESETS["quick"], args.seed, out)  # the missions' oracle
     old = json.loads((out / "summary.json").read_text())["variants"] if (out / "summary.json").is_file() else {}
     rows = {"damage": args.damage, "seed": args.seed, "oracle_speed": oracle_speed, "variants": {}}
     for name in args.variants.split(","):
