@@ -19,7 +19,9 @@ Variants (``--variants``):
 * ``spread90``: the same from -90 and +90 degrees;
 * ``spread4``: four episodes a genome (twice the simulation), from -135, -45, 45 and 135 degrees;
 * ``spread4_g24``: the same for 24 generations (four times the simulation);
-* ``spread4_40s``: the same as ``spread4`` with 40 s episodes (four times the simulation).
+* ``spread4_40s``: the same as ``spread4`` with 40 s episodes (four times the simulation);
+* ``oracle_straight``: not a new gait but the oracle itself (``--out``'s ``oracle_gait``,
+  evolved 20 s from +y), swum the same way: does the yardstick hold the heading for minutes?
 
 The prior is the design prior ``runs/missions/prior_sS/self_model`` that ``aquafish mission
 --damage none --onset-s 0 --duration-s 60 --budget quick --seed S --out runs/missions/prior_sS
@@ -48,7 +50,7 @@ SPREAD4 = (-135.0, -45.0, 45.0, 135.0)
 VARIANTS = {"heading20": (20.0, (0.0,), 2, 12), "heading60": (60.0, (0.0,), 2, 12),
             "spread45": (20.0, (-45.0, 45.0), 2, 12), "spread90": (20.0, (-90.0, 90.0), 2, 12),
             "spread4": (20.0, SPREAD4, 4, 12), "spread4_g24": (20.0, SPREAD4, 4, 24),
-            "spread4_40s": (40.0, SPREAD4, 4, 12)}
+            "spread4_40s": (40.0, SPREAD4, 4, 12), "oracle_straight": None}
 START_YAWS_DEG = (-90.0, -45.0, 0.0, 45.0, 90.0)
 
 
@@ -68,12 +70,12 @@ def main(argv: list[str] | None = None) -> None:
     old = json.loads((out / "summary.json").read_text())["variants"] if (out / "summary.json").is_file() else {}
     rows = {"damage": args.damage, "seed": args.seed, "oracle_speed": oracle_speed, "variants": {}}
     for name in args.variants.split(","):
-        duration, yaws, episodes, generations = VARIANTS[name]
         if name in old:
             rows["variants"][name] = old[name]
             continue
-        path = out / f"{name}.json"
+        path = out / "oracle_gait" / "best_controller.json" if name == "oracle_straight" else out / f"{name}.json"
         if not path.is_file():
+            duration, yaws, episodes, generations = VARIANTS[name]
             result = evolve_from_population(robot, Path(f"runs/missions/prior_s{args.seed}/self_model/gait"),
                                             generations, seed=args.seed, episode_duration_s=duration,
                                             episodes_per_genome=episodes, start_yaws_deg=yaws)
