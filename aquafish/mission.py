@@ -42,10 +42,19 @@ whose wall time is ``compute_seconds``.
 Heading: the mission's heading is the robot's initial forward direction (world +y,
 :data:`aquafish_gym.env.INITIAL_HEADING`); every speed is the displacement along it per second
 (units/s, 1 unit = 8 cm) over a span of the mission (:func:`span_speed`).
+
+The oracles (not the robot's: they know the damage; their compute is not the mission's):
+``oracle_speed`` is a gait evolved on the true damaged robot, scored 20 s from rest heading
+along the mission's heading (:func:`mission_oracle_speed`). Such a gait need not hold its
+heading for minutes, nor turn back to it after the stops, which the new gait must; so
+``oracle_in_window`` swims that gait, and the mission's own new-gait procedure run on the true
+damaged robot, from the very state the new gait started from, over the span of
+``speed_after`` (:func:`_oracles_in_window`): the yardstick that faces what the new gait faced.
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import json
 import logging
@@ -70,6 +79,7 @@ from aquafish_gym.env import FRAME_SKIP, INITIAL_HEADING, check_onset
 from aquafish_gym.files import atomic_write
 from aquafish_gym.params import DT_S
 from aquafish_gym.rundir import check_output_dir, run_lock
+from aquafish_gym.simulator import WorldState
 from eea import EEAConfig
 from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
@@ -93,6 +103,9 @@ MISSION_FILE, TRAJECTORY_FILE, TIMELINE_FILE = "mission.json", "trajectory.csv",
 #: genome and the robot, as a prior's), gait (``best_controller.json``, for ``aquafish transfer``)
 #: and the target experiments it made (:data:`EXPERIMENTS_FILE`).
 RECOVERED_DIR = "recovered"
+#: Where a mission keeps the oracle that evolves its new gait as the recovery does, on the true
+#: damaged robot (``best_controller.json``; ``mission.json``'s ``oracle_in_window``).
+ORACLE_NEW_GAIT_DIR = "oracle_new_gait"
 #: The recovery's target experiments, actions and IMU logs (:func:`eea.record.save_experiments`;
 #: :func:`eea.record.load_experiments` reads them back, to score models on them offline).
 EXPERIMENTS_FILE = "experiments.npz"
@@ -342,6 +355,46 @@ class _Mission:
         return bool(np.linalg.norm(w.linear_velocity[0, 0]) < REST_SPEED
                     and np.linalg.norm(w.angular_velocity[0, 0]) < REST_TURN)
 
+    def snapshot(self) -> "_Snapshot":
+        """The mission's state now (the world's, the env's episode, the clock), to swim other
+        gaits from later (:meth:`swim_from`). The mission itself goes on from the restored
+        state, as every later swim does (:meth:`aquafish_gym.BatchWorld.restore_state`: a run
+        from a restored state repeats to the bit, the saved world's own continuation does not)."""
+        snap = _Snapshot(self.world.save_state(), copy.deepcopy(self.env._episodes), self.time_s, self.obs.copy(),
+                         self.damaged, len(self.rows))
+        self._restore(snap)
+        return snap
+
+    def _restore(self, snap: "_Snapshot") -> None:
+        self.world.restore_state(snap.world)
+        self.env._episodes = copy.deepcopy(snap.episodes)
+        self.time_s, self.obs, self.damaged = snap.time_s, snap.obs.copy(), snap.damaged
+
+    def swim_from(self, snap: "_Snapshot", controller, end_s: float, phase: str) -> list[dict]:
+        """Swim ``controller`` from ``snap`` until ``end_s`` (s); its timeline rows, the
+        snapshot's row first. The mission's own rows are left as they were."""
+        rows, self.rows = self.rows, [dict(self.rows[snap.rows - 1])]
+        try:
+            self._restore(snap)
+            controller.reset()
+            while self.time_s < end_s - 1e-9:
+                self.step(controller.act(self.obs, self.time_s - snap.time_s), phase)
+            return self.rows
+        finally:
+            self.rows = rows
+
+
+@dataclasses.dataclass(frozen=True)
+class _Snapshot:
+    """A moment of a mission (:meth:`_Mission.snapshot`)."""
+
+    world: WorldState
+    episodes: object
+    time_s: float
+    obs: np.ndarray
+    damaged: bool
+    rows: int
+
 
 def stop_robot(mission: _Mission, max_s: float) -> float:
     """Zero commands until the robot is near rest or ``max_s`` has passed; the seconds it took."""
@@ -501,7 +554,8 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
             (``prior_source="eea"``) is built with the case study's own settings.
         video: write ``mission.mp4`` (or ``.gif``), drawn from the trajectory after the mission
             (:func:`aquafish.mission_video.write_mission_video`).
-        oracle: evolve the oracle gait on the true damaged robot for ``oracle_speed``.
+        oracle: evolve the oracle gaits on the true damaged robot for ``oracle_speed`` and
+            ``oracle_in_window`` (:func:`mission_oracle_speed`, :func:`_oracles_in_window`).
         progress: progress bars.
 
     Returns:
@@ -542,6 +596,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     controller, gait_start = prior.controller, 0.0
     controller.reset()
     recovery: dict = {}  # the recovery after the alarm: when, what it cost, the model it found
+    snapshot, window, oracle_speed = None, None, None
     try:
         while mission.time_s < duration_s - 1e-9:
             phase = "gait" if not recovery else "new_gait"
@@ -556,15 +611,12 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             records, target, new_model, check, eea_s = _recover_model(
                 mission, prior.genome if warm else None, config, settings, progress)
             t0 = time.perf_counter()
-            case = PRESETS[settings.case_preset]
-            yaws = settings.new_gait_start_yaws_deg
-            result = evolve_from_population(new_model, prior.gait_dir, case.gait_generations, seed=seed,
-                                            episode_duration_s=settings.gait_episode_s,
-                                            episodes_per_genome=len(yaws), workers=workers,
-                                            progress=progress, start_yaws_deg=yaws)
+            result = _evolve_new_gait(new_model, prior, settings, seed, workers, progress)
             gait_s = time.perf_counter() - t0
             controller, gait_start = result.best_controller, mission.time_s
             controller.reset()
+            if mission.damaged:  # the oracles swim from here too (not after a false alarm: the onset is still to come)
+                snapshot = mission.snapshot()
             new_genome = get_model_space(config.model_space).encode(check.model[None])[0]
             recovery = {"alarm_s": alarm_s, "recovered_s": mission.time_s, "target_experiments": len(records),
                         "compute_seconds": eea_s + gait_s, "compute_seconds_eea": eea_s,
@@ -577,6 +629,11 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             experiments = records[-1].experiments  # the robot's own data, kept to be scored again offline
         rows = mission.rows
         sizes = (mission.env.base_morphology.to_array(), mission.env.morphology.to_array())  # before, after the onset
+        if oracle:
+            straight, oracle_speed = _straight_oracle(damage, settings, seed, out, workers, progress)
+            if snapshot is not None and snapshot.time_s + settings.warmup_s < rows[-1]["time_s"]:
+                window = _oracles_in_window(mission, snapshot, straight, damage, prior, settings, seed, out, workers,
+                                            progress, duration_s)
     finally:
         mission.env.close()
 
@@ -586,7 +643,6 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     speed_damaged = span_speed(rows, onset_s, alarm_s)
     after_start = None if recovered_s is None else recovered_s + settings.warmup_s
     speed_after = None if after_start is None or after_start >= rows[-1]["time_s"] else span_speed(rows, after_start)
-    oracle_speed = mission_oracle_speed(damage, settings, seed, out, workers, progress) if oracle else None
     space = get_model_space("morphology+servos")
     report = {
         "damage": damage, "seed": seed, "preset": preset, "duration_s": duration_s,
@@ -607,6 +663,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         "compute_seconds_gait": recovery.get("compute_seconds_gait", 0.0),
         "speed_before": speed_before, "speed_damaged": speed_damaged, "speed_after": speed_after,
         "oracle_speed": oracle_speed,
+        "oracle_in_window": window,
         "monitor": {"lower": prior.calibration.lower, "upper": prior.calibration.upper,
                     "window_s": prior.calibration.window_s},
         "self_model_before": _model_dict(prior.genome),
@@ -705,8 +762,45 @@ def mission_oracle_speed(damage: str, settings: MissionPreset, seed: int, out: P
     Raises:
         ValueError: an unknown damage, or an ``oracle_gait`` made with other settings.
     """
+    return _straight_oracle(damage, settings, seed, out, workers, progress)[1]
+
+
+def _straight_oracle(damage: str, settings: MissionPreset, seed: int, out: Path, workers: int, progress: bool):
+    """:func:`mission_oracle_speed`'s gait and speed."""
     robot = gait.as_robot(damage)
     controller = gait.evolve_or_load_gait(robot, out / "oracle_gait", **_gait_kwargs(settings, seed, workers, progress))
     t = gait.score_transfer(controller, robot, robot, seed=seed, episodes=PRESETS[settings.case_preset].transfer_episodes,
                             episode_duration_s=settings.gait_episode_s)
-    return float(t.target_distance / settings.gait_episode_s)
+    return controller, float(t.target_distance / settings.gait_episode_s)
+
+
+def _evolve_new_gait(robot: Robot, prior: Prior, settings: MissionPreset, seed: int, workers: int, progress: bool):
+    """The recovery's gait on ``robot``: the preset's generations from the prior gait's final
+    population, episodes started turned by the preset's ``new_gait_start_yaws_deg`` and scored
+    along the mission's heading (:func:`gait.neat_evolution.evolve_from_population`)."""
+    yaws = settings.new_gait_start_yaws_deg
+    return evolve_from_population(robot, prior.gait_dir, PRESETS[settings.case_preset].gait_generations, seed=seed,
+                                  episode_duration_s=settings.gait_episode_s, episodes_per_genome=len(yaws),
+                                  workers=workers, progress=progress, start_yaws_deg=yaws)
+
+
+def _oracles_in_window(mission: _Mission, snapshot: _Snapshot, straight, damage: str, prior: Prior,
+                       settings: MissionPreset, seed: int, out: Path, workers: int, progress: bool,
+                       duration_s: float) -> dict:
+    """``mission.json``'s ``oracle_in_window``: oracle gaits swum on the damaged robot from where
+    and how it stood when the new gait took over (the same state, to the bit, that the new gait
+    swam on from), over the span ``speed_after`` is measured on, so that they face what the new
+    gait faced (the robot's heading after its stops, the turn back to the mission's heading,
+    minutes of swimming). Two oracles, each knowing the damage: the straight oracle
+    (:func:`mission_oracle_speed`'s gait, evolved 20 s from the heading; it need not hold the
+    heading for minutes) and the mission's own new-gait procedure run on the true damaged
+    robot (:func:`_evolve_new_gait`, kept in ``out/oracle_new_gait``): what the recovery gives
+    with a perfect self-model. ``best`` is the faster; ``after_s`` the span's start (s)."""
+    holding = _evolve_new_gait(gait.as_robot(damage), prior, settings, seed, workers, progress).best_controller
+    (out / ORACLE_NEW_GAIT_DIR).mkdir(exist_ok=True)
+    holding.save(out / ORACLE_NEW_GAIT_DIR / NEAT_CONTROLLER_FILE)
+    after_s = snapshot.time_s + settings.warmup_s
+    speeds = {name: span_speed(mission.swim_from(snapshot, controller, duration_s, "oracle"), after_s)
+              for name, controller in (("straight", straight), ("heading_holding", holding))}
+    found = [v for v in speeds.values() if v is not None]
+    return {"after_s": after_s, **speeds, "best": max(found) if found else None}

@@ -38,7 +38,8 @@ def _mission(args: argparse.Namespace) -> int:
                          oracle=not args.no_oracle, progress=not args.no_progress)
     keys = ("onset_s", "alarm_s", "recovered_s", "target_experiments", "compute_seconds", "speed_before",
             "speed_damaged", "speed_after", "oracle_speed")
-    print(json.dumps({k: report[k] for k in keys}, indent=1))
+    print(json.dumps({k: report[k] for k in keys} | {"oracle_in_window": (report["oracle_in_window"] or {}).get("best")},
+                     indent=1))
     print(f"wrote {Path(args.out) / MISSION_FILE}, {report['files']['timeline']}, {report['files']['trajectory']}"
           + (f", {report['files']['video']}" if report["files"].get("video") else ""))
     return 0
@@ -91,7 +92,7 @@ def add_commands(sub) -> None:
                         "case-study --self-model-fields (inline or FILE.json; default: none); recorded in mission.json")
     add_workers(m, None, "1")
     m.add_argument("--no-video", action="store_true", help="write no video")
-    m.add_argument("--no-oracle", action="store_true", help="skip the oracle gait (oracle_speed null)")
+    m.add_argument("--no-oracle", action="store_true", help="skip the oracle gaits (oracle_speed and oracle_in_window null)")
     add_no_progress(m, "generation")
     add_config_option(m)
     m.set_defaults(func=_mission)

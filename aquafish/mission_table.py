@@ -9,7 +9,9 @@ beside the truth) and the totals the goals are stated in:
 * an alarm within :data:`ALARM_WITHIN_S` of the damage (and none before it) on at least 95 %
   of missions;
 * after recovery, at least :data:`RECOVERED_SHARE` of the oracle gait's speed on the damaged
-  robot;
+  robot: the best oracle swum in the same window from the same state (``oracle_in_window``,
+  :mod:`aquafish.mission`) where the report has one, else the oracle's 20 s speed from the
+  heading (``oracle_speed``; reports made before the window's oracles);
 * from alarm to new gait, at most :data:`COMPUTE_BUDGET_S` seconds of compute.
 
 Speeds are displacement along the mission's heading per second (units/s, 1 unit = 8 cm), as
@@ -93,10 +95,14 @@ def mission_row(report: dict) -> dict:
         ``"mission_heading"`` or ``"robot_heading"`` for a report of an earlier version, whose
         episodes all started one way),
         ``after_share`` (``speed_after`` over ``oracle_speed``; None without an oracle that
-        swims forward), ``gains`` (found) and
+        swims forward), ``oracle_in_window`` (the best oracle's speed in ``speed_after``'s
+        window, units/s; None in a report without it) and ``window_share`` (``speed_after`` over
+        it), ``gains`` (found) and
         ``true_gains`` (three each: left, right pectoral, caudal), ``signs_right`` (as
         :func:`aquafish.recovery.signs_right`; None without a recovery) and the three verdicts
-        ``alarm_in_time``, ``recovered`` and ``compute_in_budget``.
+        ``alarm_in_time``, ``recovered`` (by ``window_share`` where there is an oracle in the
+        window, else by ``after_share``) and ``compute_in_budget``, and ``recovered_20s``
+        (by ``after_share`` alone).
 
     Raises:
         ValueError: a report without the fields a mission writes (the message names the first).
@@ -111,19 +117,23 @@ def mission_row(report: dict) -> dict:
                "compute_s": report["compute_seconds"], "speed_before": report["speed_before"],
                "speed_damaged": report["speed_damaged"], "speed_after": after, "oracle_speed": oracle,
                "self_model_fields": dict(report.get("self_model_fields") or {}),
-               "new_gait": _new_gait(report)}
+               "new_gait": _new_gait(report),
+               "oracle_in_window": (report.get("oracle_in_window") or {}).get("best")}
     except KeyError as err:
         raise ValueError(f"not a mission report: no {err.args[0]!r} field") from None
     delay = None if alarm is None or false_alarm or onset is None else alarm - onset
     share = _share(after, oracle)
     row["alarm_delay_s"] = delay
     row["after_share"] = share
+    row["window_share"] = _share(after, row["oracle_in_window"])
+    judged = row["window_share"] if row["oracle_in_window"] is not None else share
     row["true_gains"] = [truth[k] for k in _GAINS]
     row["gains"] = [found[k] for k in _GAINS] if found else None
     morphology = {k: truth[k] for k in _MORPHOLOGY_KEYS if k in truth}
     row["signs_right"] = (signs_right({"self_model": found, "target": truth}, morphology) if found else None)
     row["alarm_in_time"] = delay is not None and delay <= ALARM_WITHIN_S
-    row["recovered"] = share is not None and share >= RECOVERED_SHARE
+    row["recovered"] = judged is not None and judged >= RECOVERED_SHARE
+    row["recovered_20s"] = share is not None and share >= RECOVERED_SHARE
     row["compute_in_budget"] = row["compute_s"] is not None and row["compute_s"] <= COMPUTE_BUDGET_S
     return row
 
@@ -134,8 +144,10 @@ def summarise_missions(reports: Sequence[dict]) -> dict:
     Returns:
         ``{"rows": [mission_row, ...], "totals": {...}}``: ``missions``, ``false_alarms``,
         ``alarm_in_time`` (missions with an alarm within :data:`ALARM_WITHIN_S` of the damage),
-        ``recovered`` (at least :data:`RECOVERED_SHARE` of the oracle after recovery; among
-        missions with an oracle speed: ``with_oracle``), ``signs_right`` (among missions whose
+        ``recovered`` (at least :data:`RECOVERED_SHARE` of the oracle after recovery, as
+        :func:`mission_row` judges it; among missions with an oracle speed: ``with_oracle``),
+        ``recovered_20s`` (against the 20 s oracle alone), ``with_window`` (missions with an
+        oracle in the window), ``signs_right`` (among missions whose
         verdict is not None: ``signs_judged``), ``compute_in_budget``, and the median compute
         seconds and alarm delay.
     """
@@ -149,6 +161,8 @@ def summarise_missions(reports: Sequence[dict]) -> dict:
         "alarm_in_time": sum(r["alarm_in_time"] for r in rows),
         "with_oracle": sum(r["after_share"] is not None for r in rows),
         "recovered": sum(r["recovered"] for r in rows),
+        "recovered_20s": sum(r["recovered_20s"] for r in rows),
+        "with_window": sum(r["oracle_in_window"] is not None for r in rows),
         "signs_judged": len(judged),
         "signs_right": sum(judged),
         "compute_in_budget": sum(r["compute_in_budget"] for r in rows),
@@ -166,6 +180,10 @@ def _num(x, digits: int = 3) -> str:
     return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else f"{x:.{digits}f}"
 
 
+def _percent(share, tick: bool) -> str:
+    return "-" if share is None else f"{100 * share:.0f} %" + (" ✓" if tick else "")
+
+
 def _gains(g) -> str:
     return "-" if g is None else ", ".join(f"{x:+g}" for x in g)
 
@@ -175,7 +193,8 @@ def format_table(summary: dict) -> str:
     from aquafish.case_study import format_self_model_fields
 
     head = ("| damage | seed | EEA start | alarm after the damage (s) | experiments | compute (s) | speed before | "
-            "damaged | after | oracle | after / oracle | gains found (L, R, C) | true | signs |")
+            "damaged | after | oracle (20 s) | after / oracle | oracle in window | after / oracle in window | "
+            "gains found (L, R, C) | true | signs |")
     lines = [head, "|" + "---|" * head.count(" | ") + "---|"]
     settings: list[str] = []  # the distinct own EEA settings, marked ‡1, ‡2, ... in the rows
     for r in summary["rows"]:
@@ -189,12 +208,14 @@ def format_table(summary: dict) -> str:
             start += {"mission_heading": ", gait from +y only", "robot_heading": ", gait from the robot's heading"}[
                 r["new_gait"]]
         alarm = "false alarm" if r["false_alarm"] else _num(r["alarm_delay_s"], 1)
-        share = "-" if r["after_share"] is None else f"{100 * r['after_share']:.0f} %" + (" ✓" if r["recovered"] else "")
+        windowed = r.get("oracle_in_window") is not None
+        share = _percent(r["after_share"], r["recovered"] and not windowed)
+        window_share = _percent(r.get("window_share"), r["recovered"] and windowed)
         signs = {True: "✓", False: "✗", None: "-"}[r["signs_right"]]
         lines.append(f"| `{r['damage']}` | {r['seed']} | {start} | {alarm} | "
                      f"{r['target_experiments']} | {_num(r['compute_s'], 0)} | {_num(r['speed_before'])} | "
                      f"{_num(r['speed_damaged'])} | {_num(r['speed_after'])} | {_num(r['oracle_speed'])} | {share} | "
-                     f"{_gains(r['gains'])} | {_gains(r['true_gains'])} | {signs} |")
+                     f"{_num(r.get('oracle_in_window'))} | {window_share} | {_gains(r['gains'])} | {_gains(r['true_gains'])} | {signs} |")
     t = summary["totals"]
     lines.append("")
     lines.extend(f"‡{i}: the recovery's self-model EEA with {text} (the rest as the case study's)." for i, text
@@ -203,7 +224,8 @@ def format_table(summary: dict) -> str:
         lines.append("")
     lines.append(f"{t['missions']} missions: alarm within {ALARM_WITHIN_S:g} s of the damage on {t['alarm_in_time']}, "
                  f"{t['false_alarms']} false alarms; recovered to {100 * RECOVERED_SHARE:.0f} % of the oracle on "
-                 f"{t['recovered']} of {t['with_oracle']} with an oracle; pectoral signs right on {t['signs_right']} of "
+                 f"{t['recovered']} of {t['with_oracle']} with an oracle (in the window where measured, on "
+                 f"{t['with_window']}; against the 20 s oracle alone on {t['recovered_20s']}); pectoral signs right on {t['signs_right']} of "
                  f"{t['signs_judged']}; compute within {COMPUTE_BUDGET_S:g} s on {t['compute_in_budget']} (median "
                  f"{_num(t['median_compute_s'], 0)} s); median alarm delay {_num(t['median_alarm_delay_s'], 1)} s.")
     return "\n".join(lines) + "\n"

@@ -9,6 +9,7 @@ per link.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -36,6 +37,28 @@ _LINKS = (-1, *JOINTS)
 #: log does not depend on where it sits.
 ROBOT_SPACING = 20.0
 _GRID_COLUMNS = 10
+
+
+@dataclasses.dataclass(frozen=True)
+class WorldState:
+    """A :class:`BatchWorld`'s state, kept by :meth:`BatchWorld.save_state` to go back to.
+
+    Attributes:
+        state_id: PyBullet's in-memory state (``saveState``) in the world's client.
+        bodies: the world's body ids when it was saved.
+        robots: the robots then (morphologies, seized servos, speed scales; a state is only
+            restored into the same bodies and robots).
+        time_s: the world's clock (s).
+        caudal_phase: ``(N,)`` each caudal sweep's phase (rad).
+        actions: ``(N, 3)`` the servo commands in force (rev/s, rev/s, Hz).
+    """
+
+    state_id: int
+    bodies: tuple[int, ...]
+    robots: tuple[np.ndarray, np.ndarray, np.ndarray]
+    time_s: float
+    caudal_phase: np.ndarray
+    actions: np.ndarray
 
 
 def validate_actions(actions, n: int) -> np.ndarray:
@@ -204,6 +227,41 @@ class BatchWorld:
         self._caudal_phase = self._sweep_phase(self.initial_angles[:, 2])
         self.actions = np.zeros((self.n, 3))
         self.set_actions(np.zeros((self.n, 3)) if actions is None else actions)
+        self._read_state()
+
+    def save_state(self) -> WorldState:
+        """Keep the world's state (PyBullet's bodies, the clock, the caudal sweeps, the commands)
+        to go back to with :meth:`restore_state` (a mission's oracle swims from where its robot
+        stood). The state lives in the world's PyBullet client until it disconnects."""
+        return WorldState(p.saveState(physicsClientId=self.client), tuple(self.bodies), self._robots(), self.time_s,
+                          self._caudal_phase.copy(), self.actions.copy())
+
+    def _robots(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self.morphologies.copy(), self.seized.copy(), self.speed_scale.copy()
+
+    def restore_state(self, state: WorldState) -> None:
+        """Put the world back in ``state`` (:meth:`save_state`).
+
+        PyBullet's restored state leaves out the link poses it caches from its last step, so
+        the first step after a restore differs from the step the saved world took next (by
+        about 1e-4 of the observation's entries), and a run from the restored state is not the
+        saved world's own continuation bit for bit. Every run from one restored state is the
+        same to the last bit (tested): to compare two runs from one moment, restore the state
+        before each.
+
+        Raises:
+            ValueError: ``state`` was saved from other bodies (another world, or before a
+                :meth:`change_robot` that rebuilt one).
+        """
+        same = tuple(state.bodies) == tuple(self.bodies) and all(
+            a.shape == b.shape and np.array_equal(a, b) for a, b in zip(state.robots, self._robots()))
+        if not same:
+            raise ValueError("the state was saved from other robots (another world's, or before change_robot "
+                             "changed one): it can only be restored into the bodies and robots it was saved from")
+        p.restoreState(stateId=state.state_id, physicsClientId=self.client)
+        self.time_s = state.time_s
+        self._caudal_phase = state.caudal_phase.copy()
+        self.set_actions(state.actions)
         self._read_state()
 
     def sync_caudal_phase(self, i: int | None = None) -> None:

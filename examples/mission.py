@@ -33,6 +33,8 @@ def main(argv=None) -> None:  # under the __main__ guard: evaluation may spawn w
     for key in ("onset_s", "alarm_s", "recovered_s", "target_experiments", "compute_seconds", "speed_before",
                 "speed_damaged", "speed_after", "oracle_speed"):
         print(f"{key:>18}: {report[key]}")
+    window = report["oracle_in_window"] or {}  # the oracles swum from the new gait's start, over the same span
+    print(f"{'oracle_in_window':>18}: {window.get('best')}")
 
 
 if __name__ == "__main__":

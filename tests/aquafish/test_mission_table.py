@@ -57,7 +57,23 @@ def test_totals_count_the_goals():
     assert t["median_alarm_delay_s"] == pytest.approx((32.2 - 30.06 + 45.0 - 30.06) / 2)
     table = format_table(summarise_missions(reports))
     assert table.count("\n| `reversed_left_pectoral` |") == 3 and "false alarm" in table and "80 % ✓" in table
-    assert "recovered to 80 % of the oracle on 1 of 2 with an oracle" in table
+    assert "recovered to 80 % of the oracle on 1 of 2 with an oracle (in the window where measured, on 0; " \
+           "against the 20 s oracle alone on 1)" in table
+
+
+def test_the_oracle_in_the_window_judges_the_recovery_where_the_report_has_one():
+    # the new gait swims 0.5 where the straight oracle's 20 s swim gave 1.0, but swum over the same
+    # window from the same state the best oracle makes 0.6: recovered (83 %), though 50 % of the 20 s one
+    report = _report(after=0.5) | {"oracle_in_window": {"after_s": 230.0, "straight": 0.4, "heading_holding": 0.6,
+                                                        "best": 0.6}}
+    row = mission_row(report)
+    assert row["after_share"] == 0.5 and row["window_share"] == pytest.approx(0.5 / 0.6)
+    assert row["recovered"] and not row["recovered_20s"]
+    assert not mission_row(report | {"speed_after": 0.47})["recovered"]  # 78 % of the window's oracle
+    summary = summarise_missions([report, _report(seed=1, after=0.9)])
+    assert (summary["totals"]["recovered"], summary["totals"]["recovered_20s"], summary["totals"]["with_window"]) == (2, 1, 1)
+    table = format_table(summary)
+    assert "| 1.000 | 50 % | 0.600 | 83 % ✓ |" in table and "| 1.000 | 90 % ✓ | - | - |" in table
 
 
 def test_bad_input_is_named(tmp_path):
