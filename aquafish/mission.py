@@ -92,8 +92,8 @@ from gait.controller import NEAT_CONTROLLER_FILE
 from gait.neat_evolution import evolve_from_population
 from gait.robots import Robot
 
-__all__ = ["EXPERIMENTS_FILE", "MISSION_FILE", "MISSION_PRESETS", "PRIORS", "RECOVERED_DIR", "MissionPreset",
-           "MissionTarget", "Prior", "load_prior", "make_prior", "mission_oracle_speed", "mission_preset",
+__all__ = ["EXPERIMENTS_FILE", "MISSION_FILE", "MISSION_PRESETS", "ORACLE_NEW_GAIT_DIR", "PRIORS", "RECOVERED_DIR",
+           "MissionPreset", "MissionTarget", "Prior", "load_prior", "make_prior", "mission_oracle_speed", "mission_preset",
            "plot_timeline", "prepare_prior", "run_mission", "span_speed", "stop_robot"]
 
 log = logging.getLogger(__name__)
