@@ -629,20 +629,23 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             experiments = records[-1].experiments  # the robot's own data, kept to be scored again offline
         rows = mission.rows
         sizes = (mission.env.base_morphology.to_array(), mission.env.morphology.to_array())  # before, after the onset
+        recovered_s = recovery.get("recovered_s")
+        after_start = None if recovered_s is None else recovered_s + settings.warmup_s  # speed_after's span
+        if after_start is not None and after_start >= rows[-1]["time_s"]:
+            after_start = None  # the mission ended before it
         if oracle:
             straight, oracle_speed = _straight_oracle(damage, settings, seed, out, workers, progress)
-            if snapshot is not None and snapshot.time_s + settings.warmup_s < rows[-1]["time_s"]:
-                window = _oracles_in_window(mission, snapshot, straight, damage, prior, settings, seed, out, workers,
-                                            progress, duration_s)
+            if snapshot is not None and after_start is not None:
+                window = _oracles_in_window(mission, snapshot, after_start, straight, damage, prior, settings, seed,
+                                            out, workers, progress, duration_s)
     finally:
         mission.env.close()
 
-    alarm_s, recovered_s = recovery.get("alarm_s"), recovery.get("recovered_s")
+    alarm_s = recovery.get("alarm_s")
     healthy_end = onset_s if alarm_s is None else min(onset_s, alarm_s)  # the old gait swimming, undamaged
     speed_before = span_speed(rows, max(settings.warmup_s, healthy_end - settings.speed_span_s), healthy_end)
     speed_damaged = span_speed(rows, onset_s, alarm_s)
-    after_start = None if recovered_s is None else recovered_s + settings.warmup_s
-    speed_after = None if after_start is None or after_start >= rows[-1]["time_s"] else span_speed(rows, after_start)
+    speed_after = None if after_start is None else span_speed(rows, after_start)
     space = get_model_space("morphology+servos")
     report = {
         "damage": damage, "seed": seed, "preset": preset, "duration_s": duration_s,
@@ -784,7 +787,7 @@ def _evolve_new_gait(robot: Robot, prior: Prior, settings: MissionPreset, seed: 
                                   workers=workers, progress=progress, start_yaws_deg=yaws)
 
 
-def _oracles_in_window(mission: _Mission, snapshot: _Snapshot, straight, damage: str, prior: Prior,
+def _oracles_in_window(mission: _Mission, snapshot: _Snapshot, after_s: float, straight, damage: str, prior: Prior,
                        settings: MissionPreset, seed: int, out: Path, workers: int, progress: bool,
                        duration_s: float) -> dict:
     """``mission.json``'s ``oracle_in_window``: oracle gaits swum on the damaged robot from where
@@ -795,11 +798,10 @@ def _oracles_in_window(mission: _Mission, snapshot: _Snapshot, straight, damage:
     (:func:`mission_oracle_speed`'s gait, evolved 20 s from the heading; it need not hold the
     heading for minutes) and the mission's own new-gait procedure run on the true damaged
     robot (:func:`_evolve_new_gait`, kept in ``out/oracle_new_gait``): what the recovery gives
-    with a perfect self-model. ``best`` is the faster; ``after_s`` the span's start (s)."""
+    with a perfect self-model. ``best`` is the faster; ``after_s`` the span's start (s), as given."""
     holding = _evolve_new_gait(gait.as_robot(damage), prior, settings, seed, workers, progress).best_controller
     (out / ORACLE_NEW_GAIT_DIR).mkdir(exist_ok=True)
     holding.save(out / ORACLE_NEW_GAIT_DIR / NEAT_CONTROLLER_FILE)
-    after_s = snapshot.time_s + settings.warmup_s
     speeds = {name: span_speed(mission.swim_from(snapshot, controller, duration_s, "oracle"), after_s)
               for name, controller in (("straight", straight), ("heading_holding", holding))}
     found = [v for v in speeds.values() if v is not None]

@@ -208,14 +208,14 @@ def format_table(summary: dict) -> str:
             start += {"mission_heading": ", gait from +y only", "robot_heading": ", gait from the robot's heading"}[
                 r["new_gait"]]
         alarm = "false alarm" if r["false_alarm"] else _num(r["alarm_delay_s"], 1)
-        windowed = r.get("oracle_in_window") is not None
+        windowed = r["oracle_in_window"] is not None
         share = _percent(r["after_share"], r["recovered"] and not windowed)
-        window_share = _percent(r.get("window_share"), r["recovered"] and windowed)
+        window_share = _percent(r["window_share"], r["recovered"] and windowed)
         signs = {True: "✓", False: "✗", None: "-"}[r["signs_right"]]
         lines.append(f"| `{r['damage']}` | {r['seed']} | {start} | {alarm} | "
                      f"{r['target_experiments']} | {_num(r['compute_s'], 0)} | {_num(r['speed_before'])} | "
                      f"{_num(r['speed_damaged'])} | {_num(r['speed_after'])} | {_num(r['oracle_speed'])} | {share} | "
-                     f"{_num(r.get('oracle_in_window'))} | {window_share} | {_gains(r['gains'])} | {_gains(r['true_gains'])} | {signs} |")
+                     f"{_num(r['oracle_in_window'])} | {window_share} | {_gains(r['gains'])} | {_gains(r['true_gains'])} | {signs} |")
     t = summary["totals"]
     lines.append("")
     lines.extend(f"‡{i}: the recovery's self-model EEA with {text} (the rest as the case study's)." for i, text
