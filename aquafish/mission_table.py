@@ -29,13 +29,17 @@ from typing import Sequence
 
 from aquafish.recovery import signs_right
 
-__all__ = ["ALARM_WITHIN_S", "COMPUTE_BUDGET_S", "RECOVERED_SHARE", "format_table", "mission_row", "read_missions",
+__all__ = ["ALARM_WITHIN_S", "COMPUTE_BUDGET_S", "RECOVERED_SHARE", "WINDOW_ORACLE_MIN_SHARE", "format_table", "mission_row", "read_missions",
            "summarise_missions"]
 
 #: The alarm must come within this many seconds of the damage coming in force.
 ALARM_WITHIN_S = 10.0
 #: A recovered mission swims at least this share of the oracle gait's speed after recovery.
 RECOVERED_SHARE = 0.8
+#: The oracle in the window judges a mission only where it swims at least this share of the
+#: 20 s oracle's speed; else (no gait known turns the robot back within the window: the
+#: yardstick is near 0 and any crawl would pass) the 20 s oracle judges, the harder test.
+WINDOW_ORACLE_MIN_SHARE = 0.25
 #: Compute from alarm to new gait allowed (seconds, the 2-core machine).
 COMPUTE_BUDGET_S = 300.0
 
@@ -100,9 +104,10 @@ def mission_row(report: dict) -> dict:
         it), ``gains`` (found) and
         ``true_gains`` (three each: left, right pectoral, caudal), ``signs_right`` (as
         :func:`aquafish.recovery.signs_right`; None without a recovery) and the three verdicts
-        ``alarm_in_time``, ``recovered`` (by ``window_share`` where there is an oracle in the
-        window, else by ``after_share``) and ``compute_in_budget``, and ``recovered_20s``
-        (by ``after_share`` alone).
+        ``alarm_in_time``, ``recovered`` (by ``window_share`` where ``window_judges``: there is
+        an oracle in the window and it swims at least :data:`WINDOW_ORACLE_MIN_SHARE` of the
+        20 s oracle's speed; else by ``after_share``) and ``compute_in_budget``, and
+        ``recovered_20s`` (by ``after_share`` alone).
 
     Raises:
         ValueError: a report without the fields a mission writes (the message names the first).
@@ -126,7 +131,10 @@ def mission_row(report: dict) -> dict:
     row["alarm_delay_s"] = delay
     row["after_share"] = share
     row["window_share"] = _share(after, row["oracle_in_window"])
-    judged = row["window_share"] if row["oracle_in_window"] is not None else share
+    window = row["oracle_in_window"]
+    row["window_judges"] = (window is not None and share is not None
+                            and window >= WINDOW_ORACLE_MIN_SHARE * oracle)
+    judged = row["window_share"] if row["window_judges"] else share
     row["true_gains"] = [truth[k] for k in _GAINS]
     row["gains"] = [found[k] for k in _GAINS] if found else None
     morphology = {k: truth[k] for k in _MORPHOLOGY_KEYS if k in truth}
@@ -146,8 +154,8 @@ def summarise_missions(reports: Sequence[dict]) -> dict:
         ``alarm_in_time`` (missions with an alarm within :data:`ALARM_WITHIN_S` of the damage),
         ``recovered`` (at least :data:`RECOVERED_SHARE` of the oracle after recovery, as
         :func:`mission_row` judges it; among missions with an oracle speed: ``with_oracle``),
-        ``recovered_20s`` (against the 20 s oracle alone), ``with_window`` (missions with an
-        oracle in the window), ``signs_right`` (among missions whose
+        ``recovered_20s`` (against the 20 s oracle alone), ``with_window`` (missions judged by
+        the oracle in the window, ``window_judges``), ``signs_right`` (among missions whose
         verdict is not None: ``signs_judged``), ``compute_in_budget``, and the median compute
         seconds and alarm delay.
     """
@@ -162,7 +170,7 @@ def summarise_missions(reports: Sequence[dict]) -> dict:
         "with_oracle": sum(r["after_share"] is not None for r in rows),
         "recovered": sum(r["recovered"] for r in rows),
         "recovered_20s": sum(r["recovered_20s"] for r in rows),
-        "with_window": sum(r["oracle_in_window"] is not None for r in rows),
+        "with_window": sum(r["window_judges"] for r in rows),
         "signs_judged": len(judged),
         "signs_right": sum(judged),
         "compute_in_budget": sum(r["compute_in_budget"] for r in rows),
@@ -208,20 +216,24 @@ def format_table(summary: dict) -> str:
             start += {"mission_heading": ", gait from +y only", "robot_heading": ", gait from the robot's heading"}[
                 r["new_gait"]]
         alarm = "false alarm" if r["false_alarm"] else _num(r["alarm_delay_s"], 1)
-        windowed = r["oracle_in_window"] is not None
+        windowed = r["window_judges"]
         share = _percent(r["after_share"], r["recovered"] and not windowed)
         window_share = _percent(r["window_share"], r["recovered"] and windowed)
         signs = {True: "✓", False: "✗", None: "-"}[r["signs_right"]]
         lines.append(f"| `{r['damage']}` | {r['seed']} | {start} | {alarm} | "
                      f"{r['target_experiments']} | {_num(r['compute_s'], 0)} | {_num(r['speed_before'])} | "
                      f"{_num(r['speed_damaged'])} | {_num(r['speed_after'])} | {_num(r['oracle_speed'])} | {share} | "
-                     f"{_num(r['oracle_in_window'])} | {window_share} | {_gains(r['gains'])} | {_gains(r['true_gains'])} | {signs} |")
+                     f"{_num(r['oracle_in_window'])}{'' if windowed or r['oracle_in_window'] is None else ' †'} | {window_share} | {_gains(r['gains'])} | {_gains(r['true_gains'])} | {signs} |")
     t = summary["totals"]
     lines.append("")
     lines.extend(f"‡{i}: the recovery's self-model EEA with {text} (the rest as the case study's)." for i, text
                  in enumerate(settings, 1))
     if settings:
         lines.append("")
+    if any(r["oracle_in_window"] is not None and not r["window_judges"] for r in summary["rows"]):
+        lines.extend([f"†: the oracle in the window swims less than {100 * WINDOW_ORACLE_MIN_SHARE:.0f} % of the 20 s "
+                      "oracle's speed (no gait known turns the robot back within the window); the 20 s oracle "
+                      "judges the mission.", ""])
     lines.append(f"{t['missions']} missions: alarm within {ALARM_WITHIN_S:g} s of the damage on {t['alarm_in_time']}, "
                  f"{t['false_alarms']} false alarms; recovered to {100 * RECOVERED_SHARE:.0f} % of the oracle on "
                  f"{t['recovered']} of {t['with_oracle']} with an oracle (in the window where measured, on "

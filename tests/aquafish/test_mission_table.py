@@ -76,6 +76,22 @@ def test_the_oracle_in_the_window_judges_the_recovery_where_the_report_has_one()
     assert "| 1.000 | 50 % | 0.600 | 83 % ✓ |" in table and "| 1.000 | 90 % ✓ | - | - |" in table
 
 
+
+def test_an_oracle_that_does_not_swim_in_the_window_leaves_the_judgement_to_the_20s_oracle():
+    # the robot points backwards with a lost flipper: neither oracle turns it in the window (0.009),
+    # and a new gait that crawls at 0.014 would be 156 % of it; the 20 s oracle (0.5) judges: 3 %
+    report = _report(after=0.014, oracle=0.5) | {"oracle_in_window": {"after_s": 228.6, "straight": -0.06,
+                                                                      "heading_holding": 0.009, "best": 0.009}}
+    row = mission_row(report)
+    assert row["window_share"] == pytest.approx(0.014 / 0.009) and not row["window_judges"]
+    assert not row["recovered"]
+    edge = report | {"oracle_in_window": {"best": 0.125}, "speed_after": 0.1}   # 25 % of the 20 s oracle: judges
+    assert mission_row(edge)["window_judges"] and mission_row(edge)["recovered"]
+    summary = summarise_missions([report])
+    assert summary["totals"]["with_window"] == 0
+    table = format_table(summary)
+    assert "| 0.009 † | 156 % |" in table and "†: the oracle in the window swims less than 25 %" in table
+
 def test_bad_input_is_named(tmp_path):
     with pytest.raises(ValueError, match="at least one mission directory"):
         read_missions([])

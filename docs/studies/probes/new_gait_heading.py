@@ -20,6 +20,8 @@ Variants (``--variants``):
 * ``spread4``: four episodes a genome (twice the simulation), from -135, -45, 45 and 135 degrees;
 * ``spread4_g24``: the same for 24 generations (four times the simulation);
 * ``spread4_40s``: the same as ``spread4`` with 40 s episodes (four times the simulation);
+* ``spread4_here``: ``spread4`` and a fifth episode from the test swim's own start heading (one
+  gait evolved per test heading: the robot knows its yaw when the new gait takes over);
 * ``oracle_straight``: not a new gait but the oracle itself (``--out``'s ``oracle_gait``,
   evolved 20 s from +y), swum the same way: does the yardstick hold the heading for minutes?
 
@@ -46,11 +48,13 @@ from gait.neat_evolution import evolve_from_population
 from gait.rollout import rollout
 
 SPREAD4 = (-135.0, -45.0, 45.0, 135.0)
+HERE = "here"  # in a variant's start headings: the test swim's own start heading
 #: name: (episode seconds, start headings in degrees, episodes a genome, generations)
 VARIANTS = {"heading20": (20.0, (0.0,), 2, 12), "heading60": (60.0, (0.0,), 2, 12),
             "spread45": (20.0, (-45.0, 45.0), 2, 12), "spread90": (20.0, (-90.0, 90.0), 2, 12),
             "spread4": (20.0, SPREAD4, 4, 12), "spread4_g24": (20.0, SPREAD4, 4, 24),
-            "spread4_40s": (40.0, SPREAD4, 4, 12), "oracle_straight": None}
+            "spread4_40s": (40.0, SPREAD4, 4, 12), "spread4_here": (20.0, SPREAD4 + (HERE,), 5, 12),
+            "oracle_straight": None}
 START_YAWS_DEG = (-90.0, -45.0, 0.0, 45.0, 90.0)
 
 
@@ -60,6 +64,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--variants", default=",".join(VARIANTS))
     parser.add_argument("--swim-s", type=float, default=270.0, help="seconds each test swim lasts")
+    parser.add_argument("--skip-s", type=float, default=0.0,
+                        help="seconds at the start of each test swim left out of its speed (a mission's speed_after "
+                             "leaves out 6 s)")
     parser.add_argument("--out", required=True)
     args = parser.parse_args(argv)
     out = Path(args.out)
@@ -67,31 +74,40 @@ def main(argv: list[str] | None = None) -> None:
     case = PRESETS["quick"]
     robot = gait.as_robot(args.damage)
     oracle_speed = mission_oracle_speed(args.damage, MISSION_PRESETS["quick"], args.seed, out)  # the missions' oracle
-    old = json.loads((out / "summary.json").read_text())["variants"] if (out / "summary.json").is_file() else {}
+    # the default swims' summary is summary.json; other lengths keep their own beside it
+    summary = out / ("summary.json" if (args.swim_s, args.skip_s) == (270.0, 0.0)
+                     else f"summary_{args.swim_s:g}s_skip{args.skip_s:g}s.json")
+    old = json.loads(summary.read_text())["variants"] if summary.is_file() else {}
     rows = {"damage": args.damage, "seed": args.seed, "oracle_speed": oracle_speed, "variants": {}}
     for name in args.variants.split(","):
         if name in old:
             rows["variants"][name] = old[name]
             continue
-        path = out / "oracle_gait" / "best_controller.json" if name == "oracle_straight" else out / f"{name}.json"
-        if not path.is_file():
-            duration, yaws, episodes, generations = VARIANTS[name]
-            result = evolve_from_population(robot, Path(f"runs/missions/prior_s{args.seed}/self_model/gait"),
-                                            generations, seed=args.seed, episode_duration_s=duration,
-                                            episodes_per_genome=episodes, start_yaws_deg=yaws)
-            result.best_controller.save(path)
-        controller = gait.load_controller(path)
         speeds = []
         for k, yaw in enumerate(START_YAWS_DEG):
+            if name == "oracle_straight":
+                path = out / "oracle_gait" / "best_controller.json"
+            else:
+                duration, yaws, episodes, generations = VARIANTS[name]
+                here = HERE in yaws
+                path = out / (f"{name}_{yaw:+.0f}.json" if here else f"{name}.json")
+                if not path.is_file():
+                    result = evolve_from_population(
+                        robot, Path(f"runs/missions/prior_s{args.seed}/self_model/gait"), generations, seed=args.seed,
+                        episode_duration_s=duration, episodes_per_genome=episodes,
+                        start_yaws_deg=tuple(yaw if y == HERE else y for y in yaws))
+                    result.best_controller.save(path)
+            controller = gait.load_controller(path)
             r = rollout(controller, robot, seed=args.seed + 100 + k, episode_duration_s=args.swim_s,
                         initial_yaw_deg=yaw)
-            speeds.append(float((r.trajectory[-1] - r.trajectory[0])[1] / args.swim_s))
+            first = int(np.searchsorted(r.times_s, args.skip_s - 1e-9))
+            speeds.append(float((r.trajectory[-1] - r.trajectory[first])[1] / (args.swim_s - r.times_s[first])))
         share = np.asarray(speeds) / oracle_speed
         rows["variants"][name] = {"speed_along_heading": speeds, "share_of_oracle": share.round(3).tolist(),
                                   "mean_share": float(share.mean()), "min_share": float(share.min())}
         print(name, f"mean {share.mean():.2f} min {share.min():.2f}", share.round(2).tolist(), flush=True)
         rows["variants"] |= {k: v for k, v in old.items() if k not in rows["variants"]}
-        (out / "summary.json").write_text(json.dumps(rows, indent=2) + "\n")
+        summary.write_text(json.dumps(rows, indent=2) + "\n")
 
 
 if __name__ == "__main__":
