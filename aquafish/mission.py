@@ -621,6 +621,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             recovery = {"alarm_s": alarm_s, "recovered_s": mission.time_s, "target_experiments": len(records),
                         "compute_seconds": eea_s + gait_s, "compute_seconds_eea": eea_s,
                         "compute_seconds_gait": gait_s, "self_model": _model_dict(new_genome),
+                        "simulations": _simulations(records, check),
                         "robot_yaw_at_new_gait_deg": round(mission.yaw_deg(), 3),
                         "fault_check": {"replaced": check.index != 0, "polished": check.polished,
                                         "simulations": check.simulations, "procedure": check.procedure,
@@ -664,6 +665,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         "compute_seconds": recovery.get("compute_seconds", 0.0),
         "compute_seconds_eea": recovery.get("compute_seconds_eea", 0.0),
         "compute_seconds_gait": recovery.get("compute_seconds_gait", 0.0),
+        "simulations": recovery.get("simulations"),
         "speed_before": speed_before, "speed_damaged": speed_damaged, "speed_after": speed_after,
         "oracle_speed": oracle_speed,
         "oracle_in_window": window,
@@ -696,6 +698,15 @@ def _write_self_model(directory: Path, genome: np.ndarray, robot: Robot) -> None
     them (:func:`load_prior` reads it)."""
     atomic_write(directory / "self_model.json",
                  (json.dumps({"genome": np.asarray(genome).tolist(), "robot": robot.to_dict()}) + "\n").encode())
+
+
+def _simulations(records, check) -> dict[str, int]:
+    """The recovery's model simulations (1.28 s each at ``quick``), a count that does not depend on
+    the machine's load as ``compute_seconds`` does: the EEA rounds' exploration and estimation
+    (cache hits excluded) and the fault check's."""
+    exploration = sum(int(r.exploration_simulations) for r in records)
+    return {"exploration": exploration, "estimation": int(records[-1].simulations) - exploration,
+            "fault_check": int(check.simulations)}
 
 
 def _experiments(records, target: MissionTarget) -> list[dict]:

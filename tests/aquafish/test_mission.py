@@ -85,6 +85,8 @@ def test_the_smoke_mission_writes_its_report_with_sane_relations(smoke_mission):
     # the model the rounds' search ended on was checked against fault hypotheses about the design
     check = report["fault_check"]
     assert set(check["final_model"]) == set(SPACE.fields) and check["simulations"] > 0
+    sims = report["simulations"]  # the recovery's model simulations, by stage
+    assert sims["fault_check"] == check["simulations"] and sims["exploration"] > 0 and sims["estimation"] > 0
     assert (check["final_model"] != report["self_model_after"]) == check["replaced"]
     if check["replaced"]:  # a hypothesis about the design, or the found model with its gains polished
         kept = [report["self_model_after"][f] for f in SPACE.fields[:9]]
