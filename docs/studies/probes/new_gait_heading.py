@@ -27,7 +27,10 @@ Variants (``--variants``):
 
 The prior is the design prior ``runs/missions/prior_sS/self_model`` that ``aquafish mission
 --damage none --onset-s 0 --duration-s 60 --budget quick --seed S --out runs/missions/prior_sS
---no-oracle --no-video`` makes. Resumable: each variant's controller is kept in ``--out``.
+--no-oracle --no-video`` makes. Resumable: each variant's controller is kept in ``--out``,
+and its scores in ``summary.json`` (swims of 270 s) or, with other ``--swim-s``/``--skip-s``,
+``summary_{swim}s_skip{skip}s.json``: ``--swim-s 78 --skip-s 6`` scores the span a 300 s
+mission's ``speed_after`` covers (its new gait takes over near 222 s; 6 s left out).
 
     python docs/studies/probes/new_gait_heading.py --damage reversed_left_pectoral --seed 0 \\
         --out runs/new_gait_heading/rlp_s0
