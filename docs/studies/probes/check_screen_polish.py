@@ -1,0 +1,85 @@
+"""Does the fault check need its screen's compass polish? Re-checks missions' self-models offline.
+
+A mission's recovery ends with the fault check (:func:`eea.fault_check.check_final_model`): the
+final model and 97 fault hypotheses about the design, each one's initial angles fitted on all
+the experiments (a screen of 3 generations, a scan cycle and a compass polish), the best 8
+fitted again in 2 rounds, then a gain polish. In a lean mission it is about 70 % of the
+recovery's model simulations (``mission.json``'s ``simulations``), and the screen's compass
+polish (60-90 simulations a candidate and experiment) is most of the screen. This probe runs
+the check again on each mission's own experiments (``recovered/experiments.npz``) and final
+model (``fault_check.final_model``), as the mission ran it and with ``--variant``'s change, and
+reports the model each keeps, its MOD_FIT and the simulations each ran. A variant that keeps
+the same model as the mission did gives the same mission (the same self-model, hence the same
+new gait). Resumable: one JSON line per mission and variant in ``--out``.
+
+    python docs/studies/probes/check_screen_polish.py runs/missions/window_* \\
+        --variants default,no_screen_polish --out runs/check_screen_polish.jsonl
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+import eea
+from aquafish.mission import MISSION_PRESETS, _eea_config
+from aquafish_gym import Morphology
+from eea.encoding import get_model_space
+from eea.evaluation import Evaluator
+from eea.fault_check import FAULT_CHECK_SEED
+from eea.inference.selection import check_fault_hypotheses
+
+#: name: keyword arguments of check_fault_hypotheses over its defaults
+VARIANTS = {"default": {}, "no_screen_polish": {"screen_polish": False},
+            "no_screen_polish_refit4": {"screen_polish": False, "refit": 4}}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("missions", nargs="+")
+    parser.add_argument("--variants", default="no_screen_polish")
+    parser.add_argument("--workers", type=int, default=1)
+    parser.add_argument("--out", required=True)
+    args = parser.parse_args(argv)
+    out = Path(args.out)
+    done = set()
+    if out.is_file():
+        done = {(r["mission"], r["variant"]) for r in map(json.loads, out.read_text().splitlines())}
+    space = get_model_space("morphology+servos")
+    for directory in args.missions:
+        report = json.loads((Path(directory) / "mission.json").read_text())
+        if not report.get("fault_check"):
+            continue
+        experiments = eea.load_experiments(Path(directory) / "recovered" / "experiments.npz")
+        model = np.array([report["fault_check"]["final_model"][f] for f in space.fields])
+        config = _eea_config(MISSION_PRESETS[report["preset"]], report["damage"], report["seed"], args.workers,
+                             report.get("self_model_fields") or {})
+        kept = [report["self_model_after"][f] for f in space.fields]
+        for name in args.variants.split(","):
+            if (directory, name) in done:
+                continue
+            with Evaluator(config.steps, workers=args.workers, max_batch_robots=config.runtime.max_batch_robots,
+                           params=config.sim_params, model_space=config.model_space,
+                           summary=config.behaviour_summary) as evaluator:
+                t0 = time.perf_counter()
+                selection = check_fault_hypotheses(model, Morphology.healthy().to_array(), experiments, evaluator,
+                                                   FAULT_CHECK_SEED, **VARIANTS[name])
+                chosen = selection.models[selection.index]
+                row = {"mission": directory, "variant": name, "damage": report["damage"], "seed": report["seed"],
+                       "simulations": int(evaluator.simulations), "wall_s": time.perf_counter() - t0,
+                       "model": np.round(chosen, 4).tolist(),
+                       "model_fitness": float(selection.model_fitness[selection.index]),
+                       "same_as_mission": bool(np.allclose(np.round(chosen, 4), kept, atol=1e-4)),
+                       "gains": np.round(chosen[9:], 4).tolist(),
+                       "mission_gains": kept[9:]}
+            print(json.dumps(row), flush=True)
+            with out.open("a") as f:
+                f.write(json.dumps(row) + "\n")
+
+
+if __name__ == "__main__":
+    main()
