@@ -29,8 +29,8 @@ from typing import Sequence
 
 from aquafish.recovery import signs_right
 
-__all__ = ["ALARM_WITHIN_S", "COMPUTE_BUDGET_S", "RECOVERED_SHARE", "WINDOW_ORACLE_MIN_SHARE", "format_table", "mission_row", "read_missions",
-           "summarise_missions"]
+__all__ = ["ALARM_WITHIN_S", "COMPUTE_BUDGET_S", "RECOVERED_SHARE", "WINDOW_ORACLE_MIN_SHARE", "format_table",
+           "mission_row", "read_missions", "summarise_missions"]
 
 #: The alarm must come within this many seconds of the damage coming in force.
 ALARM_WITHIN_S = 10.0
@@ -217,13 +217,15 @@ def format_table(summary: dict) -> str:
                 r["new_gait"]]
         alarm = "false alarm" if r["false_alarm"] else _num(r["alarm_delay_s"], 1)
         windowed = r["window_judges"]
+        dagger = "" if windowed or r["oracle_in_window"] is None else " †"  # the window's oracle does not judge
         share = _percent(r["after_share"], r["recovered"] and not windowed)
         window_share = _percent(r["window_share"], r["recovered"] and windowed)
         signs = {True: "✓", False: "✗", None: "-"}[r["signs_right"]]
         lines.append(f"| `{r['damage']}` | {r['seed']} | {start} | {alarm} | "
                      f"{r['target_experiments']} | {_num(r['compute_s'], 0)} | {_num(r['speed_before'])} | "
                      f"{_num(r['speed_damaged'])} | {_num(r['speed_after'])} | {_num(r['oracle_speed'])} | {share} | "
-                     f"{_num(r['oracle_in_window'])}{'' if windowed or r['oracle_in_window'] is None else ' †'} | {window_share} | {_gains(r['gains'])} | {_gains(r['true_gains'])} | {signs} |")
+                     f"{_num(r['oracle_in_window'])}{dagger} | {window_share} | {_gains(r['gains'])} | "
+                     f"{_gains(r['true_gains'])} | {signs} |")
     t = summary["totals"]
     lines.append("")
     lines.extend(f"‡{i}: the recovery's self-model EEA with {text} (the rest as the case study's)." for i, text

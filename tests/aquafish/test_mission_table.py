@@ -76,7 +76,6 @@ def test_the_oracle_in_the_window_judges_the_recovery_where_the_report_has_one()
     assert "| 1.000 | 50 % | 0.600 | 83 % ✓ |" in table and "| 1.000 | 90 % ✓ | - | - |" in table
 
 
-
 def test_an_oracle_that_does_not_swim_in_the_window_leaves_the_judgement_to_the_20s_oracle():
     # the robot points backwards with a lost flipper: neither oracle turns it in the window (0.009),
     # and a new gait that crawls at 0.014 would be 156 % of it; the 20 s oracle (0.5) judges: 3 %
@@ -91,6 +90,7 @@ def test_an_oracle_that_does_not_swim_in_the_window_leaves_the_judgement_to_the_
     assert summary["totals"]["with_window"] == 0
     table = format_table(summary)
     assert "| 0.009 † | 156 % |" in table and "†: the oracle in the window swims less than 25 %" in table
+
 
 def test_bad_input_is_named(tmp_path):
     with pytest.raises(ValueError, match="at least one mission directory"):
