@@ -34,8 +34,7 @@ from eea.fault_check import FAULT_CHECK_SEED
 from eea.inference.selection import check_fault_hypotheses
 
 #: name: keyword arguments of check_fault_hypotheses over its defaults
-VARIANTS = {"default": {}, "no_screen_polish": {"screen_polish": False},
-            "no_screen_polish_refit4": {"screen_polish": False, "refit": 4}}
+VARIANTS = {"default": {}, "no_screen_polish": {"screen_polish": False}}
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -92,8 +92,7 @@ def main(argv: list[str] | None = None) -> None:
                 path = out / "oracle_gait" / "best_controller.json"
             else:
                 duration, yaws, episodes, generations = VARIANTS[name]
-                here = HERE in yaws
-                path = out / (f"{name}_{yaw:+.0f}.json" if here else f"{name}.json")
+                path = out / (f"{name}_{yaw:+.0f}.json" if HERE in yaws else f"{name}.json")
                 if not path.is_file():
                     result = evolve_from_population(
                         robot, Path(f"runs/missions/prior_s{args.seed}/self_model/gait"), generations, seed=args.seed,
