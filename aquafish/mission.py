@@ -740,9 +740,7 @@ def _recover_model(mission: _Mission, genome: np.ndarray | None, config: EEAConf
     The target's simulated seconds are not compute: they are the mission's."""
     rng = np.random.default_rng(config.seed)
     t0, sim_wall = time.perf_counter(), 0.0
-    with Evaluator(config.steps, workers=config.runtime.workers, max_batch_robots=config.runtime.max_batch_robots,
-                   params=config.sim_params, model_space=config.model_space,
-                   summary=config.behaviour_summary) as evaluator:
+    with Evaluator.for_config(config) as evaluator:
         estimation = make_estimation(config.estimation, config.ga, config.model_space, rng)
         if genome is not None:
             warm_start(estimation, genome)

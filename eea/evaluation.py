@@ -145,6 +145,25 @@ class Evaluator:
         self._checked: dict[int, np.ndarray] = {}
         self._pool: ProcessPoolExecutor | None = None
 
+    @classmethod
+    def for_config(cls, config, workers: int | None = None, model_space: str | ModelSpace | None = None) -> "Evaluator":
+        """The evaluator of a run's :class:`~eea.config.EEAConfig`: its steps, batch size, simulator
+        parameters, model space and behaviour summary.
+
+        Args:
+            config: the run's ``EEAConfig``.
+            workers: worker processes (default: ``config.runtime.workers``).
+            model_space: another model space than the config's (e.g. ``"morphology+servos"``
+                to check a ``morphology`` run's model against servo faults).
+
+        Raises:
+            ValueError: as the constructor.
+        """
+        return cls(config.steps, workers=config.runtime.workers if workers is None else workers,
+                   max_batch_robots=config.runtime.max_batch_robots, params=config.sim_params,
+                   model_space=config.model_space if model_space is None else model_space,
+                   summary=config.behaviour_summary)
+
     # -- lifecycle --------------------------------------------------------------------
     def close(self) -> None:
         """Shut the worker pool down (if one was started)."""

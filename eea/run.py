@@ -161,9 +161,7 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
             bar.set_postfix_str(f"{name} {generation + 1}/{generations} best {best:.4f}")
         return report
 
-    with Evaluator(config.steps, workers=config.runtime.workers, max_batch_robots=config.runtime.max_batch_robots,
-                   params=config.sim_params,
-                   model_space=config.model_space, summary=config.behaviour_summary) as evaluator, bar:
+    with Evaluator.for_config(config) as evaluator, bar:
         if state.evaluator:
             evaluator.load_state_dict(state.evaluator)
         parts = RoundParts.from_config(config, rng, evaluator, estimation)

@@ -38,9 +38,7 @@ def time_round(config: EEAConfig, n_experiments: int, seed: int = 0) -> dict:
     """Run one round (:func:`eea.round.run_round`); return wall seconds per phase and the simulation count."""
     rng = np.random.default_rng(seed)
     workers = config.runtime.workers
-    with Evaluator(config.steps, workers=workers, max_batch_robots=config.runtime.max_batch_robots,
-                   params=config.sim_params, model_space=config.model_space,
-                   summary=config.behaviour_summary) as evaluator:
+    with Evaluator.for_config(config) as evaluator:
         parts = RoundParts.from_config(config, rng, evaluator)
         experiments = recorded_experiments(parts, n_experiments, rng)
         evaluator.simulate(np.full((workers, 9), 0.25), np.zeros((workers, 3)),

@@ -154,3 +154,14 @@ def test_bad_arguments(make_experiment):
         Evaluator(16, workers=0)
     with Evaluator(16) as ev, pytest.raises(ValueError, match="angles"):
         ev.similarities(_genomes(2), [make_experiment(0)], np.zeros((2, 2, 3)))
+
+
+def test_for_config_takes_the_runs_settings_and_a_workers_override():
+    from eea.config import EEAConfig
+    config = EEAConfig().replace(duration_s=0.64, model_space="morphology+servos", behaviour_summary="gyro_dft",
+                                 max_batch_robots=16, workers=2)
+    ev = Evaluator.for_config(config)
+    assert (ev.steps, ev.workers, ev.max_batch_robots, ev.summary) == (64, 2, 16, "gyro_dft")
+    assert ev.model_space.name == "morphology+servos" and ev.params == config.sim_params
+    assert Evaluator.for_config(config, workers=1).workers == 1
+    assert Evaluator.for_config(config, model_space="morphology").model_space.name == "morphology"

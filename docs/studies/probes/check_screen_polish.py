@@ -61,9 +61,7 @@ def main(argv: list[str] | None = None) -> None:
         for name in args.variants.split(","):
             if (directory, name) in done:
                 continue
-            with Evaluator(config.steps, workers=args.workers, max_batch_robots=config.runtime.max_batch_robots,
-                           params=config.sim_params, model_space=config.model_space,
-                           summary=config.behaviour_summary) as evaluator:
+            with Evaluator.for_config(config, workers=args.workers) as evaluator:
                 t0 = time.perf_counter()
                 selection = check_fault_hypotheses(model, Morphology.healthy().to_array(), experiments, evaluator,
                                                    FAULT_CHECK_SEED, **VARIANTS[name])

@@ -62,8 +62,7 @@ def check_run(run_dir, bare_screen: bool = False) -> dict:
     experiments = ([Experiment.from_state_dict(e) for e in state.experiments] if state is not None
                    else rebuild_experiments(result))
     final, truth = np.asarray(result.best_model, dtype=float), result.true_model
-    with Evaluator(result.config.steps, workers=1, params=result.config.sim_params, model_space="morphology+servos",
-                   summary=result.config.behaviour_summary) as evaluator:
+    with Evaluator.for_config(result.config, workers=1, model_space="morphology+servos") as evaluator:
         if bare_screen:
             started, simulations = time.perf_counter(), evaluator.simulations
             selection = check_fault_hypotheses(final, Morphology.healthy().to_array(), experiments, evaluator,
