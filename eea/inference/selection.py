@@ -243,7 +243,7 @@ def gain_neighbours(model) -> np.ndarray:
 
 def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], evaluator: Evaluator, seed: int, *,
                            levels: Sequence[float] = FAULT_GAIN_LEVELS, screen_generations: int = 3,
-                           screen_scan_cycles: int = 1, screen_polish: bool = False, refit: int = 8,
+                           screen_scan_cycles: int = 1, screen_polish: bool = True, refit: int = 8,
                            refit_rounds: int = 2, generations: int = 10,
                            scan_cycles: int = 2, polish: int = 2, polish_steps: int = 3) -> Selection:
     """A found self-model against fault hypotheses about the design, fitted equally hard.
@@ -256,9 +256,7 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
     experiments and keeps the highest MOD_FIT (eq. 3), in stages (not the paper's):
 
     1. a screen: every candidate's angles fitted by :func:`select_model` with
-       ``screen_generations`` and ``screen_scan_cycles`` (no compass polish unless
-       ``screen_polish``: on 12 missions' checks it changed no kept model and cost 38 % of the
-       check's simulations; docs/main_job.md);
+       ``screen_generations`` and ``screen_scan_cycles``;
     2. ``refit_rounds`` rounds in which the ``refit`` best of the screen are fitted again
        (``generations``, ``scan_cycles``) from new random starts and from the angles each of
        them holds so far; each keeps the better of its fits. The initial angles are the
@@ -293,7 +291,7 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
         levels: the hypotheses' pectoral gains.
         screen_generations: the screen's fit, as ``generations`` of :func:`select_model`.
         screen_scan_cycles: the screen's fit, as ``scan_cycles`` of :func:`select_model`.
-        screen_polish: the screen's fit, as ``polish`` of :func:`select_model` (default off).
+        screen_polish: the screen's fit, as ``polish`` of :func:`select_model`.
         refit: candidates fitted again, >= 1.
         refit_rounds: rounds of the refit, >= 1.
         generations: the refit's fit, as :func:`select_model`'s.

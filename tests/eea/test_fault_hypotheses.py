@@ -93,8 +93,7 @@ def test_the_check_refits_the_screens_best_in_rounds_that_share_their_angles():
     candidates = np.vstack([found[None], fault_hypotheses(DESIGN, (-1.0, 1.0))])
     with Evaluator(32, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:
         sel = check_fault_hypotheses(found, DESIGN, experiments, ev, 3, **QUICK_FIT)
-        screen = select_model(candidates, experiments, ev, np.random.default_rng(3), generations=1, scan_cycles=0,
-                              polish=False)
+        screen = select_model(candidates, experiments, ev, np.random.default_rng(3), generations=1, scan_cycles=0)
         best = np.argsort(-screen.model_fitness, kind="stable")[:4]
         fitness, angles = screen.model_fitness.copy(), screen.angles.copy()
         for stage in (1, 2):
@@ -115,7 +114,7 @@ def test_the_check_refits_the_screens_best_in_rounds_that_share_their_angles():
 def test_a_screen_without_the_polish_scores_the_fits_angles_at_a_fraction_of_the_cost():
     """select_model(polish=False): the same fit (same seed) and scan, no compass polish; each
     model's MOD_FIT is eq. 3 of its returned angles' similarities, at most the polished fit's,
-    for fewer simulations; the check's screen is such a fit unless screen_polish."""
+    for fewer simulations; the check's screen takes it through screen_polish."""
     experiments = _experiments("reversed_left_pectoral", [(0.45, 0.4, 0.5), (-0.3, 0.2, 0.8)], steps=32)
     found = np.concatenate([DESIGN, [1.0, -1.0, 1.0]])
     candidates = np.vstack([found[None], fault_hypotheses(DESIGN, (-1.0, 1.0))])
@@ -128,7 +127,7 @@ def test_a_screen_without_the_polish_scores_the_fits_angles_at_a_fraction_of_the
         polished_cost = ev.simulations - before
         rescored = model_fitness_from_similarities(
             ev.similarities(ev.model_space.encode(candidates), experiments, bare.angles))
-        check = check_fault_hypotheses(found, DESIGN, experiments, ev, 5, **QUICK_FIT)
+        check = check_fault_hypotheses(found, DESIGN, experiments, ev, 5, **{**QUICK_FIT, "screen_polish": False})
     np.testing.assert_allclose(bare.model_fitness, rescored, rtol=0, atol=1e-12)
     assert np.all(bare.model_fitness <= polished.model_fitness + 1e-12)
     assert np.any(bare.model_fitness < polished.model_fitness)
@@ -158,8 +157,7 @@ def test_the_gain_polish_climbs_from_the_best_candidates_one_gain_step_at_a_time
     Replayed step by step."""
     experiments = _experiments('{"gains": [1, 0.5, 1]}', [(0.45, 0.4, 0.5), (-0.3, 0.5, 0.2)], steps=32)
     found = np.concatenate([DESIGN, [1.0, 1.0, 1.0]])
-    # the screen polished, so that the polish starts from a candidate whose gain neighbour fits better
-    fit = {**QUICK_FIT, "screen_polish": True, "polish": 1, "polish_steps": 3}
+    fit = {**QUICK_FIT, "polish": 1, "polish_steps": 3}
     with Evaluator(32, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:
         sel = check_fault_hypotheses(found, DESIGN, experiments, ev, 3, **fit)
         plain = check_fault_hypotheses(found, DESIGN, experiments, ev, 3, **{**fit, "polish": 0})

@@ -5,17 +5,15 @@ final model and 97 fault hypotheses about the design, each one's initial angles 
 the experiments (a screen of 3 generations, a scan cycle and a compass polish), the best 8
 fitted again in 2 rounds, then a gain polish. In a lean mission it is about 70 % of the
 recovery's model simulations (``mission.json``'s ``simulations``), and the screen's compass
-polish (60-90 simulations a candidate and experiment) was most of the screen (it is off since
-2026-11-28 on this probe's evidence). This probe runs
+polish (60-90 simulations a candidate and experiment) is most of the screen. This probe runs
 the check again on each mission's own experiments (``recovered/experiments.npz``) and final
-model (``fault_check.final_model``) with each of ``--variants`` (``screen_polish``: the check the
-windowed missions ran; ``no_screen_polish``: today's; ``bare_screen``: no scan either), and
+model (``fault_check.final_model``), as the mission ran it and with ``--variant``'s change, and
 reports the model each keeps, its MOD_FIT and the simulations each ran. A variant that keeps
 the same model as the mission did gives the same mission (the same self-model, hence the same
 new gait). Resumable: one JSON line per mission and variant in ``--out``.
 
     python docs/studies/probes/check_screen_polish.py runs/missions/window_* \\
-        --variants screen_polish,no_screen_polish --out runs/check_screen_polish.jsonl
+        --variants default,no_screen_polish --out runs/check_screen_polish.jsonl
 """
 
 from __future__ import annotations
@@ -35,11 +33,8 @@ from eea.evaluation import Evaluator
 from eea.fault_check import FAULT_CHECK_SEED
 from eea.inference.selection import check_fault_hypotheses
 
-#: name: keyword arguments of check_fault_hypotheses over its defaults (explicit, so a variant's rows
-#: keep their meaning when a default changes; rows named "default" were made with the screen's
-#: compass polish, the check's default up to 2026-11-28)
-VARIANTS = {"screen_polish": {"screen_polish": True}, "no_screen_polish": {"screen_polish": False},
-            "bare_screen": {"screen_polish": False, "screen_scan_cycles": 0}}
+#: name: keyword arguments of check_fault_hypotheses over its defaults
+VARIANTS = {"default": {}, "no_screen_polish": {"screen_polish": False}}
 
 
 def main(argv: list[str] | None = None) -> None:
