@@ -28,8 +28,12 @@ the alarm the robot:
    (:func:`gait.neat_evolution.evolve_from_population`; the preset's generations), its
    episodes started turned away from the mission's heading by
    :attr:`MissionPreset.new_gait_start_yaws_deg` and scored along it, so the gait is selected
-   to turn to the mission's heading and hold it (its observation holds its yaw), and swims on
-   with it from wherever the robot points.
+   to turn to the mission's heading and hold it (its observation holds its yaw);
+5. rehearses: the fittest genomes of every generation of that evolution swim on the new
+   self-model from rest at the robot's own yaw (its IMU's; the flipper angles, which it does
+   not know, drawn :attr:`MissionPreset.rehearsal_draws` times) for
+   :attr:`MissionPreset.rehearsal_s`, and the one that goes furthest along the mission's
+   heading swims on (:func:`gait.rehearsal.rehearse`).
 
 One alarm, one recovery: the monitor is not re-armed afterwards. (Re-arming it with the new
 gait's range on the new self-model was tried and removed: the range is the model's, and a
@@ -90,6 +94,7 @@ from eea.round import RoundParts, run_round
 from eea.search.lineages import make_estimation, warm_start
 from gait.controller import NEAT_CONTROLLER_FILE
 from gait.neat_evolution import evolve_from_population
+from gait.rehearsal import rehearse
 from gait.robots import Robot
 
 __all__ = ["EXPERIMENTS_FILE", "MISSION_FILE", "MISSION_PRESETS", "ORACLE_NEW_GAIT_DIR", "PRIORS", "RECOVERED_DIR",
@@ -135,6 +140,11 @@ class MissionPreset:
         new_gait_start_yaws_deg: the new gait's fitness episodes, one per entry: each starts
             turned by it (degrees counter-clockwise from the mission's heading) and is scored by
             its distance along the mission's heading.
+        rehearsal_top: the fittest genomes of each generation of the new gait's evolution
+            that are rehearsed (:func:`gait.rehearsal.rehearse`).
+        rehearsal_s: seconds of each rehearsal swim (78 s: the span of a 300 s mission's
+            ``speed_after``, the new gait taking over near 222 s).
+        rehearsal_draws: rehearsal swims per candidate, each from other flipper angles.
     """
 
     case_preset: str
@@ -146,13 +156,17 @@ class MissionPreset:
     stop_max_s: float = 20.0
     speed_span_s: float = 20.0
     new_gait_start_yaws_deg: tuple[float, ...] = (-135.0, -45.0, 45.0, 135.0)
+    rehearsal_top: int = 3
+    rehearsal_s: float = 78.0
+    rehearsal_draws: int = 4
 
 
 MISSION_PRESETS: dict[str, MissionPreset] = {
     # seconds: the test's end-to-end check (tiny EEA and NEAT budgets, short episodes)
     "smoke": MissionPreset("smoke", gait_episode_s=4.0, calibration_seeds=2, calibration_episode_s=10.0,
                            window_s=2.0, warmup_s=2.0, stop_max_s=2.0, speed_span_s=5.0,
-                           new_gait_start_yaws_deg=(-90.0, 90.0)),
+                           new_gait_start_yaws_deg=(-90.0, 90.0), rehearsal_top=2, rehearsal_s=4.0,
+                           rehearsal_draws=2),
     # the case study's quick budgets, 20 s gait episodes. The calibration's episodes (initial flipper
     # angles) matter more than their length: 6 x 60 s gave 3 false alarms in 4 h of healthy swimming
     # and alarmed before the onset in 16 of 24 missions, 24 x 60 s none and none (docs/main_job.md).
@@ -611,9 +625,10 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             records, target, new_model, check, eea_s = _recover_model(
                 mission, prior.genome if warm else None, config, settings, progress)
             t0 = time.perf_counter()
-            result = _evolve_new_gait(new_model, prior, settings, seed, workers, progress)
+            takeover_yaw = mission.yaw_deg()  # what the robot's IMU says
+            controller, rehearsal = _new_gait(new_model, prior, settings, seed, workers, progress, takeover_yaw)
             gait_s = time.perf_counter() - t0
-            controller, gait_start = result.best_controller, mission.time_s
+            gait_start = mission.time_s
             controller.reset()
             if mission.damaged:  # the oracles swim from here too (not after a false alarm: the onset is still to come)
                 snapshot = mission.snapshot()
@@ -622,7 +637,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
                         "compute_seconds": eea_s + gait_s, "compute_seconds_eea": eea_s,
                         "compute_seconds_gait": gait_s, "self_model": _model_dict(new_genome),
                         "simulations": _simulations(records, check),
-                        "robot_yaw_at_new_gait_deg": round(mission.yaw_deg(), 3),
+                        "robot_yaw_at_new_gait_deg": round(takeover_yaw, 3), "rehearsal": rehearsal,
                         "fault_check": {"replaced": check.index != 0, "polished": check.polished,
                                         "simulations": check.simulations, "procedure": check.procedure,
                                         "final_model": _model_dict(records[-1].best_genome)},
@@ -638,7 +653,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             straight, oracle_speed = _straight_oracle(damage, settings, seed, out, workers, progress)
             if snapshot is not None and after_start is not None:
                 window = _oracles_in_window(mission, snapshot, after_start, straight, damage, prior, settings, seed,
-                                            out, workers, progress, duration_s)
+                                            out, workers, progress, duration_s, recovery["robot_yaw_at_new_gait_deg"])
     finally:
         mission.env.close()
 
@@ -656,6 +671,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         "self_model_fields": dict(own or {}),
         "new_gait_start_yaws_deg": list(settings.new_gait_start_yaws_deg),
         "robot_yaw_at_new_gait_deg": recovery.get("robot_yaw_at_new_gait_deg"),
+        "rehearsal": recovery.get("rehearsal"),
         "onset_s": onset_s,
         "damage_in_force_s": next((r["time_s"] for r in rows if r["damaged"]), None),
         "alarm_s": alarm_s, "recovered_s": recovered_s,
@@ -786,29 +802,42 @@ def _straight_oracle(damage: str, settings: MissionPreset, seed: int, out: Path,
     return controller, float(t.target_distance / settings.gait_episode_s)
 
 
-def _evolve_new_gait(robot: Robot, prior: Prior, settings: MissionPreset, seed: int, workers: int, progress: bool):
-    """The recovery's gait on ``robot``: the preset's generations from the prior gait's final
-    population, episodes started turned by the preset's ``new_gait_start_yaws_deg`` and scored
-    along the mission's heading (:func:`gait.neat_evolution.evolve_from_population`)."""
+def _new_gait(robot: Robot, prior: Prior, settings: MissionPreset, seed: int, workers: int, progress: bool,
+              yaw_deg: float):
+    """The recovery's gait on ``robot`` and its rehearsal's record: the preset's generations from
+    the prior gait's final population, episodes started turned by the preset's
+    ``new_gait_start_yaws_deg`` and scored along the mission's heading
+    (:func:`gait.neat_evolution.evolve_from_population`), then the rehearsal of every
+    generation's fittest genomes on ``robot`` from rest at ``yaw_deg`` (the robot's yaw, degrees
+    from the mission's heading; :func:`gait.rehearsal.rehearse`)."""
     yaws = settings.new_gait_start_yaws_deg
-    return evolve_from_population(robot, prior.gait_dir, PRESETS[settings.case_preset].gait_generations, seed=seed,
-                                  episode_duration_s=settings.gait_episode_s, episodes_per_genome=len(yaws),
-                                  workers=workers, progress=progress, start_yaws_deg=yaws)
+    result = evolve_from_population(robot, prior.gait_dir, PRESETS[settings.case_preset].gait_generations, seed=seed,
+                                    episode_duration_s=settings.gait_episode_s, episodes_per_genome=len(yaws),
+                                    workers=workers, progress=progress, start_yaws_deg=yaws,
+                                    keep_top=settings.rehearsal_top)
+    chosen = rehearse(result.candidates, robot, start_yaw_deg=float(np.clip(yaw_deg, -180.0, 180.0)),
+                      duration_s=settings.rehearsal_s, seed=seed, draws=settings.rehearsal_draws, workers=workers)
+    best = next((k for k, c in enumerate(result.candidates) if c.genome.key == result.best_controller.genome.key), None)
+    record = {"candidates": len(result.candidates), "chosen": chosen.index, "evolution_best": best,
+              "start_yaw_deg": round(float(yaw_deg), 3), "seconds": settings.rehearsal_s,
+              "draws": settings.rehearsal_draws, "distances_units": np.round(chosen.scores, 4).tolist()}
+    return chosen.controller, record
 
 
 def _oracles_in_window(mission: _Mission, snapshot: _Snapshot, after_s: float, straight, damage: str, prior: Prior,
                        settings: MissionPreset, seed: int, out: Path, workers: int, progress: bool,
-                       duration_s: float) -> dict:
+                       duration_s: float, yaw_deg: float) -> dict:
     """``mission.json``'s ``oracle_in_window``: oracle gaits swum on the damaged robot from where
     and how it stood when the new gait took over (the same state, to the bit, that the new gait
     swam on from), over the span ``speed_after`` is measured on, so that they face what the new
     gait faced (the robot's heading after its stops, the turn back to the mission's heading,
     minutes of swimming). Two oracles, each knowing the damage: the straight oracle
     (:func:`mission_oracle_speed`'s gait, evolved 20 s from the heading; it need not hold the
-    heading for minutes) and the mission's own new-gait procedure run on the true damaged
-    robot (:func:`_evolve_new_gait`, kept in ``out/oracle_new_gait``): what the recovery gives
-    with a perfect self-model. ``best`` is the faster; ``after_s`` the span's start (s), as given."""
-    holding = _evolve_new_gait(gait.as_robot(damage), prior, settings, seed, workers, progress).best_controller
+    heading for minutes) and the mission's own new-gait procedure, its rehearsal from ``yaw_deg``
+    included, run on the true damaged robot (:func:`_new_gait`, kept in ``out/oracle_new_gait``):
+    what the recovery gives with a perfect self-model. ``best`` is the faster; ``after_s`` the
+    span's start (s), as given."""
+    holding = _new_gait(gait.as_robot(damage), prior, settings, seed, workers, progress, yaw_deg)[0]
     (out / ORACLE_NEW_GAIT_DIR).mkdir(exist_ok=True)
     holding.save(out / ORACLE_NEW_GAIT_DIR / NEAT_CONTROLLER_FILE)
     speeds = {name: span_speed(mission.swim_from(snapshot, controller, duration_s, "oracle"), after_s)

@@ -11,8 +11,10 @@ Public API:
     evolve_gait(morphology, *, damage, generations, population_size, seed, out_dir, workers,
                 episodes_per_genome, batched) -> GaitResult: a generation scored at once on the
                 vector env (batched, the default; gait.batch_fitness) or genome by genome
-    evolve_from_population(robot, gait_dir, generations, *, seed, episode_duration_s) -> GaitResult:
+    evolve_from_population(robot, gait_dir, generations, *, seed, episode_duration_s, keep_top) -> GaitResult:
                 more generations on another robot from a run's final population
+    rehearse(candidates, robot, *, start_yaw_deg, duration_s, seed, draws) -> Rehearsal: the
+                candidate gait that swims furthest along +y from a heading (gait.rehearsal)
     load_controller(path) -> Controller
     score_transfer(controller, native, target, *, seed, episodes, initial_angles) -> TransferResult
     plot_transfer(results, path, titles=None) -> Path
@@ -41,6 +43,7 @@ from gait.controller import (ConstantController, Controller, HeadingHoldControll
 from gait.neat_evolution import (GaitResult, evolve_from_population, evolve_gait, evolve_or_load_gait, latest_checkpoint,
                                  load_neat_config)
 from gait.plots import plot_fitness_history, plot_transfer
+from gait.rehearsal import Rehearsal, rehearse
 from gait.robots import RANDOM_DAMAGE, Robot, as_robot, parse_robot
 from gait.envs import EPISODE_DURATION_S, make_env
 from gait.rollout import Rollout, rollout
@@ -51,8 +54,8 @@ from gait.video import record_video  # imageio and matplotlib are imported only 
 
 __all__ = [
     "CLOCK_PERIOD_S", "EPISODE_DURATION_S", "ClockObservation", "ConstantController", "Controller", "GaitResult",
-    "HeadingHoldController", "NEATController", "RANDOM_DAMAGE", "RandomController", "Robot", "Rollout",
+    "HeadingHoldController", "NEATController", "RANDOM_DAMAGE", "RandomController", "Rehearsal", "Robot", "Rollout",
     "SB3PolicyController", "TransferResult", "as_robot", "clock_features",
     "evolve_from_population", "evolve_gait", "evolve_or_load_gait", "latest_checkpoint", "load_controller", "load_neat_config", "make_env", "parse_robot", "plot_fitness_history",
-    "plot_transfer", "record_video", "rollout", "save_transfer", "score_transfer", "train_or_load_rl", "train_rl", "with_clock",
+    "plot_transfer", "record_video", "rehearse", "rollout", "save_transfer", "score_transfer", "train_or_load_rl", "train_rl", "with_clock",
 ]

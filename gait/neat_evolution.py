@@ -55,6 +55,7 @@ from gait.controller import NEAT_CONTROLLER_FILE, NEATController, load_controlle
 from gait.batch_fitness import BatchEvaluator
 from gait.neat_progress import GenerationBar, PoolEvaluator, QuietCheckpointer
 from gait.plots import plot_fitness_history
+from gait.rehearsal import TopGenomes
 from gait.robots import Robot, as_robot
 from gait.fitness_task import FitnessTask, evaluate_genome
 from gait.envs import DEFAULT_ENV_ID, EPISODE_DURATION_S, make_env
@@ -212,6 +213,8 @@ class GaitResult:
         generations: generations evaluated in total (including before a resume).
         wall_time_s: wall time of the run (including before a resume).
         out_dir: where files were written, or None.
+        candidates: the fittest controllers of every generation
+            (:func:`evolve_from_population`'s ``keep_top``; empty otherwise).
     """
 
     best_controller: NEATController
@@ -224,6 +227,7 @@ class GaitResult:
     generations: int
     wall_time_s: float
     out_dir: Path | None
+    candidates: list[NEATController] = dataclasses.field(default_factory=list)
 
 
 def latest_checkpoint(out_dir) -> Path:
@@ -535,7 +539,8 @@ def _finish(population: neat.Population, task: FitnessTask, out_dir: Path | None
 
 def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: int = 0, episode_duration_s: float,
                            episodes_per_genome: int = 1, workers: int | None = None,
-                           progress: bool = False, start_yaws_deg: tuple[float, ...] | None = None) -> GaitResult:
+                           progress: bool = False, start_yaws_deg: tuple[float, ...] | None = None,
+                           keep_top: int = 0) -> GaitResult:
     """Evolve a gait on ``robot`` for ``generations`` more generations, starting from the final
     NEAT population of the run in ``gait_dir`` (its latest checkpoint: genomes, species and
     innovation state carry over; every genome is evaluated anew on ``robot``). A damaged
@@ -554,14 +559,18 @@ def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: in
         start_yaws_deg: episode k starts turned by ``start_yaws_deg[k % n]`` degrees
             counter-clockwise from +y and is scored by its distance along +y
             (:class:`~gait.fitness_task.FitnessTask`); None: every start heads +y.
+        keep_top: the fittest genomes of every generation kept as the result's ``candidates``
+            (:class:`gait.rehearsal.TopGenomes`; 0: none), e.g. for :func:`gait.rehearsal.rehearse`.
 
     Returns:
         The :class:`GaitResult`; nothing is written (``out_dir`` is None).
 
     Raises:
-        ValueError: no checkpoint in ``gait_dir``, ``generations`` < 1, or a bad task setting.
+        ValueError: no checkpoint in ``gait_dir``, ``generations`` < 1, ``keep_top`` < 0, or a
+            bad task setting.
     """
     generations = check_int("generations", generations, 1)
+    keep_top = check_int("keep_top", keep_top, 0)
     task = _make_task(as_robot(robot), seed, None, episode_duration_s, CLOCK_PERIOD_S, episodes_per_genome,
                       DEFAULT_ENV_ID, start_yaws_deg=start_yaws_deg)
     path = latest_checkpoint(gait_dir)
@@ -570,10 +579,16 @@ def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: in
     for genome in population.population.values():
         genome.fitness = None  # its fitness was on the old robot: the evaluator keeps a fitness it finds
     setattr(population.config, FINGERPRINT_ATTR, _settings(task) | {"population_size": population.config.pop_size})
+    top = TopGenomes(keep_top) if keep_top else None
+    if top is not None:
+        population.add_reporter(top)
     random.seed(seed)
     np.random.seed(seed)
-    return _evolve(population, task, None, True, False, 1, population.generation + generations, workers or 1,
-                   progress, True)
+    result = _evolve(population, task, None, True, False, 1, population.generation + generations, workers or 1,
+                     progress, True)
+    if top is not None:
+        result.candidates = [task.controller(genome, population.config) for genome in top.kept.values()]
+    return result
 
 
 def evolve_or_load_gait(morphology, out_dir, **kwargs) -> NEATController:

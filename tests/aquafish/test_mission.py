@@ -69,6 +69,12 @@ def test_the_smoke_mission_writes_its_report_with_sane_relations(smoke_mission):
     assert window["best"] == max(window["straight"], window["heading_holding"])
     assert report["oracle_speed"] is not None
     load_controller(out / "oracle_new_gait")
+    # the new gait is the rehearsal's choice: the candidate that swam furthest from the robot's yaw
+    rehearsal, smoke = report["rehearsal"], MISSION_PRESETS["smoke"]
+    assert rehearsal["start_yaw_deg"] == report["robot_yaw_at_new_gait_deg"]
+    assert len(rehearsal["distances_units"]) == rehearsal["candidates"] >= 1
+    assert rehearsal["chosen"] == int(np.argmax(rehearsal["distances_units"]))
+    assert (rehearsal["seconds"], rehearsal["draws"]) == (smoke.rehearsal_s, smoke.rehearsal_draws)
     assert (out / "timeline.png").stat().st_size > 0
     rows = (out / "trajectory.csv").read_text().splitlines()
     assert rows[0] == ("time_s,x,y,z,yaw_deg,speed_along_heading,phase,damaged,"

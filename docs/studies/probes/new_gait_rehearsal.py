@@ -1,4 +1,4 @@
-"""Would rehearsing on the self-model from the robot's own heading pick a better new gait?
+"""Does rehearsing on the self-model from the robot's own heading pick a better new gait?
 
 A mission's new gait is the best genome of NEAT continued from the prior's population on the
 new self-model, its four 20 s episodes started turned by -135, -45, 45 and 135 degrees
@@ -7,10 +7,12 @@ experiments left it, and the gait's speed over the minutes that follow depends s
 that heading. The robot knows its heading (its IMU's yaw), so it could try each candidate
 gait on its self-model from that heading first and take the one that swims best there.
 
-For every mission directory given (a finished ``aquafish mission`` with the oracle, so that
+This is the probe that led to the mission's rehearsal (:func:`gait.rehearsal.rehearse`, 2026-11-28);
+it ran on missions made before it, whose new gait was the evolution's best genome. For every
+mission directory given (a finished ``aquafish mission`` with the oracle, so that
 ``oracle_speed`` is known), this evolves the mission's new gait again on the mission's own
-recovered self-model (``recovered/self_model.json``; same seed, so the same best genome as the
-mission's ``recovered/best_controller.json``, which is checked), keeping the ``--top`` best
+recovered self-model (``recovered/self_model.json``; same seed, so the same best genome as such
+a mission's ``recovered/best_controller.json``, which is checked), keeping the ``--top`` best
 genomes of every generation as candidates. Then, for the mission's own heading at takeover and
 for -90, -45, 0, 45 and 90 degrees:
 
@@ -32,38 +34,22 @@ mission's ``oracle_speed``. The defaults (78 s, 6 s left out) are the span a 300
 from __future__ import annotations
 
 import argparse
-import copy
 import json
-import random
 import tempfile
 import time
 from pathlib import Path
 
-import neat
 import numpy as np
 
 import gait
 from aquafish.case_study import PRESETS
 from aquafish.mission import MISSION_PRESETS
-from gait.batch_fitness import BatchEvaluator
-from gait.fitness_task import FitnessTask
-from gait.neat_evolution import _evolve, latest_checkpoint
+from gait.neat_evolution import evolve_from_population
+from gait.rehearsal import rehearse
 from gait.robots import Robot
 from gait.rollout import rollout
 
 TEST_YAWS_DEG = (-90.0, -45.0, 0.0, 45.0, 90.0)
-
-
-class TopGenomes(neat.reporting.BaseReporter):
-    """Keeps a copy of the ``top`` fittest genomes of every evaluated generation."""
-
-    def __init__(self, top: int):
-        self.top, self.kept = top, {}
-
-    def post_evaluate(self, config, population, species, best_genome):
-        ranked = sorted(population.values(), key=lambda g: g.fitness, reverse=True)[:self.top]
-        for genome in ranked:
-            self.kept.setdefault(genome.key, copy.deepcopy(genome))
 
 
 def swim_speed(controller, robot, yaw, seed, swim_s, skip_s) -> float:
@@ -95,37 +81,25 @@ def main(argv: list[str] | None = None) -> None:
         model = Robot.from_dict(json.loads((Path(directory) / "recovered" / "self_model.json").read_text())["robot"])
         truth = gait.as_robot(damage)
         t0 = time.perf_counter()
-        # the mission's new gait (gait.neat_evolution.evolve_from_population), keeping candidates
+        # the mission's new gait, keeping candidates
         yaws = tuple(settings.new_gait_start_yaws_deg)
-        task = FitnessTask(model, seed, None, settings.gait_episode_s, episodes=len(yaws), start_yaws_deg=yaws)
-        population = neat.Checkpointer.restore_checkpoint(str(latest_checkpoint(Path(report["self_model_dir"]) / "gait")))
-        population.reporters = neat.reporting.ReporterSet()
-        for genome in population.population.values():
-            genome.fitness = None
-        top = TopGenomes(args.top)
-        population.add_reporter(top)
-        random.seed(seed)
-        np.random.seed(seed)
-        result = _evolve(population, task, None, True, False, 1,
-                         population.generation + PRESETS[settings.case_preset].gait_generations, 1, False, True)
-        config = population.config
+        result = evolve_from_population(model, Path(report["self_model_dir"]) / "gait",
+                                        PRESETS[settings.case_preset].gait_generations, seed=seed,
+                                        episode_duration_s=settings.gait_episode_s, episodes_per_genome=len(yaws),
+                                        start_yaws_deg=yaws, keep_top=args.top)
         with tempfile.TemporaryDirectory() as tmp:
             result.best_controller.save(Path(tmp) / "best.json")
             same = (Path(tmp) / "best.json").read_text() == (Path(directory) / "recovered" / "best_controller.json").read_text()
         evolve_s = time.perf_counter() - t0
         rows = []
         for yaw in (report["robot_yaw_at_new_gait_deg"],) + TEST_YAWS_DEG:
-            rehearsal = FitnessTask(model, seed, None, args.rehearse_s, episodes=args.rehearse_draws,
-                                    start_yaws_deg=(float(yaw),))
-            candidates = [(k, copy.deepcopy(g)) for k, g in top.kept.items()]
-            with BatchEvaluator(rehearsal, 1, keep_fitness=False) as evaluate:
-                evaluate(candidates, config)
-            chosen = max(candidates, key=lambda kg: kg[1].fitness)[1]
-            picks = {"best": result.best_controller, "rehearsed": task.controller(chosen, config)}
+            chosen = rehearse(result.candidates, model, start_yaw_deg=float(yaw), duration_s=args.rehearse_s,
+                              seed=seed, draws=args.rehearse_draws).controller
+            picks = {"best": result.best_controller, "rehearsed": chosen}
             speeds = {name: [swim_speed(c, truth, yaw, 1000 + k, args.swim_s, args.skip_s)
                              for k in range(args.angle_draws)] for name, c in picks.items()}
-            rows.append({"yaw_deg": yaw, "candidates": len(candidates),
-                         "rehearsed_is_best": chosen.key == result.best_controller.genome.key,
+            rows.append({"yaw_deg": yaw, "candidates": len(result.candidates),
+                         "rehearsed_is_best": chosen.genome.key == result.best_controller.genome.key,
                          **{f"{name}_share": round(float(np.mean(v)) / report["oracle_speed"], 3)
                             for name, v in speeds.items()}})
             print(directory, rows[-1], flush=True)
