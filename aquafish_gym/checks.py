@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-__all__ = ["DuplicateKeyError", "check_int", "check_weight", "check_yaw_deg", "json_loads_unique_keys"]
+__all__ = ["DuplicateKeyError", "check_int", "check_seconds", "check_weight", "check_yaw_deg", "json_loads_unique_keys"]
 
 
 def check_int(name: str, value, minimum: int | None = None, maximum: int | None = None) -> int:
@@ -33,6 +33,19 @@ def check_int(name: str, value, minimum: int | None = None, maximum: int | None 
                                           f"<= {maximum}" if maximum is not None else "") if b)
         raise ValueError(f"{name} must be an int{' ' + bounds if bounds else ''}, got {value!r}")
     return int(value)
+
+
+def check_seconds(name: str, value) -> float:
+    """``value`` as a ``float`` if it is a finite number of seconds > 0 (``bool`` excluded;
+    ``int``, ``float`` and NumPy floats are accepted).
+
+    Raises:
+        ValueError: ``"<name> must be a positive number of seconds, got <value!r>"`` otherwise.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating)) \
+            or not (np.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be a positive number of seconds, got {value!r}")
+    return float(value)
 
 
 def check_weight(name: str, value) -> float:

@@ -46,7 +46,7 @@ from typing import Any
 import neat
 import numpy as np
 
-from aquafish_gym.checks import check_int
+from aquafish_gym.checks import check_int, check_seconds
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import (FileError, MismatchError, check_fingerprint, check_memory, check_output_dir,
                                  read_json, read_pickle, run_lock)
@@ -450,12 +450,10 @@ def _make_task(robot: Robot, seed: int, initial_angles, episode_duration_s, cloc
                env_id: str, spread_headings: bool = False,
                start_yaws_deg: tuple[float, ...] | None = None) -> FitnessTask:
     angles = None if initial_angles is None else tuple(float(a) for a in np.asarray(initial_angles, dtype=float).reshape(3))
-    if isinstance(episode_duration_s, bool) or not isinstance(episode_duration_s, (int, float, np.floating)) \
-            or not (np.isfinite(episode_duration_s) and episode_duration_s > 0):
-        raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
+    duration_s = check_seconds("episode_duration_s", episode_duration_s)
     if not isinstance(spread_headings, bool):
         raise ValueError(f"spread_headings must be True or False, got {spread_headings!r}")
-    return FitnessTask(robot, seed, angles, float(episode_duration_s), check_clock_period(clock_period_s),
+    return FitnessTask(robot, seed, angles, duration_s, check_clock_period(clock_period_s),
                        check_int("episodes_per_genome", episodes_per_genome, 1), env_id, spread_headings,
                        start_yaws_deg)
 

@@ -22,7 +22,7 @@ from typing import Sequence
 import neat
 import numpy as np
 
-from aquafish_gym.checks import check_int
+from aquafish_gym.checks import check_int, check_seconds
 from gait.batch_fitness import BatchEvaluator
 from gait.controller import NEATController
 from gait.fitness_task import FitnessTask
@@ -99,11 +99,8 @@ def rehearse(candidates: Sequence[NEATController], robot, *, start_yaw_deg: floa
     config, period = candidates[0].config, candidates[0].clock_period_s
     if any(c.config is not config or c.clock_period_s != period for c in candidates):
         raise ValueError("rehearse's candidates must share one NEAT config and clock period (one evolution's)")
-    if isinstance(duration_s, bool) or not isinstance(duration_s, (int, float, np.floating)) \
-            or not (np.isfinite(duration_s) and duration_s > 0):
-        raise ValueError(f"duration_s must be a positive number of seconds, got {duration_s!r}")
-    task = FitnessTask(as_robot(robot), check_int("seed", seed, 0), None, float(duration_s), period,
-                       check_int("draws", draws, 1), start_yaws_deg=(start_yaw_deg,))
+    task = FitnessTask(as_robot(robot), check_int("seed", seed, 0), None, check_seconds("duration_s", duration_s),
+                       period, check_int("draws", draws, 1), start_yaws_deg=(start_yaw_deg,))
     genomes = [(k, copy.deepcopy(c.genome)) for k, c in enumerate(candidates)]
     with BatchEvaluator(task, check_int("workers", workers, 1), keep_fitness=False) as evaluate:
         evaluate(genomes, config)

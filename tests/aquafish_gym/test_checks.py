@@ -47,3 +47,11 @@ def test_check_yaw_deg_accepts_headings_in_range_and_names_the_argument_otherwis
     for bad in (180.01, -181, float("nan"), float("inf"), True, np.bool_(False), "10", None):
         with pytest.raises(ValueError, match=r"^yaw must be a number of degrees in \[-180, 180\] \(note\), got "):
             check_yaw_deg("yaw", bad, " (note)")
+
+
+def test_check_seconds_takes_positive_finite_numbers_and_names_the_rest():
+    from aquafish_gym.checks import check_seconds
+    assert check_seconds("d", 2) == 2.0 and check_seconds("d", np.float32(0.5)) == 0.5
+    for bad in (0, -1.0, float("nan"), float("inf"), True, "3", None):
+        with pytest.raises(ValueError, match=r"d must be a positive number of seconds, got"):
+            check_seconds("d", bad)

@@ -2,7 +2,7 @@
 
 A mission's new gait is the best genome of NEAT continued from the prior's population on the
 new self-model, its four 20 s episodes started turned by -135, -45, 45 and 135 degrees
-(:func:`aquafish.mission._evolve_new_gait`). When it takes over, the robot points wherever its
+(:func:`aquafish.mission._new_gait`, before its rehearsal). When it takes over, the robot points wherever its
 experiments left it, and the gait's speed over the minutes that follow depends strongly on
 that heading. The robot knows its heading (its IMU's yaw), so it could try each candidate
 gait on its self-model from that heading first and take the one that swims best there.
@@ -89,7 +89,8 @@ def main(argv: list[str] | None = None) -> None:
                                         start_yaws_deg=yaws, keep_top=args.top)
         with tempfile.TemporaryDirectory() as tmp:
             result.best_controller.save(Path(tmp) / "best.json")
-            same = (Path(tmp) / "best.json").read_text() == (Path(directory) / "recovered" / "best_controller.json").read_text()
+            same = ((Path(tmp) / "best.json").read_text()
+                    == (Path(directory) / "recovered" / "best_controller.json").read_text())
         evolve_s = time.perf_counter() - t0
         rows = []
         for yaw in (report["robot_yaw_at_new_gait_deg"],) + TEST_YAWS_DEG:
