@@ -8,7 +8,8 @@ recovery's model simulations (``mission.json``'s ``simulations``), and the scree
 polish (60-90 simulations a candidate and experiment) is most of the screen. This probe runs
 the check again on each mission's own experiments (``recovered/experiments.npz``) and final
 model (``fault_check.final_model``), as the mission ran it and with ``--variant``'s change, and
-reports the model each keeps, its MOD_FIT and the simulations each ran. A variant that keeps
+reports the model each keeps, its MOD_FIT and the simulations each ran (``refit4``,
+``refit_rounds1``: fewer candidates fitted again, or one round of refits instead of two). A variant that keeps
 the same model as the mission did gives the same mission (the same self-model, hence the same
 new gait). Resumable: one JSON line per mission and variant in ``--out``.
 
@@ -34,7 +35,8 @@ from eea.fault_check import FAULT_CHECK_SEED
 from eea.inference.selection import check_fault_hypotheses
 
 #: name: keyword arguments of check_fault_hypotheses over its defaults
-VARIANTS = {"default": {}, "no_screen_polish": {"screen_polish": False}}
+VARIANTS = {"default": {}, "no_screen_polish": {"screen_polish": False}, "refit4": {"refit": 4},
+            "refit_rounds1": {"refit_rounds": 1}, "refit4_rounds1": {"refit": 4, "refit_rounds": 1}}
 
 
 def main(argv: list[str] | None = None) -> None:
