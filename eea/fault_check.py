@@ -12,14 +12,17 @@ lost, beside the other pectoral's gain at those levels; the caudal servo dead or
 the caudal fin halved or lost, beside healthy pectorals or one pectoral fault) on all the run's
 experiments and keeps the highest MOD_FIT (eq. 3): the run's **self-model**
 (:attr:`eea.record.RunResult.self_model`). The fit has stages (a cheap screen of all 98
-candidates, then the best 8 fitted again in two rounds that start each from the others' angles
-too, each keeping its best fit, then the servo gains of the best 2 polished one step of 0.125
-at a time: :func:`~eea.inference.selection.check_fault_hypotheses`). It costs about 150,000
-simulations (about a third of the case study's ``quick`` self-model search).
+candidates, the best 24 of it given a compass polish, then the best 8 fitted again in two
+rounds that start each from the others' angles too, each keeping its best fit, then the servo
+gains of the best 2 polished one step of 0.125 at a time:
+:func:`~eea.inference.selection.check_fault_hypotheses`). It costs about 105,000 simulations
+on a lean mission's 8 experiments (about 140,000 before 2026-11-28, when the screen polished
+all 98).
 
 The record is ``DIR/fault_check.json`` (:class:`FaultCheck`), written atomically once the last
 round is done; a run extended by more rounds, or checked by another procedure (a record made
-before the caudal faults joined the hypotheses, or before the gain polish), is checked again
+before the caudal faults joined the hypotheses, before the gain polish, or before the screen
+polished only its best 24), is checked again
 (:meth:`FaultCheck.is_current`).
 """
 
@@ -52,7 +55,7 @@ FAULT_CHECK_SEED = 0
 #: The name of the check :func:`check_final_model` makes (its stages at their defaults), kept in
 #: every record: a record of another procedure is made again. Records made before the name was
 #: kept (no gain polish) have none.
-FAULT_CHECK_PROCEDURE = "screen, 2 shared refits of 8, gain polish of 2 x 3"
+FAULT_CHECK_PROCEDURE = "screen polished on its best 24, 2 shared refits of 8, gain polish of 2 x 3"
 
 
 @dataclasses.dataclass(frozen=True)

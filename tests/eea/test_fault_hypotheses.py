@@ -85,14 +85,17 @@ QUICK_FIT = {"levels": (-1.0, 1.0), "screen_generations": 1, "screen_scan_cycles
 
 
 def test_the_check_refits_the_screens_best_in_rounds_that_share_their_angles():
-    """Stage 0 is select_model's screen of all the candidates (seed); the `refit` best of it are
-    fitted again in `refit_rounds` rounds (seed + 1, seed + 2), each from every refitted
-    candidate's angles so far, and keep their best fit; no other candidate changes."""
+    """Stage 0 is select_model's screen of all the candidates (seed; with the compass polish on
+    all of them, screen_polish_top >= their number, it is select_model's polished fit to the
+    bit); the `refit` best of it are fitted again in `refit_rounds` rounds (seed + 1, seed + 2),
+    each from every refitted candidate's angles so far, and keep their best fit; no other
+    candidate changes."""
     experiments = _experiments("reversed_left_pectoral", [(0.45, 0.4, 0.5)], steps=32)
     found = np.concatenate([DESIGN, [1.0, -1.0, 1.0]])
     candidates = np.vstack([found[None], fault_hypotheses(DESIGN, (-1.0, 1.0))])
     with Evaluator(32, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:
-        sel = check_fault_hypotheses(found, DESIGN, experiments, ev, 3, **QUICK_FIT)
+        sel = check_fault_hypotheses(found, DESIGN, experiments, ev, 3, **QUICK_FIT,
+                                     screen_polish_top=len(candidates))
         screen = select_model(candidates, experiments, ev, np.random.default_rng(3), generations=1, scan_cycles=0)
         best = np.argsort(-screen.model_fitness, kind="stable")[:4]
         fitness, angles = screen.model_fitness.copy(), screen.angles.copy()
@@ -114,7 +117,7 @@ def test_the_check_refits_the_screens_best_in_rounds_that_share_their_angles():
 def test_a_screen_without_the_polish_scores_the_fits_angles_at_a_fraction_of_the_cost():
     """select_model(polish=False): the same fit (same seed) and scan, no compass polish; each
     model's MOD_FIT is eq. 3 of its returned angles' similarities, at most the polished fit's,
-    for fewer simulations; the check's screen takes it through screen_polish."""
+    for fewer simulations; the check's screen takes it through screen_polish_top=0."""
     experiments = _experiments("reversed_left_pectoral", [(0.45, 0.4, 0.5), (-0.3, 0.2, 0.8)], steps=32)
     found = np.concatenate([DESIGN, [1.0, -1.0, 1.0]])
     candidates = np.vstack([found[None], fault_hypotheses(DESIGN, (-1.0, 1.0))])
@@ -127,13 +130,49 @@ def test_a_screen_without_the_polish_scores_the_fits_angles_at_a_fraction_of_the
         polished_cost = ev.simulations - before
         rescored = model_fitness_from_similarities(
             ev.similarities(ev.model_space.encode(candidates), experiments, bare.angles))
-        check = check_fault_hypotheses(found, DESIGN, experiments, ev, 5, **{**QUICK_FIT, "screen_polish": False})
+        check = check_fault_hypotheses(found, DESIGN, experiments, ev, 5, **QUICK_FIT, screen_polish_top=0)
     np.testing.assert_allclose(bare.model_fitness, rescored, rtol=0, atol=1e-12)
     assert np.all(bare.model_fitness <= polished.model_fitness + 1e-12)
     assert np.any(bare.model_fitness < polished.model_fitness)
     assert bare_cost < polished_cost / 2
     rest = np.setdiff1d(np.arange(len(candidates)), np.argsort(-bare.model_fitness, kind="stable")[:4])
     np.testing.assert_array_equal(check.model_fitness[rest], bare.model_fitness[rest])  # the screen, unrefitted
+
+
+def test_the_screens_polish_goes_to_its_best_only():
+    """screen_polish_top=K: the unpolished screen ranks the candidates; its K best get the
+    compass polish (their MOD_FIT no lower), every other candidate that is not refitted keeps
+    the unpolished screen's fit to the bit, and the polish costs in proportion to K."""
+    experiments = _experiments("reversed_left_pectoral", [(0.45, 0.4, 0.5), (-0.3, 0.2, 0.8)], steps=32)
+    found = np.concatenate([DESIGN, [1.0, -1.0, 1.0]])
+    candidates = np.vstack([found[None], fault_hypotheses(DESIGN, (-1.0, 1.0))])
+    costs = {}
+    with Evaluator(32, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:
+        bare = select_model(candidates, experiments, ev, np.random.default_rng(5), generations=1, scan_cycles=0,
+                            polish=False)
+        for k in (0, 10):
+            before = ev.simulations
+            costs[k] = (check_fault_hypotheses(found, DESIGN, experiments, ev, 5, **{**QUICK_FIT, "refit_rounds": 1},
+                                               screen_polish_top=k), ev.simulations - before)
+    top = np.argsort(-bare.model_fitness, kind="stable")[:10]
+    (none, none_cost), (ten, ten_cost) = costs[0], costs[10]
+    assert len(ten.models) == len(none.models) == len(candidates)  # no gain polish (QUICK_FIT)
+    # a refit only raises a fit and nothing else moves, so the refitted 4 are the final best 4
+    refitted = np.argsort(-ten.model_fitness, kind="stable")[:4]
+    rest = np.setdiff1d(np.arange(len(candidates)), np.union1d(top, refitted))
+    np.testing.assert_array_equal(ten.model_fitness[rest], bare.model_fitness[rest])
+    np.testing.assert_array_equal(ten.angles[rest], bare.angles[rest])
+    polished = np.setdiff1d(top, refitted)
+    assert len(polished) >= 6 and np.all(ten.model_fitness[polished] >= bare.model_fitness[polished])
+    assert np.any(ten.model_fitness[polished] > bare.model_fitness[polished])
+    assert ten_cost > none_cost
+
+
+@pytest.mark.parametrize("top", [-1, True, 2.5])
+def test_the_screens_polish_takes_a_count(top):
+    model = np.concatenate([DESIGN, [1.0, 1.0, 1.0]])
+    with pytest.raises(ValueError, match="screen_polish_top must be an integer >= 0"):
+        check_fault_hypotheses(model, DESIGN, [], None, 0, screen_polish_top=top)
 
 
 def test_gain_neighbours_move_one_gain_to_the_grid_level_nearest_one_step_away():

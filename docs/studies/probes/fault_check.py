@@ -22,7 +22,7 @@ lengths, the three best candidates (gains, lengths, MOD_FIT), the simulations an
     python docs/studies/probes/fault_check.py --bare-screen runs/lean1_check    # a cheaper screen
 
 ``--bare-screen`` makes the check with a screen that only fits (its 3 generations, no scan cycle
-and no compass polish: ``check_fault_hypotheses(screen_scan_cycles=0, screen_polish=False)``),
+and no compass polish: ``check_fault_hypotheses(screen_scan_cycles=0, screen_polish_top=0)``),
 the rest as today; the line then also gives the run's recorded check (``recorded_gains``,
 ``recorded_procedure``) to compare with. The screen is about 80 % of today's check; bare, about
 a tenth of itself.
@@ -66,7 +66,7 @@ def check_run(run_dir, bare_screen: bool = False) -> dict:
         if bare_screen:
             started, simulations = time.perf_counter(), evaluator.simulations
             selection = check_fault_hypotheses(final, Morphology.healthy().to_array(), experiments, evaluator,
-                                               FAULT_CHECK_SEED, screen_scan_cycles=0, screen_polish=False)
+                                               FAULT_CHECK_SEED, screen_scan_cycles=0, screen_polish_top=0)
             check = FaultCheck(len(result.rounds), selection.models, selection.model_fitness, selection.index,
                                evaluator.simulations - simulations, time.perf_counter() - started, "bare screen")
         else:
