@@ -257,9 +257,9 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
 
     1. a screen: every candidate's angles fitted by :func:`select_model` with
        ``screen_generations`` and ``screen_scan_cycles``, without its compass polish; then the
-       compass polish (:meth:`eea.inference.profile.Profile.polish_angles`, about half of the
-       screen's simulations had every candidate its polish) on the ``screen_polish_top`` best
-       of them only;
+       compass polish (:meth:`eea.inference.profile.Profile.polish_angles`) on the
+       ``screen_polish_top`` best of them only (given to all 98, it was about half of the
+       screen's simulations);
     2. ``refit_rounds`` rounds in which the ``refit`` best of the screen are fitted again
        (``generations``, ``scan_cycles``) from new random starts and from the angles each of
        them holds so far; each keeps the better of its fits. The initial angles are the

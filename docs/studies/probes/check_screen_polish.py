@@ -12,7 +12,9 @@ each ran (``no_screen_polish``; ``screen_top24``, ``screen_top16``: the polish o
 best of the unpolished screen; ``refit4``, ``refit_rounds1``: fewer candidates fitted again,
 or one round of refits, beside the screen polished whole). A variant that keeps the same
 model as the mission did gives the same mission (the same self-model, hence the same new
-gait). Resumable: one JSON line per mission and variant in ``--out``. (``screen_top24`` first
+gait). Each line also has ``fits``, the simulations of every angle fit in order (the screen,
+the refit rounds, the gain polish's), and ``simulations_outside_fits`` (the screen's polish of
+its best). Resumable: one JSON line per mission and variant in ``--out``. (``screen_top24`` first
 ran at commit f296fd7 as a copy of the check inside this probe; the library's
 ``screen_polish_top`` is the same computation.)
 
@@ -23,6 +25,7 @@ ran at commit f296fd7 as a copy of the check inside this probe; the library's
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import time
 from pathlib import Path
@@ -35,13 +38,36 @@ from aquafish_gym import Morphology
 from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
 from eea.fault_check import FAULT_CHECK_SEED
+import eea.inference.selection as selection_module
 from eea.inference.selection import check_fault_hypotheses
 
 #: name: keyword arguments of check_fault_hypotheses over its defaults
 VARIANTS = {"default": {}, "polish_all": {"screen_polish_top": 98}, "no_screen_polish": {"screen_polish_top": 0},
             "screen_top24": {"screen_polish_top": 24}, "screen_top16": {"screen_polish_top": 16},
-            "refit4": {"refit": 4, "screen_polish_top": 98}, "refit_rounds1": {"refit_rounds": 1, "screen_polish_top": 98},
+            "refit4": {"refit": 4, "screen_polish_top": 98},
+            "refit_rounds1": {"refit_rounds": 1, "screen_polish_top": 98},
             "refit4_rounds1": {"refit": 4, "refit_rounds": 1, "screen_polish_top": 98}}
+
+
+@contextlib.contextmanager
+def _counted_fits(evaluator):
+    """Count the simulations of every select_model call the check makes: yields a list that
+    gets ``[models fitted, simulations]`` per call (the screen, the refit rounds, the gain
+    polish's fits, in order); what the check simulates outside them (the screen's compass
+    polish of its best) is the rest of the total."""
+    fits, original = [], selection_module.select_model
+
+    def counted(models, *args, **kwargs):
+        before = evaluator.simulations
+        result = original(models, *args, **kwargs)
+        fits.append([len(models), int(evaluator.simulations - before)])
+        return result
+
+    selection_module.select_model = counted
+    try:
+        yield fits
+    finally:
+        selection_module.select_model = original
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -68,7 +94,7 @@ def main(argv: list[str] | None = None) -> None:
         for name in args.variants.split(","):
             if (directory, name) in done:
                 continue
-            with Evaluator.for_config(config, workers=args.workers) as evaluator:
+            with Evaluator.for_config(config, workers=args.workers) as evaluator, _counted_fits(evaluator) as fits:
                 t0 = time.perf_counter()
                 selection = check_fault_hypotheses(model, Morphology.healthy().to_array(), experiments, evaluator,
                                                    FAULT_CHECK_SEED, **VARIANTS[name])
@@ -79,7 +105,8 @@ def main(argv: list[str] | None = None) -> None:
                        "model_fitness": float(selection.model_fitness[selection.index]),
                        "same_as_mission": bool(np.allclose(np.round(chosen, 4), kept, atol=1e-4)),
                        "gains": np.round(chosen[9:], 4).tolist(),
-                       "mission_gains": kept[9:]}
+                       "mission_gains": kept[9:],
+                       "fits": fits, "simulations_outside_fits": int(evaluator.simulations) - sum(f[1] for f in fits)}
             print(json.dumps(row), flush=True)
             with out.open("a") as f:
                 f.write(json.dumps(row) + "\n")
