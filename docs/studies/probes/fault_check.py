@@ -10,7 +10,7 @@ flipper faults: one pectoral flipper halved in length or lost, the other pectora
 those levels; 52 caudal faults: the caudal servo dead or at half gain, or the fin halved or
 lost, beside healthy pectorals or one pectoral fault) on all the run's experiments
 (:func:`eea.fault_check.check_final_model`, the check every such run now ends with: a screen of
-3 generations and 1 scan cycle, then the best 8 fitted again in two rounds of 10 generations
+3 generations and 1 scan cycle with a compass polish of its best 24, then the best 8 fitted again in two rounds of 10 generations
 and 2 scan cycles that start each from the others' angles too, then the gains of the best 2
 polished, one step of 0.125 at a time; it does not write into the run) and prints one JSON line per run: the damage, the true,
 final and chosen gains, whether each has both pectoral signs right (as the recovery benchmark
