@@ -619,7 +619,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     controller, gait_start = prior.controller, 0.0
     controller.reset()
     recovery: dict = {}  # the recovery after the alarm: when, what it cost, the model it found
-    snapshot, window, oracle_speed = None, None, None
+    snapshot, window, oracle_speed, takeover_yaw = None, None, None, 0.0
     try:
         while mission.time_s < duration_s - 1e-9:
             phase = "gait" if not recovery else "new_gait"
@@ -662,7 +662,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             straight, oracle_speed = _straight_oracle(damage, settings, seed, out, workers, progress)
             if snapshot is not None and after_start is not None:
                 window = _oracles_in_window(mission, snapshot, after_start, straight, damage, prior, settings, seed,
-                                            out, workers, progress, duration_s, recovery["robot_yaw_at_new_gait_deg"])
+                                            out, workers, progress, duration_s, takeover_yaw)
     finally:
         mission.env.close()
 
