@@ -1,20 +1,20 @@
 """Does the truth explain a mission's experiments best once the models start from the robot's motion?
 
 A mission's target experiments start after a stop that leaves the robot drifting (up to about
-0.1 units/s and 2.5 deg/s after 20 s); the EEA's models start every experiment at rest, level.
-This probe replays a finished mission to each experiment's start (the healthy gait to the
-recorded alarm, the stop, then the recorded actions in order; it checks that the replayed IMU
-logs are the recorded ones), keeps the robot's state at each start (roll, pitch, position height,
-linear and angular velocity, turned into the model's frame, yaw 0), and then fits the kept
-self-model and the truth equally hard (as ``lost_flipper_fit.py``: the fault check's refit
-settings, two seeds) twice: with the models starting at rest, as the library does, and with
-every model starting from the robot's motion at that experiment's start. It prints both
-MOD_FITs (eq. 3) each way, and the truth's similarity at the true initial angles.
+0.1 units/s and 17 deg/s after 20 s). Missions recorded before experiments kept their start
+motion (``Experiment.start_motion``) simulated every model from rest, level. This probe replays
+such a mission to each experiment's start (the healthy gait to the recorded alarm, the stop,
+then the recorded actions in order; it checks that the replayed IMU logs are the recorded
+ones), keeps the robot's state at each start (roll, pitch, height, linear and angular velocity,
+turned into the model's frame, yaw 0), and fits the kept self-model and the truth equally hard
+(as ``lost_flipper_fit.py``: the fault check's refit settings, two seeds): with the models
+starting at rest, and from the robot's motion at each experiment's start (``--parts``: ``all``
+of it, or ``imu``, what an IMU measures: roll, pitch and angular velocity, which is what the
+library's models start from now). It prints the MOD_FITs (eq. 3) each way, and the truth's
+mean similarity at the true initial angles.
 
     python docs/studies/probes/start_motion_fit.py runs/missions/rehearsal_sampled_1017_s5001 \\
         runs/missions/prior_s5001/self_model
-
-``--parts imu`` starts the models from what an IMU measures (roll, pitch, angular rates) only.
 """
 
 from __future__ import annotations
@@ -88,7 +88,7 @@ def patch_starts(experiments, starts, parts: str = "all") -> None:
         raise SystemExit("two experiments share an action: the probe cannot tell their starts apart")
 
     def simulate_batch(morphologies, actions, initial_angles, steps, *, faults=None, params=None, rng=None,
-                       native=None):
+                       native=None, start_motion=None):  # the replayed experiments' own start_motion: at rest
         prm = params if params is not None else simulator.SimParams()
         morph = simulator.validate_morphologies(morphologies)
         acts = simulator.validate_actions(actions, len(morph))
