@@ -56,7 +56,7 @@ import gait
 from aquafish_gym import DT_S, MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology, ServoFaults, get_damage
 from aquafish_gym.drawing import plot_morphologies
 from aquafish_gym.env import FRAME_SKIP
-from aquafish_gym.checks import check_int
+from aquafish_gym.checks import check_int, check_seconds
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import BusyError, check_output_dir, read_json, run_lock
 from eea import EEAConfig
@@ -311,10 +311,8 @@ def preset_settings(preset: str, episode_duration_s: float | None = None) -> Cas
         raise ValueError(f"unknown preset {preset!r}; valid: {sorted(PRESETS)}")
     settings = PRESETS[preset]
     if episode_duration_s is not None:
-        if isinstance(episode_duration_s, bool) or not isinstance(episode_duration_s, (int, float)) \
-                or not (np.isfinite(episode_duration_s) and episode_duration_s > 0):
-            raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
-        settings = dataclasses.replace(settings, episode_duration_s=float(episode_duration_s))
+        settings = dataclasses.replace(settings, episode_duration_s=check_seconds("episode_duration_s",
+                                                                                   episode_duration_s))
     return settings
 
 

@@ -83,7 +83,7 @@ from aquafish_gym.env import FRAME_SKIP, INITIAL_HEADING, check_onset
 from aquafish_gym.files import atomic_write
 from aquafish_gym.params import DT_S
 from aquafish_gym.rundir import check_output_dir, run_lock
-from aquafish_gym.simulator import WorldState
+from aquafish_gym.simulator import AT_REST, WorldState
 from eea import EEAConfig
 from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
@@ -425,8 +425,12 @@ class MissionTarget:
     reset, no return to a start), for ``steps`` physics steps of 0.01 s, logging its IMU
     (:meth:`aquafish_gym.BatchWorld.run`, the same code that simulates the EEA's models), then
     stops it (:func:`stop_robot`) for the next experiment. The log's yaw is taken relative to
-    the robot's yaw at the experiment's start (a model starts at yaw 0; the robot's roll and
-    pitch after a stop are left as they are). The caudal controller starts its sweep at the
+    the robot's yaw at the experiment's start (a model starts at yaw 0). The stop leaves the
+    robot rolling and turning (after 20 s up to about 17 deg/s): :attr:`start_motion` is what
+    its IMU measures at the start (roll, pitch, angular velocity, the yaw taken out), and every
+    model's simulation of the experiment starts from it (:attr:`eea.experiment.Experiment.start_motion`;
+    from rest, the true damaged robot explained a lost flipper's experiments worse than a
+    weakly pushing flipper did, docs/main_job.md). The caudal controller starts its sweep at the
     fin's current angle, as a model's does. The initial flipper angles are whatever the robot
     has: the EEA does not see them; they are returned (snapped to the models' grid) for the
     report's angle errors, as :class:`eea.target.Target` returns the ones it drew.
@@ -435,6 +439,9 @@ class MissionTarget:
         morphology, faults: the true damaged robot's (the EEA's OBJ_FIT reports use them only).
         starts: per experiment, the robot's position ``(3,)`` at its start (units, world frame).
         true_angles: per experiment, the flipper angles it started from (rad).
+        start_motion: ``(7,)`` the last experiment's start motion
+            (:meth:`aquafish_gym.BatchWorld.start_motion`; :data:`~aquafish_gym.simulator.AT_REST`
+            before the first).
     """
 
     def __init__(self, mission: _Mission, damage: str, steps: int, stop_max_s: float, params=None):
@@ -444,6 +451,7 @@ class MissionTarget:
         self.params = params
         self.starts: list[np.ndarray] = []
         self.true_angles: list[np.ndarray] = []
+        self.start_motion = np.array(AT_REST)
 
     def perform(self, action) -> tuple[np.ndarray, np.ndarray]:
         """Run the servo command ``action`` ``(3,)`` (rev/s, rev/s, Hz) in the mission's world now.
@@ -461,6 +469,7 @@ class MissionTarget:
         true = quantise_angles(angles[None])[1][0]
         self.starts.append(m.position())
         self.true_angles.append(true)
+        self.start_motion = w.start_motion()[0]  # what the IMU measures: the models start from it
         yaw0 = m.yaw_deg()
         w.sync_caudal_phase(0)  # the sweep starts where the fin is
         w.set_actions(act[None])
@@ -610,7 +619,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     controller, gait_start = prior.controller, 0.0
     controller.reset()
     recovery: dict = {}  # the recovery after the alarm: when, what it cost, the model it found
-    snapshot, window, oracle_speed = None, None, None
+    snapshot, window, oracle_speed, takeover_yaw = None, None, None, 0.0
     try:
         while mission.time_s < duration_s - 1e-9:
             phase = "gait" if not recovery else "new_gait"
@@ -653,7 +662,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
             straight, oracle_speed = _straight_oracle(damage, settings, seed, out, workers, progress)
             if snapshot is not None and after_start is not None:
                 window = _oracles_in_window(mission, snapshot, after_start, straight, damage, prior, settings, seed,
-                                            out, workers, progress, duration_s, recovery["robot_yaw_at_new_gait_deg"])
+                                            out, workers, progress, duration_s, takeover_yaw)
     finally:
         mission.env.close()
 

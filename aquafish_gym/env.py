@@ -19,7 +19,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle
 
-from aquafish_gym.checks import check_int, check_weight, check_yaw_deg
+from aquafish_gym.checks import check_int, check_seconds, check_weight, check_yaw_deg
 from aquafish_gym.bullet import p
 from aquafish_gym.damage import DAMAGES, NO_FAULTS, ServoFaults, get_damage
 from aquafish_gym.imu import roll_pitch_yaw_deg
@@ -383,8 +383,7 @@ class AquaFishEnv(gym.Env, EzPickle):
         self._set_damage(self.damage_names[0])
         self.damage_onset_s = check_onset(damage_onset_s)
         check_int(f"frame_skip (physics steps of {DT_S} s)", frame_skip, 1)
-        if not (isinstance(episode_duration_s, (int, float)) and math.isfinite(episode_duration_s) and episode_duration_s > 0):
-            raise ValueError(f"episode_duration_s must be a positive number of seconds, got {episode_duration_s!r}")
+        check_seconds("episode_duration_s", episode_duration_s)
         if render_mode is not None and render_mode not in ("human", "rgb_array"):
             raise ValueError(f"render_mode must be None, 'human' or 'rgb_array', got {render_mode!r}")
         if camera not in CAMERAS:

@@ -101,6 +101,39 @@ def validate_initial_angles(angles, n: int, caudal_amplitude_rad: float) -> np.n
     return arr
 
 
+#: A robot's start motion at rest: level (the identity quaternion, x, y, z, w) and not turning
+#: (angular velocity 0 rad/s); see :func:`validate_start_motion`.
+AT_REST = (0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
+
+
+def validate_start_motion(motion, n: int) -> np.ndarray:
+    """Check start motions ``(n, 7)`` and return them as float64, each quaternion normalised.
+
+    A start motion is what an IMU measures of a robot's body when a simulation starts, with
+    the robot's heading taken out: its orientation as a unit quaternion ``(x, y, z, w)`` of a
+    body turned to yaw 0 (its roll and pitch), then its angular velocity ``(3,)`` (rad/s) in
+    the world's axes turned by the same yaw. :data:`AT_REST` is the level robot at rest.
+
+    Raises:
+        ValueError: wrong shape, a non-finite entry, or a quaternion whose norm is not within
+            1e-6 of 1.
+    """
+    arr = np.array(motion, dtype=np.float64)
+    if arr.ndim == 1:
+        arr = arr[None]
+    if arr.shape != (n, 7):
+        raise ValueError(f"start_motion must have shape ({n}, 7) (quaternion x, y, z, w; angular velocity "
+                         f"rad/s x, y, z), got {np.shape(motion)}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError("start_motion must be finite (a unit quaternion, then rad/s)")
+    norms = np.linalg.norm(arr[:, :4], axis=1)
+    if np.any(np.abs(norms - 1.0) > 1e-6):
+        raise ValueError(f"start_motion's orientations must be unit quaternions (x, y, z, w), got norms "
+                         f"{norms.round(6).tolist()}")
+    arr[:, :4] /= norms[:, None]
+    return arr
+
+
 def validate_water_currents(currents, n: int, default=(0.0, 0.0, 0.0)) -> np.ndarray:
     """Check per-robot water velocities ``(n, 3)`` (units/s, world frame; None: ``default`` for
     every robot) and return them as float64.
@@ -199,28 +232,43 @@ class BatchWorld:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def reset(self, initial_angles, actions=None, yaw_rad=None) -> None:
+    def reset(self, initial_angles, actions=None, yaw_rad=None, start_motion=None) -> None:
         """Put every robot at its home position, level, at rest, flippers at ``initial_angles`` ``(N, 3)`` rad.
 
         ``yaw_rad``: ``(N,)`` each robot's heading, counter-clockwise from +y seen from above
         (None: every robot heads +y). The fluid model and the surface are the same in every
         horizontal direction, so a robot turned by ``yaw`` swims its trajectory turned by ``yaw``.
 
+        ``start_motion``: ``(N, 7)`` each robot's roll and pitch and angular velocity instead of
+        level and at rest (:func:`validate_start_motion`; turned by ``yaw_rad`` with the robot;
+        None: every robot :data:`AT_REST`). A robot still starts at its home position with no
+        linear velocity: the models of a target experiment start from what the target's IMU
+        measured (:class:`aquafish.mission.MissionTarget`).
+
         Raises:
-            ValueError: bad ``initial_angles`` (:func:`validate_initial_angles`) or a ``yaw_rad``
-                that is not ``(N,)`` finite numbers.
+            ValueError: bad ``initial_angles`` (:func:`validate_initial_angles`), a ``yaw_rad``
+                that is not ``(N,)`` finite numbers, or a bad ``start_motion``.
         """
         self.initial_angles = validate_initial_angles(initial_angles, self.n, self.params.caudal_amplitude_rad)
         if yaw_rad is None:
-            orientations = [(0, 0, 0, 1)] * self.n
+            yaw = np.zeros(self.n)
         else:
             yaw = np.asarray(yaw_rad, dtype=np.float64)
             if yaw.shape != (self.n,) or not np.all(np.isfinite(yaw)):
                 raise ValueError(f"yaw_rad must be {self.n} finite headings (rad), one per robot, got {yaw_rad!r}")
-            orientations = [(0.0, 0.0, float(np.sin(y / 2)), float(np.cos(y / 2))) for y in yaw]
-        for body, home, angles, orientation in zip(self.bodies, self.home.tolist(), self.initial_angles, orientations):
+        motion = np.tile(AT_REST, (self.n, 1)) if start_motion is None else validate_start_motion(start_motion, self.n)
+        turns = [(0.0, 0.0, float(np.sin(y / 2)), float(np.cos(y / 2))) for y in yaw]
+        for body, home, angles, turn, m in zip(self.bodies, self.home.tolist(), self.initial_angles, turns,
+                                               motion.tolist()):
+            orientation, angular = (0, 0, 0, 1), (0, 0, 0)
+            if yaw_rad is not None:
+                orientation = turn
+            if m != list(AT_REST):  # level and at rest takes the exact path it always took
+                orientation = p.multiplyTransforms((0, 0, 0), turn, (0, 0, 0), m[:4])[1]
+                rot = np.array(p.getMatrixFromQuaternion(turn)).reshape(3, 3)
+                angular = tuple((rot @ np.array(m[4:])).tolist())
             p.resetBasePositionAndOrientation(body, home, orientation, physicsClientId=self.client)
-            p.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0), physicsClientId=self.client)
+            p.resetBaseVelocity(body, (0, 0, 0), angular, physicsClientId=self.client)
             for j, a in zip(JOINTS, angles):
                 p.resetJointState(body, j, float(a), 0.0, physicsClientId=self.client)
         self.time_s = 0.0
@@ -486,6 +534,20 @@ class BatchWorld:
         """``(N, 3)`` roll, pitch, yaw (degrees, wrapped) of every robot's body."""
         return roll_pitch_yaw_deg(self.rotation[:, 0])
 
+    def start_motion(self) -> np.ndarray:
+        """``(N, 7)`` every robot's motion now as a start motion (:func:`validate_start_motion`):
+        its orientation turned back by its IMU yaw (:meth:`imu_rpy_deg`) to yaw 0, and its
+        angular velocity (rad/s) turned the same way. A simulation that starts from it
+        (:meth:`reset`) starts with the same roll, pitch and turning, its IMU yaw 0."""
+        yaw = np.radians(self.imu_rpy_deg()[:, 2])
+        out = np.empty((self.n, 7))
+        for i, y in enumerate(yaw):
+            unturn = (0.0, 0.0, float(-np.sin(y / 2)), float(np.cos(y / 2)))
+            out[i, :4] = p.multiplyTransforms((0, 0, 0), unturn, (0, 0, 0), self.orientation[i, 0].tolist())[1]
+            out[i, 4:] = np.array(p.getMatrixFromQuaternion(unturn)).reshape(3, 3) @ self.angular_velocity[i, 0]
+        out[:, :4] /= np.linalg.norm(out[:, :4], axis=1, keepdims=True)
+        return out
+
     def joint_angles(self) -> np.ndarray:
         """``(N, 3)`` current flipper angles (rad): left, right pectoral, caudal."""
         return np.array([[s[0] for s in p.getJointStates(b, JOINTS, physicsClientId=self.client)] for b in self.bodies])
@@ -529,7 +591,8 @@ def _shared_client() -> int:
 
 
 def simulate_batch(morphologies, actions, initial_angles, steps: int, *, faults=None, params: SimParams | None = None,
-                   rng: np.random.Generator | None = None, native: bool | None = None) -> np.ndarray:
+                   rng: np.random.Generator | None = None, native: bool | None = None,
+                   start_motion=None) -> np.ndarray:
     """Simulate N robots performing one action each; return their IMU logs.
 
     All N robots live in one PyBullet world with collisions masked off and are stepped
@@ -548,6 +611,9 @@ def simulate_batch(morphologies, actions, initial_angles, steps: int, *, faults=
         rng: source of IMU noise (used only if ``params.imu_noise_deg > 0``).
         native: the compiled loop (as :class:`BatchWorld`; None: whenever it is built).
             Either path gives the same logs bit for bit.
+        start_motion: ``(N, 7)`` each robot's roll and pitch (a yaw-free unit quaternion) and
+            angular velocity (rad/s) at the start (:func:`validate_start_motion`); None: level
+            and at rest.
 
     Returns:
         ``(N, steps, 3)`` float64: roll, pitch, yaw of each robot's body after each step,
@@ -563,5 +629,5 @@ def simulate_batch(morphologies, actions, initial_angles, steps: int, *, faults=
     acts = validate_actions(actions, n)
     angles = validate_initial_angles(initial_angles, n, prm.caudal_amplitude_rad)
     world = BatchWorld(morph, prm, faults, client=_shared_client(), native=native)
-    world.reset(angles, acts)
+    world.reset(angles, acts, start_motion=start_motion)
     return world.run(int(steps), rng)

@@ -75,13 +75,12 @@ class RuntimeSettings:
         check_int("EEAConfig.max_batch_robots", self.max_batch_robots, 1)
 
 
-def _simulate_chunk(morphologies, actions, angles, steps, params, summary, faults=None) -> np.ndarray:
+def _simulate_chunk(morphologies, actions, angles, steps, params, summary, faults=None, start_motion=None) -> np.ndarray:
     """Worker: behaviour summaries ``(n, 3, F)`` of one contiguous chunk of robots (``faults``:
     None for healthy servos, or one ServoFaults per robot; ``summary``: a name of
-    :data:`eea.behaviour.SUMMARIES`)."""
-    if faults is None:
-        return summarise(simulate_batch(morphologies, actions, angles, steps, params=params), summary)
-    return summarise(simulate_batch(morphologies, actions, angles, steps, faults=faults, params=params), summary)
+    :data:`eea.behaviour.SUMMARIES`; ``start_motion``: None (at rest) or ``(n, 7)``)."""
+    return summarise(simulate_batch(morphologies, actions, angles, steps, faults=faults, params=params,
+                                    start_motion=start_motion), summary)
 
 
 def _genome_keys(genomes: np.ndarray) -> list[bytes]:
@@ -178,7 +177,7 @@ class Evaluator:
         self.close()
 
     # -- the one batched simulator call -----------------------------------------------
-    def simulate(self, morphologies, actions, angles, faults=None) -> np.ndarray:
+    def simulate(self, morphologies, actions, angles, faults=None, start_motion=None) -> np.ndarray:
         """Simulate N robots in one batch (chunked over workers) and summarise them.
 
         Args:
@@ -186,6 +185,8 @@ class Evaluator:
             actions: ``(N, 3)`` servo commands (rev/s, rev/s, Hz).
             angles: ``(N, 3)`` initial angles (rad), already on the quantisation grid.
             faults: None (healthy servos) or N :class:`~aquafish_gym.ServoFaults`, one per robot.
+            start_motion: None (every robot level and at rest) or ``(N, 7)``, each robot's
+                (:attr:`eea.experiment.Experiment.start_motion`).
 
         Returns:
             ``(N, 3, steps // 2 + 1)`` behaviour summaries (eq. 2's coefficients).
@@ -199,8 +200,9 @@ class Evaluator:
             return np.zeros((0, 3, self.steps // 2 + 1))
         n_chunks = min(n, max(self.workers, -(-n // self.max_batch_robots)))
         bounds = np.linspace(0, n, n_chunks + 1).astype(int)
-        chunks = [(morphologies[a:b], actions[a:b], angles[a:b], self.steps, self.params, self.summary)
-                  + (() if faults is None else (list(faults[a:b]),))
+        motion = None if start_motion is None else np.asarray(start_motion, dtype=np.float64)
+        chunks = [(morphologies[a:b], actions[a:b], angles[a:b], self.steps, self.params, self.summary,
+                   None if faults is None else list(faults[a:b]), None if motion is None else motion[a:b])
                   for a, b in zip(bounds[:-1], bounds[1:])]
         if self.workers == 1:
             parts = [_simulate_chunk(*chunk) for chunk in chunks]
@@ -212,11 +214,12 @@ class Evaluator:
         self.simulations += n
         return np.concatenate(parts)
 
-    def _simulate_models(self, genomes, actions, angles) -> np.ndarray:
+    def _simulate_models(self, genomes, actions, angles, start_motion=None) -> np.ndarray:
         """:meth:`simulate` of ``(N, model_space.n_bits)`` model genomes (decoded, with their
         servo gains as faults in the ``morphology+servos`` space)."""
         values = self.model_space.decode(genomes)
-        return self.simulate(self.model_space.morphologies(values), actions, angles, self.model_space.faults(values))
+        return self.simulate(self.model_space.morphologies(values), actions, angles, self.model_space.faults(values),
+                             start_motion)
 
     # -- estimation: similarity to the target, cached for the run ----------------------
     def similarities(self, genomes, experiments: Sequence[Experiment], angles) -> np.ndarray:
@@ -224,7 +227,8 @@ class Evaluator:
 
         Args:
             genomes: ``(P, n_bits)`` model genomes (45 bits; 57 in ``morphology+servos``).
-            experiments: E experiments (their ``index``, ``action`` and ``summary`` are used).
+            experiments: E experiments (their ``index``, ``action``, ``summary`` and
+                ``start_motion`` are used: each model starts an experiment as its target did).
             angles: ``(P, E, 3)`` initial angles (rad) of model p in experiment e.
 
         Returns:
@@ -258,7 +262,9 @@ class Evaluator:
             first = np.array([rows[0] for rows in missing.values()])
             self._check_summaries([experiments[j] for j in np.unique(first % e)])
             actions = np.stack([experiments[j].action for j in first % e])
-            summaries = self._simulate_models(genomes[first // e], actions, values[first])
+            moving = not all(experiments[j].at_rest for j in np.unique(first % e))
+            motion = np.stack([experiments[j].start_motion for j in first % e]) if moving else None
+            summaries = self._simulate_models(genomes[first // e], actions, values[first], motion)
             targets = np.stack([experiments[j].summary for j in first % e])
             sims = similarity(summaries, targets, self.max_coefficient)
             for (key, rows), s in zip(missing.items(), sims.tolist()):

@@ -19,6 +19,7 @@ import dataclasses
 import numpy as np
 
 from aquafish_gym import SimParams
+from aquafish_gym.simulator import AT_REST, validate_start_motion
 from eea.arc import TWO_PI, angle_distance, sample_arc
 
 __all__ = [
@@ -225,6 +226,15 @@ class Experiment:
         true_angles: ``(3,)`` the target's true initial angles (rad). Hidden from the
             models except under the ``known`` strategy.
         context: the inferred ranges and confidence the models use.
+        start_motion: ``(7,)`` what the target's IMU measured at the experiment's start, which
+            every model's simulation of it starts from: its roll and pitch as a yaw-free unit
+            quaternion (x, y, z, w) and its angular velocity (rad/s, world axes turned by its
+            yaw) (:func:`aquafish_gym.simulator.validate_start_motion`). Default
+            :data:`~aquafish_gym.simulator.AT_REST` (level, still): the paper's target starts
+            every experiment at rest; a mission's robot starts after a stop that leaves it rolling.
+
+    Raises:
+        ValueError: a ``start_motion`` that is not a valid ``(7,)`` start motion.
     """
 
     index: int
@@ -233,9 +243,12 @@ class Experiment:
     summary: np.ndarray
     true_angles: np.ndarray
     context: Context
+    start_motion: np.ndarray = dataclasses.field(default_factory=lambda: np.array(AT_REST))
 
     def __post_init__(self) -> None:
-        for name in ("action", "imu_log", "summary", "true_angles"):
+        if not (isinstance(self.start_motion, np.ndarray) and not self.start_motion.flags.writeable):
+            object.__setattr__(self, "start_motion", validate_start_motion(self.start_motion, 1)[0])
+        for name in ("action", "imu_log", "summary", "true_angles", "start_motion"):
             value = getattr(self, name)
             if isinstance(value, np.ndarray) and value.dtype == np.float64 and not value.flags.writeable:
                 continue  # already a read-only copy (with_context shares it)
@@ -247,18 +260,25 @@ class Experiment:
         """The same experiment with another context (paper: setFlippers, setConfidence)."""
         return dataclasses.replace(self, context=context)
 
+    @property
+    def at_rest(self) -> bool:
+        """Whether the target started this experiment level and still (:data:`AT_REST`)."""
+        return bool(np.array_equal(self.start_motion, AT_REST))
+
     def state_dict(self) -> dict:
         """Plain data (numbers, lists, arrays) for the run checkpoint."""
         return {"index": self.index, "action": self.action, "imu_log": self.imu_log, "summary": self.summary,
-                "true_angles": self.true_angles, "context": dataclasses.asdict(self.context)}
+                "true_angles": self.true_angles, "context": dataclasses.asdict(self.context),
+                "start_motion": self.start_motion}
 
     @classmethod
     def from_state_dict(cls, state: dict) -> "Experiment":
-        """Inverse of :meth:`state_dict`."""
+        """Inverse of :meth:`state_dict` (a state written before ``start_motion`` existed starts at rest)."""
         ctx = state["context"]
         return cls(int(state["index"]), np.asarray(state["action"]), np.asarray(state["imu_log"]),
                    np.asarray(state["summary"]), np.asarray(state["true_angles"]),
-                   Context(tuple(ctx["starts"]), tuple(ctx["widths"]), ctx["confidence"]))
+                   Context(tuple(ctx["starts"]), tuple(ctx["widths"]), ctx["confidence"]),
+                   np.asarray(state.get("start_motion", AT_REST), dtype=np.float64))
 
 
 def with_newest_context(experiments, context: Context) -> tuple[Experiment, ...]:

@@ -50,6 +50,7 @@ import numpy as np
 from aquafish_gym import ACTION_FIELDS, MORPHOLOGY_FIELDS, Morphology, ServoFaults, get_damage
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, read_json
+from aquafish_gym.simulator import AT_REST
 from eea.checkpoint import CONFIG_FILE
 from eea.config import EEAConfig
 from eea.encoding import SERVO_GAIN_FIELDS, get_model_space, model_space_of, servo_gains
@@ -445,8 +446,9 @@ def save_experiments(path: str | os.PathLike, experiments) -> None:
 
     The arrays, E = len(experiments) rows each: ``index`` (E,), ``action`` (E, 3),
     ``imu_log`` (E, steps, 3) in degrees, ``summary`` (E, 3, steps // 2 + 1),
-    ``true_angles`` (E, 3) rad, and the contexts' ``context_starts`` (E, 3),
-    ``context_widths`` (E, 3) rad and ``context_confidence`` (E,). :func:`load_experiments`
+    ``true_angles`` (E, 3) rad, the contexts' ``context_starts`` (E, 3),
+    ``context_widths`` (E, 3) rad and ``context_confidence`` (E,), and ``start_motion``
+    (E, 7) (:attr:`eea.experiment.Experiment.start_motion`). :func:`load_experiments`
     reads them back, so a run's target experiments can be scored again offline (a mission's
     self-model checked anew, say).
 
@@ -461,7 +463,7 @@ def save_experiments(path: str | os.PathLike, experiments) -> None:
                          f"IMU logs {sorted({e.imu_log.shape for e in experiments})}")
     states = [e.state_dict() for e in experiments]  # the experiment's own plain-data form
     arrays = {**{name: np.array([state[name] for state in states])
-                 for name in ("index", "action", "imu_log", "summary", "true_angles")},
+                 for name in ("index", "action", "imu_log", "summary", "true_angles", "start_motion")},
               **{f"context_{key}": np.array([state["context"][key] for state in states])
                  for key in ("starts", "widths", "confidence")}}
     buffer = io.BytesIO()
@@ -470,7 +472,8 @@ def save_experiments(path: str | os.PathLike, experiments) -> None:
 
 
 def load_experiments(path: str | os.PathLike) -> tuple[Experiment, ...]:
-    """The experiments :func:`save_experiments` wrote to ``path``, oldest first.
+    """The experiments :func:`save_experiments` wrote to ``path``, oldest first (a file written
+    before experiments had a ``start_motion`` gives experiments started at rest).
 
     Raises:
         FileError: ``path`` is missing, not such a file (no pickle is ever loaded), or its
@@ -480,11 +483,13 @@ def load_experiments(path: str | os.PathLike) -> tuple[Experiment, ...]:
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {name: data[name] for name in _EXPERIMENT_ARRAYS}
-        rows = zip(*(arrays[name] for name in _EXPERIMENT_ARRAYS), strict=True)
+            motion = data["start_motion"] if "start_motion" in data.files else np.tile(AT_REST, (len(arrays["index"]), 1))
+        rows = zip(*(arrays[name] for name in _EXPERIMENT_ARRAYS), motion, strict=True)
         return tuple(Experiment.from_state_dict({
             "index": i, "action": a, "imu_log": log, "summary": summ, "true_angles": true,
-            "context": {"starts": starts.tolist(), "widths": widths.tolist(), "confidence": float(c)}})
-            for i, a, log, summ, true, starts, widths, c in rows)
+            "context": {"starts": starts.tolist(), "widths": widths.tolist(), "confidence": float(c)},
+            "start_motion": m})
+            for i, a, log, summ, true, starts, widths, c, m in rows)
     except FileNotFoundError:
         raise FileError(path, "does not exist", "give the experiments file a run wrote") from None
     except (OSError, KeyError, ValueError, TypeError) as err:

@@ -81,11 +81,12 @@ class RoundParts:
 
     def perform(self, index: int, action) -> Experiment:
         """Experiment ``index``: ``action`` ``(3,)`` performed on the target from fresh random
-        initial angles, its behaviour summary, and the strategy's context for it."""
+        initial angles, its behaviour summary, the strategy's context for it, and the motion
+        the target started it with (its ``start_motion`` after ``perform``)."""
         imu_log, true_angles = self.target.perform(action)
         return Experiment(index, action, imu_log,
                           summarise(imu_log, self.config.behaviour_summary), true_angles,
-                          self.strategy.new_context(true_angles))
+                          self.strategy.new_context(true_angles), self.target.start_motion)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

@@ -15,6 +15,7 @@ import numpy as np
 
 from aquafish_gym import Morphology, SimParams, get_damage, simulate_batch
 from aquafish_gym.checks import check_int
+from aquafish_gym.simulator import AT_REST
 from eea.experiment import check_params, quantise_angles, random_angles
 
 __all__ = ["Target"]
@@ -34,6 +35,10 @@ class Target:
     Attributes:
         morphology: the damaged :class:`~aquafish_gym.Morphology` (the oracle for OBJ_FIT).
         faults: the damaged robot's :class:`~aquafish_gym.ServoFaults`.
+        start_motion: ``(7,)`` what the target's IMU measured at the start of its last
+            experiment, which the models' simulations of it start from
+            (:attr:`eea.experiment.Experiment.start_motion`): always
+            :data:`~aquafish_gym.simulator.AT_REST` here, every experiment starting level and still.
 
     Raises:
         ValueError: on an unknown damage name (the message lists the valid names),
@@ -48,6 +53,7 @@ class Target:
         self.faults = preset.faults
         self.steps = int(steps)
         self.params = check_params(params)
+        self.start_motion = np.array(AT_REST)
         self._rng = rng
 
     def perform(self, action) -> tuple[np.ndarray, np.ndarray]:

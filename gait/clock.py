@@ -17,6 +17,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from aquafish_gym.checks import check_seconds
+
 #: Default clock period (s): one caudal stroke at the fin's 1 Hz maximum.
 CLOCK_PERIOD_S = 1.0
 #: Number of entries the clock adds to the observation.
@@ -31,9 +33,7 @@ def check_clock_period(period_s: float) -> float:
     Raises:
         ValueError: not a finite number > 0.
     """
-    if isinstance(period_s, bool) or not isinstance(period_s, (int, float)) or not math.isfinite(period_s) or period_s <= 0:
-        raise ValueError(f"clock_period_s must be a positive number of seconds, got {period_s!r}")
-    return float(period_s)
+    return check_seconds("clock_period_s", period_s)
 
 
 def clock_features(time_s: float, period_s: float = CLOCK_PERIOD_S) -> np.ndarray:

@@ -12,7 +12,9 @@ from aquafish.mission import (MISSION_PRESETS, STOP_ACTION, MissionTarget, _Miss
                               span_speed, stop_robot)
 from aquafish.mission_cli import PRESET_NAMES
 from gait import load_controller
-from aquafish_gym import Morphology
+from aquafish_gym import Morphology, get_damage, simulate_batch
+from aquafish_gym.simulator import AT_REST
+from eea.behaviour import behaviour_summary, similarity
 from aquafish_gym.params import DT_S
 import eea
 from eea import EEAConfig
@@ -168,6 +170,15 @@ def test_target_experiments_run_in_the_mission_world_from_the_current_state():
         np.testing.assert_allclose(true[:2], np.mod(angles[:2], 2 * np.pi), atol=1e-5)
         assert mission.time_s >= t_stop + 0.5 - 1e-9  # the experiment's simulated time is the mission's
         assert [r["phase"] for r in mission.rows].count("experiment") == 5
+        # the models start from what the IMU measured: the healthy robot's simulation from that
+        # motion explains the experiment better than one from rest
+        motion = target.start_motion
+        assert not np.array_equal(motion, AT_REST) and np.linalg.norm(motion[4:]) > 1e-3
+        healthy = get_damage("none").apply().to_array()[None]
+        sims = [similarity(behaviour_summary(simulate_batch(healthy, [[0.2, -0.2, 0.5]], true[None], 50,
+                                                            start_motion=m)[0]), behaviour_summary(imu))
+                for m in (None, motion[None])]
+        assert sims[1] > sims[0]
     finally:
         mission.env.close()
 

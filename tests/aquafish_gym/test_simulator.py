@@ -9,6 +9,7 @@ from aquafish_gym.bullet import p
 from aquafish_gym import BatchWorld, Morphology, SimParams, simulate_batch
 from aquafish_gym.imu import roll_pitch_yaw_deg, unwrap_yaw_deg
 from aquafish_gym.morphology import MORPHOLOGY_BOUNDS
+from aquafish_gym.simulator import AT_REST, validate_start_motion
 
 
 def random_inputs(n, seed=0):
@@ -183,3 +184,48 @@ def test_a_state_restores_only_into_the_robots_it_was_saved_from():
             world.restore_state(state)
         other.advance(3)
         other.restore_state(other.save_state())  # its own state: fine
+
+
+HEALTHY = Morphology.healthy().to_array()
+
+
+def _swum_world() -> BatchWorld:
+    """Two robots turned and swum for 3 s: rolling, pitching and turning, at headings of their own."""
+    world = BatchWorld(np.tile(HEALTHY, (2, 1)))
+    world.reset(np.zeros((2, 3)), np.array([[0.3, -0.1, 0.8], [0.2, 0.4, 0.5]]), yaw_rad=np.array([0.7, -2.0]))
+    world.advance(300)
+    return world
+
+
+def test_a_start_motion_starts_a_robot_with_the_measured_roll_pitch_and_turning_at_yaw_0():
+    world = _swum_world()
+    motion = world.start_motion()
+    rpy = world.imu_rpy_deg()
+    assert np.all(np.abs(rpy[:, :2]) > 0.1) and np.all(np.linalg.norm(motion[:, 4:], axis=1) > 0.01)  # it moves
+    again = BatchWorld(np.tile(HEALTHY, (2, 1)))
+    again.reset(np.zeros((2, 3)), start_motion=motion)
+    np.testing.assert_allclose(again.imu_rpy_deg()[:, :2], rpy[:, :2], atol=1e-5)  # the roll and pitch
+    np.testing.assert_allclose(again.imu_rpy_deg()[:, 2], 0.0, atol=1e-4)  # the heading taken out
+    np.testing.assert_allclose(again.start_motion(), motion, atol=1e-6)
+    # turned back to the robots' headings: the very angular velocity (world frame) they had
+    again.reset(np.zeros((2, 3)), start_motion=motion, yaw_rad=np.radians(rpy[:, 2]))
+    np.testing.assert_allclose(again.angular_velocity[:, 0], world.angular_velocity[:, 0], atol=1e-6)
+    np.testing.assert_allclose(again.imu_rpy_deg(), rpy, atol=1e-4)
+
+
+def test_a_start_at_rest_is_the_reset_it_always_was():
+    actions, angles = np.array([[0.3, -0.1, 0.8]]), np.array([[0.5, 4.0, 0.1]])
+    plain = simulate_batch(HEALTHY, actions, angles, 64)
+    np.testing.assert_array_equal(simulate_batch(HEALTHY, actions, angles, 64, start_motion=np.array([AT_REST])), plain)
+    moving = _swum_world().start_motion()[:1]
+    assert np.max(np.abs(simulate_batch(HEALTHY, actions, angles, 64, start_motion=moving) - plain)) > 0.1
+
+
+@pytest.mark.parametrize("motion, match", [
+    (np.zeros((1, 6)), "shape"),
+    ([[0.0, 0.0, 0.0, 1.0, np.nan, 0.0, 0.0]], "finite"),
+    ([[0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0]], "unit quaternions"),
+])
+def test_bad_start_motion_raises(motion, match):
+    with pytest.raises(ValueError, match=match):
+        validate_start_motion(motion, 1)

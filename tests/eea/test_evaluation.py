@@ -165,3 +165,28 @@ def test_for_config_takes_the_runs_settings_and_a_workers_override():
     assert ev.model_space.name == "morphology+servos" and ev.params == config.sim_params
     assert Evaluator.for_config(config, workers=1).workers == 1
     assert Evaluator.for_config(config, model_space="morphology").model_space.name == "morphology"
+
+
+def test_models_start_each_experiment_from_its_targets_start_motion(simulator_spy):
+    """A target that started an experiment rolling and turning: the truth simulated from the
+    recorded start motion reproduces it exactly (eq. 2's similarity 1), the truth from rest does not."""
+    from aquafish_gym import BatchWorld
+    from eea.experiment import Context, Experiment
+
+    truth = decode_models(_genomes(1, seed=4))[0]
+    world = BatchWorld(truth[None])
+    world.reset(np.zeros((1, 3)), np.array([[0.4, -0.3, 0.9]]))
+    world.advance(250)  # 2.5 s of swimming: the target is rolling and turning now
+    motion = world.start_motion()
+    action, angles = np.array([-0.2, 0.35, 0.4]), quantise_angles(np.array([[1.0, 2.0, 0.1]]))[1]
+    log = simulate_batch(truth[None], action[None], angles, 32, start_motion=motion)[0]
+    moving = Experiment(0, action, log, behaviour_summary(log), angles[0], Context.exact(angles[0]), motion[0])
+    resting = Experiment(0, action, log, behaviour_summary(log), angles[0], Context.exact(angles[0]))
+    assert not moving.at_rest and resting.at_rest
+    genome = _genomes(1, seed=4)
+    with Evaluator(32) as ev:
+        assert ev.similarities(genome, [moving], angles[None])[0, 0] == 1.0
+    np.testing.assert_array_equal(simulator_spy.calls[-1]["start_motion"], motion)
+    with Evaluator(32) as ev:
+        assert ev.similarities(genome, [resting], angles[None])[0, 0] < 0.999
+    assert simulator_spy.calls[-1]["start_motion"] is None  # at rest: the plain reset

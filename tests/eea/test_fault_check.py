@@ -95,7 +95,7 @@ def test_saved_experiments_come_back_equal_and_redo_the_runs_check(servo_run, tm
     assert len(loaded) == len(experiments) >= 1
     for a, b in zip(loaded, experiments):
         assert a.index == b.index and a.context == b.context
-        for name in ("action", "imu_log", "summary", "true_angles"):
+        for name in ("action", "imu_log", "summary", "true_angles", "start_motion"):
             np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
     # the file is all an offline check needs: the same models' MOD_FITs, the same kept model
     config = servo_run.config
@@ -104,6 +104,25 @@ def test_saved_experiments_come_back_equal_and_redo_the_runs_check(servo_run, tm
         again = check_final_model(servo_run.fault_check.final_model, loaded, evaluator, 1)
     np.testing.assert_array_equal(again.model_fitness, servo_run.fault_check.model_fitness)
     assert again.index == servo_run.fault_check.index
+
+
+def test_start_motions_are_saved_and_a_file_without_them_starts_at_rest(tmp_path):
+    from aquafish_gym.simulator import AT_REST
+    from eea.experiment import Context, Experiment
+
+    tilt = np.array([np.sin(0.05), 0.0, 0.0, np.cos(0.05), 0.01, -0.02, 0.03])  # rolled by 0.1 rad, turning
+    experiments = [Experiment(i, np.zeros(3), np.zeros((8, 3)), np.zeros((3, 5)), np.zeros(3),
+                              Context.exact(np.zeros(3)), motion) for i, motion in enumerate((tilt, AT_REST))]
+    eea.save_experiments(tmp_path / "x.npz", experiments)
+    loaded = eea.load_experiments(tmp_path / "x.npz")
+    np.testing.assert_array_equal(loaded[0].start_motion, tilt)
+    assert loaded[1].at_rest and not loaded[0].at_rest
+    with np.load(tmp_path / "x.npz") as data:  # as a file written before start motions were kept
+        np.savez(tmp_path / "old.npz", **{k: data[k] for k in data.files if k != "start_motion"})
+    assert all(x.at_rest for x in eea.load_experiments(tmp_path / "old.npz"))
+    with pytest.raises(ValueError, match="unit quaternions"):
+        Experiment(0, np.zeros(3), np.zeros((8, 3)), np.zeros((3, 5)), np.zeros(3), Context.exact(np.zeros(3)),
+                   np.zeros(7))
 
 
 def test_an_experiments_file_that_is_not_one_is_named(tmp_path):
