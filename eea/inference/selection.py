@@ -14,6 +14,7 @@ from typing import Sequence
 
 import numpy as np
 
+from aquafish_gym.checks import check_int
 from eea.encoding import SERVO_GAIN_BOUNDS, decode_gains, encode_gains, get_model_space
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment, angle_errors_deg
@@ -323,9 +324,7 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
         raise ValueError(f"refit and refit_rounds must be >= 1, got {refit} and {refit_rounds}")
     if polish < 0 or polish_steps < 1:
         raise ValueError(f"polish must be >= 0 and polish_steps >= 1, got {polish} and {polish_steps}")
-    if isinstance(screen_polish_top, bool) or not isinstance(screen_polish_top, (int, np.integer)) \
-            or screen_polish_top < 0:
-        raise ValueError(f"screen_polish_top must be an integer >= 0, got {screen_polish_top!r}")
+    check_int("screen_polish_top", screen_polish_top, 0)
     candidates = np.vstack([model[None], fault_hypotheses(design, levels)])
     screen = select_model(candidates, experiments, evaluator, np.random.default_rng(seed),
                           generations=screen_generations, scan_cycles=screen_scan_cycles, polish=False,

@@ -171,7 +171,7 @@ def test_the_screens_polish_goes_to_its_best_only():
 @pytest.mark.parametrize("top", [-1, True, 2.5])
 def test_the_screens_polish_takes_a_count(top):
     model = np.concatenate([DESIGN, [1.0, 1.0, 1.0]])
-    with pytest.raises(ValueError, match="screen_polish_top must be an integer >= 0"):
+    with pytest.raises(ValueError, match="screen_polish_top must be an int >= 0"):
         check_fault_hypotheses(model, DESIGN, [], None, 0, screen_polish_top=top)
 
 
