@@ -867,8 +867,8 @@ def _oracles_in_window(mission: _Mission, snapshot: _Snapshot, after_s: float, s
     (:func:`mission_oracle_speed`'s gait, evolved 20 s from the heading; it need not hold the
     heading for minutes) and the mission's own new-gait procedure (``procedure``: both kinds,
     the rehearsal from ``yaw_deg`` included), run on the true damaged robot (:func:`_new_gait`,
-    kept in ``out/oracle_new_gait``): what the recovery gives with a perfect self-model. ``best`` is the faster; ``after_s`` the
-    span's start (s), as given."""
+    kept in ``out/oracle_new_gait``): what the recovery gives with a perfect self-model.
+    ``best`` is the faster; ``after_s`` the span's start (s), as given."""
     procedure = _new_gait(gait.as_robot(damage), prior, settings, seed, workers, progress, yaw_deg)[0]
     (out / ORACLE_NEW_GAIT_DIR).mkdir(exist_ok=True)
     procedure.save(out / ORACLE_NEW_GAIT_DIR / NEAT_CONTROLLER_FILE)
