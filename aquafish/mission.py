@@ -24,16 +24,21 @@ the alarm the robot:
 3. rebuilds its self-model with the EEA warm-started at the self-model from before the
    damage (:func:`eea.search.lineages.warm_start`: every lineage's CMA-ES starts at that
    model, which its first estimation generation holds), for the preset's rounds;
-4. evolves a gait on the new self-model starting from the old gait's final NEAT population
-   (:func:`gait.neat_evolution.evolve_from_population`; the preset's generations), its
-   episodes started turned away from the mission's heading by
-   :attr:`MissionPreset.new_gait_start_yaws_deg` and scored along it, so the gait is selected
-   to turn to the mission's heading and hold it (its observation holds its yaw);
-5. rehearses: the fittest genomes of every generation of that evolution swim on the new
+4. evolves two kinds of gait on the new self-model, each starting from the old gait's final
+   NEAT population (:func:`gait.neat_evolution.evolve_from_population`; the preset's
+   generations each): *heading-holding*, its episodes started turned away from the mission's
+   heading by :attr:`MissionPreset.new_gait_start_yaws_deg` and scored along it, so the gait is
+   selected to turn to the mission's heading and hold it (its observation holds its yaw); and
+   *straight*, the case study's episodes (every start heading along the mission's heading,
+   20 s at ``quick``), as the oracle's gait is evolved;
+5. rehearses: the fittest genomes of every generation of both evolutions swim on the new
    self-model from rest at the robot's own yaw (its IMU's; the flipper angles, which it does
-   not know, drawn :attr:`MissionPreset.rehearsal_draws` times) for
-   :attr:`MissionPreset.rehearsal_s`, and the one that goes furthest along the mission's
-   heading swims on (:func:`gait.rehearsal.rehearse`).
+   not know, drawn :attr:`MissionPreset.rehearsal_draws` times, the same draws for every
+   candidate) for :attr:`MissionPreset.rehearsal_s`, and the one that goes furthest along the
+   mission's heading swims on (:func:`gait.rehearsal.rehearse`). Neither kind is better
+   everywhere: from the same state, with the truth as the self-model, the straight kind's
+   rehearsal winner swam 0.57 units/s where the heading-holding one swam 0.32 on one mission,
+   and the reverse on others (docs/main_job.md, "Two kinds of new gait").
 
 One alarm, one recovery: the monitor is not re-armed afterwards. (Re-arming it with the new
 gait's range on the new self-model was tried and removed: the range is the model's, and a
@@ -51,9 +56,10 @@ The oracles (not the robot's: they know the damage; their compute is not the mis
 ``oracle_speed`` is a gait evolved on the true damaged robot, scored 20 s from rest heading
 along the mission's heading (:func:`mission_oracle_speed`). Such a gait need not hold its
 heading for minutes, nor turn back to it after the stops, which the new gait must; so
-``oracle_in_window`` swims that gait, and the mission's own new-gait procedure run on the true
-damaged robot, from the very state the new gait started from, over the span of
-``speed_after`` (:func:`_oracles_in_window`): the yardstick that faces what the new gait faced.
+``oracle_in_window`` swims that gait, and the mission's own new-gait procedure (both kinds and
+the rehearsal) run on the true damaged robot, from the very state the new gait started from,
+over the span of ``speed_after`` (:func:`_oracles_in_window`): the yardstick that faces what the
+new gait faced.
 """
 
 from __future__ import annotations
@@ -137,10 +143,11 @@ class MissionPreset:
         window_s, warmup_s: the monitor's window and warm-up (:class:`MonitorCalibration`).
         stop_max_s: the longest stop (s) before an experiment is run anyway.
         speed_span_s: seconds before the onset over which ``speed_before`` is measured.
-        new_gait_start_yaws_deg: the new gait's fitness episodes, one per entry: each starts
-            turned by it (degrees counter-clockwise from the mission's heading) and is scored by
-            its distance along the mission's heading.
-        rehearsal_top: the fittest genomes of each generation of the new gait's evolution
+        new_gait_start_yaws_deg: the heading-holding new gait's fitness episodes, one per
+            entry: each starts turned by it (degrees counter-clockwise from the mission's
+            heading) and is scored by its distance along the mission's heading (the straight
+            kind's are the case preset's, :func:`_new_gait`).
+        rehearsal_top: the fittest genomes of each generation of each new gait's evolution
             that are rehearsed (:func:`gait.rehearsal.rehearse`).
         rehearsal_s: seconds of each rehearsal swim (78 s: the span of a 300 s mission's
             ``speed_after``, the new gait taking over near 222 s).
@@ -811,26 +818,42 @@ def _straight_oracle(damage: str, settings: MissionPreset, seed: int, out: Path,
     return controller, float(t.target_distance / settings.gait_episode_s)
 
 
+#: The kinds of new gait a recovery evolves and rehearses (:func:`_new_gait`), in the order a tie
+#: in the rehearsal goes by.
+NEW_GAIT_KINDS: tuple[str, ...] = ("heading_holding", "straight")
+
+
 def _new_gait(robot: Robot, prior: Prior, settings: MissionPreset, seed: int, workers: int, progress: bool,
               yaw_deg: float):
-    """The recovery's gait on ``robot`` and its rehearsal's record: the preset's generations from
-    the prior gait's final population, episodes started turned by the preset's
-    ``new_gait_start_yaws_deg`` and scored along the mission's heading
-    (:func:`gait.neat_evolution.evolve_from_population`), then the rehearsal of every
-    generation's fittest genomes on ``robot`` from rest at ``yaw_deg`` (the robot's yaw, degrees
-    from the mission's heading; :func:`gait.rehearsal.rehearse`)."""
+    """The recovery's gait on ``robot`` and its rehearsal's record. For each of
+    :data:`NEW_GAIT_KINDS`, the preset's generations from the prior gait's final population
+    (:func:`gait.neat_evolution.evolve_from_population`): ``heading_holding``, episodes started
+    turned by the preset's ``new_gait_start_yaws_deg`` and scored along the mission's heading;
+    ``straight``, the case preset's episodes, every one heading along it. Then every generation's
+    fittest genomes of both swim on ``robot`` from rest at ``yaw_deg`` (the robot's yaw, degrees
+    from the mission's heading) with the same flipper-angle draws (:func:`gait.rehearsal.rehearse`),
+    and the furthest swims on. The record: the chosen ``kind`` and, per kind, its candidates,
+    the one its rehearsal chose and their distances (units)."""
+    case = PRESETS[settings.case_preset]
     yaws = settings.new_gait_start_yaws_deg
-    result = evolve_from_population(robot, prior.gait_dir, PRESETS[settings.case_preset].gait_generations, seed=seed,
-                                    episode_duration_s=settings.gait_episode_s, episodes_per_genome=len(yaws),
-                                    workers=workers, progress=progress, start_yaws_deg=yaws,
-                                    keep_top=settings.rehearsal_top)
-    chosen = rehearse(result.candidates, robot, start_yaw_deg=float(np.clip(yaw_deg, -180.0, 180.0)),
-                      duration_s=settings.rehearsal_s, seed=seed, draws=settings.rehearsal_draws, workers=workers)
-    best = next((k for k, c in enumerate(result.candidates) if c.genome.key == result.best_controller.genome.key), None)
-    record = {"candidates": len(result.candidates), "chosen": chosen.index, "evolution_best": best,
-              "start_yaw_deg": round(float(yaw_deg), 3), "seconds": settings.rehearsal_s,
-              "draws": settings.rehearsal_draws, "distances_units": np.round(chosen.scores, 4).tolist()}
-    return chosen.controller, record
+    episodes = {"heading_holding": {"episodes_per_genome": len(yaws), "start_yaws_deg": yaws},
+                "straight": {"episodes_per_genome": case.gait_episodes, "start_yaws_deg": None}}
+    start_yaw = float(np.clip(yaw_deg, -180.0, 180.0))
+    chosen, kinds = {}, {}
+    for kind in NEW_GAIT_KINDS:
+        result = evolve_from_population(robot, prior.gait_dir, case.gait_generations, seed=seed,
+                                        episode_duration_s=settings.gait_episode_s, workers=workers,
+                                        progress=progress, keep_top=settings.rehearsal_top, **episodes[kind])
+        chosen[kind] = rehearse(result.candidates, robot, start_yaw_deg=start_yaw, duration_s=settings.rehearsal_s,
+                                seed=seed, draws=settings.rehearsal_draws, workers=workers)
+        best = next((k for k, c in enumerate(result.candidates)
+                     if c.genome.key == result.best_controller.genome.key), None)
+        kinds[kind] = {"candidates": len(result.candidates), "chosen": chosen[kind].index, "evolution_best": best,
+                       "distances_units": np.round(chosen[kind].scores, 4).tolist()}
+    kind = max(NEW_GAIT_KINDS, key=lambda k: chosen[k].scores[chosen[k].index])  # a tie: the first kind
+    record = {"kind": kind, "start_yaw_deg": round(float(yaw_deg), 3), "seconds": settings.rehearsal_s,
+              "draws": settings.rehearsal_draws, "kinds": kinds}
+    return chosen[kind].controller, record
 
 
 def _oracles_in_window(mission: _Mission, snapshot: _Snapshot, after_s: float, straight, damage: str, prior: Prior,
@@ -842,14 +865,14 @@ def _oracles_in_window(mission: _Mission, snapshot: _Snapshot, after_s: float, s
     gait faced (the robot's heading after its stops, the turn back to the mission's heading,
     minutes of swimming). Two oracles, each knowing the damage: the straight oracle
     (:func:`mission_oracle_speed`'s gait, evolved 20 s from the heading; it need not hold the
-    heading for minutes) and the mission's own new-gait procedure, its rehearsal from ``yaw_deg``
-    included, run on the true damaged robot (:func:`_new_gait`, kept in ``out/oracle_new_gait``):
-    what the recovery gives with a perfect self-model. ``best`` is the faster; ``after_s`` the
-    span's start (s), as given."""
-    holding = _new_gait(gait.as_robot(damage), prior, settings, seed, workers, progress, yaw_deg)[0]
+    heading for minutes) and the mission's own new-gait procedure (``procedure``: both kinds,
+    the rehearsal from ``yaw_deg`` included), run on the true damaged robot (:func:`_new_gait`,
+    kept in ``out/oracle_new_gait``): what the recovery gives with a perfect self-model.
+    ``best`` is the faster; ``after_s`` the span's start (s), as given."""
+    procedure = _new_gait(gait.as_robot(damage), prior, settings, seed, workers, progress, yaw_deg)[0]
     (out / ORACLE_NEW_GAIT_DIR).mkdir(exist_ok=True)
-    holding.save(out / ORACLE_NEW_GAIT_DIR / NEAT_CONTROLLER_FILE)
+    procedure.save(out / ORACLE_NEW_GAIT_DIR / NEAT_CONTROLLER_FILE)
     speeds = {name: span_speed(mission.swim_from(snapshot, controller, duration_s, "oracle"), after_s)
-              for name, controller in (("straight", straight), ("heading_holding", holding))}
+              for name, controller in (("straight", straight), ("procedure", procedure))}
     found = [v for v in speeds.values() if v is not None]
     return {"after_s": after_s, **speeds, "best": max(found) if found else None}

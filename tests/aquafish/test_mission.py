@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from aquafish.cli import main
-from aquafish.mission import (MISSION_PRESETS, STOP_ACTION, MissionTarget, _Mission, make_prior, run_mission,
-                              span_speed, stop_robot)
+from aquafish.mission import (MISSION_PRESETS, NEW_GAIT_KINDS, STOP_ACTION, MissionTarget, _Mission, make_prior,
+                              run_mission, span_speed, stop_robot)
 from aquafish.mission_cli import PRESET_NAMES
 from gait import load_controller
 from aquafish_gym import Morphology, get_damage, simulate_batch
@@ -68,14 +68,18 @@ def test_the_smoke_mission_writes_its_report_with_sane_relations(smoke_mission):
     # the oracles swum from where the new gait started, over speed_after's span
     window = report["oracle_in_window"]
     assert window["after_s"] == pytest.approx(report["recovered_s"] + MISSION_PRESETS["smoke"].warmup_s)
-    assert window["best"] == max(window["straight"], window["heading_holding"])
+    assert window["best"] == max(window["straight"], window["procedure"])
     assert report["oracle_speed"] is not None
     load_controller(out / "oracle_new_gait")
     # the new gait is the rehearsal's choice: the candidate that swam furthest from the robot's yaw
     rehearsal, smoke = report["rehearsal"], MISSION_PRESETS["smoke"]
     assert rehearsal["start_yaw_deg"] == report["robot_yaw_at_new_gait_deg"]
-    assert len(rehearsal["distances_units"]) == rehearsal["candidates"] >= 1
-    assert rehearsal["chosen"] == int(np.argmax(rehearsal["distances_units"]))
+    assert set(rehearsal["kinds"]) == set(NEW_GAIT_KINDS)
+    for kind in rehearsal["kinds"].values():
+        assert len(kind["distances_units"]) == kind["candidates"] >= 1
+        assert kind["chosen"] == int(np.argmax(kind["distances_units"]))
+    furthest = {k: max(v["distances_units"]) for k, v in rehearsal["kinds"].items()}
+    assert furthest[rehearsal["kind"]] == max(furthest.values())  # the kind whose candidate went furthest
     assert (rehearsal["seconds"], rehearsal["draws"]) == (smoke.rehearsal_s, smoke.rehearsal_draws)
     assert (out / "timeline.png").stat().st_size > 0
     rows = (out / "trajectory.csv").read_text().splitlines()

@@ -64,7 +64,7 @@ def test_totals_count_the_goals():
 def test_the_oracle_in_the_window_judges_the_recovery_where_the_report_has_one():
     # the new gait swims 0.5 where the straight oracle's 20 s swim gave 1.0, but swum over the same
     # window from the same state the best oracle makes 0.6: recovered (83 %), though 50 % of the 20 s one
-    report = _report(after=0.5) | {"oracle_in_window": {"after_s": 230.0, "straight": 0.4, "heading_holding": 0.6,
+    report = _report(after=0.5) | {"oracle_in_window": {"after_s": 230.0, "straight": 0.4, "procedure": 0.6,
                                                         "best": 0.6}}
     row = mission_row(report)
     assert row["after_share"] == 0.5 and row["window_share"] == pytest.approx(0.5 / 0.6)
@@ -80,7 +80,7 @@ def test_an_oracle_that_does_not_swim_in_the_window_leaves_the_judgement_to_the_
     # the robot points backwards with a lost flipper: neither oracle turns it in the window (0.009),
     # and a new gait that crawls at 0.014 would be 156 % of it; the 20 s oracle (0.5) judges: 3 %
     report = _report(after=0.014, oracle=0.5) | {"oracle_in_window": {"after_s": 228.6, "straight": -0.06,
-                                                                      "heading_holding": 0.009, "best": 0.009}}
+                                                                      "procedure": 0.009, "best": 0.009}}
     row = mission_row(report)
     assert row["window_share"] == pytest.approx(0.014 / 0.009) and not row["window_judges"]
     assert not row["recovered"]

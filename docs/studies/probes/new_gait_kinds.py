@@ -1,0 +1,129 @@
+"""Would a mission's new gait swim further if the rehearsal also chose among straight gaits?
+
+The mission's new gait today is one kind: NEAT from the prior gait's population, its episodes
+started turned by (-135, -45, 45, 135) degrees and scored along the mission's heading
+("heading-holding"), then a rehearsal on the self-model from the robot's yaw at takeover picks
+one of each generation's fittest genomes. On some missions the straight oracle (20 s episodes
+from the heading, the case study's gait) swims much further from the same state than this
+procedure does on the truth, on others much less. This probe replays a finished mission to its
+takeover (the healthy gait to the recorded alarm, the stop, the recorded experiments; it checks
+the replayed yaw and time against the record and that the mission's own procedure gives the
+recorded rehearsal), evolves a second kind on the recovered self-model, straight (NEAT from the
+same population, the case preset's starts all heading +y, scored along +y), rehearses its
+candidates from the same yaw with the same draws, and swims on the true damaged robot from the
+takeover state whichever kind's rehearsal winner went further. With ``--truth`` it also runs
+the library's new-gait procedure (:func:`aquafish.mission._new_gait`, both kinds since this probe)
+on the true damaged robot and swims its gait from the same state: the window's oracle of a
+mission made with both kinds, for missions whose self-model is not the truth. One JSON line per
+mission.
+
+    python docs/studies/probes/new_gait_kinds.py runs/missions/motion_sampled_5_s2 \\
+        runs/missions/prior_s2/self_model --out docs/results/new_gait_kinds/new_gait_kinds.jsonl
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from aquafish.case_study import PRESETS
+from aquafish.mission import (MISSION_PRESETS, MissionTarget, _eea_config, _Mission, _new_gait, load_prior,
+                              span_speed, stop_robot)
+from gait import as_robot
+from eea.record import load_experiments
+from gait.neat_evolution import evolve_from_population
+from gait.rehearsal import rehearse
+from gait.robots import Robot
+
+
+def replay_to_takeover(report: dict, prior, experiments) -> tuple[_Mission, object]:
+    """The mission replayed to its new gait's takeover and a snapshot there."""
+    settings = MISSION_PRESETS[report["preset"]]
+    config = _eea_config(settings, report["damage"], report["seed"], 1, report.get("self_model_fields") or {})
+    mission = _Mission(report["damage"], report["onset_s"], report["duration_s"], report["seed"])
+    controller = prior.controller
+    controller.reset()
+    while mission.time_s < report["alarm_s"] - 1e-9:
+        mission.step(controller.act(mission.obs, mission.time_s), "gait")
+    stop_robot(mission, settings.stop_max_s)
+    target = MissionTarget(mission, report["damage"], config.steps, settings.stop_max_s, config.sim_params)
+    for x in experiments:
+        imu, _ = target.perform(x.action)
+        if not np.allclose(imu, x.imu_log, atol=1e-6):
+            raise SystemExit(f"replay differs from the recorded experiment {x.index}")
+    if abs(mission.time_s - report["recovered_s"]) > 1e-6 or \
+            abs(mission.yaw_deg() - report["robot_yaw_at_new_gait_deg"]) > 1e-3:
+        raise SystemExit(f"replay reaches {mission.time_s:.2f} s at {mission.yaw_deg():.3f} deg, the record "
+                         f"{report['recovered_s']} s at {report['robot_yaw_at_new_gait_deg']} deg")
+    return mission, mission.snapshot()
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("mission_dir", type=Path)
+    ap.add_argument("prior_dir", type=Path)
+    ap.add_argument("--out", type=Path, default=None, help="append the JSON line to this file")
+    ap.add_argument("--truth", action="store_true", help="also swim the library's procedure run on the truth")
+    a = ap.parse_args(argv)
+    report = json.loads((a.mission_dir / "mission.json").read_text())
+    settings = MISSION_PRESETS[report["preset"]]
+    case = PRESETS[settings.case_preset]
+    seed, yaw = report["seed"], report["robot_yaw_at_new_gait_deg"]
+    prior = load_prior(a.prior_dir)
+    model = Robot.from_dict(json.loads((a.mission_dir / "recovered" / "self_model.json").read_text())["robot"])
+    experiments = load_experiments(a.mission_dir / "recovered" / "experiments.npz")
+    mission, snap = replay_to_takeover(report, prior, experiments)
+    yaw = mission.yaw_deg()  # unrounded, as the mission's own procedure had it
+    after_s = report["recovered_s"] + settings.warmup_s
+    start_yaw = float(np.clip(yaw, -180.0, 180.0))
+    t0 = time.perf_counter()
+    yaws = settings.new_gait_start_yaws_deg  # the heading-holding kind, the missions' procedure before this probe
+    result = evolve_from_population(model, prior.gait_dir, case.gait_generations, seed=seed,
+                                    episode_duration_s=settings.gait_episode_s, episodes_per_genome=len(yaws),
+                                    workers=1, start_yaws_deg=yaws, keep_top=settings.rehearsal_top)
+    held = rehearse(result.candidates, model, start_yaw_deg=start_yaw, duration_s=settings.rehearsal_s, seed=seed,
+                    draws=settings.rehearsal_draws)
+    holding, record = held.controller, {"chosen": held.index, "distances_units": np.round(held.scores, 4).tolist()}
+    t_holding = time.perf_counter() - t0
+    if record["chosen"] != report["rehearsal"]["chosen"] or \
+            not np.allclose(record["distances_units"], report["rehearsal"]["distances_units"]):
+        raise SystemExit(f"the mission's procedure chose {record['chosen']} here ({record['distances_units']}), "
+                         f"{report['rehearsal']['chosen']} in the record ({report['rehearsal']['distances_units']})")
+    t0 = time.perf_counter()
+    straight = evolve_from_population(model, prior.gait_dir, case.gait_generations, seed=seed,
+                                      episode_duration_s=settings.gait_episode_s, episodes_per_genome=case.gait_episodes,
+                                      workers=1, keep_top=settings.rehearsal_top)
+    chosen = rehearse(straight.candidates, model, start_yaw_deg=start_yaw,
+                      duration_s=settings.rehearsal_s, seed=seed, draws=settings.rehearsal_draws)
+    t_straight = time.perf_counter() - t0
+    swim = {name: span_speed(mission.swim_from(snap, c, report["duration_s"], "probe"), after_s)
+            for name, c in (("heading_holding", holding), ("straight", chosen.controller))}
+    rehearsal = {"heading_holding": float(held.scores.max()), "straight": float(chosen.scores.max())}
+    both = max(rehearsal, key=rehearsal.get)
+    window = report.get("oracle_in_window") or {}
+    line = {"mission": a.mission_dir.name, "damage": report["damage"], "seed": seed, "takeover_yaw_deg": yaw,
+            "self_model_is_truth": report["self_model_after"] == report["true_model"],
+            "rehearsal_units": rehearsal, "rehearsal_winner": both,
+            "swim_units_per_s": swim, "both_kinds_units_per_s": swim[both],
+            "recorded_speed_after": report["speed_after"],
+            "oracle_straight": window.get("straight"), "oracle_heading_holding": window.get("heading_holding"),
+            "oracle_best": window.get("best"),
+            "compute_s": {"heading_holding": round(t_holding, 1), "straight": round(t_straight, 1)}}
+    if a.truth:
+        procedure = _new_gait(as_robot(report["damage"]), prior, settings, seed, 1, False, yaw)[0]
+        line["procedure_on_truth_units_per_s"] = span_speed(mission.swim_from(snap, procedure, report["duration_s"],
+                                                                              "probe"), after_s)
+    mission.env.close()
+    print(json.dumps(line), flush=True)
+    if a.out is not None:
+        a.out.parent.mkdir(parents=True, exist_ok=True)
+        with open(a.out, "a") as f:
+            f.write(json.dumps(line) + "\n")
+
+
+if __name__ == "__main__":
+    main()
