@@ -31,35 +31,13 @@ from pathlib import Path
 import numpy as np
 
 from aquafish.case_study import PRESETS
-from aquafish.mission import (MISSION_PRESETS, MissionTarget, _eea_config, _Mission, _new_gait, load_prior,
-                              span_speed, stop_robot)
+from aquafish.mission import MISSION_PRESETS, _new_gait, load_prior, span_speed
 from gait import as_robot
 from eea.record import load_experiments
 from gait.neat_evolution import evolve_from_population
 from gait.rehearsal import rehearse
 from gait.robots import Robot
-
-
-def replay_to_takeover(report: dict, prior, experiments) -> tuple[_Mission, object]:
-    """The mission replayed to its new gait's takeover and a snapshot there."""
-    settings = MISSION_PRESETS[report["preset"]]
-    config = _eea_config(settings, report["damage"], report["seed"], 1, report.get("self_model_fields") or {})
-    mission = _Mission(report["damage"], report["onset_s"], report["duration_s"], report["seed"])
-    controller = prior.controller
-    controller.reset()
-    while mission.time_s < report["alarm_s"] - 1e-9:
-        mission.step(controller.act(mission.obs, mission.time_s), "gait")
-    stop_robot(mission, settings.stop_max_s)
-    target = MissionTarget(mission, report["damage"], config.steps, settings.stop_max_s, config.sim_params)
-    for x in experiments:
-        imu, _ = target.perform(x.action)
-        if not np.allclose(imu, x.imu_log, atol=1e-6):
-            raise SystemExit(f"replay differs from the recorded experiment {x.index}")
-    if abs(mission.time_s - report["recovered_s"]) > 1e-6 or \
-            abs(mission.yaw_deg() - report["robot_yaw_at_new_gait_deg"]) > 1e-3:
-        raise SystemExit(f"replay reaches {mission.time_s:.2f} s at {mission.yaw_deg():.3f} deg, the record "
-                         f"{report['recovered_s']} s at {report['robot_yaw_at_new_gait_deg']} deg")
-    return mission, mission.snapshot()
+from mission_replay import replay_to_takeover
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -76,7 +54,8 @@ def main(argv: list[str] | None = None) -> None:
     prior = load_prior(a.prior_dir)
     model = Robot.from_dict(json.loads((a.mission_dir / "recovered" / "self_model.json").read_text())["robot"])
     experiments = load_experiments(a.mission_dir / "recovered" / "experiments.npz")
-    mission, snap = replay_to_takeover(report, prior, experiments)
+    mission = replay_to_takeover(report, prior, experiments)
+    snap = mission.snapshot()
     yaw = mission.yaw_deg()  # unrounded, as the mission's own procedure had it
     after_s = report["recovered_s"] + settings.warmup_s
     start_yaw = float(np.clip(yaw, -180.0, 180.0))

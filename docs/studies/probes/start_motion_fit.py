@@ -28,11 +28,12 @@ import pybullet as p
 
 import eea
 import eea.evaluation
-from aquafish.mission import (MISSION_PRESETS, MissionTarget, _eea_config, _Mission, load_prior, stop_robot)
+from aquafish.mission import MISSION_PRESETS, _eea_config, load_prior
 from aquafish_gym import simulator
 from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
 from eea.inference.selection import select_model
+from mission_replay import replay_to_takeover
 
 
 def _yaw(q) -> float:
@@ -43,34 +44,20 @@ def _yaw(q) -> float:
 def replay_starts(report: dict, prior_dir: Path, experiments) -> list[dict]:
     """Replay the mission to each experiment's start; the robot's state there in the model's
     frame (the robot's yaw taken out): ``{"orientation", "dz", "linear", "angular"}``."""
-    settings = MISSION_PRESETS[report["preset"]]
-    config = _eea_config(settings, report["damage"], report["seed"], 1, report.get("self_model_fields") or {})
-    prior = load_prior(prior_dir)
-    mission = _Mission(report["damage"], report["onset_s"], report["duration_s"], report["seed"])
-    controller = prior.controller
-    controller.reset()
-    try:
-        while mission.time_s < report["alarm_s"] - 1e-9:
-            mission.step(controller.act(mission.obs, mission.time_s), "gait")
-        stop_robot(mission, settings.stop_max_s)
-        target = MissionTarget(mission, report["damage"], config.steps, settings.stop_max_s, config.sim_params)
-        w, starts = mission.world, []
-        for x in experiments:
-            body, c = w.bodies[0], w.client
-            pos, q = p.getBasePositionAndOrientation(body, physicsClientId=c)
-            lin, ang = p.getBaseVelocity(body, physicsClientId=c)
-            yaw = _yaw(q)
-            unturn = p.getQuaternionFromEuler((0.0, 0.0, -yaw))
-            rot = np.array(p.getMatrixFromQuaternion(unturn)).reshape(3, 3)
-            _, q_model = p.multiplyTransforms((0, 0, 0), unturn, (0, 0, 0), q)
-            starts.append({"orientation": q_model, "dz": pos[2] - w.home[0, 2],
-                           "linear": rot @ np.array(lin), "angular": rot @ np.array(ang)})
-            imu, _ = target.perform(x.action)
-            if not np.allclose(imu, x.imu_log, atol=1e-6):
-                raise SystemExit(f"replay differs from the recorded experiment {x.index}: "
-                                 f"max |d| {np.max(np.abs(imu - x.imu_log)):.3g} deg")
-    finally:
-        mission.env.close()
+    starts = []
+
+    def record_start(mission) -> None:
+        w = mission.world
+        body, c = w.bodies[0], w.client
+        pos, q = p.getBasePositionAndOrientation(body, physicsClientId=c)
+        lin, ang = p.getBaseVelocity(body, physicsClientId=c)
+        unturn = p.getQuaternionFromEuler((0.0, 0.0, -_yaw(q)))
+        rot = np.array(p.getMatrixFromQuaternion(unturn)).reshape(3, 3)
+        _, q_model = p.multiplyTransforms((0, 0, 0), unturn, (0, 0, 0), q)
+        starts.append({"orientation": q_model, "dz": pos[2] - w.home[0, 2],
+                       "linear": rot @ np.array(lin), "angular": rot @ np.array(ang)})
+
+    replay_to_takeover(report, load_prior(prior_dir), experiments, record_start).env.close()
     return starts
 
 

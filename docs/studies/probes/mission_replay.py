@@ -1,0 +1,53 @@
+"""Replay a finished mission to its new gait's takeover, checked against its record (a helper of the probes).
+
+The mission is rerun from its record (``mission.json``) and the prior it started from: the
+healthy gait swims to the alarm, the robot stops, and the recovered experiments' actions are
+performed where the robot stands (``MissionTarget``); every IMU log must match the recorded
+one (to 1e-6 deg), and the takeover's time and yaw the record's. The probes that ask what
+another choice at the takeover would have given (``new_gait_kinds.py``) or what the robot's
+motion at each experiment's start was (``start_motion_fit.py``) start from here. Run the
+probes as scripts from any directory (Python puts this folder on their path).
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from aquafish.mission import MISSION_PRESETS, MissionTarget, _eea_config, _Mission, stop_robot
+
+
+def replay_to_takeover(report: dict, prior, experiments: Sequence,
+                       before_each: Callable[[_Mission], None] | None = None) -> _Mission:
+    """The mission of ``report`` replayed to its takeover; the caller closes ``mission.env``.
+
+    ``prior`` is the mission's prior (:func:`aquafish.mission.load_prior`), ``experiments`` the
+    recovered experiments (:func:`eea.record.load_experiments`), in order. ``before_each(mission)``
+    is called before each experiment is performed. Raises ``SystemExit`` naming the first
+    experiment whose IMU log differs from the record, or the takeover's time and yaw if they do.
+    """
+    settings = MISSION_PRESETS[report["preset"]]
+    config = _eea_config(settings, report["damage"], report["seed"], 1, report.get("self_model_fields") or {})
+    mission = _Mission(report["damage"], report["onset_s"], report["duration_s"], report["seed"])
+    try:
+        controller = prior.controller
+        controller.reset()
+        while mission.time_s < report["alarm_s"] - 1e-9:
+            mission.step(controller.act(mission.obs, mission.time_s), "gait")
+        stop_robot(mission, settings.stop_max_s)
+        target = MissionTarget(mission, report["damage"], config.steps, settings.stop_max_s, config.sim_params)
+        for x in experiments:
+            if before_each is not None:
+                before_each(mission)
+            imu, _ = target.perform(x.action)
+            if not np.allclose(imu, x.imu_log, atol=1e-6):
+                raise SystemExit(f"replay differs from the recorded experiment {x.index}: "
+                                 f"max |d| {np.max(np.abs(imu - x.imu_log)):.3g} deg")
+        if abs(mission.time_s - report["recovered_s"]) > 1e-6 or \
+                abs(mission.yaw_deg() - report["robot_yaw_at_new_gait_deg"]) > 1e-3:
+            raise SystemExit(f"replay reaches {mission.time_s:.2f} s at {mission.yaw_deg():.3f} deg, the record "
+                             f"{report['recovered_s']} s at {report['robot_yaw_at_new_gait_deg']} deg")
+    except BaseException:
+        mission.env.close()
+        raise
+    return mission
