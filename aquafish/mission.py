@@ -833,7 +833,8 @@ def _new_gait(robot: Robot, prior: Prior, settings: MissionPreset, seed: int, wo
     fittest genomes of both swim on ``robot`` from rest at ``yaw_deg`` (the robot's yaw, degrees
     from the mission's heading) with the same flipper-angle draws (:func:`gait.rehearsal.rehearse`),
     and the furthest swims on. The record: the chosen ``kind`` and, per kind, its candidates,
-    the one its rehearsal chose and their distances (units)."""
+    the one its rehearsal chose, their distances (units) and the generation each was first
+    kept in (0: the prior's population, evaluated on ``robot``)."""
     case = PRESETS[settings.case_preset]
     yaws = settings.new_gait_start_yaws_deg
     episodes = {"heading_holding": {"episodes_per_genome": len(yaws), "start_yaws_deg": yaws},
@@ -849,7 +850,8 @@ def _new_gait(robot: Robot, prior: Prior, settings: MissionPreset, seed: int, wo
         best = next((k for k, c in enumerate(result.candidates)
                      if c.genome.key == result.best_controller.genome.key), None)
         kinds[kind] = {"candidates": len(result.candidates), "chosen": chosen[kind].index, "evolution_best": best,
-                       "distances_units": np.round(chosen[kind].scores, 4).tolist()}
+                       "distances_units": np.round(chosen[kind].scores, 4).tolist(),
+                       "generations": result.candidate_generations}
     kind = max(NEW_GAIT_KINDS, key=lambda k: chosen[k].scores[chosen[k].index])  # a tie: the first kind
     record = {"kind": kind, "start_yaw_deg": round(float(yaw_deg), 3), "seconds": settings.rehearsal_s,
               "draws": settings.rehearsal_draws, "kinds": kinds}

@@ -215,6 +215,8 @@ class GaitResult:
         out_dir: where files were written, or None.
         candidates: the fittest controllers of every generation
             (:func:`evolve_from_population`'s ``keep_top``; empty otherwise).
+        candidate_generations: for each of ``candidates``, the generation it was first kept in,
+            counted from 0 (the restored population's first evaluation).
     """
 
     best_controller: NEATController
@@ -228,6 +230,7 @@ class GaitResult:
     wall_time_s: float
     out_dir: Path | None
     candidates: list[NEATController] = dataclasses.field(default_factory=list)
+    candidate_generations: list[int] = dataclasses.field(default_factory=list)
 
 
 def latest_checkpoint(out_dir) -> Path:
@@ -586,6 +589,7 @@ def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: in
                      progress, True)
     if top is not None:
         result.candidates = [task.controller(genome, population.config) for genome in top.kept.values()]
+        result.candidate_generations = [top.generations[key] for key in top.kept]
     return result
 
 

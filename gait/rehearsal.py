@@ -35,6 +35,9 @@ class TopGenomes(neat.reporting.BaseReporter):
     """A neat-python reporter that keeps a copy of the ``top`` fittest genomes of every evaluated
     generation (each genome once, by its key, in the order first kept).
 
+    ``kept`` maps a genome's key to its copy; ``generations`` maps it to the evaluation it was
+    first kept in, counted from 0 (the first generation this reporter saw evaluated).
+
     Args:
         top: genomes kept per generation (>= 1).
 
@@ -45,11 +48,16 @@ class TopGenomes(neat.reporting.BaseReporter):
     def __init__(self, top: int):
         self.top = check_int("top", top, 1)
         self.kept: dict[int, object] = {}
+        self.generations: dict[int, int] = {}
+        self._evaluated = 0
 
     def post_evaluate(self, config, population, species, best_genome) -> None:
         ranked = sorted(population.values(), key=lambda g: g.fitness, reverse=True)[:self.top]
         for genome in ranked:
-            self.kept.setdefault(genome.key, copy.deepcopy(genome))
+            if genome.key not in self.kept:
+                self.kept[genome.key] = copy.deepcopy(genome)
+                self.generations[genome.key] = self._evaluated
+        self._evaluated += 1
 
 
 @dataclasses.dataclass(frozen=True)

@@ -10,6 +10,7 @@ import pytest
 from aquafish.cli import main
 from aquafish.mission import (MISSION_PRESETS, NEW_GAIT_KINDS, STOP_ACTION, MissionTarget, _Mission, make_prior,
                               run_mission, span_speed, stop_robot)
+from aquafish.case_study import PRESETS
 from aquafish.mission_cli import PRESET_NAMES
 from gait import load_controller
 from aquafish_gym import Morphology, get_damage, simulate_batch
@@ -78,6 +79,8 @@ def test_the_smoke_mission_writes_its_report_with_sane_relations(smoke_mission):
     for kind in rehearsal["kinds"].values():
         assert len(kind["distances_units"]) == kind["candidates"] >= 1
         assert kind["chosen"] == int(np.argmax(kind["distances_units"]))
+        assert len(kind["generations"]) == kind["candidates"] and kind["generations"] == sorted(kind["generations"])
+        assert kind["generations"][0] == 0 and kind["generations"][-1] <= PRESETS[smoke.case_preset].gait_generations
     furthest = {k: max(v["distances_units"]) for k, v in rehearsal["kinds"].items()}
     assert furthest[rehearsal["kind"]] == max(furthest.values())  # the kind whose candidate went furthest
     assert (rehearsal["seconds"], rehearsal["draws"]) == (smoke.rehearsal_s, smoke.rehearsal_draws)

@@ -29,6 +29,7 @@ def test_top_genomes_keeps_each_generations_fittest_once():
     top.post_evaluate(None, {k: genome(k, f) for k, f in [(1, 0.5), (2, 2.0), (3, 1.0)]}, None, None)
     top.post_evaluate(None, {k: genome(k, f) for k, f in [(2, 2.0), (4, 3.0), (5, -1.0)]}, None, None)
     assert list(top.kept) == [2, 3, 4]  # generation 1: 2 and 3; generation 2: 4 (2 is kept already)
+    assert top.generations == {2: 0, 3: 0, 4: 1}  # each where it was first kept, the first generation 0
     with pytest.raises(ValueError, match="top"):
         TopGenomes(0)
 
@@ -37,6 +38,9 @@ def test_the_evolution_keeps_its_generations_fittest_as_candidates(evolved):
     keys = [c.genome.key for c in evolved.candidates]
     assert 2 <= len(keys) <= 4 and len(set(keys)) == len(keys)  # 2 a generation, each genome once
     assert evolved.best_controller.genome.key in keys
+    # 3 evaluations (the restored population, then 2 generations), in order, the first one's 2 fittest first
+    gens = evolved.candidate_generations
+    assert len(gens) == len(keys) and gens[:2] == [0, 0] and gens == sorted(gens) and set(gens) <= {0, 1, 2}
 
 
 def test_rehearse_keeps_the_candidate_that_swims_furthest_along_plus_y_from_the_yaw(evolved):
