@@ -99,13 +99,13 @@ from eea.record import save_experiments
 from eea.round import RoundParts, run_round
 from eea.search.lineages import make_estimation, warm_start
 from gait.controller import NEAT_CONTROLLER_FILE
-from gait.neat_evolution import evolve_from_population
-from gait.rehearsal import rehearse
+from gait.neat_evolution import GaitResult, evolve_from_population
+from gait.rehearsal import Rehearsal, rehearse
 from gait.robots import Robot
 
-__all__ = ["EXPERIMENTS_FILE", "MISSION_FILE", "MISSION_PRESETS", "ORACLE_NEW_GAIT_DIR", "PRIORS", "RECOVERED_DIR",
-           "MissionPreset", "MissionTarget", "Prior", "load_prior", "make_prior", "mission_oracle_speed", "mission_preset",
-           "plot_timeline", "prepare_prior", "run_mission", "span_speed", "stop_robot"]
+__all__ = ["EXPERIMENTS_FILE", "MISSION_FILE", "MISSION_PRESETS", "NEW_GAIT_KINDS", "ORACLE_NEW_GAIT_DIR", "PRIORS",
+           "RECOVERED_DIR", "MissionPreset", "MissionTarget", "Prior", "load_prior", "make_prior", "mission_oracle_speed",
+           "mission_preset", "new_gait_kinds", "plot_timeline", "prepare_prior", "run_mission", "span_speed", "stop_robot"]
 
 log = logging.getLogger(__name__)
 
@@ -823,39 +823,54 @@ def _straight_oracle(damage: str, settings: MissionPreset, seed: int, out: Path,
 NEW_GAIT_KINDS: tuple[str, ...] = ("heading_holding", "straight")
 
 
-def _new_gait(robot: Robot, prior: Prior, settings: MissionPreset, seed: int, workers: int, progress: bool,
-              yaw_deg: float):
-    """The recovery's gait on ``robot`` and its rehearsal's record. For each of
-    :data:`NEW_GAIT_KINDS`, the preset's generations from the prior gait's final population
-    (:func:`gait.neat_evolution.evolve_from_population`): ``heading_holding``, episodes started
+def new_gait_kinds(robot: Robot, prior: Prior, settings: MissionPreset, seed: int, workers: int, progress: bool,
+                   yaw_deg: float) -> dict[str, tuple[GaitResult, Rehearsal]]:
+    """Every kind of :data:`NEW_GAIT_KINDS` evolved on ``robot`` and rehearsed from ``yaw_deg``:
+    ``{kind: (evolution, rehearsal)}``, in that order.
+
+    Each kind runs the preset's generations from the prior gait's final population
+    (:func:`gait.neat_evolution.evolve_from_population`, keeping the preset's ``rehearsal_top``
+    fittest genomes of every generation as candidates): ``heading_holding``, episodes started
     turned by the preset's ``new_gait_start_yaws_deg`` and scored along the mission's heading;
-    ``straight``, the case preset's episodes, every one heading along it. Then every generation's
-    fittest genomes of both swim on ``robot`` from rest at ``yaw_deg`` (the robot's yaw, degrees
-    from the mission's heading) with the same flipper-angle draws (:func:`gait.rehearsal.rehearse`),
-    and the furthest swims on. The record: the chosen ``kind`` and, per kind, its candidates,
-    the one its rehearsal chose, their distances (units) and the generation each was first
-    kept in (0: the prior's population, evaluated on ``robot``)."""
+    ``straight``, the case preset's episodes, every one heading along it. Then its candidates swim
+    on ``robot`` from rest at ``yaw_deg`` (the robot's yaw, degrees from the mission's heading,
+    clipped to [-180, 180]) with the same flipper-angle draws for every candidate
+    (:func:`gait.rehearsal.rehearse`). Not in the paper (docs/main_job.md, "Two kinds of new gait").
+    """
     case = PRESETS[settings.case_preset]
     yaws = settings.new_gait_start_yaws_deg
     episodes = {"heading_holding": {"episodes_per_genome": len(yaws), "start_yaws_deg": yaws},
                 "straight": {"episodes_per_genome": case.gait_episodes, "start_yaws_deg": None}}
     start_yaw = float(np.clip(yaw_deg, -180.0, 180.0))
-    chosen, kinds = {}, {}
+    kinds = {}
     for kind in NEW_GAIT_KINDS:
         result = evolve_from_population(robot, prior.gait_dir, case.gait_generations, seed=seed,
                                         episode_duration_s=settings.gait_episode_s, workers=workers,
                                         progress=progress, keep_top=settings.rehearsal_top, **episodes[kind])
-        chosen[kind] = rehearse(result.candidates, robot, start_yaw_deg=start_yaw, duration_s=settings.rehearsal_s,
-                                seed=seed, draws=settings.rehearsal_draws, workers=workers)
+        kinds[kind] = result, rehearse(result.candidates, robot, start_yaw_deg=start_yaw,
+                                       duration_s=settings.rehearsal_s, seed=seed, draws=settings.rehearsal_draws,
+                                       workers=workers)
+    return kinds
+
+
+def _new_gait(robot: Robot, prior: Prior, settings: MissionPreset, seed: int, workers: int, progress: bool,
+              yaw_deg: float):
+    """The recovery's gait on ``robot`` and its rehearsal's record: of :func:`new_gait_kinds`'
+    rehearsed winners, the one that went furthest (a tie: the first kind). The record: the
+    chosen ``kind`` and, per kind, its candidates, the one its rehearsal chose, their distances
+    (units) and the generation each was first kept in (0: the prior's population, evaluated on
+    ``robot``)."""
+    kinds, record = new_gait_kinds(robot, prior, settings, seed, workers, progress, yaw_deg), {}
+    for kind, (result, chosen) in kinds.items():
         best = next((k for k, c in enumerate(result.candidates)
                      if c.genome.key == result.best_controller.genome.key), None)
-        kinds[kind] = {"candidates": len(result.candidates), "chosen": chosen[kind].index, "evolution_best": best,
-                       "distances_units": np.round(chosen[kind].scores, 4).tolist(),
-                       "generations": result.candidate_generations}
-    kind = max(NEW_GAIT_KINDS, key=lambda k: chosen[k].scores[chosen[k].index])  # a tie: the first kind
-    record = {"kind": kind, "start_yaw_deg": round(float(yaw_deg), 3), "seconds": settings.rehearsal_s,
-              "draws": settings.rehearsal_draws, "kinds": kinds}
-    return chosen[kind].controller, record
+        record[kind] = {"candidates": len(result.candidates), "chosen": chosen.index, "evolution_best": best,
+                        "distances_units": np.round(chosen.scores, 4).tolist(),
+                        "generations": result.candidate_generations}
+    kind = max(NEW_GAIT_KINDS, key=lambda k: kinds[k][1].scores[kinds[k][1].index])  # a tie: the first kind
+    return kinds[kind][1].controller, {"kind": kind, "start_yaw_deg": round(float(yaw_deg), 3),
+                                       "seconds": settings.rehearsal_s, "draws": settings.rehearsal_draws,
+                                       "kinds": record}
 
 
 def _oracles_in_window(mission: _Mission, snapshot: _Snapshot, after_s: float, straight, damage: str, prior: Prior,
