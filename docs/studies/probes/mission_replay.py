@@ -4,13 +4,16 @@ The mission is rerun from its record (``mission.json``) and the prior it started
 healthy gait swims to the alarm, the robot stops, and the recovered experiments' actions are
 performed where the robot stands (``MissionTarget``); every IMU log must match the recorded
 one (to 1e-6 deg), and the takeover's time and yaw the record's. The probes that ask what
-another choice at the takeover would have given (``new_gait_kinds.py``) or what the robot's
-motion at each experiment's start was (``start_motion_fit.py``) start from here. Run the
-probes as scripts from any directory (Python puts this folder on their path).
+another choice at the takeover would have given (``new_gait_kinds.py``,
+``new_gait_generations.py``; they write their JSON lines with :func:`emit_line`) or what the
+robot's motion at each experiment's start was (``start_motion_fit.py``) start from here. Run
+the probes as scripts from any directory (Python puts this folder on their path).
 """
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -51,3 +54,12 @@ def replay_to_takeover(report: dict, prior, experiments: Sequence,
         mission.env.close()
         raise
     return mission
+
+
+def emit_line(line: dict, out: Path | None) -> None:
+    """Print ``line`` as one JSON line, and append it to ``out`` (created with its folders) if given."""
+    print(json.dumps(line), flush=True)
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with open(out, "a") as f:
+            f.write(json.dumps(line) + "\n")

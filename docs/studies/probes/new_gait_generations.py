@@ -30,7 +30,7 @@ import numpy as np
 from aquafish.mission import MISSION_PRESETS, NEW_GAIT_KINDS, load_prior, new_gait_kinds, span_speed
 from eea.record import load_experiments
 from gait.robots import Robot
-from mission_replay import replay_to_takeover
+from mission_replay import emit_line, replay_to_takeover
 
 
 def recorded_distances(report: dict) -> dict[str, list[float]]:
@@ -90,11 +90,7 @@ def main(argv: list[str] | None = None) -> None:
             "kinds": {kind: {"generations": r.candidate_generations, "distances_units": np.round(h.scores, 4).tolist(),
                              "chosen": h.index} for kind, (r, h) in kinds.items()},
             "by_straight_generations": by_n, "compute_s": round(seconds, 1)}
-    print(json.dumps(line), flush=True)
-    if a.out is not None:
-        a.out.parent.mkdir(parents=True, exist_ok=True)
-        with open(a.out, "a") as f:
-            f.write(json.dumps(line) + "\n")
+    emit_line(line, a.out)
 
 
 if __name__ == "__main__":

@@ -37,7 +37,7 @@ from eea.record import load_experiments
 from gait.neat_evolution import evolve_from_population
 from gait.rehearsal import rehearse
 from gait.robots import Robot
-from mission_replay import replay_to_takeover
+from mission_replay import emit_line, replay_to_takeover
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -97,11 +97,7 @@ def main(argv: list[str] | None = None) -> None:
         line["procedure_on_truth_units_per_s"] = span_speed(mission.swim_from(snap, procedure, report["duration_s"],
                                                                               "probe"), after_s)
     mission.env.close()
-    print(json.dumps(line), flush=True)
-    if a.out is not None:
-        a.out.parent.mkdir(parents=True, exist_ok=True)
-        with open(a.out, "a") as f:
-            f.write(json.dumps(line) + "\n")
+    emit_line(line, a.out)
 
 
 if __name__ == "__main__":
