@@ -836,6 +836,20 @@ def new_gait_kinds(robot: Robot, prior: Prior, settings: MissionPreset, seed: in
     on ``robot`` from rest at ``yaw_deg`` (the robot's yaw, degrees from the mission's heading,
     clipped to [-180, 180]) with the same flipper-angle draws for every candidate
     (:func:`gait.rehearsal.rehearse`). Not in the paper (docs/main_job.md, "Two kinds of new gait").
+
+    Args:
+        robot: the robot the gaits are evolved and rehearsed on (the new self-model, or the
+            true damaged robot for the window's oracle).
+        prior: the mission's prior; its gait's final population seeds both evolutions.
+        settings: the mission preset (generations through its case preset, episodes, rehearsal).
+        seed: seeds both evolutions and the rehearsal's flipper-angle draws.
+        workers: evaluation processes.
+        progress: show NEAT's progress.
+        yaw_deg: the robot's yaw at the takeover, degrees from the mission's heading.
+
+    Raises:
+        ValueError: as :func:`gait.neat_evolution.evolve_from_population` and
+            :func:`gait.rehearsal.rehearse` raise (e.g. no checkpoint in the prior's gait).
     """
     case = PRESETS[settings.case_preset]
     yaws = settings.new_gait_start_yaws_deg

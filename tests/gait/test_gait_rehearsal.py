@@ -28,7 +28,7 @@ def test_top_genomes_keeps_each_generations_fittest_once():
     top = TopGenomes(2)
     top.post_evaluate(None, {k: genome(k, f) for k, f in [(1, 0.5), (2, 2.0), (3, 1.0)]}, None, None)
     top.post_evaluate(None, {k: genome(k, f) for k, f in [(2, 2.0), (4, 3.0), (5, -1.0)]}, None, None)
-    assert list(top.kept) == [2, 3, 4]  # generation 1: 2 and 3; generation 2: 4 (2 is kept already)
+    assert list(top.kept) == [2, 3, 4]  # first evaluation: 2 and 3; second: 4 (2 is kept already)
     assert top.generations == {2: 0, 3: 0, 4: 1}  # each where it was first kept, the first generation 0
     with pytest.raises(ValueError, match="top"):
         TopGenomes(0)
