@@ -15,7 +15,9 @@ takeover state whichever kind's rehearsal winner went further. With ``--truth`` 
 the library's new-gait procedure (:func:`aquafish.mission._new_gait`, both kinds since this probe)
 on the true damaged robot and swims its gait from the same state: the window's oracle of a
 mission made with both kinds, for missions whose self-model is not the truth. One JSON line per
-mission.
+mission. Both kinds come from :func:`aquafish.mission.new_gait_kinds` (its heading-holding kind is
+the procedure before); ``compute_s`` is their total seconds (rows recorded before 2026-11-29 give
+each kind's).
 
     python docs/studies/probes/new_gait_kinds.py runs/missions/motion_sampled_5_s2 \\
         runs/missions/prior_s2/self_model --out docs/results/new_gait_kinds/new_gait_kinds.jsonl
@@ -30,12 +32,9 @@ from pathlib import Path
 
 import numpy as np
 
-from aquafish.case_study import PRESETS
-from aquafish.mission import MISSION_PRESETS, _new_gait, load_prior, span_speed
+from aquafish.mission import MISSION_PRESETS, _new_gait, load_prior, new_gait_kinds, span_speed
 from gait import as_robot
 from eea.record import load_experiments
-from gait.neat_evolution import evolve_from_population
-from gait.rehearsal import rehearse
 from gait.robots import Robot
 from mission_replay import emit_line, replay_to_takeover
 
@@ -49,7 +48,6 @@ def main(argv: list[str] | None = None) -> None:
     a = ap.parse_args(argv)
     report = json.loads((a.mission_dir / "mission.json").read_text())
     settings = MISSION_PRESETS[report["preset"]]
-    case = PRESETS[settings.case_preset]
     seed, yaw = report["seed"], report["robot_yaw_at_new_gait_deg"]
     prior = load_prior(a.prior_dir)
     model = Robot.from_dict(json.loads((a.mission_dir / "recovered" / "self_model.json").read_text())["robot"])
@@ -58,27 +56,15 @@ def main(argv: list[str] | None = None) -> None:
     snap = mission.snapshot()
     yaw = mission.yaw_deg()  # unrounded, as the mission's own procedure had it
     after_s = report["recovered_s"] + settings.warmup_s
-    start_yaw = float(np.clip(yaw, -180.0, 180.0))
     t0 = time.perf_counter()
-    yaws = settings.new_gait_start_yaws_deg  # the heading-holding kind, the missions' procedure before this probe
-    result = evolve_from_population(model, prior.gait_dir, case.gait_generations, seed=seed,
-                                    episode_duration_s=settings.gait_episode_s, episodes_per_genome=len(yaws),
-                                    workers=1, start_yaws_deg=yaws, keep_top=settings.rehearsal_top)
-    held = rehearse(result.candidates, model, start_yaw_deg=start_yaw, duration_s=settings.rehearsal_s, seed=seed,
-                    draws=settings.rehearsal_draws)
+    kinds = new_gait_kinds(model, prior, settings, seed, 1, False, yaw)  # heading_holding: the procedure before
+    seconds = time.perf_counter() - t0
+    held, chosen = kinds["heading_holding"][1], kinds["straight"][1]
     holding, record = held.controller, {"chosen": held.index, "distances_units": np.round(held.scores, 4).tolist()}
-    t_holding = time.perf_counter() - t0
     if record["chosen"] != report["rehearsal"]["chosen"] or \
             not np.allclose(record["distances_units"], report["rehearsal"]["distances_units"]):
         raise SystemExit(f"the mission's procedure chose {record['chosen']} here ({record['distances_units']}), "
                          f"{report['rehearsal']['chosen']} in the record ({report['rehearsal']['distances_units']})")
-    t0 = time.perf_counter()
-    straight = evolve_from_population(model, prior.gait_dir, case.gait_generations, seed=seed,
-                                      episode_duration_s=settings.gait_episode_s, episodes_per_genome=case.gait_episodes,
-                                      workers=1, keep_top=settings.rehearsal_top)
-    chosen = rehearse(straight.candidates, model, start_yaw_deg=start_yaw,
-                      duration_s=settings.rehearsal_s, seed=seed, draws=settings.rehearsal_draws)
-    t_straight = time.perf_counter() - t0
     swim = {name: span_speed(mission.swim_from(snap, c, report["duration_s"], "probe"), after_s)
             for name, c in (("heading_holding", holding), ("straight", chosen.controller))}
     rehearsal = {"heading_holding": float(held.scores.max()), "straight": float(chosen.scores.max())}
@@ -91,7 +77,7 @@ def main(argv: list[str] | None = None) -> None:
             "recorded_speed_after": report["speed_after"],
             "oracle_straight": window.get("straight"), "oracle_heading_holding": window.get("heading_holding"),
             "oracle_best": window.get("best"),
-            "compute_s": {"heading_holding": round(t_holding, 1), "straight": round(t_straight, 1)}}
+            "compute_s": round(seconds, 1)}
     if a.truth:
         procedure = _new_gait(as_robot(report["damage"]), prior, settings, seed, 1, False, yaw)[0]
         line["procedure_on_truth_units_per_s"] = span_speed(mission.swim_from(snap, procedure, report["duration_s"],
