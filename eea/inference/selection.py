@@ -244,8 +244,7 @@ def gain_neighbours(model) -> np.ndarray:
 
 def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], evaluator: Evaluator, seed: int, *,
                            levels: Sequence[float] = FAULT_GAIN_LEVELS, screen_generations: int = 3,
-                           screen_scan_cycles: int = 1, screen_scan_top: int = 98, screen_polish_top: int = 24,
-                           refit: int = 8,
+                           screen_scan_cycles: int = 1, screen_polish_top: int = 24, refit: int = 8,
                            refit_rounds: int = 2, generations: int = 10,
                            scan_cycles: int = 2, polish: int = 2, polish_steps: int = 3) -> Selection:
     """A found self-model against fault hypotheses about the design, fitted equally hard.
@@ -258,8 +257,7 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
     experiments and keeps the highest MOD_FIT (eq. 3), in stages (not the paper's):
 
     1. a screen: every candidate's angles fitted by :func:`select_model` with
-       ``screen_generations``, then the angle scan (``screen_scan_cycles``) of the
-       ``screen_scan_top`` best of that fit, without the compass polish; then the
+       ``screen_generations`` and ``screen_scan_cycles``, without its compass polish; then the
        compass polish (:meth:`eea.inference.profile.Profile.polish_angles`) on the
        ``screen_polish_top`` best of them only (given to all 98, it was about half of the
        screen's simulations);
@@ -297,10 +295,6 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
         levels: the hypotheses' pectoral gains.
         screen_generations: the screen's fit, as ``generations`` of :func:`select_model`.
         screen_scan_cycles: the screen's fit, as ``scan_cycles`` of :func:`select_model`.
-        screen_scan_top: the candidates of the screen given its scan, the best of its fit
-            before the scan, >= 1 (at least ``1 + H``: all). A candidate outside them keeps
-            the MOD_FIT of its fit; the scan only raises a MOD_FIT, so the check is the same as
-            with all scanned whenever these hold the ``screen_polish_top`` best after the scan.
         screen_polish_top: the screen's best candidates given the compass polish, >= 0 (0:
             none; at least ``1 + H``: all, the check before 2026-11-28's leaner screen). On
             the 12 windowed missions 24 keeps the model the polish of all 98 keeps, at about
@@ -319,8 +313,8 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
         angles; ``index`` the chosen one (``model`` itself when nothing fits better).
 
     Raises:
-        ValueError: a model that is not 12 values, ``refit``, ``refit_rounds`` or
-            ``screen_scan_top`` below 1, ``screen_polish_top`` or ``polish`` below 0 or ``polish_steps`` below 1, or as
+        ValueError: a model that is not 12 values, ``refit`` or ``refit_rounds`` below 1,
+            ``screen_polish_top`` or ``polish`` below 0 or ``polish_steps`` below 1, or as
             :func:`fault_hypotheses` and :func:`select_model` raise.
     """
     model = np.asarray(model, dtype=np.float64)
@@ -331,20 +325,11 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
     if polish < 0 or polish_steps < 1:
         raise ValueError(f"polish must be >= 0 and polish_steps >= 1, got {polish} and {polish_steps}")
     check_int("screen_polish_top", screen_polish_top, 0)
-    check_int("screen_scan_top", screen_scan_top, 1)
     candidates = np.vstack([model[None], fault_hypotheses(design, levels)])
-    scan_all = screen_scan_top >= len(candidates)
     screen = select_model(candidates, experiments, evaluator, np.random.default_rng(seed),
-                          generations=screen_generations, scan_cycles=screen_scan_cycles if scan_all else 0,
-                          polish=False, model_space="morphology+servos")
+                          generations=screen_generations, scan_cycles=screen_scan_cycles, polish=False,
+                          model_space="morphology+servos")
     fitness, angles = screen.model_fitness.copy(), screen.angles.copy()
-    if not scan_all and screen_scan_cycles:
-        top = np.argsort(-fitness, kind="stable")[:screen_scan_top]
-        genomes = get_model_space("morphology+servos").encode(candidates[top])
-        scanned = angles[top].copy()
-        sims = evaluator.similarities(genomes, experiments, scanned)
-        Profile().scan_angles(genomes, scanned, sims, experiments, evaluator, screen_scan_cycles)
-        fitness[top], angles[top] = model_fitness_from_similarities(sims), scanned
     if screen_polish_top:
         top = np.argsort(-fitness, kind="stable")[:screen_polish_top]
         genomes = get_model_space("morphology+servos").encode(candidates[top])

@@ -168,46 +168,6 @@ def test_the_screens_polish_goes_to_its_best_only():
     assert ten_cost > none_cost
 
 
-def test_the_screens_scan_goes_to_the_best_of_its_fit_only():
-    """screen_scan_top=K: the screen's fit before its scan ranks the candidates; its K best get
-    the very scan (and so the same MOD_FIT and angles) as when every candidate is scanned, the
-    scan being one candidate's at a time; every other candidate that is not refitted keeps the
-    fit's MOD_FIT to the bit; the scan costs in proportion to K."""
-    experiments = _experiments("reversed_left_pectoral", [(0.45, 0.4, 0.5), (-0.3, 0.2, 0.8)], steps=32)
-    found = np.concatenate([DESIGN, [1.0, -1.0, 1.0]])
-    candidates = np.vstack([found[None], fault_hypotheses(DESIGN, (-1.0, 1.0))])
-    fit = {**QUICK_FIT, "screen_scan_cycles": 1, "refit_rounds": 1, "screen_polish_top": 0}
-    costs = {}
-    with Evaluator(32, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:
-        bare = select_model(candidates, experiments, ev, np.random.default_rng(5), generations=1, scan_cycles=0,
-                            polish=False)
-        scanned = select_model(candidates, experiments, ev, np.random.default_rng(5), generations=1, scan_cycles=1,
-                               polish=False)
-    for k in (10, len(candidates)):
-        with Evaluator(32, model_space="morphology+servos", summary="signed_dft", workers=1) as ev:  # a cold cache each
-            costs[k] = (check_fault_hypotheses(found, DESIGN, experiments, ev, 5, **fit, screen_scan_top=k),
-                        ev.simulations)
-    (ten, ten_cost), (every, every_cost) = costs[10], costs[len(candidates)]
-    top = np.argsort(-bare.model_fitness, kind="stable")[:10]
-    refitted = np.argsort(-ten.model_fitness, kind="stable")[:4]
-    rest = np.setdiff1d(np.arange(len(candidates)), np.union1d(top, refitted))
-    np.testing.assert_array_equal(ten.model_fitness[rest], bare.model_fitness[rest])
-    np.testing.assert_array_equal(ten.angles[rest], bare.angles[rest])
-    kept = np.setdiff1d(top, refitted)
-    assert len(kept) >= 6
-    np.testing.assert_array_equal(ten.model_fitness[kept], scanned.model_fitness[kept])
-    np.testing.assert_array_equal(ten.angles[kept], scanned.angles[kept])
-    assert np.any(scanned.model_fitness[rest] > bare.model_fitness[rest])  # the scan would have raised some of them
-    assert ten_cost < every_cost
-
-
-@pytest.mark.parametrize("top", [0, True, 2.5])
-def test_the_screens_scan_takes_a_count(top):
-    model = np.concatenate([DESIGN, [1.0, 1.0, 1.0]])
-    with pytest.raises(ValueError, match="screen_scan_top must be an int >= 1"):
-        check_fault_hypotheses(model, DESIGN, [], None, 0, screen_scan_top=top)
-
-
 @pytest.mark.parametrize("top", [-1, True, 2.5])
 def test_the_screens_polish_takes_a_count(top):
     model = np.concatenate([DESIGN, [1.0, 1.0, 1.0]])

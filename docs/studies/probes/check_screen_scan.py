@@ -21,7 +21,14 @@ after the scan, polishes the 24 best as the check does, and reports:
   self-model, or where its gain polish started; ``null`` if that is not a candidate);
 * the simulations of each part.
 
-One JSON line per mission in ``--out`` (resumable)::
+Beside each line, ``OUT_STEM_<mission>.npz`` keeps every candidate's similarity per experiment
+(eq. 2) before and after the scan, their MOD_FIT after the polish, the polished 24 and the
+refitted 8, to try other rankings before the scan offline.
+
+Outcome (2026-11-29, docs/main_job.md, "Where the check's and the search's simulations go"): on
+four missions ``k_exact`` was 34-51 and the kept candidate ranked as low as 44th before the scan
+(``sampled:13`` seed 2), so no cut much below all 98 is safe; not adopted, the library's check
+scans all 98. One JSON line per mission in ``--out`` (resumable)::
 
     python docs/studies/probes/check_screen_scan.py runs/missions/*/ --out runs/check_screen_scan.jsonl
 """
@@ -84,6 +91,7 @@ def main(argv: list[str] | None = None) -> None:
             fit_sims = int(evaluator.simulations)
             angles = fit.angles.copy()
             sims = evaluator.similarities(genomes, experiments, angles)
+            fit_similarities = sims.copy()
             Profile().scan_angles(genomes, angles, sims, experiments, evaluator, 1)
             scanned = model_fitness_from_similarities(sims)
             scan_sims = int(evaluator.simulations) - fit_sims
@@ -112,6 +120,9 @@ def main(argv: list[str] | None = None) -> None:
                "mission_check_simulations": report["fault_check"]["simulations"]}
         print(json.dumps(row), flush=True)
         out.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(out.with_name(f"{out.stem}_{Path(directory).name}.npz"), fit_similarities=fit_similarities,
+                 scanned_similarities=sims, after_polish=after_polish, top24=top, refit=refit,
+                 kept_row=-1 if kept_row is None else kept_row)
         with out.open("a") as f:
             f.write(json.dumps(row) + "\n")
 
