@@ -71,6 +71,7 @@ import logging
 import math
 import time
 from collections.abc import Mapping
+from types import MappingProxyType
 from pathlib import Path
 
 import gymnasium as gym
@@ -103,8 +104,8 @@ from gait.neat_evolution import GaitResult, evolve_from_population
 from gait.rehearsal import Rehearsal, rehearse
 from gait.robots import Robot
 
-__all__ = ["EXPERIMENTS_FILE", "MISSION_FILE", "MISSION_PRESETS", "NEW_GAIT_KINDS", "ORACLE_NEW_GAIT_DIR", "PRIORS",
-           "RECOVERED_DIR", "MissionPreset", "MissionTarget", "Prior", "load_prior", "make_prior", "mission_oracle_speed",
+__all__ = ["EXPERIMENTS_FILE", "LEAN_RECOVERY_FIELDS", "MISSION_FILE", "MISSION_PRESETS", "NEW_GAIT_KINDS",
+           "ORACLE_NEW_GAIT_DIR", "PRIORS", "RECOVERED_DIR", "MissionPreset", "MissionTarget", "Prior", "load_prior", "make_prior", "mission_oracle_speed",
            "mission_preset", "new_gait_kinds", "plot_timeline", "prepare_prior", "run_mission", "span_speed", "stop_robot"]
 
 log = logging.getLogger(__name__)
@@ -152,6 +153,9 @@ class MissionPreset:
         rehearsal_s: seconds of each rehearsal swim (78 s: the span of a 300 s mission's
             ``speed_after``, the new gait taking over near 222 s).
         rehearsal_draws: rehearsal swims per candidate, each from other flipper angles.
+        recovery_fields: the recovery's self-model EEA settings over the case preset's (flat
+            :class:`~eea.config.EEAConfig` names, as ``aquafish case-study
+            --self-model-fields``); a mission's own ``self_model_fields`` go over these.
     """
 
     case_preset: str
@@ -166,7 +170,15 @@ class MissionPreset:
     rehearsal_top: int = 3
     rehearsal_s: float = 78.0
     rehearsal_draws: int = 4
+    recovery_fields: Mapping = dataclasses.field(default_factory=dict)
 
+
+#: The recovery's self-model search at ``quick`` and ``medium``: one lineage, no profile
+#: refinement or angle library, 2 angle sets per exploration action and 15 estimation
+#: generations a round: the settings every mission of docs/main_job.md's tables ran with
+#: (passed as ``--self-model-fields`` until 2026-11-29).
+LEAN_RECOVERY_FIELDS = MappingProxyType({"lineages": 1, "profile_refine": 0, "profile_library": 0,
+                                         "exploration_angles": 2, "estimation_generations": 15})
 
 MISSION_PRESETS: dict[str, MissionPreset] = {
     # seconds: the test's end-to-end check (tiny EEA and NEAT budgets, short episodes)
@@ -179,8 +191,10 @@ MISSION_PRESETS: dict[str, MissionPreset] = {
     # and alarmed before the onset in 16 of 24 missions, 24 x 60 s none and none (docs/main_job.md).
     # Stops of up to 20 s, not 5 s: the robot drifts at up to 0.27 units/s after 5 s, and the
     # experiments that start from it identify worse (docs/main_job.md, "Missions")
-    "quick": MissionPreset("quick", gait_episode_s=20.0, calibration_seeds=24, calibration_episode_s=60.0),
-    "medium": MissionPreset("medium", gait_episode_s=20.0, calibration_seeds=24, calibration_episode_s=120.0),
+    "quick": MissionPreset("quick", gait_episode_s=20.0, calibration_seeds=24, calibration_episode_s=60.0,
+                           recovery_fields=LEAN_RECOVERY_FIELDS),
+    "medium": MissionPreset("medium", gait_episode_s=20.0, calibration_seeds=24, calibration_episode_s=120.0,
+                            recovery_fields=LEAN_RECOVERY_FIELDS),
 }
 
 
@@ -579,8 +593,10 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         warm_start: start the recovery's EEA at the current self-model (default); False starts
             it from a random population, as the case study does (the comparison's baseline).
         self_model_fields: :class:`~eea.config.EEAConfig` settings of the recovery's self-model
-            EEA over the case study's (flat names, e.g. ``{"lineages": 1}``; None: none), as
-            ``aquafish.case_study.run_case_study``'s; recorded in ``mission.json``. The prior
+            EEA over the preset's ``recovery_fields`` (which are over the case study's; flat
+            names, e.g. ``{"lineages": 1}``; None: none), as
+            ``aquafish.case_study.run_case_study``'s; the two merged are recorded in
+            ``mission.json``. The prior
             (``prior_source="eea"``) is built with the case study's own settings.
         video: write ``mission.mp4`` (or ``.gif``), drawn from the trajectory after the mission
             (:func:`aquafish.mission_video.write_mission_video`).
@@ -608,7 +624,7 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         check_int("workers", workers, 1)
     if prior_source not in PRIORS:
         raise ValueError(f"unknown prior {prior_source!r}; valid: {', '.join(PRIORS)}")
-    own = check_self_model_fields(self_model_fields, PRESETS[settings.case_preset].budget)
+    own = {**settings.recovery_fields, **check_self_model_fields(self_model_fields, PRESETS[settings.case_preset].budget)}
     out = check_output_dir(out_dir)
     with run_lock(out, command="mission"):
         prior = load_prior(self_model) if self_model is not None else \

@@ -88,8 +88,10 @@ def add_commands(sub) -> None:
                    help="start the recovery's EEA from a random population, not at the self-model from before "
                         "the damage (the warm start's baseline)")
     m.add_argument("--self-model-fields", type=json_object, default=None, metavar="JSON",
-                   help="EEA settings of the recovery's self-model search over the case study's, as aquafish "
-                        "case-study --self-model-fields (inline or FILE.json; default: none); recorded in mission.json")
+                   help="EEA settings of the recovery's self-model search over the budget's (quick and medium: "
+                        "aquafish.mission.LEAN_RECOVERY_FIELDS, a lean search; the rest as the case study's), as "
+                        "aquafish case-study --self-model-fields (inline or FILE.json; default: none); both recorded "
+                        "in mission.json")
     add_workers(m, None, "1")
     m.add_argument("--no-video", action="store_true", help="write no video")
     m.add_argument("--no-oracle", action="store_true", help="skip the oracle gaits (oracle_speed and oracle_in_window null)")

@@ -287,6 +287,33 @@ def test_own_self_model_fields_reach_the_recovery_eea_and_bad_ones_are_refused_b
     assert not (tmp_path / "bad").exists()
 
 
+def test_the_presets_recovery_fields_reach_the_recovery_eea_under_the_missions_own(prior_dir, tmp_path, monkeypatch):
+    """A preset's recovery_fields set the recovery's search; a mission's own self_model_fields
+    go over them, field by field (quick and medium: the lean search of the mission tables)."""
+    import dataclasses
+
+    import aquafish.mission as mission_module
+
+    seen = []
+
+    def recover(mission, genome, config, *args):
+        seen.append(config)
+        raise _Stop
+
+    monkeypatch.setattr(mission_module, "_recover_model", recover)
+    smoke = dataclasses.replace(mission_module.MISSION_PRESETS["smoke"],
+                                recovery_fields={"lineages": 1, "estimation_generations": 2})
+    monkeypatch.setitem(mission_module.MISSION_PRESETS, "smoke", smoke)
+    for own, generations in ((None, 2), ({"estimation_generations": 3}, 3)):
+        with pytest.raises(_Stop):
+            run_mission(ALL_SEIZED, tmp_path / f"m{generations}", onset_s=8.0, duration_s=30.0, preset="smoke",
+                        seed=0, self_model=prior_dir, workers=1, self_model_fields=own, video=False, oracle=False,
+                        progress=False)
+        assert seen[-1].estimation.lineages == 1 and seen[-1].estimation.generations == generations
+    assert dict(mission_module.MISSION_PRESETS["quick"].recovery_fields) == dict(mission_module.LEAN_RECOVERY_FIELDS)
+    assert mission_module.MISSION_PRESETS["quick"].recovery_fields["lineages"] == 1
+
+
 def test_the_new_gait_is_scored_along_the_missions_heading_from_the_presets_spread_starts(prior_dir, tmp_path,
                                                                                             monkeypatch):
     import aquafish.mission as mission_module
