@@ -71,8 +71,8 @@ import logging
 import math
 import time
 from collections.abc import Mapping
-from types import MappingProxyType
 from pathlib import Path
+from types import MappingProxyType
 
 import gymnasium as gym
 import numpy as np
@@ -105,8 +105,9 @@ from gait.rehearsal import Rehearsal, rehearse
 from gait.robots import Robot
 
 __all__ = ["EXPERIMENTS_FILE", "LEAN_RECOVERY_FIELDS", "MISSION_FILE", "MISSION_PRESETS", "NEW_GAIT_KINDS",
-           "ORACLE_NEW_GAIT_DIR", "PRIORS", "RECOVERED_DIR", "MissionPreset", "MissionTarget", "Prior", "load_prior", "make_prior", "mission_oracle_speed",
-           "mission_preset", "new_gait_kinds", "plot_timeline", "prepare_prior", "run_mission", "span_speed", "stop_robot"]
+           "ORACLE_NEW_GAIT_DIR", "PRIORS", "RECOVERED_DIR", "MissionPreset", "MissionTarget", "Prior", "load_prior",
+           "make_prior", "mission_oracle_speed", "mission_preset", "new_gait_kinds", "plot_timeline", "prepare_prior",
+           "run_mission", "span_speed", "stop_robot"]
 
 log = logging.getLogger(__name__)
 
@@ -596,8 +597,8 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
             EEA over the preset's ``recovery_fields`` (which are over the case study's; flat
             names, e.g. ``{"lineages": 1}``; None: none), as
             ``aquafish.case_study.run_case_study``'s; the two merged are recorded in
-            ``mission.json``. The prior
-            (``prior_source="eea"``) is built with the case study's own settings.
+            ``mission.json``. The prior (``prior_source="eea"``) is built with the case study's
+            own settings.
         video: write ``mission.mp4`` (or ``.gif``), drawn from the trajectory after the mission
             (:func:`aquafish.mission_video.write_mission_video`).
         oracle: evolve the oracle gaits on the true damaged robot for ``oracle_speed`` and
@@ -624,7 +625,8 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         check_int("workers", workers, 1)
     if prior_source not in PRIORS:
         raise ValueError(f"unknown prior {prior_source!r}; valid: {', '.join(PRIORS)}")
-    own = {**settings.recovery_fields, **check_self_model_fields(self_model_fields, PRESETS[settings.case_preset].budget)}
+    own = {**settings.recovery_fields,
+           **check_self_model_fields(self_model_fields, PRESETS[settings.case_preset].budget)}
     out = check_output_dir(out_dir)
     with run_lock(out, command="mission"):
         prior = load_prior(self_model) if self_model is not None else \

@@ -310,8 +310,11 @@ def test_the_presets_recovery_fields_reach_the_recovery_eea_under_the_missions_o
                         seed=0, self_model=prior_dir, workers=1, self_model_fields=own, video=False, oracle=False,
                         progress=False)
         assert seen[-1].estimation.lineages == 1 and seen[-1].estimation.generations == generations
-    assert dict(mission_module.MISSION_PRESETS["quick"].recovery_fields) == dict(mission_module.LEAN_RECOVERY_FIELDS)
-    assert mission_module.MISSION_PRESETS["quick"].recovery_fields["lineages"] == 1
+    from aquafish.case_study import PRESETS, check_self_model_fields
+    for name in ("quick", "medium"):  # the lean search, valid settings at each preset's budget
+        preset = mission_module.MISSION_PRESETS[name]
+        assert check_self_model_fields(preset.recovery_fields, PRESETS[preset.case_preset].budget) == \
+            dict(mission_module.LEAN_RECOVERY_FIELDS)
 
 
 def test_the_new_gait_is_scored_along_the_missions_heading_from_the_presets_spread_starts(prior_dir, tmp_path,
