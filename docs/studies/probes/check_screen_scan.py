@@ -36,6 +36,7 @@ scans all 98. One JSON line per mission in ``--out`` (resumable)::
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
 from pathlib import Path
 
@@ -48,9 +49,13 @@ from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
 from eea.fault_check import FAULT_CHECK_SEED
 from eea.inference.profile import Profile
-from eea.inference.selection import fault_hypotheses, model_fitness_from_similarities, select_model
+from eea.inference.selection import (check_fault_hypotheses, fault_hypotheses, model_fitness_from_similarities,
+                                     select_model)
+from mission_replay import emit_line
 
-SCREEN_POLISH_TOP, REFIT = 24, 8
+#: the check's screen and refit as the library runs them (its defaults)
+CHECK = {name: p.default for name, p in inspect.signature(check_fault_hypotheses).parameters.items()
+         if p.default is not inspect.Parameter.empty}
 
 
 def _ranks(fitness: np.ndarray) -> np.ndarray:
@@ -87,22 +92,23 @@ def main(argv: list[str] | None = None) -> None:
         genomes = space.encode(candidates)
         with Evaluator.for_config(config, workers=args.workers) as evaluator:
             fit = select_model(candidates, experiments, evaluator, np.random.default_rng(FAULT_CHECK_SEED),
-                               generations=3, scan_cycles=0, polish=False, model_space="morphology+servos")
+                               generations=CHECK["screen_generations"], scan_cycles=0, polish=False,
+                               model_space="morphology+servos")
             fit_sims = int(evaluator.simulations)
             angles = fit.angles.copy()
             sims = evaluator.similarities(genomes, experiments, angles)
             fit_similarities = sims.copy()
-            Profile().scan_angles(genomes, angles, sims, experiments, evaluator, 1)
+            Profile().scan_angles(genomes, angles, sims, experiments, evaluator, CHECK["screen_scan_cycles"])
             scanned = model_fitness_from_similarities(sims)
             scan_sims = int(evaluator.simulations) - fit_sims
-            top = np.argsort(-scanned, kind="stable")[:SCREEN_POLISH_TOP]
+            top = np.argsort(-scanned, kind="stable")[:CHECK["screen_polish_top"]]
             polished, polished_sims = angles[top].copy(), sims[top].copy()
             Profile().polish_angles(genomes[top], polished, polished_sims, experiments, evaluator)
             after_polish = scanned.copy()
             after_polish[top] = model_fitness_from_similarities(polished_sims)
             polish_sims = int(evaluator.simulations) - fit_sims - scan_sims
         before = _ranks(fit.model_fitness)
-        refit = np.argsort(-after_polish, kind="stable")[:REFIT]
+        refit = np.argsort(-after_polish, kind="stable")[:CHECK["refit"]]
         # the candidate the mission kept, or the one its gain polish started from (same dimensions, nearest gains)
         same_shape = np.flatnonzero(np.all(np.isclose(candidates[:, :9], kept[:9], atol=1e-4), axis=1))
         kept_row = None
@@ -118,13 +124,11 @@ def main(argv: list[str] | None = None) -> None:
                "top24_ranks_before_scan": before[top].tolist(),
                "simulations": {"fit": fit_sims, "scan": scan_sims, "polish_24": polish_sims},
                "mission_check_simulations": report["fault_check"]["simulations"]}
-        print(json.dumps(row), flush=True)
         out.parent.mkdir(parents=True, exist_ok=True)
         np.savez(out.with_name(f"{out.stem}_{Path(directory).name}.npz"), fit_similarities=fit_similarities,
                  scanned_similarities=sims, after_polish=after_polish, top24=top, refit=refit,
                  kept_row=-1 if kept_row is None else kept_row)
-        with out.open("a") as f:
-            f.write(json.dumps(row) + "\n")
+        emit_line(row, out)  # after the arrays: a mission with its line has them
 
 
 if __name__ == "__main__":
