@@ -1,0 +1,94 @@
+"""Would the fault check keep the same self-model after fewer of a mission's experiments?
+
+A mission's recovery runs 8 rounds (one target experiment of 1.28 s each), then checks the
+search's final model against the fault hypotheses (:func:`eea.inference.selection.check_fault_hypotheses`)
+on all 8 experiments; the check, not the search, makes the self-model (it replaced the search's
+model on 13 of 13 missions). The search's simulations grow with the experiments recorded (round
+r scores its models on r experiments: 1 + ... + 8 = 36 experiment-scorings in all) and the
+check's with their number, so a recovery that stops after k rounds would spend about
+``(k (k + 1) / 2) / 36`` of the estimation and ``k / 8`` of the check, and the robot would stop
+for k experiments instead of 8.
+
+The first k rounds of a mission are those a k-round mission would run (a round draws nothing
+from later ones), so this probe makes the check on the first k of a mission's recorded
+experiments (``recovered/experiments.npz``), from the mission's final model as row 0 (a k-round
+mission would check round k's model there; the check has never kept its row 0), with the
+check's own seed and defaults, and says whether it keeps the model the 8-experiment check kept
+and whether that is the truth. It does not say how the new gait would swim (the robot would
+take over elsewhere).
+
+One JSON line per mission and k in ``--out`` (resumable)::
+
+    python docs/studies/probes/check_fewer_experiments.py runs/missions/m_*/ --experiments 4,5,6 \\
+        --out runs/check_fewer_experiments.jsonl
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+import eea
+from aquafish.mission import MISSION_PRESETS, _eea_config
+from aquafish_gym import Morphology
+from eea.encoding import get_model_space
+from eea.evaluation import Evaluator
+from eea.fault_check import FAULT_CHECK_SEED
+from eea.inference.selection import check_fault_hypotheses
+from mission_replay import emit_line
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("missions", nargs="+")
+    parser.add_argument("--experiments", default="4,5,6",
+                        help="comma-separated k: the check on the first k experiments (each 1 <= k <= 8)")
+    parser.add_argument("--workers", type=int, default=1)
+    parser.add_argument("--out", required=True)
+    args = parser.parse_args(argv)
+    counts = [int(k) for k in args.experiments.split(",")]
+    if not counts or min(counts) < 1:
+        parser.error(f"--experiments must be positive integers, got {args.experiments!r}")
+    out = Path(args.out)
+    done = ({(r["mission"], r["experiments"]) for r in map(json.loads, out.read_text().splitlines())}
+            if out.is_file() else set())
+    space = get_model_space("morphology+servos")
+    for directory in map(str, map(Path, args.missions)):
+        report_path = Path(directory) / "mission.json"
+        if not report_path.is_file():
+            continue
+        report = json.loads(report_path.read_text())
+        if not report.get("fault_check"):
+            continue
+        experiments = eea.load_experiments(Path(directory) / "recovered" / "experiments.npz")
+        model = np.array([report["fault_check"]["final_model"][f] for f in space.fields])
+        kept = np.array([report["self_model_after"][f] for f in space.fields])
+        truth = np.array([report["true_model"][f] for f in space.fields])
+        config = _eea_config(MISSION_PRESETS[report["preset"]], report["damage"], report["seed"], args.workers,
+                             report.get("self_model_fields") or {})
+        for k in counts:
+            if (directory, k) in done or k > len(experiments):
+                continue
+            with Evaluator.for_config(config, workers=args.workers) as evaluator:
+                started = time.perf_counter()
+                check = check_fault_hypotheses(model, Morphology.healthy().to_array(), experiments[:k], evaluator,
+                                               FAULT_CHECK_SEED)
+                seconds, simulations = time.perf_counter() - started, int(evaluator.simulations)
+            chosen = check.model
+            row = {"mission": directory, "damage": report["damage"], "seed": report["seed"], "experiments": k,
+                   "of": len(experiments), "same_as_all": bool(np.allclose(chosen, kept, atol=1e-4)),
+                   "truth": bool(np.allclose(chosen, truth, atol=1e-4)),
+                   "all_truth": bool(np.allclose(kept, truth, atol=1e-4)),
+                   "model": dict(zip(space.fields, np.round(chosen, 4).tolist())),
+                   "model_fitness": float(check.model_fitness[check.index]), "simulations": simulations,
+                   "mission_check_simulations": report["fault_check"]["simulations"],
+                   "seconds": round(seconds, 1), "workers": args.workers}
+            emit_line(row, out)
+
+
+if __name__ == "__main__":
+    main()
