@@ -32,14 +32,12 @@ from pathlib import Path
 
 import numpy as np
 
-import eea
-from aquafish.mission import MISSION_PRESETS, _eea_config
 from aquafish_gym import Morphology
 from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
 from eea.fault_check import FAULT_CHECK_SEED
 from eea.inference.selection import check_fault_hypotheses
-from mission_replay import emit_line
+from mission_replay import emit_line, load_checked_mission
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -58,18 +56,11 @@ def main(argv: list[str] | None = None) -> None:
             if out.is_file() else set())
     space = get_model_space("morphology+servos")
     for directory in map(str, map(Path, args.missions)):
-        report_path = Path(directory) / "mission.json"
-        if not report_path.is_file():
+        mission = load_checked_mission(directory, args.workers)
+        if mission is None:
             continue
-        report = json.loads(report_path.read_text())
-        if not report.get("fault_check"):
-            continue
-        experiments = eea.load_experiments(Path(directory) / "recovered" / "experiments.npz")
-        model = np.array([report["fault_check"]["final_model"][f] for f in space.fields])
-        kept = np.array([report["self_model_after"][f] for f in space.fields])
+        report, experiments, model, kept, config = mission
         truth = np.array([report["true_model"][f] for f in space.fields])
-        config = _eea_config(MISSION_PRESETS[report["preset"]], report["damage"], report["seed"], args.workers,
-                             report.get("self_model_fields") or {})
         for k in counts:
             if (directory, k) in done or k > len(experiments):
                 continue

@@ -42,8 +42,6 @@ from pathlib import Path
 
 import numpy as np
 
-import eea
-from aquafish.mission import MISSION_PRESETS, _eea_config
 from aquafish_gym import Morphology
 from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
@@ -51,7 +49,7 @@ from eea.fault_check import FAULT_CHECK_SEED
 from eea.inference.profile import Profile
 from eea.inference.selection import (check_fault_hypotheses, fault_hypotheses, model_fitness_from_similarities,
                                      select_model)
-from mission_replay import emit_line
+from mission_replay import emit_line, load_checked_mission
 
 #: the check's screen and refit as the library runs them (its defaults)
 CHECK = {name: p.default for name, p in inspect.signature(check_fault_hypotheses).parameters.items()
@@ -77,17 +75,12 @@ def main(argv: list[str] | None = None) -> None:
     space = get_model_space("morphology+servos")
     for directory in args.missions:
         directory = str(Path(directory))
-        report_path = Path(directory) / "mission.json"
-        if directory in done or not report_path.is_file():
+        if directory in done:
             continue
-        report = json.loads(report_path.read_text())
-        if not report.get("fault_check"):
+        mission = load_checked_mission(directory, args.workers)
+        if mission is None:
             continue
-        experiments = eea.load_experiments(Path(directory) / "recovered" / "experiments.npz")
-        model = np.array([report["fault_check"]["final_model"][f] for f in space.fields])
-        kept = np.array([report["self_model_after"][f] for f in space.fields])
-        config = _eea_config(MISSION_PRESETS[report["preset"]], report["damage"], report["seed"], args.workers,
-                             report.get("self_model_fields") or {})
+        report, experiments, model, kept, config = mission
         candidates = np.vstack([model[None], fault_hypotheses(Morphology.healthy().to_array())])
         genomes = space.encode(candidates)
         with Evaluator.for_config(config, workers=args.workers) as evaluator:

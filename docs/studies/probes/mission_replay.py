@@ -56,6 +56,31 @@ def replay_to_takeover(report: dict, prior, experiments: Sequence,
     return mission
 
 
+def load_checked_mission(directory, workers: int):
+    """A finished mission's fault check inputs, for the probes that make the check again
+    (``check_screen_scan.py``, ``check_fewer_experiments.py``): None if ``directory`` has no
+    ``mission.json`` or its mission made no check; else ``(report, experiments, final_model,
+    kept, config)``: the record, the recovered experiments, the search's final model and the
+    kept self-model (``(12,)`` ``morphology+servos`` values each) and the recovery's
+    ``EEAConfig`` with ``workers``."""
+    from eea.encoding import get_model_space
+    from eea.record import load_experiments
+
+    report_path = Path(directory) / "mission.json"
+    if not report_path.is_file():
+        return None
+    report = json.loads(report_path.read_text())
+    if not report.get("fault_check"):
+        return None
+    fields = get_model_space("morphology+servos").fields
+    experiments = load_experiments(Path(directory) / "recovered" / "experiments.npz")
+    model = np.array([report["fault_check"]["final_model"][f] for f in fields])
+    kept = np.array([report["self_model_after"][f] for f in fields])
+    config = _eea_config(MISSION_PRESETS[report["preset"]], report["damage"], report["seed"], workers,
+                         report.get("self_model_fields") or {})
+    return report, experiments, model, kept, config
+
+
 def emit_line(line: dict, out: Path | None) -> None:
     """Print ``line`` as one JSON line, and append it to ``out`` (created with its folders) if given."""
     print(json.dumps(line), flush=True)
