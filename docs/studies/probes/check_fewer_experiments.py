@@ -44,7 +44,8 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("missions", nargs="+")
     parser.add_argument("--experiments", default="4,5,6",
-                        help="comma-separated k: the check on the first k experiments (each 1 <= k <= 8)")
+                        help="comma-separated k >= 1: the check on the first k experiments (a k above a "
+                             "mission's experiments is skipped for it)")
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--out", required=True)
     args = parser.parse_args(argv)

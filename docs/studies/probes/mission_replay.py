@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from aquafish.mission import MISSION_PRESETS, MissionTarget, _eea_config, _Mission, stop_robot
+from eea.encoding import get_model_space
+from eea.record import load_experiments
 
 
 def replay_to_takeover(report: dict, prior, experiments: Sequence,
@@ -63,9 +65,6 @@ def load_checked_mission(directory, workers: int):
     kept, config)``: the record, the recovered experiments, the search's final model and the
     kept self-model (``(12,)`` ``morphology+servos`` values each) and the recovery's
     ``EEAConfig`` with ``workers``."""
-    from eea.encoding import get_model_space
-    from eea.record import load_experiments
-
     report_path = Path(directory) / "mission.json"
     if not report_path.is_file():
         return None
