@@ -12,9 +12,11 @@ for k experiments instead of 8.
 The first k rounds of a mission are those a k-round mission would run (a round draws nothing
 from later ones), so this probe makes the check on the first k of a mission's recorded
 experiments (``recovered/experiments.npz``), from the mission's final model as row 0 (a k-round
-mission would check round k's model there; the check has never kept its row 0), with the
-check's own seed and defaults, and says whether it keeps the model the 8-experiment check kept
-and whether that is the truth. It does not say how the new gait would swim (the robot would
+mission would check round k's model there; no 8-round mission's check kept its row 0), with
+the check's own seed and defaults, and says whether it keeps the model the check on all of the
+mission's experiments kept and whether that is the truth, with the MOD_FIT of the kept model,
+of row 0 (``search_model_fitness``) and of the truth's best row (``truth_fitness``; null when
+no candidate is the truth): how near the truth came. It does not say how the new gait would swim (the robot would
 take over elsewhere).
 
 One JSON line per mission and k in ``--out`` (resumable)::
@@ -76,10 +78,19 @@ def main(argv: list[str] | None = None) -> None:
                    "truth": bool(np.allclose(chosen, truth, atol=1e-4)),
                    "all_truth": bool(np.allclose(kept, truth, atol=1e-4)),
                    "model": dict(zip(space.fields, np.round(chosen, 4).tolist())),
-                   "model_fitness": float(check.model_fitness[check.index]), "simulations": simulations,
+                   "model_fitness": float(check.model_fitness[check.index]),
+                   "search_model_fitness": float(check.model_fitness[0]),
+                   "truth_fitness": _truth_fitness(check, truth), "simulations": simulations,
                    "mission_check_simulations": report["fault_check"]["simulations"],
                    "seconds": round(seconds, 1), "workers": args.workers}
             emit_line(row, out)
+
+
+def _truth_fitness(check, truth: np.ndarray) -> float | None:
+    """The best MOD_FIT among the check's candidates that are the truth (a hypothesis, or the
+    search's model or a polished one landing on it); None if none is."""
+    rows = [i for i, candidate in enumerate(check.models) if np.allclose(candidate, truth, atol=1e-4)]
+    return max((float(check.model_fitness[i]) for i in rows), default=None)
 
 
 if __name__ == "__main__":
