@@ -16,8 +16,8 @@ mission would check round k's model there; no 8-round mission's check kept its r
 the check's own seed and defaults, and says whether it keeps the model the check on all of the
 mission's experiments kept and whether that is the truth, with the MOD_FIT of the kept model,
 of row 0 (``search_model_fitness``) and of the truth's best row (``truth_fitness``; null when
-no candidate is the truth): how near the truth came. It does not say how the new gait would swim (the robot would
-take over elsewhere).
+no candidate is the truth): how near the truth came. It does not say how the new gait would
+swim (the robot would take over elsewhere).
 
 One JSON line per mission and k in ``--out`` (resumable)::
 
