@@ -32,14 +32,12 @@ from pathlib import Path
 
 import numpy as np
 
-import eea
-from aquafish.mission import MISSION_PRESETS, _eea_config
 from aquafish_gym import Morphology
-from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
 from eea.fault_check import FAULT_CHECK_SEED
 import eea.inference.selection as selection_module
 from eea.inference.selection import check_fault_hypotheses
+from mission_replay import load_checked_mission
 
 #: name: keyword arguments of check_fault_hypotheses over its defaults
 VARIANTS = {"default": {}, "polish_all": {"screen_polish_top": 98}, "no_screen_polish": {"screen_polish_top": 0},
@@ -81,16 +79,11 @@ def main(argv: list[str] | None = None) -> None:
     done = set()
     if out.is_file():
         done = {(r["mission"], r["variant"]) for r in map(json.loads, out.read_text().splitlines())}
-    space = get_model_space("morphology+servos")
     for directory in args.missions:
-        report = json.loads((Path(directory) / "mission.json").read_text())
-        if not report.get("fault_check"):
+        mission = load_checked_mission(directory, args.workers)
+        if mission is None:
             continue
-        experiments = eea.load_experiments(Path(directory) / "recovered" / "experiments.npz")
-        model = np.array([report["fault_check"]["final_model"][f] for f in space.fields])
-        config = _eea_config(MISSION_PRESETS[report["preset"]], report["damage"], report["seed"], args.workers,
-                             report.get("self_model_fields") or {})
-        kept = [report["self_model_after"][f] for f in space.fields]
+        report, experiments, model, kept, config = mission
         for name in args.variants.split(","):
             if (directory, name) in done:
                 continue
@@ -105,7 +98,7 @@ def main(argv: list[str] | None = None) -> None:
                        "model_fitness": float(selection.model_fitness[selection.index]),
                        "same_as_mission": bool(np.allclose(np.round(chosen, 4), kept, atol=1e-4)),
                        "gains": np.round(chosen[9:], 4).tolist(),
-                       "mission_gains": kept[9:],
+                       "mission_gains": kept[9:].tolist(),
                        "fits": fits, "simulations_outside_fits": int(evaluator.simulations) - sum(f[1] for f in fits)}
             print(json.dumps(row), flush=True)
             with out.open("a") as f:
