@@ -60,8 +60,8 @@ def replay_to_takeover(report: dict, prior, experiments: Sequence,
 
 def load_checked_mission(directory, workers: int):
     """A finished mission's fault check inputs, for the probes that make the check again
-    (``check_screen_scan.py``, ``check_screen_polish.py``, ``check_fewer_experiments.py``): None if ``directory`` has no
-    ``mission.json`` or its mission made no check; else ``(report, experiments, final_model,
+    (``check_screen_scan.py``, ``check_screen_polish.py``, ``check_fewer_experiments.py``):
+    None if ``directory`` has no ``mission.json`` or its mission made no check; else ``(report, experiments, final_model,
     kept, config)``: the record, the recovered experiments, the search's final model and the
     kept self-model (``(12,)`` ``morphology+servos`` values each) and the recovery's
     ``EEAConfig`` with ``workers``."""
