@@ -168,3 +168,20 @@ def test_fault_check_and_identification_judge_a_servo_run(tmp_path, tiny_config,
     assert counts == {"runs": 1, "checked": 1,
                       **{name: {"judged": 1, "named": int(line[f"{name}_named"]),
                                 "parts_named": int(line[f"{name}_parts_named"])} for name in ("final", "self_model")}}
+
+
+def test_check_margin_keeps_a_row_that_is_not_a_hypothesis_only_beyond_the_margin():
+    margin = _load("check_margin")
+    # row 0 the search's model, rows 1-3 hypotheses, row 4 a polished row
+    fitness = np.array([0.9960, 0.9950, 0.9940, 0.9900, 0.9958])
+    assert margin.kept_with_margin(fitness, 3, 0.0, "all") == 0          # today's rule: the highest MOD_FIT
+    assert margin.kept_with_margin(fitness, 3, 0.0009, "all") == 0       # 0.0010 ahead of row 1: beyond 0.0009
+    assert margin.kept_with_margin(fitness, 3, 0.0009, "search") == 0
+    assert margin.kept_with_margin(fitness, 3, 0.0012, "all") == 1       # neither row 0 nor 4 is 0.0012 ahead
+    assert margin.kept_with_margin(fitness, 3, 0.0012, "search") == 4    # the polished row needs no margin
+    with pytest.raises(ValueError, match="margin must be >= 0"):
+        margin.kept_with_margin(fitness, 3, -0.001, "all")
+    truth = np.r_[np.ones(9), -1.0, 1.0, 0.5]
+    model = np.r_[np.ones(9), -1.0, 1.0, 0.5]
+    model[2], model[10] = 1.25, 0.75
+    assert margin.errors(model, truth) == (0.25, 0.25)
