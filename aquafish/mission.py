@@ -66,6 +66,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import json
 import logging
 import math
@@ -103,6 +104,7 @@ from gait.controller import NEAT_CONTROLLER_FILE
 from gait.neat_evolution import GaitResult, evolve_from_population
 from gait.rehearsal import Rehearsal, rehearse
 from gait.robots import Robot
+from gait.shared_pool import SharedPool
 
 __all__ = ["EXPERIMENTS_FILE", "LEAN_RECOVERY_FIELDS", "MISSION_FILE", "MISSION_PRESETS", "NEW_GAIT_KINDS",
            "ORACLE_NEW_GAIT_DIR", "PRIORS", "RECOVERED_DIR", "MissionPreset", "MissionTarget", "Prior", "load_prior",
@@ -854,6 +856,9 @@ def new_gait_kinds(robot: Robot, prior: Prior, settings: MissionPreset, seed: in
     on ``robot`` from rest at ``yaw_deg`` (the robot's yaw, degrees from the mission's heading,
     clipped to [-180, 180]) with the same flipper-angle draws for every candidate
     (:func:`gait.rehearsal.rehearse`). Not in the paper (docs/main_job.md, "Two kinds of new gait").
+    With ``workers`` > 1 the two kinds run at once on one :class:`~gait.shared_pool.SharedPool`
+    (a straight generation is one world, which alone keeps one core busy), with the results
+    they give one after the other.
 
     Args:
         robot: the robot the gaits are evolved and rehearsed on (the new self-model, or the
@@ -874,15 +879,20 @@ def new_gait_kinds(robot: Robot, prior: Prior, settings: MissionPreset, seed: in
     episodes = {"heading_holding": {"episodes_per_genome": len(yaws), "start_yaws_deg": yaws},
                 "straight": {"episodes_per_genome": case.gait_episodes, "start_yaws_deg": None}}
     start_yaw = float(np.clip(yaw_deg, -180.0, 180.0))
-    kinds = {}
-    for kind in NEW_GAIT_KINDS:
+
+    def one_kind(kind: str, shared: SharedPool | None) -> tuple[GaitResult, Rehearsal]:
         result = evolve_from_population(robot, prior.gait_dir, case.gait_generations, seed=seed,
                                         episode_duration_s=settings.gait_episode_s, workers=workers,
-                                        progress=progress, keep_top=settings.rehearsal_top, **episodes[kind])
-        kinds[kind] = result, rehearse(result.candidates, robot, start_yaw_deg=start_yaw,
-                                       duration_s=settings.rehearsal_s, seed=seed, draws=settings.rehearsal_draws,
-                                       workers=workers)
-    return kinds
+                                        progress=progress, keep_top=settings.rehearsal_top, shared=shared,
+                                        **episodes[kind])
+        return result, rehearse(result.candidates, robot, start_yaw_deg=start_yaw, duration_s=settings.rehearsal_s,
+                                seed=seed, draws=settings.rehearsal_draws, workers=workers, shared=shared)
+
+    if workers == 1:
+        return {kind: one_kind(kind, None) for kind in NEW_GAIT_KINDS}
+    with SharedPool(workers) as shared:   # both kinds at once: one kind's generation is one world
+        return dict(zip(NEW_GAIT_KINDS, shared.run_each([functools.partial(one_kind, kind, shared)
+                                                         for kind in NEW_GAIT_KINDS])))
 
 
 def _new_gait(robot: Robot, prior: Prior, settings: MissionPreset, seed: int, workers: int, progress: bool,

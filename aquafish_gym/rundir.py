@@ -521,8 +521,10 @@ def die_with_parent(parent_pid: int) -> None:
     (``prctl(PR_SET_PDEATHSIG)``); elsewhere a daemon thread polls the parent's pid every
     second. A parent that died before this ran is caught too. Ctrl-C (``SIGINT``, which the
     terminal sends to the parent and its workers alike) ends the worker at once and quietly:
-    the parent reports the interrupt, in one line. Pass ``os.getpid()`` of the process that
-    creates the pool::
+    the parent reports the interrupt, in one line. On Linux "parent" is the thread that
+    started the worker: start a pool's workers from a thread that outlives them (a
+    ``ProcessPoolExecutor`` starts them in the thread that submits). Pass ``os.getpid()`` of
+    the process that creates the pool::
 
         ProcessPoolExecutor(n, initializer=die_with_parent, initargs=(os.getpid(),))
     """

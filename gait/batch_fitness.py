@@ -38,6 +38,7 @@ from aquafish_gym.rundir import die_with_parent
 from aquafish_gym.vector_env import MAX_WORLD_ROBOTS
 from gait.clock import CLOCK_DIM, clock_features
 from gait.fitness_task import FitnessTask, along_heading
+from gait.shared_pool import SharedPool
 from gait.envs import DEFAULT_ENV_ID
 
 __all__ = ["BatchEvaluator", "batch_fitness", "genomes_per_world"]
@@ -150,24 +151,31 @@ class BatchEvaluator:
     from another place in the world: kept, the best fitness per generation never decreases,
     exactly (and fewer robots swim).
 
+    With ``shared`` (a :class:`~gait.shared_pool.SharedPool`), every world goes to that pool,
+    one world too, and ``workers`` is the shared pool's: the jobs of
+    :meth:`SharedPool.run_each <gait.shared_pool.SharedPool.run_each>` fill the cores together, with
+    the same fitnesses.
+
     Args:
         task: the fitness task.
         workers: processes (>= 1; 1 evaluates in-process, no pool).
         max_world_robots: most robots of one PyBullet world.
         keep_fitness: score only genomes whose ``fitness`` is None (False: every genome).
+        shared: a pool shared with other evaluations (None: this evaluator's own).
 
     Raises:
         ValueError: ``workers`` or ``max_world_robots`` not an integer >= 1.
     """
 
     def __init__(self, task: FitnessTask, workers: int = 1, max_world_robots: int = MAX_WORLD_ROBOTS,
-                 keep_fitness: bool = True):
+                 keep_fitness: bool = True, shared: SharedPool | None = None):
         self.task = task
         self.keep_fitness = bool(keep_fitness)
-        self.workers = check_int("workers", workers, 1)
+        self.workers = shared.workers if shared is not None else check_int("workers", workers, 1)
         self.max_world_robots = check_int("max_world_robots", max_world_robots, 1)
+        self.shared = shared
         self.pool = None
-        if self.workers > 1:
+        if self.workers > 1 and shared is None:
             self.pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
                                             initializer=die_with_parent, initargs=(os.getpid(),))
 
@@ -183,12 +191,13 @@ class BatchEvaluator:
         genomes = [genome for _, genome in genomes if genome.fitness is None or not self.keep_fitness]
         if not genomes:
             return
-        if self.pool is None or len(self.chunks(len(genomes))) == 1:
+        parts = self.chunks(len(genomes))
+        if self.shared is None and (self.pool is None or len(parts) == 1):
             fitness = batch_fitness(genomes, config, self.task, self.max_world_robots).tolist()
         else:
-            parts = self.chunks(len(genomes))
-            results = self.pool.map(_chunk_fitness, [genomes[s] for s in parts], [config] * len(parts),
-                                    [self.task] * len(parts), [self.max_world_robots] * len(parts))
+            results = (self.shared or self.pool).map(_chunk_fitness, [genomes[s] for s in parts],
+                                                     [config] * len(parts), [self.task] * len(parts),
+                                                     [self.max_world_robots] * len(parts))
             fitness = [f for chunk in results for f in chunk]
         for genome, value in zip(genomes, fitness):
             genome.fitness = float(value)

@@ -60,6 +60,7 @@ from gait.robots import Robot, as_robot
 from gait.fitness_task import FitnessTask, evaluate_genome
 from gait.envs import DEFAULT_ENV_ID, EPISODE_DURATION_S, make_env
 from gait.rollout import Rollout
+from gait.shared_pool import SharedPool
 
 #: The documented NEAT config kept next to this module.
 DEFAULT_CONFIG = Path(__file__).with_name("neat_config.ini")
@@ -495,8 +496,10 @@ def _check_run_dir(out_dir: Path, fingerprint: dict[str, Any], resuming: bool) -
 
 
 def _evolve(population: neat.Population, task: FitnessTask, out_dir: Path | None, resuming: bool, verbose: bool,
-            checkpoint_every: int, generations: int, workers: int, progress: bool, batched: bool) -> GaitResult:
-    """Run ``population`` up to ``generations`` and write the outputs (the body of :func:`evolve_gait`)."""
+            checkpoint_every: int, generations: int, workers: int, progress: bool, batched: bool,
+            shared: SharedPool | None = None) -> GaitResult:
+    """Run ``population`` up to ``generations`` and write the outputs (the body of :func:`evolve_gait`;
+    ``shared``: the batched evaluation's worlds go to that pool)."""
     recorder, checkpointer = _attach_reporters(population, task, out_dir, resuming, verbose, checkpoint_every)
     remaining = generations - population.generation
     evaluate = functools.partial(evaluate_genome, task=task)
@@ -505,7 +508,7 @@ def _evolve(population: neat.Population, task: FitnessTask, out_dir: Path | None
     population.add_reporter(bar)
     try:
         if batched:
-            with BatchEvaluator(task, workers) as evaluator:
+            with BatchEvaluator(task, workers, shared=shared) as evaluator:
                 population.run(evaluator, remaining)
         elif workers == 1:
             def serial(genomes, config):
@@ -541,7 +544,7 @@ def _finish(population: neat.Population, task: FitnessTask, out_dir: Path | None
 def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: int = 0, episode_duration_s: float,
                            episodes_per_genome: int = 1, workers: int | None = None,
                            progress: bool = False, start_yaws_deg: tuple[float, ...] | None = None,
-                           keep_top: int = 0) -> GaitResult:
+                           keep_top: int = 0, shared: SharedPool | None = None) -> GaitResult:
     """Evolve a gait on ``robot`` for ``generations`` more generations, starting from the final
     NEAT population of the run in ``gait_dir`` (its latest checkpoint: genomes, species and
     innovation state carry over; every genome is evaluated anew on ``robot``). A damaged
@@ -562,6 +565,9 @@ def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: in
             (:class:`~gait.fitness_task.FitnessTask`); None: every start heads +y.
         keep_top: the fittest genomes of every generation kept as the result's ``candidates``
             (:class:`gait.rehearsal.TopGenomes`; 0: none), e.g. for :func:`gait.rehearsal.rehearse`.
+        shared: a :class:`~gait.shared_pool.SharedPool` that evaluates the generations' worlds
+            (``workers`` is then the pool's), e.g. beside another evolution in
+            :meth:`~gait.shared_pool.SharedPool.run_each`; the same result as without.
 
     Returns:
         The :class:`GaitResult`; nothing is written (``out_dir`` is None).
@@ -586,7 +592,7 @@ def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: in
     random.seed(seed)
     np.random.seed(seed)
     result = _evolve(population, task, None, True, False, 1, population.generation + generations, workers or 1,
-                     progress, True)
+                     progress, True, shared)
     if top is not None:
         result.candidates = [task.controller(genome, population.config) for genome in top.kept.values()]
         result.candidate_generations = [top.generations[key] for key in top.kept]

@@ -24,6 +24,7 @@ import numpy as np
 
 from aquafish_gym.checks import check_int, check_seconds
 from gait.batch_fitness import BatchEvaluator
+from gait.shared_pool import SharedPool
 from gait.controller import NEATController
 from gait.fitness_task import FitnessTask
 from gait.robots import as_robot
@@ -76,7 +77,7 @@ class Rehearsal:
 
 
 def rehearse(candidates: Sequence[NEATController], robot, *, start_yaw_deg: float, duration_s: float, seed: int,
-             draws: int = 4, workers: int = 1) -> Rehearsal:
+             draws: int = 4, workers: int = 1, shared: SharedPool | None = None) -> Rehearsal:
     """Swim every candidate on ``robot`` from rest turned by ``start_yaw_deg`` and keep the one that
     goes furthest along +y, on average over ``draws`` starts (flipper angles drawn from seeds
     ``seed``, ``seed + 1``, ...; the same for every candidate). The swims are a
@@ -93,6 +94,8 @@ def rehearse(candidates: Sequence[NEATController], robot, *, start_yaw_deg: floa
         seed: the first draw's seed.
         draws: swims per candidate (>= 1).
         workers: evaluation processes (>= 1).
+        shared: a :class:`~gait.shared_pool.SharedPool` that swims the worlds (``workers`` is
+            then the pool's); the same scores as without.
 
     Returns:
         The :class:`Rehearsal`.
@@ -110,7 +113,7 @@ def rehearse(candidates: Sequence[NEATController], robot, *, start_yaw_deg: floa
     task = FitnessTask(as_robot(robot), check_int("seed", seed, 0), None, check_seconds("duration_s", duration_s),
                        period, check_int("draws", draws, 1), start_yaws_deg=(start_yaw_deg,))
     genomes = [(k, copy.deepcopy(c.genome)) for k, c in enumerate(candidates)]
-    with BatchEvaluator(task, check_int("workers", workers, 1), keep_fitness=False) as evaluate:
+    with BatchEvaluator(task, check_int("workers", workers, 1), keep_fitness=False, shared=shared) as evaluate:
         evaluate(genomes, config)
     scores = np.array([g.fitness for _, g in genomes])
     index = int(np.argmax(scores))

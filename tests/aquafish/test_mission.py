@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from aquafish.cli import main
-from aquafish.mission import (MISSION_PRESETS, NEW_GAIT_KINDS, STOP_ACTION, MissionTarget, _Mission, make_prior,
-                              run_mission, span_speed, stop_robot)
+from aquafish.mission import (MISSION_PRESETS, NEW_GAIT_KINDS, STOP_ACTION, MissionTarget, _Mission, load_prior,
+                              make_prior, new_gait_kinds, run_mission, span_speed, stop_robot)
 from aquafish.case_study import PRESETS
 from aquafish.mission_cli import PRESET_NAMES
 from gait import load_controller
@@ -337,6 +337,20 @@ def test_the_new_gait_is_scored_along_the_missions_heading_from_the_presets_spre
                     self_model=prior_dir, workers=1, video=False, oracle=False, progress=False)
     # one episode a start heading, each turned away from the mission's heading
     assert seen == [(MISSION_PRESETS["smoke"].new_gait_start_yaws_deg, 2)]
+
+
+def test_both_kinds_of_new_gait_at_once_give_what_they_give_one_after_the_other(prior_dir):
+    prior, settings = load_prior(prior_dir), MISSION_PRESETS["smoke"]
+    robot = Robot(get_damage("reversed_left_pectoral").apply(), "reversed_left_pectoral", "damaged")
+    alone = new_gait_kinds(robot, prior, settings, 3, 1, False, 120.0)
+    together = new_gait_kinds(robot, prior, settings, 3, 2, False, 120.0)    # on one shared pool of 2
+    assert list(together) == list(alone) == list(NEW_GAIT_KINDS)
+    for kind in NEW_GAIT_KINDS:
+        (result, rehearsal), (result_alone, rehearsal_alone) = together[kind], alone[kind]
+        assert [h["best_fitness"] for h in result.history] == [h["best_fitness"] for h in result_alone.history]
+        assert [c.genome.key for c in result.candidates] == [c.genome.key for c in result_alone.candidates]
+        np.testing.assert_array_equal(rehearsal.scores, rehearsal_alone.scores)   # bit for bit
+        assert rehearsal.index == rehearsal_alone.index
 
 
 @pytest.mark.parametrize("argv, message", [

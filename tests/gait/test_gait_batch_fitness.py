@@ -13,6 +13,8 @@ from gait.batch_fitness import BatchEvaluator, batch_fitness, genomes_per_world
 from gait.fitness_task import FitnessTask, evaluate_genome
 from gait.neat_evolution import load_neat_config, set_num_inputs
 from gait.robots import as_robot
+from gait.shared_pool import SharedPool
+import gait.batch_fitness as batch_fitness_module
 
 
 def _genomes(n: int, seed: int = 11, num_inputs: int = 14):
@@ -59,7 +61,7 @@ def test_another_task_scores_its_return():
                                rtol=0, atol=1e-9)
 
 
-def test_fitness_does_not_depend_on_how_the_generation_is_split_over_workers():
+def test_fitness_does_not_depend_on_how_the_generation_is_split_over_workers(monkeypatch):
     genomes, config = _genomes(7)
     task = FitnessTask(as_robot("healthy"), 1, None, 1.0, episodes=2)
     pairs = list(enumerate(genomes))
@@ -72,6 +74,16 @@ def test_fitness_does_not_depend_on_how_the_generation_is_split_over_workers():
             g.fitness = None
         pool(pairs, config)
     assert [g.fitness for g in genomes] == in_process
+    with SharedPool(2) as shared, BatchEvaluator(task, max_world_robots=4, shared=shared) as evaluate:
+        assert evaluate.workers == 2 and evaluate.chunks(7) == [slice(0, 4), slice(4, 7)]
+        for g in genomes:
+            g.fitness = None
+        evaluate(pairs, config)
+        assert [g.fitness for g in genomes] == in_process
+        genomes[6].fitness = None
+        monkeypatch.setattr(batch_fitness_module, "batch_fitness", None)   # nothing scored in this process
+        evaluate(pairs, config)                           # one world left to score: it goes to the pool too
+        assert [g.fitness for g in genomes] == in_process
 
 
 def test_genomes_with_a_fitness_keep_it_as_neats_elites_do():
