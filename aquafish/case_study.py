@@ -41,9 +41,11 @@ and the rest runs only when the damage breaks the healthy gait (:func:`breaks`);
 from __future__ import annotations
 
 import dataclasses
+import functools
 import importlib.util
 import json
 import logging
+import os
 import shutil
 import time
 from collections.abc import Mapping
@@ -64,6 +66,7 @@ from eea.methods import BEST_METHOD
 from gait.controller import SB3_MODEL_FILE, sb3_sidecar
 from gait.neat_evolution import SETTINGS_FILE as NEAT_SETTINGS_FILE
 from gait.robots import RANDOM_DAMAGE, Robot
+from gait.shared_pool import SharedPool
 from gait.video import record_video
 
 #: The paper's model space (the plain-EEA and out-of-band rows) and the self-model's default.
@@ -354,13 +357,14 @@ def _shared_natives() -> dict[str, Robot]:
             "robust": Robot(Morphology.healthy(), RANDOM_DAMAGE, "random damage")}
 
 
-def _evolve(native: Robot, run_dir: Path, settings: CaseStudyPreset, seed: int, workers: int | None, progress: bool):
+def _evolve(native: Robot, run_dir: Path, settings: CaseStudyPreset, seed: int, workers: int | None, progress: bool,
+            pool: SharedPool | None = None):
     """The NEAT gait of ``native`` in ``run_dir`` with the preset's budget (a finished gait is
-    reused, an interrupted one resumed)."""
+    reused, an interrupted one resumed); its worlds evaluated on ``pool`` when given."""
     return gait.evolve_or_load_gait(
         native, run_dir, generations=settings.gait_generations, population_size=settings.gait_population,
         seed=seed, workers=workers, episodes_per_genome=settings.gait_episodes,
-        episode_duration_s=settings.episode_duration_s, progress=progress)
+        episode_duration_s=settings.episode_duration_s, progress=progress, shared=pool)
 
 
 def _train_ppo(native: Robot, run_dir: Path, settings: CaseStudyPreset, seed: int, progress: bool) -> Path:
@@ -524,19 +528,30 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
 
     eea_results = {}  # the EEA runs' results by row key (filled in step 2)
 
-    def evolve(key: str, native: Robot):
+    def evolve(key: str, native: Robot, pool: SharedPool | None):
         def run(run_dir=base(key) / _gait_dir(key, duration)):
             if key in eea_results:  # trained on a self-model: not on one it no longer holds
                 retire_if_other_robot(run_dir, native)
-            return _evolve(native, run_dir, settings, seed, workers, progress)
+            return _evolve(native, run_dir, settings, seed, workers, progress, pool)
 
         # a shared gait may be being loaded by another case study at this moment: wait for it
-        return timed(f"gait_{key}", lambda: _wait_if_busy(run) if base(key) is shared else run())
+        return _wait_if_busy(run) if base(key) is shared else run()
+
+    def evolve_all(natives: dict[str, Robot]) -> dict:
+        """Every row's gait, as one stage. With more than one worker all evolve at once on one
+        shared pool (a quick generation is one world, which alone keeps one core busy), with
+        the gaits they give one after the other."""
+        processes = workers if workers is not None else (os.cpu_count() or 1)
+        if processes == 1 or len(natives) == 1:
+            return {key: evolve(key, native, None) for key, native in natives.items()}
+        with SharedPool(processes) as pool:
+            return dict(zip(natives, pool.run_each([functools.partial(evolve, key, native, pool)
+                                                    for key, native in natives.items()])))
 
     target_robot = gait.as_robot(damage)
     if not all_rows:  # 1. triage: does the damage break the healthy gait at all?
         natives = {"healthy": _shared_natives()["healthy"], "true_damaged": gait.as_robot(damage)}
-        controllers = {key: evolve(key, native) for key, native in natives.items()}
+        controllers = timed("gaits", lambda: evolve_all(natives))
         transfers = {key: timed("transfer", lambda key=key: gait.score_transfer(
                          controllers[key], natives[key], target_robot, seed=seed,
                          episodes=settings.transfer_episodes, episode_duration_s=duration))
@@ -561,7 +576,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
                "true_damaged": gait.as_robot(damage),
                "robust": shared_natives["robust"]}
 
-    controllers = {key: evolve(key, native) for key, native in natives.items()}
+    controllers = timed("gaits", lambda: evolve_all(natives))
     if not _rl_available():
         logging.getLogger(__name__).warning("case-study: %s: the two PPO rows are left out", MISSING_RL)
     else:  # the two PPO rows, each for rl_timesteps

@@ -344,7 +344,7 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
                 initial_angles=None, episode_duration_s: float = EPISODE_DURATION_S,
                 clock_period_s: float = CLOCK_PERIOD_S, episodes_per_genome: int = 1, checkpoint_every: int = 5,
                 verbose: bool = False, progress: bool = True, env_id: str = DEFAULT_ENV_ID,
-                batched: bool = True, spread_headings: bool = False) -> GaitResult:
+                batched: bool = True, spread_headings: bool = False, shared: SharedPool | None = None) -> GaitResult:
     """Evolve a NEAT controller that swims forward on a robot (or solves another AquaFish task).
 
     Args:
@@ -386,6 +386,9 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
             (:mod:`gait.batch_fitness`; default), else genome by genome on single envs
             (:func:`evaluate_genome`). The fitnesses agree to about 1e-13 units (positions'
             round-off), and do not depend on ``workers`` either way.
+        shared: with ``batched``, a :class:`~gait.shared_pool.SharedPool` that evaluates the
+            generations' worlds (``workers`` is then the pool's), e.g. beside other evolutions in
+            :meth:`~gait.shared_pool.SharedPool.run_each`; the same result as without.
 
     Returns:
         :class:`GaitResult`.
@@ -441,13 +444,13 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
                          f"it, got {generations}")
     if out_dir is None:
         return _evolve(population, task, None, resume is not None, verbose, checkpoint_every, generations, workers,
-                       progress, batched)
+                       progress, batched, shared)
     with run_lock(out_dir, command="gait"):
         _check_run_dir(out_dir, getattr(population.config, FINGERPRINT_ATTR), resume is not None)
         if config_text is not None:
             atomic_write(out_dir / "neat_config.ini", config_text.encode())
         return _evolve(population, task, out_dir, resume is not None, verbose, checkpoint_every, generations, workers,
-                       progress, batched)
+                       progress, batched, shared)
 
 
 def _make_task(robot: Robot, seed: int, initial_angles, episode_duration_s, clock_period_s, episodes_per_genome,

@@ -230,3 +230,14 @@ def test_damage_recovery_example_runs_the_case_study_through_the_api(tmp_path, c
     assert "Rows that recover" in out or "nothing to recover" in out
     assert json.loads((tmp_path / "gait_self_model_1s" / "run.json").read_text())["robot"]["faults"]
     assert any(p.stat().st_size > 1000 for p in tmp_path.glob("recovery.*"))
+
+
+def test_the_gaits_evolved_at_once_are_those_evolved_one_after_the_other(tmp_path):
+    def triage(workers):   # the healthy and oracle gaits only, no EEA run
+        return run_case_study("smoke", "reversed_left_pectoral", 0, tmp_path / str(workers), workers=workers,
+                              progress=False, video=False, all_rows=False, triage_only=True)
+
+    alone, together = triage(1), triage(2)          # 2: both at once on one shared pool of 2
+    assert set(together["controllers"]) == {"healthy", "true_damaged"}
+    assert together["controllers"] == alone["controllers"]        # every distance, to the last digit
+    assert set(together["stage_seconds"]) == {"gaits", "transfer"}
