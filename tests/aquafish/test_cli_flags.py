@@ -178,9 +178,10 @@ def test_budget_names_mean_the_same_level_everywhere():
     choices = {c: tuple(p._option_string_actions["--budget"].choices or ()) for c, p in PARSERS.items()
                if "--budget" in p._option_string_actions}
     assert set(choices) == {"eea", "study", "case-study", "recovery", "mission", "bench case_study_stages",
-                            "bench neat_generation"}
+                            "bench neat_generation", "bench gaits_at_once"}
     assert choices["eea"] == choices["study"] == tuple(BUDGETS)
-    for command in ("case-study", "recovery", "bench case_study_stages", "bench neat_generation"):
+    for command in ("case-study", "recovery", "bench case_study_stages", "bench neat_generation",
+                    "bench gaits_at_once"):
         assert sorted(choices[command]) == sorted(PRESETS)
     assert all(PRESETS[name].budget == name and name in BUDGETS for name in PRESETS)
     assert sorted(choices["mission"]) == sorted(MISSION_PRESETS)
