@@ -45,10 +45,12 @@ import functools
 import importlib.util
 import json
 import logging
+import multiprocessing
 import os
 import shutil
 import time
 from collections.abc import Mapping
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -60,7 +62,7 @@ from aquafish_gym.drawing import plot_morphologies
 from aquafish_gym.env import FRAME_SKIP
 from aquafish_gym.checks import check_int, check_seconds
 from aquafish_gym.files import atomic_write
-from aquafish_gym.rundir import BusyError, check_output_dir, read_json, run_lock
+from aquafish_gym.rundir import BusyError, check_output_dir, die_with_parent, read_json, run_lock
 from eea import EEAConfig
 from eea.methods import BEST_METHOD
 from gait.controller import SB3_MODEL_FILE, sb3_sidecar
@@ -377,6 +379,20 @@ def _train_ppo(native: Robot, run_dir: Path, settings: CaseStudyPreset, seed: in
                                  episode_duration_s=settings.episode_duration_s, num_threads=1, progress=progress)
 
 
+def _train_ppo_rows(jobs: dict[str, tuple[Robot, Path]], settings: CaseStudyPreset, seed: int, progress: bool,
+                    processes: int) -> dict[str, Path]:
+    """:func:`_train_ppo` of every ``key: (native, run_dir)``: one after the other, or with more
+    than one process each in its own (a PPO row trains on one torch thread, so two rows fill two
+    cores; each gives the policy it gives in-process: the same seeds, one thread)."""
+    if processes == 1 or len(jobs) == 1:
+        return {key: _train_ppo(native, run_dir, settings, seed, progress) for key, (native, run_dir) in jobs.items()}
+    with ProcessPoolExecutor(min(processes, len(jobs)), mp_context=multiprocessing.get_context("spawn"),
+                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
+        futures = {key: pool.submit(_train_ppo, native, run_dir, settings, seed, progress)
+                   for key, (native, run_dir) in jobs.items()}
+        return {key: future.result() for key, future in futures.items()}
+
+
 #: The suffix a gait or policy directory trained on an earlier self-model is moved to.
 REPLACED_SUFFIX = ".replaced"
 
@@ -580,13 +596,17 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
     if not _rl_available():
         logging.getLogger(__name__).warning("case-study: %s: the two PPO rows are left out", MISSING_RL)
     else:  # the two PPO rows, each for rl_timesteps
-        for key, native, name in (("ppo", "self_model", "self_model"), ("robust_ppo", "robust", "random_damage")):
+        rows = {"ppo": ("self_model", "self_model"), "robust_ppo": ("robust", "random_damage")}
+        jobs = {}
+        for key, (native, name) in rows.items():
             run_dir = base(key) / _rl_dir(name, duration)
             if native in eea_results:
                 retire_if_other_robot(run_dir, natives[native])
-            path = timed(f"ppo_{key}", lambda native=native, run_dir=run_dir: _train_ppo(
-                natives[native], run_dir, settings, seed, progress))
-            controllers[key] = gait.load_controller(path)
+            jobs[key] = natives[native], run_dir
+        processes = workers if workers is not None else (os.cpu_count() or 1)
+        paths = timed("ppo", lambda: _train_ppo_rows(jobs, settings, seed, progress, processes))
+        for key, (native, _) in rows.items():
+            controllers[key] = gait.load_controller(paths[key])
             natives[key] = natives[native]
 
     # 4. transfer to the damaged target

@@ -241,3 +241,22 @@ def test_the_gaits_evolved_at_once_are_those_evolved_one_after_the_other(tmp_pat
     assert set(together["controllers"]) == {"healthy", "true_damaged"}
     assert together["controllers"] == alone["controllers"]        # every distance, to the last digit
     assert set(together["stage_seconds"]) == {"gaits", "transfer"}
+
+
+@pytest.mark.slow
+def test_the_ppo_rows_trained_at_once_are_those_trained_one_after_the_other(tmp_path):
+    import dataclasses
+
+    pytest.importorskip("stable_baselines3")
+    from gait import as_robot
+
+    tiny = dataclasses.replace(PRESETS["smoke"], gait_population=2, gait_generations=1, episode_duration_s=2.0)
+    distances = {}
+    for processes in (1, 2):                      # 2: each row in its own process
+        jobs = {"ppo": (as_robot("reversed_left_pectoral"), tmp_path / str(processes) / "ppo"),
+                "robust_ppo": (as_robot("healthy", damage="random"), tmp_path / str(processes) / "robust_ppo")}
+        paths = case_study._train_ppo_rows(jobs, tiny, 0, False, processes)
+        assert set(paths) == set(jobs)
+        distances[processes] = [json.loads((run_dir / "model.json").read_text())["eval_distance"]
+                                for _, run_dir in jobs.values()]
+    assert distances[1] == distances[2]           # the same policies: the same seeds, one torch thread each
