@@ -45,12 +45,10 @@ import functools
 import importlib.util
 import json
 import logging
-import multiprocessing
 import os
 import shutil
 import time
 from collections.abc import Mapping
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -62,7 +60,7 @@ from aquafish_gym.drawing import plot_morphologies
 from aquafish_gym.env import FRAME_SKIP
 from aquafish_gym.checks import check_int, check_seconds
 from aquafish_gym.files import atomic_write
-from aquafish_gym.rundir import BusyError, check_output_dir, die_with_parent, read_json, run_lock
+from aquafish_gym.rundir import BusyError, check_output_dir, read_json, run_lock, spawn_pool
 from eea import EEAConfig
 from eea.methods import BEST_METHOD
 from gait.controller import SB3_MODEL_FILE, sb3_sidecar
@@ -386,8 +384,7 @@ def _train_ppo_rows(jobs: dict[str, tuple[Robot, Path]], settings: CaseStudyPres
     cores; each gives the policy it gives in-process: the same seeds, one thread)."""
     if processes == 1 or len(jobs) == 1:
         return {key: _train_ppo(native, run_dir, settings, seed, progress) for key, (native, run_dir) in jobs.items()}
-    with ProcessPoolExecutor(min(processes, len(jobs)), mp_context=multiprocessing.get_context("spawn"),
-                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
+    with spawn_pool(min(processes, len(jobs))) as pool:
         futures = {key: pool.submit(_train_ppo, native, run_dir, settings, seed, progress)
                    for key, (native, run_dir) in jobs.items()}
         return {key: future.result() for key, future in futures.items()}
@@ -529,6 +526,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
     """The body of :func:`run_case_study`, under the lock of ``out`` (the rows of
     :data:`SHARED_KEYS` in ``shared`` when given)."""
     t0 = time.perf_counter()
+    processes = workers if workers is not None else (os.cpu_count() or 1)  # of the gaits and the PPO rows
     triage_s = 0.0 if triage_only else _triage_seconds(out)  # a triage run before, whose gaits are reused
     duration = settings.episode_duration_s
     stages: dict[str, float] = {}  # wall seconds per stage (a step found finished costs its loading)
@@ -557,7 +555,6 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         """Every row's gait, as one stage. With more than one worker all evolve at once on one
         shared pool (a quick generation is one world, which alone keeps one core busy), with
         the gaits they give one after the other."""
-        processes = workers if workers is not None else (os.cpu_count() or 1)
         if processes == 1 or len(natives) == 1:
             return {key: evolve(key, native, None) for key, native in natives.items()}
         with SharedPool(processes) as pool:
@@ -603,7 +600,6 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
             if native in eea_results:
                 retire_if_other_robot(run_dir, natives[native])
             jobs[key] = natives[native], run_dir
-        processes = workers if workers is not None else (os.cpu_count() or 1)
         paths = timed("ppo", lambda: _train_ppo_rows(jobs, settings, seed, progress, processes))
         for key, (native, _) in rows.items():
             controllers[key] = gait.load_controller(paths[key])

@@ -15,8 +15,8 @@ Every command of the project that writes results goes through these helpers, so 
   (:func:`check_fingerprint` raises :class:`MismatchError` naming the fields that differ);
 * reads its own files back through :func:`read_json` and :func:`read_pickle`, which turn a
   truncated or garbled file into a :class:`FileError` naming the file;
-* starts process pools whose workers die with the parent (:func:`die_with_parent` as the
-  pool initializer);
+* starts process pools whose workers die with the parent (:func:`spawn_pool`, with
+  :func:`die_with_parent` as the pool initializer);
 * refuses settings whose memory cannot fit up front (:func:`check_memory`).
 
 Deliberately neutral like :mod:`aquafish_gym.files` (standard library only), so that every
@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import multiprocessing
 import errno
 import gzip
 import json
@@ -40,6 +41,7 @@ import sys
 import threading
 import time
 import zlib
+from concurrent.futures import ProcessPoolExecutor, wait
 from pathlib import Path
 from typing import Any, Iterator, Mapping
 
@@ -51,7 +53,7 @@ except ImportError:  # not POSIX: no lock (the project's machines are Linux)
 __all__ = ["BusyError", "COMMAND_FILE", "FileError", "LOCK_FILE", "MismatchError", "available_memory", "check_fingerprint",
            "command_of",
            "check_memory", "check_output_dir", "check_output_file", "die_with_parent", "differences",
-           "format_bytes", "read_json", "read_pickle", "run_lock"]
+           "format_bytes", "read_json", "read_pickle", "run_lock", "spawn_pool"]
 
 #: The lock file :func:`run_lock` keeps in a run directory (it holds the writer's pid).
 LOCK_FILE = ".aquafish.lock"
@@ -523,8 +525,9 @@ def die_with_parent(parent_pid: int) -> None:
     terminal sends to the parent and its workers alike) ends the worker at once and quietly:
     the parent reports the interrupt, in one line. On Linux "parent" is the thread that
     started the worker: start a pool's workers from a thread that outlives them (a
-    ``ProcessPoolExecutor`` starts them in the thread that submits). Pass ``os.getpid()`` of
-    the process that creates the pool::
+    ``ProcessPoolExecutor`` starts them in the thread that submits; ``spawn_pool(n,
+    start_now=True)`` from the thread that owns the pool). Pass ``os.getpid()`` of the process
+    that creates the pool, as :func:`spawn_pool` does::
 
         ProcessPoolExecutor(n, initializer=die_with_parent, initargs=(os.getpid(),))
     """
@@ -539,6 +542,26 @@ def die_with_parent(parent_pid: int) -> None:
         _watch_parent(parent_pid)
     if os.getppid() != parent_pid:
         os._exit(1)
+
+
+def spawn_pool(workers: int, start_now: bool = False) -> ProcessPoolExecutor:
+    """A ``ProcessPoolExecutor`` of ``workers`` "spawn" processes (PyBullet clients must not be
+    forked) that die with this process (:func:`die_with_parent`).
+
+    Args:
+        workers: processes (>= 1; the caller validates it).
+        start_now: start every process now, from the calling thread, instead of from the thread
+            that first submits: a pool that threads share must outlive each of them (on Linux a
+            worker is killed when the thread that started it ends; :func:`die_with_parent`).
+
+    Returns:
+        The pool; the caller shuts it down (``with spawn_pool(n) as pool:``).
+    """
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=die_with_parent, initargs=(os.getpid(),))
+    if start_now:
+        wait([pool.submit(int, 0) for _ in range(workers)])
+    return pool
 
 
 def _exit_quietly(signum, frame) -> None:

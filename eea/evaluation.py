@@ -30,7 +30,6 @@ per robot). The target keeps its own faults (:class:`eea.target.Target`).
 from __future__ import annotations
 
 import dataclasses
-import multiprocessing
 import os
 from concurrent.futures import ProcessPoolExecutor
 from typing import Sequence
@@ -39,7 +38,7 @@ import numpy as np
 
 from aquafish_gym import SimParams, simulate_batch
 from aquafish_gym.checks import check_int
-from aquafish_gym.rundir import die_with_parent
+from aquafish_gym.rundir import spawn_pool
 from eea.behaviour import MAX_COEFFICIENTS, SUMMARIES, similarity, summarise
 from eea.encoding import ModelSpace, get_model_space
 from eea.experiment import Experiment, check_params, quantise_angles
@@ -208,8 +207,7 @@ class Evaluator:
             parts = [_simulate_chunk(*chunk) for chunk in chunks]
         else:
             if self._pool is None:
-                self._pool = ProcessPoolExecutor(self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                                 initializer=die_with_parent, initargs=(os.getpid(),))
+                self._pool = spawn_pool(self.workers)
             parts = list(self._pool.map(_simulate_chunk, *zip(*chunks)))
         self.simulations += n
         return np.concatenate(parts)

@@ -25,16 +25,13 @@ same fitnesses, bit for bit.
 
 from __future__ import annotations
 
-import multiprocessing
-import os
-from concurrent.futures import ProcessPoolExecutor
 
 import gymnasium as gym
 import numpy as np
 
 import aquafish_gym  # registers the AquaFish tasks  # noqa: F401
 from aquafish_gym.checks import check_int
-from aquafish_gym.rundir import die_with_parent
+from aquafish_gym.rundir import spawn_pool
 from aquafish_gym.vector_env import MAX_WORLD_ROBOTS
 from gait.clock import CLOCK_DIM, clock_features
 from gait.fitness_task import FitnessTask, along_heading
@@ -176,8 +173,7 @@ class BatchEvaluator:
         self.shared = shared
         self.pool = None
         if self.workers > 1 and shared is None:
-            self.pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                            initializer=die_with_parent, initargs=(os.getpid(),))
+            self.pool = spawn_pool(self.workers)
 
     def chunks(self, n: int) -> list[slice]:
         """The genomes of each worker out of ``n``: at most ``workers`` contiguous runs of whole

@@ -10,18 +10,15 @@ from __future__ import annotations
 
 import gzip
 import io
-import multiprocessing
-import os
 import pickle
 import random
-from concurrent.futures import ProcessPoolExecutor
 
 import neat
 import numpy as np
 
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
-from aquafish_gym.rundir import die_with_parent
+from aquafish_gym.rundir import spawn_pool
 
 __all__ = ["GenerationBar", "PoolEvaluator", "QuietCheckpointer"]
 
@@ -94,8 +91,7 @@ class PoolEvaluator:
 
     def __init__(self, workers: int, evaluate):
         self.evaluate = evaluate
-        self.pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                                        initializer=die_with_parent, initargs=(os.getpid(),))
+        self.pool = spawn_pool(workers)
 
     def __call__(self, genomes, config) -> None:
         genomes = list(genomes)

@@ -16,17 +16,15 @@ process ran it.
 
 from __future__ import annotations
 
-import multiprocessing
-import os
 import random
 import threading
-from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor, wait
+from concurrent.futures import ThreadPoolExecutor, wait
 from typing import Any, Callable, Sequence
 
 import numpy as np
 
 from aquafish_gym.checks import check_int
-from aquafish_gym.rundir import die_with_parent
+from aquafish_gym.rundir import spawn_pool
 
 __all__ = ["SharedPool"]
 
@@ -44,11 +42,9 @@ class SharedPool:
 
     def __init__(self, workers: int):
         self.workers = check_int("workers", workers, 1)
-        self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                         initializer=die_with_parent, initargs=(os.getpid(),))
-        # start every process now, from this thread: a process started from a job's thread would be
+        # every process started now, from this thread: a process started from a job's thread would be
         # killed when that thread ends (Linux's parent-death signal follows the creating thread)
-        wait([self._pool.submit(int, 0) for _ in range(self.workers)])
+        self._pool = spawn_pool(self.workers, start_now=True)
         self._baton = threading.Lock()
         self._local = threading.local()   # .turn: holds the baton; .states: its random states while it waits
         self._cancelled = False

@@ -310,3 +310,31 @@ def test_ctrl_c_ends_pool_workers_without_a_traceback(tmp_path):
     assert time.perf_counter() - start < 25  # the workers ended at once
     assert "Traceback" not in done.stderr and "KeyboardInterrupt" not in done.stderr, done.stderr
     assert done.stdout.strip() == "BrokenProcessPool"
+
+
+def test_a_spawn_pool_started_now_outlives_the_thread_that_first_used_it(tmp_path):
+    # Linux's parent-death signal follows the thread that started a worker: a pool whose workers
+    # were started by a short-lived thread breaks when that thread ends; start_now=True starts
+    # them from the constructing thread, so the pool keeps working
+    code = textwrap.dedent("""
+        import threading, time
+        from concurrent.futures.process import BrokenProcessPool
+        from aquafish_gym.rundir import spawn_pool
+        for start_now in (False, True):
+            with spawn_pool(2, start_now=start_now) as pool:
+                assert pool._mp_context.get_start_method() == "spawn"
+                if start_now:
+                    assert len(pool._processes) == 2
+                thread = threading.Thread(target=lambda: list(pool.map(abs, [-1, -2])))
+                thread.start(); thread.join(); time.sleep(1.0)
+                try:
+                    print(start_now, list(pool.map(abs, [-3, -4])))
+                except BrokenProcessPool:
+                    print(start_now, "broken")
+    """)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.split("\n")
+    if sys.platform.startswith("linux"):
+        assert lines[0] == "False broken"
+    assert lines[1] == "True [3, 4]"
