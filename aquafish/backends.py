@@ -15,10 +15,11 @@ import logging
 import os
 import socket
 import sys
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
+from pathlib import Path
 from typing import Callable, Iterator
 
-from aquafish_gym.rundir import die_with_parent
+from aquafish_gym.rundir import spawn_pool
 
 __all__ = ["BACKENDS", "CLUSTER_EXTRA_INSTALL", "MAX_RETRIES", "RAY_TOKEN_HELP", "ClusterError", "check_backend",
            "connect_ray", "run_tasks"]
@@ -58,7 +59,7 @@ def run_tasks(tasks: list[tuple[Callable, tuple]], *, backend: str = "local", pr
               address: str | None = None, labels: list[str] | None = None) -> Iterator:
     """The values of ``tasks`` (``(function, args)``, top-level functions and picklable
     arguments), as they finish: on a local pool of ``processes`` workers that die with this
-    process (:func:`~aquafish_gym.rundir.die_with_parent`), or as Ray tasks of one CPU each
+    process (:func:`~aquafish_gym.rundir.spawn_pool`), or as Ray tasks of one CPU each
     (``backend="ray"``, :func:`connect_ray` with ``address``; :func:`_ray_values`). A study's
     runs and a recovery benchmark's cells run through it (:func:`aquafish.shipping.run_dir_tasks`).
 
@@ -80,9 +81,9 @@ def run_tasks(tasks: list[tuple[Callable, tuple]], *, backend: str = "local", pr
     if backend == "ray":
         yield from _ray_values(tasks, address, labels)
         return
-    # workers die with this process (a killed study leaves no orphan running its queue)
-    with ProcessPoolExecutor(max_workers=min(processes, len(tasks)), initializer=die_with_parent,
-                             initargs=(os.getpid(),)) as pool:
+    # workers die with this process (a killed study leaves no orphan running its queue), and are
+    # spawned, not forked: a fork would copy this process's threads and PyBullet clients
+    with spawn_pool(min(processes, len(tasks))) as pool:
         for future in as_completed([pool.submit(fn, *args) for fn, args in tasks]):
             yield future.result()
 

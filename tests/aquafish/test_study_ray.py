@@ -31,6 +31,27 @@ def test_ray_backend_without_ray_names_the_extra_and_creates_nothing(monkeypatch
     assert not out.exists()
 
 
+def test_a_ray_token_is_found_where_ray_looks_for_it(monkeypatch, tmp_path):
+    # --address auto leaves token authentication to ray.init when a token is where Ray looks
+    from aquafish.backends import _ray_token_available
+
+    for name in ("RAY_AUTH_TOKEN", "RAY_AUTH_TOKEN_PATH"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setenv("HOME", str(tmp_path))
+    assert not _ray_token_available()
+    monkeypatch.setenv("RAY_AUTH_TOKEN_PATH", str(tmp_path / "token"))
+    assert not _ray_token_available()  # the path named holds no file
+    (tmp_path / "token").write_text("t")
+    assert _ray_token_available()
+    monkeypatch.delenv("RAY_AUTH_TOKEN_PATH")
+    (tmp_path / ".ray").mkdir()
+    (tmp_path / ".ray" / "auth_token").write_text("t")
+    assert _ray_token_available()
+    (tmp_path / ".ray" / "auth_token").unlink()
+    monkeypatch.setenv("RAY_AUTH_TOKEN", "t")
+    assert _ray_token_available()
+
+
 @pytest.fixture
 def local_ray(monkeypatch):
     """A one-CPU local Ray instance for the test (without token authentication), shut down after."""
