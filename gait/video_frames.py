@@ -366,7 +366,7 @@ class FrameRenderer:
                       borderaxespad=0.0, handlelength=1.5, columnspacing=1.2)
         future = self._add(ax.add_patch(Rectangle((t0, 0), t1 - t0, 1, fc="#f2f2f2", ec="none")), ax)
         marks = []
-        rows, last_px = [], []  # event names in two rows when they would touch
+        last_px = []  # (x in pixels, row) of each event name so far: two rows when names would touch
         for e in self.events:
             px = (e.time_s - t0) / (t1 - t0) * rect[2] * self.size[0]
             row = 1 if last_px and px - last_px[-1][0] < 120 * fs and last_px[-1][1] == 0 else 0

@@ -34,7 +34,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from eea.encoding import get_model_space, model_space_of
+from eea.encoding import model_space_of
 from eea.estimation import Estimation, EstimationResult, distinct_ranked
 from eea.experiment import Context, Experiment
 from eea.inference import InferenceStrategy, make_inference
