@@ -19,7 +19,8 @@ import os
 import platform
 from pathlib import Path
 
-from aquafish_gym.argtypes import add_alias, int_at_least, path
+from aquafish.benchmarks import add_budget
+from aquafish_gym.argtypes import int_at_least, path
 
 __all__ = ["main", "stage_table"]
 
@@ -52,11 +53,10 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     ``prog`` and ``parser_class`` are the name and the parser class of its usage messages:
     ``aquafish bench`` passes its own (one-line usage errors, see :mod:`aquafish.bench_cli`).
     """
-    from aquafish.case_study import PRESETS, run_case_study
+    from aquafish.case_study import run_case_study
 
     parser = parser_class(prog=prog, description=__doc__.splitlines()[0])
-    add_alias(parser, parser.add_argument("--budget", choices=sorted(PRESETS), default="quick",
-                                          help="the case study's budget (default: quick)"), "--preset")
+    add_budget(parser, "the case study's budget")
     parser.add_argument("--damage", default="reversed_left_pectoral")
     parser.add_argument("--seed", type=int_at_least(0), default=0)
     parser.add_argument("--out", type=path, help="case-study directory (a fresh one times every stage)")

@@ -22,8 +22,9 @@ import statistics
 import time
 
 import gait
+from aquafish.benchmarks import add_budget
 from aquafish.case_study import PRESETS
-from aquafish_gym.argtypes import add_alias, add_workers
+from aquafish_gym.argtypes import add_workers
 from gait.robots import RANDOM_DAMAGE, as_robot
 from gait.shared_pool import SharedPool
 
@@ -59,9 +60,7 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     ``aquafish bench`` passes its own (one-line usage errors, see :mod:`aquafish.bench_cli`).
     """
     parser = parser_class(prog=prog, description=__doc__.splitlines()[0])
-    add_alias(parser, parser.add_argument("--budget", choices=sorted(PRESETS), default="quick",
-                                          help="the case-study budget whose NEAT settings are used (default: quick)"),
-              "--preset")
+    add_budget(parser, "the case-study budget whose NEAT settings are used")
     parser.add_argument("--generations", type=int, default=None, help="per gait (>= 1; default: the budget's)")
     add_workers(parser, 2, note="at least 2: one worker has nothing to share")
     parser.add_argument("--repeats", type=int, default=1, help="runs of each way, interleaved (>= 1)")

@@ -37,8 +37,8 @@ import time
 import neat
 import numpy as np
 
+from aquafish.benchmarks import add_budget
 from aquafish.case_study import PRESETS
-from aquafish_gym.argtypes import add_alias
 from gait.batch_fitness import BatchEvaluator
 from gait.fitness_task import FitnessTask, evaluate_genome
 from gait.neat_evolution import load_neat_config, set_num_inputs
@@ -101,9 +101,7 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     ``aquafish bench`` passes its own (one-line usage errors, see :mod:`aquafish.bench_cli`).
     """
     parser = parser_class(prog=prog, description=__doc__.splitlines()[0])
-    add_alias(parser, parser.add_argument("--budget", choices=sorted(PRESETS), default="quick",
-                                          help="the case-study budget whose NEAT settings are timed (default: quick)"),
-              "--preset")
+    add_budget(parser, "the case-study budget whose NEAT settings are timed")
     parser.add_argument("--generations", type=int, default=3, help="per run (>= 2; the first is not timed)")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--workers", type=_workers, default=[1, 2], help="comma-separated process counts")
