@@ -28,11 +28,11 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
-import multiprocessing
 import errno
 import gzip
 import json
 import math
+import multiprocessing
 import os
 import pickle
 import re

@@ -25,7 +25,6 @@ same fitnesses, bit for bit.
 
 from __future__ import annotations
 
-
 import gymnasium as gym
 import numpy as np
 
