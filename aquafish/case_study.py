@@ -50,6 +50,7 @@ import shutil
 import time
 from collections.abc import Mapping
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -94,6 +95,9 @@ class CaseStudyPreset:
             report gives mean distances.
         episode_duration_s: simulated seconds of every gait-evolution and transfer episode
             (20 s, the paper's; ``run_case_study(episode_duration_s=...)`` overrides it).
+        self_model_fields: EEA settings of the self-model's run over its method's and
+            budget's (flat names, :data:`eea.config.FLAT_FIELDS`) when it runs the default
+            method; ``run_case_study(self_model_fields=...)`` goes over them.
     """
 
     budget: str
@@ -102,6 +106,7 @@ class CaseStudyPreset:
     gait_episodes: int = 1
     transfer_episodes: int = 1
     episode_duration_s: float = 20.0
+    self_model_fields: Mapping = dataclasses.field(default_factory=dict)
 
     @property
     def rl_timesteps(self) -> int:
@@ -138,10 +143,19 @@ SHARED_WAIT_S = 60.0
 #: the oracle and this multiple of the healthy gait (it recovers).
 BREAKS_SHARE, RECOVERS_SHARE, RECOVERS_OVER_HEALTHY = 0.5, 0.8, 1.5
 
+#: The lean self-model search: one lineage, no profile refinement or angle library, 2 angle
+#: sets per exploration action and 15 estimation generations a round (about 57,000 search
+#: simulations in 8 rounds at ``quick`` against the full method's 400,000; the check after it
+#: unchanged). The ``quick`` case study's self-model and every mission's recovery run it
+#: (docs/studies/recovery.md, "The lean search in the case study").
+LEAN_SELF_MODEL_FIELDS = MappingProxyType({"lineages": 1, "profile_refine": 0, "profile_library": 0,
+                                           "exploration_angles": 2, "estimation_generations": 15})
+
 PRESETS: dict[str, CaseStudyPreset] = {
     # about 14 minutes on 2 cores
     "quick": CaseStudyPreset(
         budget="quick", gait_population=30, gait_generations=12, gait_episodes=2, transfer_episodes=5,
+        self_model_fields=dict(LEAN_SELF_MODEL_FIELDS),  # a dict: a preset goes to PPO's processes (pickled)
     ),
     # a minutes-long end-to-end check of the whole pipeline (used by the tests)
     "smoke": CaseStudyPreset(
@@ -221,10 +235,12 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             (``"triaged": true``). A later run without it on the same ``out_dir`` goes on
             from there (the recovery benchmark triages every cell before the rest).
         self_model_fields: :class:`~eea.config.EEAConfig` settings of the self-model's run, by
-            flat name (:data:`eea.config.FLAT_FIELDS`), over its method's and budget's, e.g.
-            ``{"lineages": 1, "estimation_generations": 15}`` (default: none). The other rows
-            keep theirs. Not one the case study sets itself (:data:`CASE_STUDY_FIELDS`); the
-            report records them as ``self_model_fields``.
+            flat name (:data:`eea.config.FLAT_FIELDS`), over the preset's
+            (:attr:`CaseStudyPreset.self_model_fields`: ``quick`` runs the default method with
+            :data:`LEAN_SELF_MODEL_FIELDS`) and its method's and budget's, e.g.
+            ``{"estimation_generations": 30}`` (default: none). The other rows keep theirs. Not
+            one the case study sets itself (:data:`CASE_STUDY_FIELDS`); the report records the
+            preset's and these as ``self_model_fields``.
 
     Raises:
         ValueError: unknown preset, damage, method or model space, a bad seed, duration or
@@ -250,7 +266,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             "self_model": (method, model_space, behaviour_summary)}
     if (method, model_space, behaviour_summary) != ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY):
         runs["out_of_band"] = ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY)
-    own = check_self_model_fields(self_model_fields, settings.budget, method, model_space, behaviour_summary)
+    own = own_self_model_fields(settings, self_model_fields, method, model_space, behaviour_summary)
     configs = {key: EEAConfig.from_method(name, settings.budget, damage=damage, seed=seed,
                                           **{**model_fields(name, space, summary),
                                              **(own if key == "self_model" else {})},
@@ -295,6 +311,22 @@ def check_self_model_fields(fields: Mapping | None, budget: str, method: str = D
     except ValueError as err:
         raise ValueError(f"self_model_fields: {err}") from None
     return own
+
+
+def own_self_model_fields(settings: CaseStudyPreset, fields: Mapping | None, method: str = DEFAULT_METHOD,
+                          model_space: str = DEFAULT_MODEL_SPACE, behaviour_summary: str = DEFAULT_SUMMARY) -> dict:
+    """The self-model run's settings of its own in a case study of ``settings``: the preset's
+    (:attr:`CaseStudyPreset.self_model_fields`, when the self-model runs the default method)
+    with ``fields`` over them, checked as :func:`check_self_model_fields` checks them.
+
+    Raises:
+        ValueError: as :func:`check_self_model_fields`, for ``fields`` alone or with the preset's.
+    """
+    own = check_self_model_fields(fields, settings.budget, method, model_space, behaviour_summary)
+    if method != DEFAULT_METHOD or not settings.self_model_fields:
+        return own
+    return check_self_model_fields({**settings.self_model_fields, **own}, settings.budget, method, model_space,
+                                   behaviour_summary)
 
 
 def format_self_model_fields(fields: Mapping) -> str:

@@ -73,7 +73,6 @@ import math
 import time
 from collections.abc import Mapping
 from pathlib import Path
-from types import MappingProxyType
 
 import gymnasium as gym
 import numpy as np
@@ -81,8 +80,8 @@ import numpy as np
 import aquafish_gym  # registers AquaFish-v0  # noqa: F401
 import eea
 import gait
-from aquafish.case_study import (DEFAULT_METHOD, DEFAULT_MODEL_SPACE, PRESETS, check_self_model_fields, model_fields,
-                                 model_robot)
+from aquafish.case_study import (DEFAULT_METHOD, DEFAULT_MODEL_SPACE, LEAN_SELF_MODEL_FIELDS, PRESETS,
+                                 check_self_model_fields, model_fields, model_robot)
 from aquafish.mission_video import ANGLE_COLUMNS, write_mission_video
 from aquafish.monitor import CALIBRATION_FILE, DamageMonitor, MonitorCalibration, calibrate
 from aquafish_gym import ServoFaults, get_damage
@@ -176,12 +175,12 @@ class MissionPreset:
     recovery_fields: Mapping = dataclasses.field(default_factory=dict)
 
 
-#: The recovery's self-model search at ``quick`` and ``medium``: one lineage, no profile
-#: refinement or angle library, 2 angle sets per exploration action and 15 estimation
-#: generations a round: the settings every mission of docs/main_job.md's tables ran with
-#: (passed as ``--self-model-fields`` until 2026-11-29).
-LEAN_RECOVERY_FIELDS = MappingProxyType({"lineages": 1, "profile_refine": 0, "profile_library": 0,
-                                         "exploration_angles": 2, "estimation_generations": 15})
+#: The recovery's self-model search at ``quick`` and ``medium``: the lean search
+#: (:data:`aquafish.case_study.LEAN_SELF_MODEL_FIELDS`: one lineage, no profile refinement or
+#: angle library, 2 angle sets per exploration action and 15 estimation generations a round),
+#: the settings every mission of docs/main_job.md's tables ran with (passed as
+#: ``--self-model-fields`` until 2026-11-29).
+LEAN_RECOVERY_FIELDS = LEAN_SELF_MODEL_FIELDS
 
 MISSION_PRESETS: dict[str, MissionPreset] = {
     # seconds: the test's end-to-end check (tiny EEA and NEAT budgets, short episodes)

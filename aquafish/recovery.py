@@ -86,7 +86,9 @@ class RecoverySpec:
         episode_duration_s: simulated seconds of every episode (the preset's when not given).
         damages: damages as canonical text (:func:`aquafish_gym.get_damage`'s ``name``).
         seeds: the case-study seeds, ascending.
-        self_model_fields: every cell's ``run_case_study(self_model_fields=...)`` (``{}``: none).
+        self_model_fields: every cell's self-model settings of its own: the preset's
+            (:attr:`aquafish.case_study.CaseStudyPreset.self_model_fields`) with the caller's
+            over them (:func:`aquafish.case_study.own_self_model_fields`; ``{}``: none).
     """
 
     preset: str
@@ -119,18 +121,19 @@ def check_spec(preset: str, damages: Iterable[str] | None, seeds: Iterable[int],
             None: every preset but ``none``.
         seeds: case-study seeds (ints >= 0).
         episode_duration_s: simulated seconds per episode (None: the preset's).
-        self_model_fields: as ``run_case_study``'s (None: none).
+        self_model_fields: as ``run_case_study``'s (None: none); the spec holds them over the
+            preset's.
 
     Raises:
         ValueError: an unknown preset, an unknown or empty damage (``none``), an invalid fault, a
             damage given twice, no seeds, a seed that is no int >= 0 or is given twice, a bad
             duration, or self-model fields ``run_case_study`` refuses.
     """
-    from aquafish.case_study import check_self_model_fields, preset_settings
+    from aquafish.case_study import own_self_model_fields, preset_settings
     from aquafish.damage_table import check_damages
 
     settings = preset_settings(preset, episode_duration_s)
-    own = check_self_model_fields(self_model_fields, settings.budget)
+    own = own_self_model_fields(settings, self_model_fields)  # with the preset's own (quick: the lean search)
     names = check_damages(None if damages is None else list(damages))
     _check_unique("damage", names)
     seeds = list(seeds)

@@ -174,10 +174,11 @@ def add_commands(sub) -> None:
     c.add_argument("--out", type=path, default="case_study_out",
                    help="output directory (finished steps are reused; default case_study_out)")
     c.add_argument("--self-model-fields", type=json_object, default=None, metavar="JSON",
-                   help="EEA settings of the self-model's run over its method's and budget's, as a JSON object of "
-                        "aquafish eea's flags by flat name, inline or as FILE.json, e.g. "
-                        "'{\"lineages\": 1, \"estimation_generations\": 15}' (default: none; the other rows keep "
-                        "theirs)")
+                   help="EEA settings of the self-model's run over the budget's own (quick, with the default "
+                        "method: aquafish.case_study.LEAN_SELF_MODEL_FIELDS, the lean search) and its method's, as a "
+                        "JSON object of aquafish eea's flags by flat name, inline or as FILE.json, e.g. "
+                        "'{\"estimation_generations\": 30}' (default: none; the other rows keep theirs); the report "
+                        "records both")
     add_workers(c, None, "all cores")
     add_no_progress(c, "round, generation or training chunk")
     add_config_option(c)

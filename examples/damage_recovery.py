@@ -29,12 +29,13 @@ def main(argv=None) -> None:  # a function under the __main__ guard: worker proc
 
     # 1. the damaged robot self-models: plain EEA (the paper's 9 dimensions) and the case study's self-model
     robots = {"healthy": gait.Robot(Morphology.healthy()), "robust": gait.Robot(Morphology.healthy(), "random")}
-    for key, method, fields in (("plain_eea", "none", {}), ("self_model", "profile_lineages", model_fields())):
+    self_model_fields = {**model_fields(), **s.self_model_fields}  # the preset's own: the lean search at quick
+    for key, method, fields in (("plain_eea", "none", {}), ("self_model", "profile_lineages", self_model_fields)):
         eea.run(eea.EEAConfig.from_method(method, s.budget, damage=args.damage, seed=seed, **fields,
                                           **({"workers": workers} if workers else {})), args.out / f"eea_{key}")
-        result = eea.load_result(args.out / f"eea_{key}")
-        gains = tuple(result.best_model[9:])  # the 3 servo gains after the 9 dimensions (none in "morphology")
-        robots[key] = gait.Robot(result.best_morphology, faults=ServoFaults(speed_scale=gains) if gains else None)
+        result = eea.load_result(args.out / f"eea_{key}")  # self_model: what the check against fault hypotheses kept
+        gains = tuple(result.self_model[9:])  # the 3 servo gains after the 9 dimensions (none in "morphology")
+        robots[key] = gait.Robot(result.self_model_morphology, faults=ServoFaults(speed_scale=gains) if gains else None)
     robots["true_damaged"] = target = gait.as_robot(args.damage)  # the oracle: the damaged robot itself
 
     # 2. a NEAT gait per robot, one budget; 3. each swims on its robot and on the damaged one, from the same starts

@@ -5,8 +5,9 @@ import json
 import pytest
 
 import eea
+import gait
 from aquafish import case_study
-from aquafish.case_study import CONTROLLER_KEYS, PRESETS, render_report, run_case_study, verdict
+from aquafish.case_study import CONTROLLER_KEYS, PRESETS, model_robot, render_report, run_case_study, verdict
 from aquafish.cli import main
 from aquafish_gym import MORPHOLOGY_FIELDS, get_damage
 from eea.methods import BUDGETS
@@ -165,6 +166,36 @@ def test_self_model_fields_are_refused_by_name_before_anything_is_written(tmp_pa
     assert "--self-model-fields: must be a JSON object" in capsys.readouterr().err
 
 
+def test_the_quick_self_model_runs_the_lean_search_under_the_callers_fields():
+    from aquafish.case_study import LEAN_SELF_MODEL_FIELDS, own_self_model_fields
+    from aquafish.recovery import check_spec
+    from eea import EEAConfig
+
+    quick, lean = PRESETS["quick"], dict(LEAN_SELF_MODEL_FIELDS)
+    assert own_self_model_fields(quick, None) == lean
+    assert own_self_model_fields(quick, {"estimation_generations": 30}) == {**lean, "estimation_generations": 30}
+    assert own_self_model_fields(quick, None, method="out_of_band", model_space="morphology",
+                                 behaviour_summary="dft") == {}  # the preset's are the default method's
+    assert own_self_model_fields(PRESETS["smoke"], None) == {}
+    with pytest.raises(ValueError, match="may not set 'seed'"):
+        own_self_model_fields(quick, {"seed": 3})
+    # one lineage, 15 generations, 2 angle sets per action, no profile refinement or library
+    config = EEAConfig.from_method(case_study.DEFAULT_METHOD, "quick", **case_study.model_fields(),
+                                   **own_self_model_fields(quick, None))
+    assert (config.estimation.lineages, config.estimation.generations, config.exploration.angles,
+            config.inference.refine, config.inference.library) == (1, 15, 2, 0, 0)
+    # a recovery benchmark's cells record them, and its spec holds them
+    assert check_spec("quick", ["sampled:3"], [0]).self_model_fields == lean
+
+
+def test_every_preset_pickles():
+    # the PPO rows train in processes of their own, which are sent the preset
+    import pickle
+
+    for name, preset in PRESETS.items():
+        assert pickle.loads(pickle.dumps(preset)) == preset, name
+
+
 def test_unknown_preset_is_a_clear_error(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["case-study", "--preset", "huge", "--out", str(tmp_path)])
@@ -228,7 +259,10 @@ def test_damage_recovery_example_runs_the_case_study_through_the_api(tmp_path, c
     out = capsys.readouterr().out
     assert all(f"{key}:" in out for key in ("healthy", "robust", "plain_eea", "self_model", "true_damaged"))
     assert "Rows that recover" in out or "nothing to recover" in out
-    assert json.loads((tmp_path / "gait_self_model_1s" / "run.json").read_text())["robot"]["faults"]
+    robot = json.loads((tmp_path / "gait_self_model_1s" / "run.json").read_text())["robot"]
+    assert robot["faults"]
+    # the gait's robot is the self-model the check kept, as in the case study (not the search's final model)
+    assert gait.Robot.from_dict(robot) == model_robot(eea.load_result(tmp_path / "eea_self_model"), robot["label"])
     assert any(p.stat().st_size > 1000 for p in tmp_path.glob("recovery.*"))
 
 
