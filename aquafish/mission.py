@@ -81,7 +81,7 @@ import aquafish_gym  # registers AquaFish-v0  # noqa: F401
 import eea
 import gait
 from aquafish.case_study import (DEFAULT_METHOD, DEFAULT_MODEL_SPACE, LEAN_SELF_MODEL_FIELDS, PRESETS,
-                                 check_self_model_fields, model_fields, model_robot)
+                                 model_fields, model_robot, own_self_model_fields)
 from aquafish.mission_video import ANGLE_COLUMNS, write_mission_video
 from aquafish.monitor import CALIBRATION_FILE, DamageMonitor, MonitorCalibration, calibrate
 from aquafish_gym import ServoFaults, get_damage
@@ -198,6 +198,22 @@ MISSION_PRESETS: dict[str, MissionPreset] = {
     "medium": MissionPreset("medium", gait_episode_s=20.0, calibration_seeds=24, calibration_episode_s=120.0,
                             recovery_fields=LEAN_RECOVERY_FIELDS),
 }
+
+
+def recovery_self_model_fields(settings: MissionPreset, fields: Mapping | None) -> dict:
+    """The recovery's self-model EEA settings of its own: the case preset's
+    (:attr:`aquafish.case_study.CaseStudyPreset.self_model_fields`), the mission preset's
+    ``recovery_fields`` over them and ``fields`` over both, merged and checked by
+    :func:`aquafish.case_study.own_self_model_fields`, the one path the case study and the
+    recovery benchmark take too.
+
+    Raises:
+        ValueError: as :func:`aquafish.case_study.check_self_model_fields`, for ``fields``
+            alone or merged with the presets'.
+    """
+    case = PRESETS[settings.case_preset]
+    merged = dataclasses.replace(case, self_model_fields={**case.self_model_fields, **settings.recovery_fields})
+    return own_self_model_fields(merged, fields)
 
 
 def mission_preset(name: str) -> MissionPreset:
@@ -626,8 +642,7 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         check_int("workers", workers, 1)
     if prior_source not in PRIORS:
         raise ValueError(f"unknown prior {prior_source!r}; valid: {', '.join(PRIORS)}")
-    own = {**settings.recovery_fields,
-           **check_self_model_fields(self_model_fields, PRESETS[settings.case_preset].budget)}
+    own = recovery_self_model_fields(settings, self_model_fields)
     out = check_output_dir(out_dir)
     with run_lock(out, command="mission"):
         prior = load_prior(self_model) if self_model is not None else \

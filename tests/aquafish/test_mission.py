@@ -310,6 +310,13 @@ def test_the_presets_recovery_fields_reach_the_recovery_eea_under_the_missions_o
                         seed=0, self_model=prior_dir, workers=1, self_model_fields=own, video=False, oracle=False,
                         progress=False)
         assert seen[-1].estimation.lineages == 1 and seen[-1].estimation.generations == generations
+    # valid alone, refused merged (elitism above the preset's estimation population), before any work
+    tight = dataclasses.replace(smoke, recovery_fields={"estimation_population": 2})
+    monkeypatch.setitem(mission_module.MISSION_PRESETS, "smoke", tight)
+    with pytest.raises(ValueError, match=r"self_model_fields: .*elitism \(3\) must be <= estimation_population \(2\)"):
+        run_mission(ALL_SEIZED, tmp_path / "merged", preset="smoke", self_model=prior_dir,
+                    self_model_fields={"elitism": 3}, video=False, oracle=False, progress=False)
+    assert not (tmp_path / "merged").exists()
     from aquafish.case_study import PRESETS, check_self_model_fields
     for name in ("quick", "medium"):  # the lean search, valid settings at each preset's budget
         preset = mission_module.MISSION_PRESETS[name]
