@@ -152,7 +152,7 @@ LEAN_SELF_MODEL_FIELDS = MappingProxyType({"lineages": 1, "profile_refine": 0, "
                                            "exploration_angles": 2, "estimation_generations": 15})
 
 PRESETS: dict[str, CaseStudyPreset] = {
-    # about 6.5 minutes on 2 idle cores (2026-12-01): the lean self-model search
+    # about 5.5 minutes on 2 idle cores (2026-12-01): the lean self-model search, PPO's cheaper updates
     "quick": CaseStudyPreset(
         budget="quick", gait_population=30, gait_generations=12, gait_episodes=2, transfer_episodes=5,
         self_model_fields=dict(LEAN_SELF_MODEL_FIELDS),  # a dict: a preset goes to PPO's processes (pickled)
