@@ -16,9 +16,12 @@ Public API:
     rehearse(candidates, robot, *, start_yaw_deg, duration_s, seed, draws) -> Rehearsal: the
                 candidate gait that swims furthest along +y from a heading (gait.rehearsal)
     load_controller(path) -> Controller
-    score_transfer(controller, native, target, *, seed, episodes, initial_angles) -> TransferResult
+    score_transfer(controller, native, target, *, seed, episodes, initial_angles) -> TransferResult:
+                the K episodes on each robot at once on one vector env
     plot_transfer(results, path, titles=None) -> Path
     rollout(controller, robot, *, seed, initial_angles) -> Rollout
+    batch_rollouts(controller, robot, seeds, *, initial_angles) -> list[Rollout]: one episode per
+                seed, at once on one vector env (positions to round-off)
     train_rl(algo, morphology, timesteps, seed, out_dir) -> Path      (needs the [rl] extra)
     train_or_load_rl(...) -> Path: train_rl unless out_dir holds a finished run
     record_video(controllers, robot, path, *, seed, episode_duration_s) -> Path: controllers side
@@ -46,7 +49,7 @@ from gait.plots import plot_fitness_history, plot_transfer
 from gait.rehearsal import Rehearsal, rehearse
 from gait.robots import RANDOM_DAMAGE, Robot, as_robot, parse_robot
 from gait.envs import EPISODE_DURATION_S, make_env
-from gait.rollout import Rollout, rollout
+from gait.rollout import Rollout, batch_rollouts, rollout
 from gait.transfer import TransferResult, save_transfer, score_transfer
 from gait.rl import train_or_load_rl, train_rl  # stable-baselines3 is imported only when training (the [rl] extra)
 from gait.video import record_video  # imageio and matplotlib are imported only when recording
@@ -55,7 +58,7 @@ from gait.video import record_video  # imageio and matplotlib are imported only 
 __all__ = [
     "CLOCK_PERIOD_S", "EPISODE_DURATION_S", "ClockObservation", "ConstantController", "Controller", "GaitResult",
     "HeadingHoldController", "NEATController", "RANDOM_DAMAGE", "RandomController", "Rehearsal", "Robot", "Rollout",
-    "SB3PolicyController", "TransferResult", "as_robot", "clock_features",
+    "SB3PolicyController", "TransferResult", "as_robot", "batch_rollouts", "clock_features",
     "evolve_from_population", "evolve_gait", "evolve_or_load_gait", "latest_checkpoint", "load_controller", "load_neat_config", "make_env", "parse_robot", "plot_fitness_history",
     "plot_transfer", "record_video", "rehearse", "rollout", "save_transfer", "score_transfer", "train_or_load_rl", "train_rl", "with_clock",
 ]

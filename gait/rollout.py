@@ -9,18 +9,26 @@ and the transfer score are the same number.
 Determinism: the env rebuilds its PyBullet world on every reset, so an episode depends only
 on the controller, the robot, and the initial flipper angles, which are either given or
 drawn by ``reset(seed=seed)``. The same ``seed`` gives the same angles on every robot.
+
+:func:`batch_rollouts` runs several episodes of one controller on one robot at once, as the
+sub-envs of one batched vector env (``gym.make_vec``, :mod:`aquafish_gym.vector_env`): the
+same observations and actions as :func:`rollout` to the last bit, positions (trajectory,
+distance) to the vector env's round-off (at most 6e-13 units over 20 s; the first episode,
+at the world's origin, exact).
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
-from typing import Any
+from typing import Any, Sequence
 
+import gymnasium as gym
 import numpy as np
 
 from aquafish_gym.checks import check_int
 from gait.controller import Controller
-from gait.envs import DEFAULT_ENV_ID, EPISODE_DURATION_S, make_env
+from gait.envs import DEFAULT_ENV_ID, EPISODE_DURATION_S, check_env_id, make_env
 from gait.robots import Robot, as_robot
 
 
@@ -93,3 +101,62 @@ def rollout(controller: Controller, robot=None, *, damage: str = "none", seed: i
         env.close()
     return Rollout(distance=float(info["distance"]), episode_return=float(total), trajectory=np.asarray(xy),
                    times_s=np.asarray(times), initial_angles=angles, robot=robot)
+
+
+def batch_rollouts(controller: Controller, robot=None, seeds: Sequence[int] = (0,), *, damage: str = "none",
+                   initial_angles=None, episode_duration_s: float = EPISODE_DURATION_S,
+                   env_id: str = DEFAULT_ENV_ID, **env_kwargs: Any) -> list[Rollout]:
+    """One episode of ``controller`` on ``robot`` per seed, all at once on one vector env.
+
+    Episode k is sub-env k of ``gym.make_vec(env_id, num_envs=len(seeds))``, reset with
+    ``seeds[k]`` and driven by its own copy of ``controller`` (``copy.deepcopy``, then
+    ``reset()``: a recurrent network's state stays its episode's), so it is :func:`rollout`
+    with ``seed=seeds[k]``: the same actions and observations to the last bit, positions
+    (trajectory, distance, and a return made of them) to the vector env's round-off
+    (:mod:`aquafish_gym.vector_env`; episode 0 exact).
+
+    Args:
+        controller: any :class:`~gait.controller.Controller` (not modified).
+        robot: as :func:`rollout`'s (default: the healthy robot).
+        seeds: K >= 1 episode seeds (``reset(seed=)``), each drawing its initial angles unless
+            ``initial_angles``.
+        damage, initial_angles, episode_duration_s, env_id, **env_kwargs: as :func:`rollout`'s
+            (the same for every episode).
+
+    Returns:
+        K :class:`Rollout`, in the order of ``seeds``.
+
+    Raises:
+        ValueError: no seeds or a seed that is not an integer, invalid robot or env arguments,
+            or a controller action outside [-1, 1]^3.
+    """
+    seeds = [check_int("seed", s) for s in seeds]
+    if not seeds:
+        raise ValueError("batch_rollouts needs at least one seed")
+    robot = as_robot(robot if robot is not None else "healthy", damage=damage)
+    envs = gym.make_vec(check_env_id(env_id), num_envs=len(seeds), vectorization_mode="vector_entry_point",
+                        **robot.env_kwargs(), initial_angles=initial_angles, episode_duration_s=episode_duration_s,
+                        **env_kwargs)
+    try:
+        controllers = [copy.deepcopy(controller) for _ in seeds]
+        for c in controllers:
+            c.reset()
+        obs, info = envs.reset(seed=seeds)
+        xy = [np.column_stack([info["x_position"], info["y_position"]])]
+        times = [np.asarray(info["time_s"], dtype=np.float64)]
+        angles = np.asarray(info["initial_angles"], dtype=np.float64).copy()
+        total = np.zeros(len(seeds))
+        truncated = np.zeros(len(seeds), dtype=np.bool_)
+        while not truncated.any():
+            actions = np.array([c.act(o, t) for c, o, t in zip(controllers, obs, info["time_s"])], dtype=np.float64)
+            obs, rewards, terminated, truncated, info = envs.step(actions)
+            if terminated.any() or not (truncated.all() or not truncated.any()):
+                raise RuntimeError("the vector env ended some episodes and not others")  # it never does
+            total += rewards
+            xy.append(np.column_stack([info["x_position"], info["y_position"]]))
+            times.append(np.asarray(info["time_s"], dtype=np.float64))
+    finally:
+        envs.close()
+    trajectories, times_s = np.stack(xy, axis=1), np.stack(times, axis=1)
+    return [Rollout(distance=float(info["distance"][k]), episode_return=float(total[k]), trajectory=trajectories[k],
+                    times_s=times_s[k], initial_angles=angles[k], robot=robot) for k in range(len(seeds))]

@@ -2,7 +2,9 @@
 
 The controller evolved (or trained) for one morphology, its *native* robot, is run for 20 s
 episodes on that robot and on a *target* (the damaged robot in the paper), episode k of both
-from the same initial flipper angles (seed ``seed + k``). The mean forward distances and the
+from the same initial flipper angles (seed ``seed + k``); the K episodes on each robot run at
+once on one vector env (:func:`gait.rollout.batch_rollouts`: the single env's episodes, positions
+to round-off). The mean forward distances and the
 first episode's ``(T + 1, 2)`` x, y trajectories (every 0.1 s) show how well the gait
 survives the change of body. A gait's distance depends strongly on where its flippers start
 (an evolved gait can swim 5 units from one start and drift backwards from another), so
@@ -23,7 +25,7 @@ from aquafish_gym.files import atomic_write
 from gait.controller import Controller
 from gait.robots import Robot, as_robot
 from gait.envs import EPISODE_DURATION_S, check_episodes
-from gait.rollout import Rollout, rollout
+from gait.rollout import Rollout, batch_rollouts
 
 
 @dataclasses.dataclass(frozen=True)
@@ -147,8 +149,8 @@ def score_transfer(controller: Controller, native, target, *, seed: int = 0, epi
     native, target = as_robot(native), as_robot(target)
     kw = dict(initial_angles=initial_angles, episode_duration_s=episode_duration_s, **env_kwargs)
     seeds = [seed + k for k in range(episodes)]
-    return TransferResult(native, target, tuple(rollout(controller, native, seed=s, **kw) for s in seeds),
-                          tuple(rollout(controller, target, seed=s, **kw) for s in seeds))
+    return TransferResult(native, target, tuple(batch_rollouts(controller, native, seeds, **kw)),
+                          tuple(batch_rollouts(controller, target, seeds, **kw)))
 
 
 def save_transfer(results: Sequence[TransferResult], path) -> Path:

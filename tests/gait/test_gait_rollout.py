@@ -7,6 +7,7 @@ from gait_helpers import SHORT_S
 
 import aquafish_gym  # noqa: F401
 from gait import ClockObservation, rollout, with_clock
+from gait.rollout import batch_rollouts
 from gait.clock import clock_features
 from gait.controller import ConstantController
 from gait.fitness_task import FitnessTask, evaluate_genome
@@ -107,8 +108,8 @@ def test_bad_action_from_controller_raises():
         rollout(Wild(), episode_duration_s=SHORT_S)
 
 
-def test_recurrent_network_option_is_reproducible(tmp_path):
-    """feed_forward = False gives neat.nn.RecurrentNetwork; reset() clears its state between episodes."""
+def _recurrent_controller(tmp_path):
+    """A NEAT controller of a recurrent network (``feed_forward = False``)."""
     import neat
 
     from gait import NEATController, load_neat_config
@@ -117,12 +118,53 @@ def test_recurrent_network_option_is_reproducible(tmp_path):
     path = tmp_path / "recurrent.ini"
     path.write_text(DEFAULT_CONFIG.read_text().replace("feed_forward            = True", "feed_forward            = False"))
     config = load_neat_config(path, population_size=2)
-    genome = next(iter(neat.Population(config, seed=1).population.values()))
-    c = NEATController(genome, config)
+    return NEATController(next(iter(neat.Population(config, seed=1).population.values())), config)
+
+
+def test_recurrent_network_option_is_reproducible(tmp_path):
+    """feed_forward = False gives neat.nn.RecurrentNetwork; reset() clears its state between episodes."""
+    import neat
+
+    c = _recurrent_controller(tmp_path)
     assert not c.feed_forward
     a, b = (rollout(c, seed=0, episode_duration_s=SHORT_S) for _ in range(2))
     assert isinstance(c._net, neat.nn.RecurrentNetwork)
     assert a.distance == b.distance
+
+
+@pytest.mark.parametrize("robot", ["healthy", "left_pectoral_half"])
+def test_batch_rollouts_are_the_single_env_episodes(controller, robot):
+    """Episode k of the vector env is rollout(seed=seeds[k]): the same initial angles, times and
+    return terms not made of positions to the bit, positions to round-off (episode 0 exact)."""
+    seeds = [5, 2, 9]
+    batch = batch_rollouts(controller, robot, seeds, episode_duration_s=SHORT_S)
+    for k, (seed, got) in enumerate(zip(seeds, batch)):
+        alone = rollout(controller, robot, seed=seed, episode_duration_s=SHORT_S)
+        np.testing.assert_array_equal(got.initial_angles, alone.initial_angles)
+        np.testing.assert_array_equal(got.times_s, alone.times_s)
+        assert got.trajectory.shape == alone.trajectory.shape == (21, 2) and got.robot == alone.robot
+        if k == 0:
+            np.testing.assert_array_equal(got.trajectory, alone.trajectory)
+            assert got.distance == alone.distance and got.episode_return == alone.episode_return
+        np.testing.assert_allclose(got.trajectory, alone.trajectory, rtol=0, atol=1e-9)
+        assert got.distance == pytest.approx(alone.distance, abs=1e-9)
+        assert got.episode_return == pytest.approx(alone.episode_return, abs=1e-9)
+    assert len({r.distance for r in batch}) == 3                     # three different starts
+
+
+def test_batch_rollouts_give_each_episode_its_own_recurrent_state(tmp_path):
+    """A recurrent network keeps state between steps: each sub-env drives its own copy."""
+    c = _recurrent_controller(tmp_path)
+    batch = batch_rollouts(c, "healthy", [0, 1], episode_duration_s=SHORT_S)
+    for seed, got in zip([0, 1], batch):
+        assert got.distance == pytest.approx(rollout(c, seed=seed, episode_duration_s=SHORT_S).distance, abs=1e-9)
+
+
+def test_batch_rollouts_refuse_no_seeds_and_bad_seeds(controller):
+    with pytest.raises(ValueError, match="at least one seed"):
+        batch_rollouts(controller, "healthy", [], episode_duration_s=SHORT_S)
+    with pytest.raises(ValueError, match="seed"):
+        batch_rollouts(controller, "healthy", [1.5], episode_duration_s=SHORT_S)
 
 
 def test_constant_controller_caudal_only_matches_the_simulator():

@@ -42,8 +42,9 @@ def test_several_episodes_pair_starts_and_average(controller):
     assert t.episodes == 3
     for k in range(3):  # episode k: seed 3 + k on both robots, the same initial angles
         np.testing.assert_array_equal(t.native_rollouts[k].initial_angles, t.target_rollouts[k].initial_angles)
-        assert t.target_distances[k] == rollout(controller, "left_pectoral_half", seed=3 + k,
-                                                episode_duration_s=SHORT_S).distance
+        alone = rollout(controller, "left_pectoral_half", seed=3 + k, episode_duration_s=SHORT_S).distance
+        # the episodes run at once on one vector env: episode 0 exact, the others to round-off
+        assert t.target_distances[k] == alone if k == 0 else t.target_distances[k] == pytest.approx(alone, abs=1e-9)
     assert len({tuple(r.initial_angles) for r in t.native_rollouts}) == 3
     assert t.native_distance == pytest.approx(t.native_distances.mean())
     assert t.target_distance == pytest.approx(sum(t.target_distances) / 3)
