@@ -120,8 +120,12 @@ def batch_rollouts(controller: Controller, robot=None, seeds: Sequence[int] = (0
         robot: as :func:`rollout`'s (default: the healthy robot).
         seeds: K >= 1 episode seeds (``reset(seed=)``), each drawing its initial angles unless
             ``initial_angles``.
-        damage, initial_angles, episode_duration_s, env_id, **env_kwargs: as :func:`rollout`'s
-            (the same for every episode).
+        damage: as :func:`rollout`'s.
+        initial_angles: as :func:`rollout`'s (the same for every episode; then the seeds draw
+            nothing).
+        episode_duration_s: simulated seconds of every episode.
+        env_id: the task, as :func:`rollout`'s.
+        **env_kwargs: further env arguments, the same for every episode.
 
     Returns:
         K :class:`Rollout`, in the order of ``seeds``.
