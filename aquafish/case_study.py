@@ -146,8 +146,9 @@ BREAKS_SHARE, RECOVERS_SHARE, RECOVERS_OVER_HEALTHY = 0.5, 0.8, 1.5
 #: The lean self-model search: one lineage, no profile refinement or angle library, 2 angle
 #: sets per exploration action and 15 estimation generations a round (about 57,000 search
 #: simulations in 8 rounds at ``quick`` against the full method's 400,000; the check after it
-#: unchanged). The ``quick`` case study's self-model and every mission's recovery run it
-#: (docs/studies/recovery.md, "The lean search in the case study").
+#: unchanged). The ``quick`` and ``medium`` case studies' self-models and every mission's
+#: recovery run it (docs/studies/recovery.md, "The lean search in the case study"; docs/main_job.md
+#: for ``medium``).
 LEAN_SELF_MODEL_FIELDS = MappingProxyType({"lineages": 1, "profile_refine": 0, "profile_library": 0,
                                            "exploration_angles": 2, "estimation_generations": 15})
 
@@ -161,9 +162,11 @@ PRESETS: dict[str, CaseStudyPreset] = {
     "smoke": CaseStudyPreset(
         budget="smoke", gait_population=6, gait_generations=2, gait_episodes=2, transfer_episodes=2,
     ),
-    # 45 minutes on 2 cores (measured): the paper's EEA populations and generations, 10 rounds
+    # the paper's EEA populations and generations, 10 rounds; about 23 minutes on 2 idle cores with
+    # the lean self-model search (2026-12-02; 45-58 with the full search, the same verdicts on seeds 0-2)
     "medium": CaseStudyPreset(
         budget="medium", gait_population=50, gait_generations=20, gait_episodes=3, transfer_episodes=10,
+        self_model_fields=dict(LEAN_SELF_MODEL_FIELDS),
     ),
     # the paper's settings (section 4 and 5): hours per EEA run
     "paper": CaseStudyPreset(budget="paper", gait_population=150, gait_generations=100, gait_episodes=3,
@@ -236,7 +239,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             from there (the recovery benchmark triages every cell before the rest).
         self_model_fields: :class:`~eea.config.EEAConfig` settings of the self-model's run, by
             flat name (:data:`eea.config.FLAT_FIELDS`), over the preset's
-            (:attr:`CaseStudyPreset.self_model_fields`: ``quick`` runs the default method with
+            (:attr:`CaseStudyPreset.self_model_fields`: ``quick`` and ``medium`` run the default method with
             :data:`LEAN_SELF_MODEL_FIELDS`) and its method's and budget's, e.g.
             ``{"estimation_generations": 30}`` (default: none). The other rows keep theirs. Not
             one the case study sets itself (:data:`CASE_STUDY_FIELDS`); the report records the

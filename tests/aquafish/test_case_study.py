@@ -172,7 +172,7 @@ def test_the_quick_self_model_runs_the_lean_search_under_the_callers_fields():
     from eea import EEAConfig
 
     quick, lean = PRESETS["quick"], dict(LEAN_SELF_MODEL_FIELDS)
-    assert own_self_model_fields(quick, None) == lean
+    assert own_self_model_fields(quick, None) == lean == own_self_model_fields(PRESETS["medium"], None)
     assert own_self_model_fields(quick, {"estimation_generations": 30}) == {**lean, "estimation_generations": 30}
     assert own_self_model_fields(quick, None, method="out_of_band", model_space="morphology",
                                  behaviour_summary="dft") == {}  # the preset's are the default method's
