@@ -154,7 +154,7 @@ def batch_rollouts(controller: Controller, robot=None, seeds: Sequence[int] = (0
         while not truncated.any():
             actions = np.array([c.act(o, t) for c, o, t in zip(controllers, obs, info["time_s"])], dtype=np.float64)
             obs, rewards, terminated, truncated, info = envs.step(actions)
-            if terminated.any() or not (truncated.all() or not truncated.any()):
+            if terminated.any() or (truncated.any() and not truncated.all()):
                 raise RuntimeError("the vector env ended some episodes and not others")  # it never does
             total += rewards
             xy.append(np.column_stack([info["x_position"], info["y_position"]]))
