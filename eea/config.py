@@ -158,8 +158,9 @@ FIELD_HELP: dict[str, str] = {
                              "evaluated, each at least d apart (1 - OBJ_FIT between them; not the paper's)",
     "estimation_population": "models per estimation GA generation (paper: 25)",
     "estimation_generations": "estimation GA generations per round (paper: 100)",
-    "estimation_search": "estimation search: ga (the paper's bit-string GA) or cma (CMA-ES over the nine "
-                         "dimensions, eea.search.cma; not the paper's)",
+    "estimation_search": "estimation search: ga (the paper's bit-string GA), cma (CMA-ES over the nine "
+                         "dimensions, eea.search.cma; not the paper's) or hypotheses (no search: the design's fault "
+                         "hypotheses ranked, morphology+servos only, eea.search.hypotheses; not the paper's, in measurement)",
     "cma_sigma": "cma: initial step size as a fraction of each dimension's range, in (0, 1]",
     "cma_carry_condition": "cma: 0: every restart at the best model is isotropic; c >= 1: it keeps the shape of "
                            "the covariance the last round learned, condition number capped at c (not the paper's)",

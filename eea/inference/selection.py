@@ -246,7 +246,8 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
                            levels: Sequence[float] = FAULT_GAIN_LEVELS, screen_generations: int = 3,
                            screen_scan_cycles: int = 1, screen_polish_top: int = 24, refit: int = 8,
                            refit_rounds: int = 2, generations: int = 10,
-                           scan_cycles: int = 2, polish: int = 2, polish_steps: int = 3) -> Selection:
+                           scan_cycles: int = 2, polish: int = 2, polish_steps: int = 3,
+                           screen_angles=None) -> Selection:
     """A found self-model against fault hypotheses about the design, fitted equally hard.
 
     The search of a self-model in ``morphology+servos`` can settle on a model that explains the
@@ -305,6 +306,11 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
         scan_cycles: the refit's fit, as :func:`select_model`'s (the polish's too).
         polish: candidates whose gains are polished, >= 0 (0: no polish).
         polish_steps: the most steps of each polish, >= 1.
+        screen_angles: None (the screen fits every candidate's angles), or ``(1 + H, E, 3)``
+            angles (rad) the candidates already hold, e.g. the ones a ``hypotheses`` search's
+            strategy fitted round by round (:mod:`eea.search.hypotheses`): the screen scores them
+            as they are (one simulation per candidate and experiment) and fits nothing (in
+            measurement).
 
     Returns:
         A :class:`Selection` of the ``1 + H + P`` candidates (98 + P with the default levels):
@@ -326,10 +332,18 @@ def check_fault_hypotheses(model, design, experiments: Sequence[Experiment], eva
         raise ValueError(f"polish must be >= 0 and polish_steps >= 1, got {polish} and {polish_steps}")
     check_int("screen_polish_top", screen_polish_top, 0)
     candidates = np.vstack([model[None], fault_hypotheses(design, levels)])
-    screen = select_model(candidates, experiments, evaluator, np.random.default_rng(seed),
-                          generations=screen_generations, scan_cycles=screen_scan_cycles, polish=False,
-                          model_space="morphology+servos")
-    fitness, angles = screen.model_fitness.copy(), screen.angles.copy()
+    if screen_angles is None:
+        screen = select_model(candidates, experiments, evaluator, np.random.default_rng(seed),
+                              generations=screen_generations, scan_cycles=screen_scan_cycles, polish=False,
+                              model_space="morphology+servos")
+        fitness, angles = screen.model_fitness.copy(), screen.angles.copy()
+    else:
+        angles = np.array(screen_angles, dtype=np.float64)
+        if angles.shape != (len(candidates), len(experiments), 3) or not np.all(np.isfinite(angles)):
+            raise ValueError(f"screen_angles must be (1 + H, E, 3) = ({len(candidates)}, {len(experiments)}, 3) "
+                             f"finite angles, got shape {angles.shape}")
+        fitness = model_fitness_from_similarities(evaluator.similarities(
+            get_model_space("morphology+servos").encode(candidates), experiments, angles))
     if screen_polish_top:
         top = np.argsort(-fitness, kind="stable")[:screen_polish_top]
         genomes = get_model_space("morphology+servos").encode(candidates[top])

@@ -12,6 +12,9 @@ name     class                                       search
 ``ga``   :class:`~eea.search.model_ga.ModelGA`       the paper's bit-string GA (section 4)
 ``cma``  :class:`~eea.search.cma.CMAModelSearch`     CMA-ES over the nine dimensions (and
                                                      the three gains; not the paper's)
+``hypotheses`` :class:`~eea.search.hypotheses.HypothesisSearch`  no search: the design's fault
+                                                     hypotheses, ranked (not the paper's; in
+                                                     measurement)
 =======  ==========================================  =======================================
 
 Misuse raises :class:`RuntimeError` naming it, as in pyribs: ``tell`` without a pending
@@ -25,6 +28,7 @@ from typing import ClassVar, Protocol
 import numpy as np
 
 from eea.search.cma import CMAModelSearch, CMASettings
+from eea.search.hypotheses import HypothesisSearch, HypothesisSettings
 from eea.search.model_ga import GASearchSettings, ModelGA
 
 __all__ = ["MODEL_SEARCHES", "SEARCH_NAMES", "SEARCH_SETTINGS", "ModelGA", "ModelSearch", "SearchSettings",
@@ -87,12 +91,12 @@ def check_model_search(search) -> None:
 
 
 #: Registry of model searches by name (``config.estimation.search.name``).
-MODEL_SEARCHES: dict[str, type] = {cls.name: cls for cls in (ModelGA, CMAModelSearch)}
+MODEL_SEARCHES: dict[str, type] = {cls.name: cls for cls in (ModelGA, CMAModelSearch, HypothesisSearch)}
 SEARCH_NAMES: tuple[str, ...] = tuple(MODEL_SEARCHES)
 #: The settings class of every search by name (``config.estimation.search`` is one of them).
-SEARCH_SETTINGS: dict[str, type] = {cls.name: cls for cls in (GASearchSettings, CMASettings)}
+SEARCH_SETTINGS: dict[str, type] = {cls.name: cls for cls in (GASearchSettings, CMASettings, HypothesisSettings)}
 #: The type of ``config.estimation.search``: one search's settings.
-SearchSettings = GASearchSettings | CMASettings
+SearchSettings = GASearchSettings | CMASettings | HypothesisSettings
 
 
 def _search_class(name) -> type:

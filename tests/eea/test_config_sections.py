@@ -15,7 +15,8 @@ from eea.exploration import Exploration, ExplorationSettings
 from eea.ga import GASettings
 from eea.inference import (INFERENCE_SETTINGS, InBand, InBandSettings, KnownSettings, NoneSettings, OutOfBand,
                            OutOfBandSettings, Profile, ProfileSettings, make_inference)
-from eea.search import SEARCH_SETTINGS, CMAModelSearch, CMASettings, GASearchSettings, ModelGA, make_model_search
+from eea.search import (SEARCH_SETTINGS, CMAModelSearch, CMASettings, GASearchSettings, HypothesisSettings, ModelGA,
+                        make_model_search)
 
 F = EEAConfig.from_flat
 
@@ -27,9 +28,10 @@ def test_the_sections_are_the_components_settings_next_to_their_code():
         "exploration": "eea.exploration", "estimation": "eea.estimation", "ga": "eea.ga", "runtime": "eea.evaluation"}
     assert INFERENCE_SETTINGS == {"known": KnownSettings, "none": NoneSettings, "in_band": InBandSettings,
                                   "out_of_band": OutOfBandSettings, "profile": ProfileSettings}
-    assert SEARCH_SETTINGS == {"ga": GASearchSettings, "cma": CMASettings}
+    assert SEARCH_SETTINGS == {"ga": GASearchSettings, "cma": CMASettings, "hypotheses": HypothesisSettings}
     assert {cls.__module__ for cls in INFERENCE_SETTINGS.values()} == {"eea.inference.paper", "eea.inference.profile"}
-    assert {cls.__module__ for cls in SEARCH_SETTINGS.values()} == {"eea.search.model_ga", "eea.search.cma"}
+    assert {cls.__module__ for cls in SEARCH_SETTINGS.values()} == {"eea.search.model_ga", "eea.search.cma",
+                                                                    "eea.search.hypotheses"}
     for name, cls in {**INFERENCE_SETTINGS, **SEARCH_SETTINGS}.items():
         assert cls.name == name and "name" not in {f.name for f in dataclasses.fields(cls)}  # a name, no field
 

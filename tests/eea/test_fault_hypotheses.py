@@ -5,6 +5,7 @@ import pytest
 
 from aquafish_gym import Morphology
 from eea.behaviour import behaviour_summary
+from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
 from eea.fitness import model_fitness_from_similarities
 from eea.experiment import Context, Experiment
@@ -137,6 +138,38 @@ def test_a_screen_without_the_polish_scores_the_fits_angles_at_a_fraction_of_the
     assert bare_cost < polished_cost / 2
     rest = np.setdiff1d(np.arange(len(candidates)), np.argsort(-bare.model_fitness, kind="stable")[:4])
     np.testing.assert_array_equal(check.model_fitness[rest], bare.model_fitness[rest])  # the screen, unrefitted
+
+
+def test_a_screen_given_its_angles_scores_them_and_fits_nothing():
+    """screen_angles: the candidates' angles are scored once each (1 + H models x E experiments
+    simulations) instead of fitted; handed the angles the fitted screen found, the check makes
+    the same later stages and ends where the fitted check ends, with the screen's fit saved."""
+    experiments = _experiments("reversed_left_pectoral", [(0.45, 0.4, 0.5), (-0.3, 0.2, 0.8)], steps=32)
+    found = np.concatenate([DESIGN, [1.0, -1.0, 1.0]])
+    candidates = np.vstack([found[None], fault_hypotheses(DESIGN, (-1.0, 1.0))])
+
+    def evaluator():
+        return Evaluator(32, model_space="morphology+servos", summary="signed_dft", workers=1)
+
+    with evaluator() as ev:
+        fitted = check_fault_hypotheses(found, DESIGN, experiments, ev, 5, **QUICK_FIT, screen_polish_top=0)
+        fitted_cost = ev.simulations
+    with evaluator() as ev:                       # the check's screen alone: its seed, its fit
+        screen = select_model(candidates, experiments, ev, np.random.default_rng(5), generations=1, scan_cycles=0,
+                              polish=False)
+        screen_cost = ev.simulations
+    with evaluator() as ev:
+        given = check_fault_hypotheses(found, DESIGN, experiments, ev, 5, **QUICK_FIT, screen_polish_top=0,
+                                       screen_angles=screen.angles)
+        given_cost = ev.simulations
+        with pytest.raises(ValueError, match=r"screen_angles must be \(1 \+ H, E, 3\)"):
+            check_fault_hypotheses(found, DESIGN, experiments, ev, 5, **QUICK_FIT, screen_angles=screen.angles[:, :1])
+    np.testing.assert_array_equal(given.model_fitness, fitted.model_fitness)
+    np.testing.assert_array_equal(given.angles, fitted.angles)
+    assert given.index == fitted.index
+    distinct = len(np.unique(get_model_space("morphology+servos").encode(candidates), axis=0))
+    assert screen_cost > distinct * len(experiments)
+    assert given_cost == fitted_cost - screen_cost + distinct * len(experiments)
 
 
 def test_the_screens_polish_goes_to_its_best_only():

@@ -3,7 +3,8 @@
 The layout (the map is in ``eea/__init__.py``)::
 
     eea/*.py          the paper's core (CORE) and the run and its I/O (RUN_IO)
-    eea/search/       the model searches: protocol and registry, model GA, CMA-ES, lineages
+    eea/search/       the model searches: protocol and registry, model GA, CMA-ES, hypotheses,
+                      lineages
     eea/inference/    the context inference: interface, the paper's strategies, profile,
                       registry, the equal angle fit (selection)
     eea/analysis/     studies of finished runs
@@ -24,7 +25,9 @@ The rules:
    Depth: core -> subpackage face -> subpackage module -> core, nothing deeper.
 4. :mod:`eea.inference` imports nothing of :mod:`eea.search`; :mod:`eea.search` imports
    :mod:`eea.inference` only in :mod:`eea.search.lineages` (each lineage has its own strategy,
-   and the round's selection is :func:`eea.inference.selection.select_model`).
+   and the round's selection is :func:`eea.inference.selection.select_model`) and in
+   :mod:`eea.search.hypotheses` (its candidates are the fault check's,
+   :func:`eea.inference.selection.fault_hypotheses`).
 5. A module inside a subpackage imports its siblings by their module path, never its own
    package's face (which would import it back half-initialised).
 6. No relative imports (rules 1-5 only see absolute ones), and every module is placed in a
@@ -47,7 +50,7 @@ CORE = {"arc", "behaviour", "compat", "config", "diversity", "encoding", "estima
 #: The run and its I/O, at the top of eea/.
 RUN_IO = {"__init__", "checkpoint", "cli", "fault_check", "record", "replay", "run"}
 #: The subpackages of the algorithm and their modules.
-SEARCH = {"search", "search.registry", "search.model_ga", "search.cma", "search.lineages"}
+SEARCH = {"search", "search.registry", "search.model_ga", "search.cma", "search.hypotheses", "search.lineages"}
 INFERENCE = {"inference", "inference.strategy", "inference.paper", "inference.profile", "inference.registry",
              "inference.selection"}
 ALGORITHM = CORE | SEARCH | INFERENCE
@@ -139,7 +142,7 @@ def test_search_and_inference_import_each_other_only_where_justified():
     for module in sorted(INFERENCE):
         offenders += [f"eea.{module} imports {name}" for name, _ in _imports(_path(module))
                       if _eea_name(name).split(".")[0] == "search"]
-    for module in sorted(SEARCH - {"search.lineages"}):
+    for module in sorted(SEARCH - {"search.lineages", "search.hypotheses"}):
         offenders += [f"eea.{module} imports {name}" for name, _ in _imports(_path(module))
                       if _eea_name(name).split(".")[0] == "inference"]
     assert not offenders, offenders
@@ -189,7 +192,7 @@ def test_the_layer_sets_resolve():
 #: The modules that define a section of :class:`eea.config.EEAConfig` (``eea.config.SECTIONS``
 #: and the variants of ``eea.config.VARIANT_SLOTS``): the config imports them, so they must not
 #: import it back.
-SECTION_MODULES = {"ga", "exploration", "estimation", "evaluation", "search.model_ga", "search.cma",
+SECTION_MODULES = {"ga", "exploration", "estimation", "evaluation", "search.model_ga", "search.cma", "search.hypotheses",
                    "inference.paper", "inference.profile"}
 
 

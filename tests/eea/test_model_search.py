@@ -13,18 +13,22 @@ from eea.search import (MODEL_SEARCHES, SEARCH_NAMES, ModelGA, check_model_searc
                               model_search_from_state)
 
 
+#: The model space each search is built in (the hypotheses hold servo gains).
+_SPACES = {"hypotheses": "morphology+servos"}
+
+
 @pytest.fixture(params=SEARCH_NAMES)
 def search(request, tiny_config):
-    config = tiny_config(estimation_search=request.param)
+    config = tiny_config(estimation_search=request.param, model_space=_SPACES.get(request.param, "morphology"))
     return make_model_search(config.estimation, config.ga, config.model_space, np.random.default_rng(0))
 
 
 def test_registry_names_and_unknown_name(tiny_config):
-    assert SEARCH_NAMES == ("ga", "cma") and all(cls.name == name for name, cls in MODEL_SEARCHES.items())
-    with pytest.raises(ValueError, match="valid names: ga, cma"):
+    assert SEARCH_NAMES == ("ga", "cma", "hypotheses") and all(cls.name == name for name, cls in MODEL_SEARCHES.items())
+    with pytest.raises(ValueError, match="valid names: ga, cma, hypotheses"):
         make_model_search(types.SimpleNamespace(search="annealing"), tiny_config().ga, "morphology",
                           np.random.default_rng(0))
-    with pytest.raises(ValueError, match="valid names: ga, cma"):
+    with pytest.raises(ValueError, match="valid names: ga, cma, hypotheses"):
         model_search_from_state({"search": "annealing"}, np.random.default_rng(0))
 
 
@@ -36,7 +40,8 @@ def test_contract_misuse_raises_and_names_it(search):
         search.tell(np.zeros(search.population_size))
     peek = search.population
     genomes = search.ask()
-    assert genomes.shape == (search.population_size, MODEL_BITS) and genomes.dtype == np.uint8
+    assert genomes.shape == (search.population_size, search.n_bits) and genomes.dtype == np.uint8
+    assert search.n_bits == (MODEL_BITS if search.name != "hypotheses" else 57)
     np.testing.assert_array_equal(genomes, peek)                 # population is what ask returns
     with pytest.raises(RuntimeError, match="called twice"):
         search.ask()

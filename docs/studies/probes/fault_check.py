@@ -21,6 +21,11 @@ lengths, the three best candidates (gains, lengths, MOD_FIT), the simulations an
     python docs/studies/probes/fault_check.py docs/results/mirror_signed_flip   # published: replayed
     python docs/studies/probes/fault_check.py --bare-screen runs/lean1_check    # a cheaper screen
 
+``--reuse-screen`` (a ``--estimation-search hypotheses`` run, whose profile strategy holds every
+hypothesis' fitted angles in its checkpoint) makes the check with those angles as its screen
+(``check_fault_hypotheses(screen_angles=...)``: scored once, nothing fitted), the rest as today,
+and gives the recorded check beside it the same way.
+
 ``--bare-screen`` makes the check with a screen that only fits (its 3 generations, no scan cycle
 and no compass polish: ``check_fault_hypotheses(screen_scan_cycles=0, screen_polish_top=0)``),
 the rest as today; the line then also gives the run's recorded check (``recorded_gains``,
@@ -48,13 +53,29 @@ from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from aquafish_gym import Morphology
 from eea.fault_check import FAULT_CHECK_SEED, FaultCheck, check_final_model
-from eea.inference.selection import check_fault_hypotheses
+from eea.encoding import genome_keys, get_model_space
+from eea.inference.selection import check_fault_hypotheses, fault_hypotheses
 from eea.identification import pectoral_signs_right
 from eea.record import load_result
 from eea.replay import rebuild_experiments
 
 
-def check_run(run_dir, bare_screen: bool = False) -> dict:
+def _remembered_angles(state, models: np.ndarray) -> np.ndarray:
+    """``(N, E, 3)``: the angles a run's profile strategy remembers for each of ``(N, 12)`` models.
+
+    Raises:
+        ValueError: a model the strategy never fitted (the run is no ``hypotheses`` run).
+    """
+    memory = state.inference.get("memory", {})
+    genomes = get_model_space("morphology+servos").encode(models)
+    missing = [i for i, g in enumerate(genomes) if genome_keys(g[None])[0] not in memory]
+    if missing:
+        raise ValueError(f"the run's strategy remembers no angles for {len(missing)} of the {len(models)} candidates "
+                         f"(rows {missing[:5]}...): --reuse-screen needs an --estimation-search hypotheses run")
+    return np.stack([memory[genome_keys(g[None])[0]][0] for g in genomes])
+
+
+def check_run(run_dir, bare_screen: bool = False, reuse_screen: bool = False) -> dict:
     """The check of one finished run (see the module docstring); its JSON line as a dict."""
     result, state = load_result(run_dir), load_state(run_dir)
     if result.config.model_space != "morphology+servos":
@@ -63,12 +84,15 @@ def check_run(run_dir, bare_screen: bool = False) -> dict:
                    else rebuild_experiments(result))
     final, truth = np.asarray(result.best_model, dtype=float), result.true_model
     with Evaluator.for_config(result.config, workers=1, model_space="morphology+servos") as evaluator:
-        if bare_screen:
+        if bare_screen or reuse_screen:
+            design = Morphology.healthy().to_array()
+            options = (dict(screen_scan_cycles=0, screen_polish_top=0) if bare_screen else
+                       dict(screen_angles=_remembered_angles(state, np.vstack([final[None], fault_hypotheses(design)]))))
             started, simulations = time.perf_counter(), evaluator.simulations
-            selection = check_fault_hypotheses(final, Morphology.healthy().to_array(), experiments, evaluator,
-                                               FAULT_CHECK_SEED, screen_scan_cycles=0, screen_polish_top=0)
+            selection = check_fault_hypotheses(final, design, experiments, evaluator, FAULT_CHECK_SEED, **options)
             check = FaultCheck(len(result.rounds), selection.models, selection.model_fitness, selection.index,
-                               evaluator.simulations - simulations, time.perf_counter() - started, "bare screen")
+                               evaluator.simulations - simulations, time.perf_counter() - started,
+                               "bare screen" if bare_screen else "reused screen")
         else:
             check = check_final_model(final, experiments, evaluator, len(result.rounds))
     order = np.argsort(-check.model_fitness, kind="stable")
@@ -84,10 +108,11 @@ def check_run(run_dir, bare_screen: bool = False) -> dict:
                       round(float(check.model_fitness[i]), 4)] for i in order[:3]],
             "simulations": check.simulations, "seconds": round(check.wall_seconds),
             "experiments": "checkpoint" if state is not None else "replayed"} | ({
-            "screen": "bare",
+            "screen": "bare" if bare_screen else "reused",
             "recorded_gains": None if result.fault_check is None else result.fault_check.model[9:].tolist(),
+            "recorded_simulations": None if result.fault_check is None else result.fault_check.simulations,
             "recorded_procedure": None if result.fault_check is None else result.fault_check.procedure}
-        if bare_screen else {})
+        if bare_screen or reuse_screen else {})
 
 
 def main(argv=None) -> None:
@@ -95,10 +120,15 @@ def main(argv=None) -> None:
     parser.add_argument("dirs", nargs="+", help="directories searched for finished morphology+servos runs")
     parser.add_argument("--bare-screen", action="store_true",
                         help="screen by the fit alone (no scan cycle, no polish); the rest as today's check")
+    parser.add_argument("--reuse-screen", action="store_true",
+                        help="screen by the angles a hypotheses run's strategy holds (nothing fitted); the rest as "
+                             "today's check")
     args = parser.parse_args(argv)
+    if args.bare_screen and args.reuse_screen:
+        parser.error("--bare-screen and --reuse-screen are two different screens: give one")
     for result in find_runs(args.dirs):
         if result.config.model_space == "morphology+servos":  # the paper's morphology runs have no servo gains
-            print(json.dumps(check_run(result.out_dir, args.bare_screen)), flush=True)
+            print(json.dumps(check_run(result.out_dir, args.bare_screen, args.reuse_screen)), flush=True)
 
 
 if __name__ == "__main__":
