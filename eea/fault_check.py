@@ -44,7 +44,8 @@ from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from eea.inference.selection import check_fault_hypotheses, fault_hypotheses
 
-__all__ = ["FAULT_CHECK_FILE", "FAULT_CHECK_PROCEDURE", "FAULT_CHECK_SEED", "FaultCheck", "check_final_model",
+__all__ = ["FAULT_CHECK_FILE", "FAULT_CHECK_PROCEDURE", "FAULT_CHECK_PROCEDURE_GIVEN_SCREEN", "FAULT_CHECK_SEED",
+           "FaultCheck", "check_candidates", "check_final_model",
            "read_fault_check", "write_fault_check"]
 
 #: The check's record in a run directory.
@@ -56,6 +57,11 @@ FAULT_CHECK_SEED = 0
 #: every record: a record of another procedure is made again. Records made before the name was
 #: kept (no gain polish) have none.
 FAULT_CHECK_PROCEDURE = "screen polished on its best 24, 2 shared refits of 8, gain polish of 2 x 3"
+#: The same check with the screen's fit skipped: the angles the run's ``hypotheses`` search
+#: (:mod:`eea.search.hypotheses`) fitted to every candidate round by round are its screen
+#: (``screen_angles``; in measurement).
+FAULT_CHECK_PROCEDURE_GIVEN_SCREEN = ("the search's angles as the screen, polished on its best 24, 2 shared refits "
+                                      "of 8, gain polish of 2 x 3")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -101,10 +107,12 @@ class FaultCheck:
     def is_current(self, round_number: int) -> bool:
         """Whether this record is the check :func:`check_final_model` makes today of a run whose
         last round is ``round_number``: of that round, by today's procedure
-        (:data:`FAULT_CHECK_PROCEDURE`) and against today's hypotheses
+        (:data:`FAULT_CHECK_PROCEDURE`, or :data:`FAULT_CHECK_PROCEDURE_GIVEN_SCREEN` for a run
+        whose search gave the screen's angles) and against today's hypotheses
         (:func:`eea.inference.selection.fault_hypotheses` at the design)."""
         hypotheses = fault_hypotheses(Morphology.healthy().to_array())
-        return (self.round == round_number and self.procedure == FAULT_CHECK_PROCEDURE
+        return (self.round == round_number
+                and self.procedure in (FAULT_CHECK_PROCEDURE, FAULT_CHECK_PROCEDURE_GIVEN_SCREEN)
                 and np.array_equal(self.models[1:1 + len(hypotheses)], hypotheses))
 
     def to_dict(self) -> dict:
@@ -130,11 +138,20 @@ class FaultCheck:
                    str(data.get("procedure", "")))
 
 
-def check_final_model(model, experiments: Sequence[Experiment], evaluator: Evaluator, round_number: int) -> FaultCheck:
+def check_candidates(model) -> np.ndarray:
+    """``(98, 12)`` the check's candidates for a final ``(12,)`` model: the model, then the
+    fault hypotheses about the healthy design (:func:`eea.inference.selection.fault_hypotheses`)."""
+    return np.vstack([np.asarray(model, dtype=np.float64)[None], fault_hypotheses(Morphology.healthy().to_array())])
+
+
+def check_final_model(model, experiments: Sequence[Experiment], evaluator: Evaluator, round_number: int,
+                      screen_angles=None) -> FaultCheck:
     """Check a run's final ``morphology+servos`` model against fault hypotheses about the
     design (the healthy morphology): :func:`eea.inference.selection.check_fault_hypotheses` at
     its defaults (:data:`FAULT_CHECK_PROCEDURE`), the starts of its stages drawn from
-    :data:`FAULT_CHECK_SEED` on.
+    :data:`FAULT_CHECK_SEED` on; with ``screen_angles`` ``(98, E, 3)``, the angles its
+    candidates (:func:`check_candidates`) already hold, as its screen
+    (:data:`FAULT_CHECK_PROCEDURE_GIVEN_SCREEN`; in measurement).
 
     Args:
         model: ``(12,)`` the final model's values.
@@ -142,15 +159,17 @@ def check_final_model(model, experiments: Sequence[Experiment], evaluator: Evalu
         evaluator: an :class:`~eea.evaluation.Evaluator` of the ``morphology+servos`` space, the
             run's length and behaviour summary.
         round_number: the round the model is from (kept in the record).
+        screen_angles: None, or ``(98, E, 3)`` angles (rad), see above.
 
     Raises:
         ValueError: as :func:`~eea.inference.selection.check_fault_hypotheses` raises.
     """
     started, simulations = time.perf_counter(), evaluator.simulations
     selection = check_fault_hypotheses(model, Morphology.healthy().to_array(), experiments, evaluator,
-                                       FAULT_CHECK_SEED)
+                                       FAULT_CHECK_SEED, screen_angles=screen_angles)
     return FaultCheck(int(round_number), selection.models, selection.model_fitness, selection.index,
-                      int(evaluator.simulations - simulations), time.perf_counter() - started, FAULT_CHECK_PROCEDURE)
+                      int(evaluator.simulations - simulations), time.perf_counter() - started,
+                      FAULT_CHECK_PROCEDURE if screen_angles is None else FAULT_CHECK_PROCEDURE_GIVEN_SCREEN)
 
 
 def write_fault_check(out_dir: str | os.PathLike, check: FaultCheck) -> None:

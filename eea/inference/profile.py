@@ -397,6 +397,15 @@ class Profile(InferenceStrategy):
             return super().angles(experiments, genomes, rng)
         return np.stack([r[0] for r in rows])
 
+    def remembered_angles(self, genomes, n_experiments: int) -> np.ndarray | None:
+        """The angles remembered for each of ``(N, n_bits)`` genomes on all ``n_experiments``
+        experiments, ``(N, E, 3)`` (rad), or None when any of them has none for some experiment
+        (a model never profiled, or not since the newest experiment)."""
+        rows = [self._memory.get(key) for key in genome_keys(np.asarray(genomes, dtype=np.uint8))]
+        if any(r is None or len(r[1]) != n_experiments for r in rows):
+            return None
+        return np.stack([r[0] for r in rows])
+
     def after_generation(self, genomes, angles, fitness, experiments):
         best = int(np.argmax(fitness))
         self._best = genome_keys(genomes[best : best + 1])[0]

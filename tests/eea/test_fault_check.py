@@ -8,7 +8,8 @@ import pytest
 import eea
 from aquafish_gym import Morphology
 from aquafish_gym.rundir import FileError
-from eea.fault_check import FAULT_CHECK_FILE, FAULT_CHECK_PROCEDURE, FaultCheck, read_fault_check
+from eea.fault_check import (FAULT_CHECK_FILE, FAULT_CHECK_PROCEDURE, FAULT_CHECK_PROCEDURE_GIVEN_SCREEN, FaultCheck,
+                             read_fault_check)
 from eea.fitness import objective_fitness
 from eea.inference.selection import fault_hypotheses
 
@@ -136,3 +137,23 @@ def test_an_experiments_file_that_is_not_one_is_named(tmp_path):
         eea.load_experiments(tmp_path / "other.npz")
     with pytest.raises(ValueError, match="no experiments"):
         eea.save_experiments(tmp_path / "empty.npz", [])
+
+
+def test_a_hypotheses_run_screens_with_the_angles_its_search_fitted(tmp_path, session_tiny_config):
+    """A run whose estimation ranks the fault hypotheses (``estimation_search="hypotheses"``, the
+    profile strategy) hands the check the angles it fitted to every candidate: the check scores
+    them as its screen (the procedure says so), one simulation per candidate and experiment where
+    the fitted screen spends many, and its screen's MOD_FITs are the strategy's own."""
+    config = session_tiny_config(model_space="morphology+servos", damage="reversed_left_pectoral",
+                                 behaviour_summary="signed_dft", rounds=1, inference="profile",
+                                 estimation_search="hypotheses")
+    result = eea.run(config, tmp_path / "given", progress=False)
+    given = result.fault_check
+    assert given is not None and given.procedure == FAULT_CHECK_PROCEDURE_GIVEN_SCREEN
+    assert given.is_current(1)
+    np.testing.assert_array_equal(given.models[1:98], fault_hypotheses(Morphology.healthy().to_array()))
+    fitted = eea.run(config.replace(estimation_search="ga", estimation_population=5), tmp_path / "fitted",
+                     progress=False).fault_check
+    assert fitted.procedure == FAULT_CHECK_PROCEDURE
+    # the same later stages on about as many experiments; the given screen saves the fit (98 x E >> 98)
+    assert given.simulations < fitted.simulations
