@@ -95,7 +95,7 @@ from eea import EEAConfig
 from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
 from eea.experiment import quantise_angles
-from eea.fault_check import check_final_model
+from eea.fault_check import check_final_model, search_screen
 from eea.record import save_experiments
 from eea.round import RoundParts, run_round
 from eea.search.lineages import make_estimation, warm_start
@@ -821,9 +821,9 @@ def _recover_model(mission: _Mission, genome: np.ndarray | None, config: EEAConf
             sim_wall += record.target_s
             if progress:
                 print(f"mission: round {number}/{config.rounds} model fitness {record.model_fitness:.3f}", flush=True)
-        space = get_model_space(config.model_space)
-        check = check_final_model(space.decode(records[-1].best_genome[None])[0], experiments, evaluator,
-                                  config.rounds)
+        final = get_model_space(config.model_space).decode(records[-1].best_genome[None])[0]
+        check = check_final_model(final, experiments, evaluator, config.rounds,
+                                  screen_angles=search_screen(config, parts.strategy, final, len(experiments)))
     values = check.model
     robot = Robot(aquafish_gym.Morphology.from_array(values[:9]), "none", "self-model (after the damage)",
                   ServoFaults(speed_scale=tuple(float(g) for g in values[9:])))

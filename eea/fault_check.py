@@ -40,12 +40,14 @@ import numpy as np
 from aquafish_gym import Morphology
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import FileError, read_json
+from eea.encoding import get_model_space
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
+from eea.inference import Profile
 from eea.inference.selection import check_fault_hypotheses, fault_hypotheses
 
 __all__ = ["FAULT_CHECK_FILE", "FAULT_CHECK_PROCEDURE", "FAULT_CHECK_PROCEDURE_GIVEN_SCREEN", "FAULT_CHECK_SEED",
-           "FaultCheck", "check_candidates", "check_final_model",
+           "FaultCheck", "check_candidates", "check_final_model", "search_screen",
            "read_fault_check", "write_fault_check"]
 
 #: The check's record in a run directory.
@@ -142,6 +144,24 @@ def check_candidates(model) -> np.ndarray:
     """``(98, 12)`` the check's candidates for a final ``(12,)`` model: the model, then the
     fault hypotheses about the healthy design (:func:`eea.inference.selection.fault_hypotheses`)."""
     return np.vstack([np.asarray(model, dtype=np.float64)[None], fault_hypotheses(Morphology.healthy().to_array())])
+
+
+def search_screen(config, strategy, model, n_experiments: int) -> np.ndarray | None:
+    """The screen a run's own search fitted for the check of its final ``(12,)`` model: with
+    ``estimation_search="hypotheses"`` and the ``profile`` strategy, the ``(98, E, 3)`` angles the
+    strategy remembers for every candidate (:func:`check_candidates`) on the ``n_experiments``
+    experiments; None otherwise (the check fits its own screen), or when a candidate has none.
+
+    Args:
+        config: the run's :class:`eea.config.EEAConfig`.
+        strategy: the run's inference strategy after its last round.
+        model: the final model's values.
+        n_experiments: E, the run's experiments.
+    """
+    if config.estimation.search.name != "hypotheses" or not isinstance(strategy, Profile):
+        return None
+    genomes = get_model_space(config.model_space).encode(check_candidates(model))
+    return strategy.remembered_angles(genomes, n_experiments)
 
 
 def check_final_model(model, experiments: Sequence[Experiment], evaluator: Evaluator, round_number: int,

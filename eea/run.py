@@ -35,9 +35,7 @@ from eea.checkpoint import STATE_FILE, RunState, load_state, save_state
 from eea.config import FLAT_FIELDS, EEAConfig
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
-from eea.encoding import get_model_space
-from eea.fault_check import check_candidates, check_final_model, write_fault_check
-from eea.inference import Profile
+from eea.fault_check import check_final_model, search_screen, write_fault_check
 from eea.search.lineages import Lineages, estimation_from_state
 from eea.record import (ROUNDS_FILE, RunResult, read_config, read_rounds, round_row, write_config, write_lineages,
                         write_rounds)
@@ -186,10 +184,7 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
         result = RunResult(out, config, list(state.rows))
         if result.model_space.servos and result.finished and result.fault_check is None:
             bar.set_postfix_str("fault check")
-            screen = None  # a hypotheses search has fitted every candidate's angles: they are the screen
-            if config.estimation.search.name == "hypotheses" and isinstance(parts.strategy, Profile):
-                screen = parts.strategy.remembered_angles(
-                    get_model_space(config.model_space).encode(check_candidates(result.best_model)), len(experiments))
+            screen = search_screen(config, parts.strategy, result.best_model, len(experiments))
             write_fault_check(out, check_final_model(result.best_model, experiments, evaluator, state.rounds_done,
                                                      screen_angles=screen))
     return result

@@ -172,6 +172,26 @@ class HypothesisSearch(TellRecord):
     def restart(self) -> None:
         """Nothing to restart: the candidates are fixed."""
 
+    def seed_at(self, genome) -> None:
+        """A warm start (:func:`eea.search.lineages.warm_start`) at a known ``(57,)`` model: the
+        hypotheses become those about its morphology as the design, the model itself first
+        (the mission's self-model from before the damage; the healthy robot's gives the default
+        hypotheses with it first).
+
+        Raises:
+            ValueError: a genome of another length, or one asked and not told.
+        """
+        genome = np.asarray(genome, dtype=np.uint8)
+        if genome.shape != (self.n_bits,):
+            raise ValueError(f"a warm start needs one ({self.n_bits},) genome, got shape {genome.shape}")
+        if self._asked:
+            raise RuntimeError("seed_at() between ask() and tell(): tell the pending generation first")
+        design = self.model_space.decode(genome[None])[0][:9]
+        rest = hypothesis_genomes(design)
+        rest = rest[~(rest == genome).all(axis=1)]
+        self._population = np.vstack([genome[None], rest])
+        self.population_size = len(self._population)
+
     def state_dict(self) -> dict:
         """The hypotheses, the last best and the generation count, with ``"search": "hypotheses"``."""
         return {"search": self.name, "genomes": self._population.copy(), "generation": self._generation,

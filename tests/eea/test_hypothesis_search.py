@@ -92,3 +92,21 @@ class _Known:
 
     def end_round(self, experiments):
         return experiments
+
+
+def test_a_warm_start_puts_the_known_model_first_and_the_hypotheses_about_its_morphology_after():
+    healthy = hypothesis_genomes()[0]
+    search = HypothesisSearch()
+    search.seed_at(healthy)
+    np.testing.assert_array_equal(search.population, hypothesis_genomes())   # the healthy prior: the default
+    shorter = SPACE.decode(healthy[None])[0]
+    shorter[1] *= 0.5                                                          # a prior with a halved left flipper
+    prior = SPACE.encode(shorter[None])[0]
+    search.seed_at(prior)
+    population = search.population
+    np.testing.assert_array_equal(population[0], prior)
+    assert len({g.tobytes() for g in population}) == len(population) == search.population_size
+    expected = SPACE.encode(fault_hypotheses(SPACE.decode(prior[None])[0][:9]))
+    assert {g.tobytes() for g in population} == {g.tobytes() for g in expected} | {prior.tobytes()}
+    with pytest.raises(ValueError, match=r"\(57,\) genome"):
+        search.seed_at(prior[:45])
