@@ -34,5 +34,6 @@ from eea.search.model_ga import GASearchSettings, ModelGA
 from eea.search.registry import (MODEL_SEARCHES, SEARCH_NAMES, SEARCH_SETTINGS, ModelSearch, SearchSettings,
                                  check_model_search, make_model_search, model_search_from_state)
 
-__all__ = ["CMAModelSearch", "CMASettings", "GASearchSettings", "HypothesisSearch", "HypothesisSettings", "MODEL_SEARCHES", "ModelGA", "ModelSearch",
+__all__ = ["CMAModelSearch", "CMASettings", "GASearchSettings", "HypothesisSearch", "HypothesisSettings",
+           "MODEL_SEARCHES", "ModelGA", "ModelSearch",
            "SEARCH_NAMES", "SEARCH_SETTINGS", "SearchSettings", "check_model_search", "make_model_search", "model_search_from_state"]
