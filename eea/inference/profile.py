@@ -392,10 +392,8 @@ class Profile(InferenceStrategy):
 
     def angles(self, experiments: Experiments, genomes: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """Each model's remembered angles ``(P, E, 3)`` (the contexts' for a model not profiled yet)."""
-        rows = [self._memory.get(key) for key in genome_keys(genomes)]
-        if any(r is None or len(r[1]) != len(experiments) for r in rows):
-            return super().angles(experiments, genomes, rng)
-        return np.stack([r[0] for r in rows])
+        remembered = self.remembered_angles(genomes, len(experiments))
+        return super().angles(experiments, genomes, rng) if remembered is None else remembered
 
     def remembered_angles(self, genomes, n_experiments: int) -> np.ndarray | None:
         """The angles remembered for each of ``(N, n_bits)`` genomes on all ``n_experiments``

@@ -84,7 +84,8 @@ def hypothesis_genomes(design=None) -> np.ndarray:
 
 
 class HypothesisSearch(TellRecord):
-    """Offers the same fault hypotheses every generation (module docstring).
+    """Offers the same fault hypotheses every generation (module docstring); ``best_genome``,
+    ``best_fitness`` and ``generation`` are :class:`eea.ga.TellRecord`'s.
 
     Args:
         genomes: ``(H, 57)`` the hypotheses' genomes, H >= 2 (default: :func:`hypothesis_genomes`).
@@ -152,22 +153,6 @@ class HypothesisSearch(TellRecord):
         self._best_genome, self._best_fitness = self._population[best].copy(), float(f[best])
         self._asked = False
         self._generation += 1
-
-    @property
-    def best_genome(self) -> np.ndarray:
-        """``(57,)`` uint8: the best hypothesis of the last generation told.
-
-        Raises:
-            RuntimeError: before the first ``tell``.
-        """
-        if self._best_genome is None:
-            raise RuntimeError("best_genome is not defined before the first tell()")
-        return self._best_genome.copy()
-
-    @property
-    def best_fitness(self) -> float:
-        """Its MOD_FIT (-inf before the first ``tell``)."""
-        return self._best_fitness
 
     def restart(self) -> None:
         """Nothing to restart: the candidates are fixed."""

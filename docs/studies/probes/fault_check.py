@@ -52,27 +52,28 @@ from eea.checkpoint import load_state
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from aquafish_gym import Morphology
-from eea.fault_check import FAULT_CHECK_SEED, FaultCheck, check_final_model
-from eea.encoding import genome_keys, get_model_space
-from eea.inference.selection import check_fault_hypotheses, fault_hypotheses
+from eea.fault_check import FAULT_CHECK_SEED, FaultCheck, check_final_model, search_screen
+from eea.inference import Profile
+from eea.inference.selection import check_fault_hypotheses
 from eea.identification import pectoral_signs_right
 from eea.record import load_result
 from eea.replay import rebuild_experiments
 
 
-def _remembered_angles(state, models: np.ndarray) -> np.ndarray:
-    """``(N, E, 3)``: the angles a run's profile strategy remembers for each of ``(N, 12)`` models.
+def _search_screen(result, state, final: np.ndarray) -> np.ndarray:
+    """The screen a ``hypotheses`` run's profile strategy fitted for the check of ``final``
+    (:func:`eea.fault_check.search_screen` over the strategy restored from the checkpoint).
 
     Raises:
-        ValueError: a model the strategy never fitted (the run is no ``hypotheses`` run).
+        ValueError: the run is no ``hypotheses`` run, or its checkpoint holds no angles for a candidate.
     """
-    memory = state.inference.get("memory", {})
-    genomes = get_model_space("morphology+servos").encode(models)
-    missing = [i for i, g in enumerate(genomes) if genome_keys(g[None])[0] not in memory]
-    if missing:
-        raise ValueError(f"the run's strategy remembers no angles for {len(missing)} of the {len(models)} candidates "
-                         f"(rows {missing[:5]}...): --reuse-screen needs an --estimation-search hypotheses run")
-    return np.stack([memory[genome_keys(g[None])[0]][0] for g in genomes])
+    strategy = Profile()
+    strategy.load_state_dict(state.inference if state is not None else {})
+    screen = search_screen(result.config, strategy, final, len(state.experiments) if state is not None else 0)
+    if screen is None:
+        raise ValueError(f"{result.out_dir}: --reuse-screen needs the checkpoint of an --estimation-search "
+                         f"hypotheses run whose strategy holds every candidate's angles")
+    return screen
 
 
 def check_run(run_dir, bare_screen: bool = False, reuse_screen: bool = False) -> dict:
@@ -84,15 +85,15 @@ def check_run(run_dir, bare_screen: bool = False, reuse_screen: bool = False) ->
                    else rebuild_experiments(result))
     final, truth = np.asarray(result.best_model, dtype=float), result.true_model
     with Evaluator.for_config(result.config, workers=1, model_space="morphology+servos") as evaluator:
-        if bare_screen or reuse_screen:
-            design = Morphology.healthy().to_array()
-            options = (dict(screen_scan_cycles=0, screen_polish_top=0) if bare_screen else
-                       dict(screen_angles=_remembered_angles(state, np.vstack([final[None], fault_hypotheses(design)]))))
+        if bare_screen:
             started, simulations = time.perf_counter(), evaluator.simulations
-            selection = check_fault_hypotheses(final, design, experiments, evaluator, FAULT_CHECK_SEED, **options)
+            selection = check_fault_hypotheses(final, Morphology.healthy().to_array(), experiments, evaluator,
+                                               FAULT_CHECK_SEED, screen_scan_cycles=0, screen_polish_top=0)
             check = FaultCheck(len(result.rounds), selection.models, selection.model_fitness, selection.index,
-                               evaluator.simulations - simulations, time.perf_counter() - started,
-                               "bare screen" if bare_screen else "reused screen")
+                               evaluator.simulations - simulations, time.perf_counter() - started, "bare screen")
+        elif reuse_screen:
+            check = check_final_model(final, experiments, evaluator, len(result.rounds),
+                                      screen_angles=_search_screen(result, state, final))
         else:
             check = check_final_model(final, experiments, evaluator, len(result.rounds))
     order = np.argsort(-check.model_fitness, kind="stable")
