@@ -271,8 +271,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
         runs["out_of_band"] = ("out_of_band", PAPER_MODEL_SPACE, PAPER_SUMMARY)
     own = own_self_model_fields(settings, self_model_fields, method, model_space, behaviour_summary)
     configs = {key: EEAConfig.from_method(name, settings.budget, damage=damage, seed=seed,
-                                          **{**model_fields(name, space, summary),
-                                             **(own if key == "self_model" else {})},
+                                          **model_fields(name, space, summary, own if key == "self_model" else None),
                                           **({"workers": workers} if workers else {}))
                for key, (name, space, summary) in runs.items()}
     out = check_output_dir(out_dir)
@@ -310,7 +309,7 @@ def check_self_model_fields(fields: Mapping | None, budget: str, method: str = D
                              f"({CASE_STUDY_FIELDS[name]})")
     own = dict(fields)
     try:
-        EEAConfig.from_method(method, budget, **{**model_fields(method, model_space, behaviour_summary), **own})
+        EEAConfig.from_method(method, budget, **model_fields(method, model_space, behaviour_summary, own))
     except ValueError as err:
         raise ValueError(f"self_model_fields: {err}") from None
     return own
@@ -489,15 +488,18 @@ def _wait_if_busy(load, seconds: float = SHARED_WAIT_S):
 
 
 def model_fields(method: str = DEFAULT_METHOD, model_space: str = DEFAULT_MODEL_SPACE,
-                 behaviour_summary: str = DEFAULT_SUMMARY) -> dict:
+                 behaviour_summary: str = DEFAULT_SUMMARY, own: Mapping | None = None) -> dict:
     """The :class:`~eea.config.EEAConfig` fields of a case-study model run beside its method
-    and budget: the model space, the behaviour summary and, for a CMA-ES method in
+    and budget: the model space, the behaviour summary and, for a CMA-ES search in
     ``morphology+servos``, ``cma_flip_gains=1`` (every restart also tries the best model with
-    its pectoral gains' signs flipped; docs/self_modeling.md). The defaults give the
-    self-model's: ``EEAConfig.from_method(DEFAULT_METHOD, budget, **model_fields())``."""
-    cma = EEAConfig.from_method(method).estimation.search.name == "cma"
-    flips = {"cma_flip_gains": 1} if cma and model_space != PAPER_MODEL_SPACE else {}
-    return {"model_space": model_space, "behaviour_summary": behaviour_summary, **flips}
+    its pectoral gains' signs flipped; docs/self_modeling.md), then the run's settings of its own
+    ``own`` (flat names) over them; the search is ``own``'s ``estimation_search`` when it names one,
+    else the method's. The defaults give the self-model's without settings of its own:
+    ``EEAConfig.from_method(DEFAULT_METHOD, budget, **model_fields())``."""
+    own = dict(own or {})
+    search = own.get("estimation_search", EEAConfig.from_method(method).estimation.search.name)
+    flips = {"cma_flip_gains": 1} if search == "cma" and model_space != PAPER_MODEL_SPACE else {}
+    return {"model_space": model_space, "behaviour_summary": behaviour_summary, **flips, **own}
 
 
 def eea_dir_name(method: str, space: str, summary: str) -> str:

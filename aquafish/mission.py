@@ -228,7 +228,7 @@ def _eea_config(preset: MissionPreset, damage: str, seed: int, workers: int | No
     """The case study's self-model EEA settings at the preset's budget, with ``own`` (checked
     :func:`aquafish.case_study.check_self_model_fields`) over them."""
     return EEAConfig.from_method(DEFAULT_METHOD, PRESETS[preset.case_preset].budget, damage=damage, seed=seed,
-                                 **{**model_fields(), **(own or {})}, **({"workers": workers} if workers else {}))
+                                 **model_fields(own=own), **({"workers": workers} if workers else {}))
 
 
 def _gait_kwargs(preset: MissionPreset, seed: int, workers: int | None, progress: bool) -> dict:

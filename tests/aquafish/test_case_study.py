@@ -188,6 +188,23 @@ def test_the_quick_self_model_runs_the_lean_search_under_the_callers_fields():
     assert check_spec("quick", ["sampled:3"], [0]).self_model_fields == lean
 
 
+def test_model_fields_flip_gains_only_for_a_cma_search_and_take_the_runs_own_fields_over_them():
+    from eea import EEAConfig
+    from eea.search.hypotheses import HypothesisSettings
+
+    assert case_study.model_fields() == {"model_space": "morphology+servos", "behaviour_summary": "signed_dft",
+                                         "cma_flip_gains": 1}
+    assert "cma_flip_gains" not in case_study.model_fields("profile_lineages", "morphology", "dft")
+    assert case_study.model_fields(own={"cma_flip_gains": 0})["cma_flip_gains"] == 0
+    # another search named by the run's own fields: no CMA-ES restarts to flip, and the config builds
+    ranked = case_study.model_fields(own={"estimation_search": "hypotheses", "exploration_diversity": 0})
+    assert "cma_flip_gains" not in ranked and ranked["estimation_search"] == "hypotheses"
+    config = EEAConfig.from_method(case_study.DEFAULT_METHOD, "quick", **ranked)
+    assert isinstance(config.estimation.search, HypothesisSettings)
+    assert case_study.check_self_model_fields({"estimation_search": "hypotheses"}, "quick") == \
+        {"estimation_search": "hypotheses"}
+
+
 def test_every_preset_pickles():
     # the PPO rows train in processes of their own, which are sent the preset
     import pickle

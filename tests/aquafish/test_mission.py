@@ -278,6 +278,11 @@ def test_own_self_model_fields_reach_the_recovery_eea_and_bad_ones_are_refused_b
                     self_model=prior_dir, workers=1, self_model_fields={"lineages": 1, "estimation_generations": 3},
                     video=False, oracle=False, progress=False)
     assert seen[0].estimation.lineages == 1 and seen[0].estimation.generations == 3
+    with pytest.raises(_Stop):  # another search than the method's CMA-ES: no gain flips asked of it
+        run_mission(ALL_SEIZED, tmp_path / "h", onset_s=8.0, duration_s=30.0, preset="smoke", seed=0,
+                    self_model=prior_dir, workers=1, self_model_fields={"estimation_search": "hypotheses"},
+                    video=False, oracle=False, progress=False)
+    assert seen[1].estimation.search.name == "hypotheses"
     for fields, message in (({"damage": "none"}, "may not set 'damage'"),
                             ({"no_such_field": 1}, "self_model_fields: .*no_such_field"),
                             ({"lineages": 0}, "self_model_fields: .*lineages")):
