@@ -64,6 +64,7 @@ from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import BusyError, check_output_dir, read_json, run_lock, spawn_pool
 from eea import EEAConfig
 from eea.methods import BEST_METHOD
+from eea.search.hypotheses import HYPOTHESIS_SPACE
 from gait.controller import SB3_MODEL_FILE, sb3_sidecar
 from gait.neat_evolution import SETTINGS_FILE as NEAT_SETTINGS_FILE
 from gait.robots import RANDOM_DAMAGE, Robot
@@ -97,7 +98,9 @@ class CaseStudyPreset:
             (20 s, the paper's; ``run_case_study(episode_duration_s=...)`` overrides it).
         self_model_fields: EEA settings of the self-model's run over its method's and
             budget's (flat names, :data:`eea.config.FLAT_FIELDS`) when it runs the default
-            method; ``run_case_study(self_model_fields=...)`` goes over them.
+            method (with another model space than ``morphology+servos``, fields that rank the
+            fault hypotheses give way to :data:`LEAN_SELF_MODEL_FIELDS`);
+            ``run_case_study(self_model_fields=...)`` goes over them.
     """
 
     budget: str
@@ -146,17 +149,32 @@ BREAKS_SHARE, RECOVERS_SHARE, RECOVERS_OVER_HEALTHY = 0.5, 0.8, 1.5
 #: The lean self-model search: one lineage, no profile refinement or angle library, 2 angle
 #: sets per exploration action and 15 estimation generations a round (about 57,000 search
 #: simulations in 8 rounds at ``quick`` against the full method's 400,000; the check after it
-#: unchanged). The ``quick`` and ``medium`` case studies' self-models and every mission's
-#: recovery run it (docs/studies/recovery.md, "The lean search in the case study"; docs/main_job.md
-#: for ``medium``).
+#: unchanged). The ``medium`` case study's self-model, every mission's recovery and the
+#: ``quick`` case study's in another model space than ``morphology+servos`` run it
+#: (docs/studies/recovery.md, "The lean search in the case study"; docs/main_job.md for ``medium``).
 LEAN_SELF_MODEL_FIELDS = MappingProxyType({"lineages": 1, "profile_refine": 0, "profile_library": 0,
                                            "exploration_angles": 2, "estimation_generations": 15})
 
+#: The ranked fault hypotheses instead of a search (``estimation_search="hypotheses"``,
+#: :mod:`eea.search.hypotheses`), the ``quick`` case study's self-model since
+#: 2026-12-02: the lean search's exploration, the estimation offering the check's 97 fault
+#: hypotheses about the design every generation (3 a round, their angles fitted by the
+#: ``profile`` strategy), the exploration's candidates the best-ranked of them
+#: (``exploration_diversity=0``), and the check given the angles the run fitted as its screen.
+#: About 83,000 simulations a run at ``quick`` against the lean search's 160,000; the truth on
+#: 20 of 20 held-out ``reversed_left_pectoral`` seeds, every faulty servo named on 28 of 28
+#: held-out sampled faults (docs/studies/recovery.md, "Ranking the fault hypotheses instead of
+#: a search"). It needs the ``morphology+servos`` model space; in another the presets run
+#: :data:`LEAN_SELF_MODEL_FIELDS`.
+HYPOTHESES_SELF_MODEL_FIELDS = MappingProxyType({**LEAN_SELF_MODEL_FIELDS, "estimation_search": "hypotheses",
+                                                 "estimation_generations": 3, "exploration_diversity": 0})
+
 PRESETS: dict[str, CaseStudyPreset] = {
-    # about 5.5 minutes on 2 idle cores (2026-12-01): the lean self-model search, PPO's cheaper updates
+    # 3.5-4 minutes on 2 idle cores (2026-12-02; 5.5 the day before, on a slower day of the machine):
+    # the self-model ranks the fault hypotheses, PPO's cheaper updates
     "quick": CaseStudyPreset(
         budget="quick", gait_population=30, gait_generations=12, gait_episodes=2, transfer_episodes=5,
-        self_model_fields=dict(LEAN_SELF_MODEL_FIELDS),  # a dict: a preset goes to PPO's processes (pickled)
+        self_model_fields=dict(HYPOTHESES_SELF_MODEL_FIELDS),  # a dict: a preset goes to PPO's processes (pickled)
     ),
     # a minutes-long end-to-end check of the whole pipeline (used by the tests)
     "smoke": CaseStudyPreset(
@@ -239,8 +257,9 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             from there (the recovery benchmark triages every cell before the rest).
         self_model_fields: :class:`~eea.config.EEAConfig` settings of the self-model's run, by
             flat name (:data:`eea.config.FLAT_FIELDS`), over the preset's
-            (:attr:`CaseStudyPreset.self_model_fields`: ``quick`` and ``medium`` run the default method with
-            :data:`LEAN_SELF_MODEL_FIELDS`) and its method's and budget's, e.g.
+            (:attr:`CaseStudyPreset.self_model_fields`: with the default method, ``quick`` runs
+            :data:`HYPOTHESES_SELF_MODEL_FIELDS` and ``medium`` :data:`LEAN_SELF_MODEL_FIELDS`)
+            and its method's and budget's, e.g.
             ``{"estimation_generations": 30}`` (default: none). The other rows keep theirs. Not
             one the case study sets itself (:data:`CASE_STUDY_FIELDS`); the report records the
             preset's and these as ``self_model_fields``.
@@ -327,8 +346,10 @@ def own_self_model_fields(settings: CaseStudyPreset, fields: Mapping | None, met
     own = check_self_model_fields(fields, settings.budget, method, model_space, behaviour_summary)
     if method != DEFAULT_METHOD or not settings.self_model_fields:
         return own
-    return check_self_model_fields({**settings.self_model_fields, **own}, settings.budget, method, model_space,
-                                   behaviour_summary)
+    preset = settings.self_model_fields
+    if model_space != HYPOTHESIS_SPACE and preset.get("estimation_search") == "hypotheses":
+        preset = LEAN_SELF_MODEL_FIELDS  # the fault hypotheses hold the design's servo gains
+    return check_self_model_fields({**preset, **own}, settings.budget, method, model_space, behaviour_summary)
 
 
 def format_self_model_fields(fields: Mapping) -> str:

@@ -133,7 +133,7 @@ def check_spec(preset: str, damages: Iterable[str] | None, seeds: Iterable[int],
     from aquafish.damage_table import check_damages
 
     settings = preset_settings(preset, episode_duration_s)
-    own = own_self_model_fields(settings, self_model_fields)  # with the preset's own (quick: the lean search)
+    own = own_self_model_fields(settings, self_model_fields)  # with the preset's own (quick: the ranked fault hypotheses)
     names = check_damages(None if damages is None else list(damages))
     _check_unique("damage", names)
     seeds = list(seeds)

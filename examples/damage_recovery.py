@@ -29,7 +29,7 @@ def main(argv=None) -> None:  # a function under the __main__ guard: worker proc
 
     # 1. the damaged robot self-models: plain EEA (the paper's 9 dimensions) and the case study's self-model
     robots = {"healthy": gait.Robot(Morphology.healthy()), "robust": gait.Robot(Morphology.healthy(), "random")}
-    self_model_fields = model_fields(own=own_self_model_fields(s, None))  # quick: the lean search
+    self_model_fields = model_fields(own=own_self_model_fields(s, None))  # quick: the ranked fault hypotheses
     for key, method, fields in (("plain_eea", "none", {}), ("self_model", "profile_lineages", self_model_fields)):
         eea.run(eea.EEAConfig.from_method(method, s.budget, damage=args.damage, seed=seed, **fields,
                                           **({"workers": workers} if workers else {})), args.out / f"eea_{key}")

@@ -37,7 +37,7 @@ from eea.encoding import get_model_space
 from eea.ga import TellRecord
 from eea.inference.selection import fault_hypotheses
 
-__all__ = ["HypothesisSearch", "HypothesisSettings", "hypothesis_genomes"]
+__all__ = ["HYPOTHESIS_SPACE", "HypothesisSearch", "HypothesisSettings", "hypothesis_genomes"]
 
 #: The model space the hypotheses live in (they hold servo gains).
 HYPOTHESIS_SPACE = "morphology+servos"

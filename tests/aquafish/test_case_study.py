@@ -166,26 +166,33 @@ def test_self_model_fields_are_refused_by_name_before_anything_is_written(tmp_pa
     assert "--self-model-fields: must be a JSON object" in capsys.readouterr().err
 
 
-def test_the_quick_self_model_runs_the_lean_search_under_the_callers_fields():
-    from aquafish.case_study import LEAN_SELF_MODEL_FIELDS, own_self_model_fields
+def test_the_quick_self_model_ranks_the_fault_hypotheses_under_the_callers_fields():
+    from aquafish.case_study import HYPOTHESES_SELF_MODEL_FIELDS, LEAN_SELF_MODEL_FIELDS, own_self_model_fields
     from aquafish.recovery import check_spec
     from eea import EEAConfig
+    from eea.search.hypotheses import HypothesisSettings
 
-    quick, lean = PRESETS["quick"], dict(LEAN_SELF_MODEL_FIELDS)
-    assert own_self_model_fields(quick, None) == lean == own_self_model_fields(PRESETS["medium"], None)
-    assert own_self_model_fields(quick, {"estimation_generations": 30}) == {**lean, "estimation_generations": 30}
+    quick, ranked, lean = PRESETS["quick"], dict(HYPOTHESES_SELF_MODEL_FIELDS), dict(LEAN_SELF_MODEL_FIELDS)
+    assert own_self_model_fields(quick, None) == ranked
+    assert own_self_model_fields(PRESETS["medium"], None) == lean  # medium: the lean search, until measured
+    assert own_self_model_fields(quick, {"estimation_generations": 30}) == {**ranked, "estimation_generations": 30}
     assert own_self_model_fields(quick, None, method="out_of_band", model_space="morphology",
                                  behaviour_summary="dft") == {}  # the preset's are the default method's
+    # no servo gains in the model space, no fault hypotheses about them: the lean search instead
+    assert own_self_model_fields(quick, None, model_space="morphology") == lean
     assert own_self_model_fields(PRESETS["smoke"], None) == {}
     with pytest.raises(ValueError, match="may not set 'seed'"):
         own_self_model_fields(quick, {"seed": 3})
-    # one lineage, 15 generations, 2 angle sets per action, no profile refinement or library
-    config = EEAConfig.from_method(case_study.DEFAULT_METHOD, "quick", **case_study.model_fields(),
-                                   **own_self_model_fields(quick, None))
+    # one lineage, 3 generations of the ranked hypotheses, 2 angle sets per action, the best-ranked
+    # hypotheses as the exploration's candidates, no profile refinement or library, no gain flips
+    fields = case_study.model_fields(own=own_self_model_fields(quick, None))
+    assert "cma_flip_gains" not in fields
+    config = EEAConfig.from_method(case_study.DEFAULT_METHOD, "quick", **fields)
+    assert isinstance(config.estimation.search, HypothesisSettings)
     assert (config.estimation.lineages, config.estimation.generations, config.exploration.angles,
-            config.inference.refine, config.inference.library) == (1, 15, 2, 0, 0)
+            config.exploration.diversity, config.inference.refine, config.inference.library) == (1, 3, 2, 0, 0, 0)
     # a recovery benchmark's cells record them, and its spec holds them
-    assert check_spec("quick", ["sampled:3"], [0]).self_model_fields == lean
+    assert check_spec("quick", ["sampled:3"], [0]).self_model_fields == ranked
 
 
 def test_model_fields_flip_gains_only_for_a_cma_search_and_take_the_runs_own_fields_over_them():
