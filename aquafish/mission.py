@@ -155,9 +155,10 @@ class MissionPreset:
         rehearsal_s: seconds of each rehearsal swim (78 s: the span of a 300 s mission's
             ``speed_after``, the new gait taking over near 222 s).
         rehearsal_draws: rehearsal swims per candidate, each from other flipper angles.
-        recovery_fields: the recovery's self-model EEA settings over the case preset's (flat
-            :class:`~eea.config.EEAConfig` names, as ``aquafish case-study
-            --self-model-fields``); a mission's own ``self_model_fields`` go over these.
+        recovery_fields: the recovery's self-model EEA settings over the case study's method
+            and budget (flat :class:`~eea.config.EEAConfig` names, as ``aquafish case-study
+            --self-model-fields``), in place of the case preset's own (empty: the case preset's);
+            a mission's own ``self_model_fields`` go over these.
     """
 
     case_preset: str
@@ -201,9 +202,11 @@ MISSION_PRESETS: dict[str, MissionPreset] = {
 
 
 def recovery_self_model_fields(settings: MissionPreset, fields: Mapping | None) -> dict:
-    """The recovery's self-model EEA settings of its own: the case preset's
-    (:attr:`aquafish.case_study.CaseStudyPreset.self_model_fields`), the mission preset's
-    ``recovery_fields`` over them and ``fields`` over both, merged and checked by
+    """The recovery's self-model EEA settings of its own: the mission preset's
+    ``recovery_fields`` (or, for a preset without them, the case preset's
+    :attr:`aquafish.case_study.CaseStudyPreset.self_model_fields`; a mission's recovery does not
+    inherit the case study's self-model settings field by field, so a change of the case study's
+    leaves the missions as they were measured) and ``fields`` over them, merged and checked by
     :func:`aquafish.case_study.own_self_model_fields`, the one path the case study and the
     recovery benchmark take too.
 
@@ -212,7 +215,7 @@ def recovery_self_model_fields(settings: MissionPreset, fields: Mapping | None) 
             alone or merged with the presets'.
     """
     case = PRESETS[settings.case_preset]
-    merged = dataclasses.replace(case, self_model_fields={**case.self_model_fields, **settings.recovery_fields})
+    merged = dataclasses.replace(case, self_model_fields=dict(settings.recovery_fields or case.self_model_fields))
     return own_self_model_fields(merged, fields)
 
 

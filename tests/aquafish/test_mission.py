@@ -327,6 +327,8 @@ def test_the_presets_recovery_fields_reach_the_recovery_eea_under_the_missions_o
         preset = mission_module.MISSION_PRESETS[name]
         assert check_self_model_fields(preset.recovery_fields, PRESETS[preset.case_preset].budget) == \
             dict(mission_module.LEAN_RECOVERY_FIELDS)
+        # the recovery's own settings replace the case study's (quick's rank the fault hypotheses)
+        assert mission_module.recovery_self_model_fields(preset, None) == dict(mission_module.LEAN_RECOVERY_FIELDS)
 
 
 def test_the_new_gait_is_scored_along_the_missions_heading_from_the_presets_spread_starts(prior_dir, tmp_path,
