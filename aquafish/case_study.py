@@ -149,17 +149,18 @@ BREAKS_SHARE, RECOVERS_SHARE, RECOVERS_OVER_HEALTHY = 0.5, 0.8, 1.5
 #: The lean self-model search: one lineage, no profile refinement or angle library, 2 angle
 #: sets per exploration action and 15 estimation generations a round (about 57,000 search
 #: simulations in 8 rounds at ``quick`` against the full method's 400,000; the check after it
-#: unchanged). The ``medium`` case study's self-model, every mission's recovery and the
-#: ``quick`` case study's in another model space than ``morphology+servos`` run it
-#: (docs/studies/recovery.md, "The lean search in the case study"; docs/main_job.md for ``medium``).
+#: unchanged). Every mission's recovery and the ``quick`` and ``medium`` case studies' in
+#: another model space than ``morphology+servos`` run it (docs/studies/recovery.md, "The lean
+#: search in the case study").
 LEAN_SELF_MODEL_FIELDS = MappingProxyType({"lineages": 1, "profile_refine": 0, "profile_library": 0,
                                            "exploration_angles": 2, "estimation_generations": 15})
 
 #: The ranked fault hypotheses instead of a search (``estimation_search="hypotheses"``,
-#: :mod:`eea.search.hypotheses`), the ``quick`` case study's self-model since
-#: 2026-12-02: the lean search's exploration, the estimation offering the check's 97 fault
-#: hypotheses about the design every generation (3 a round, their angles fitted by the
-#: ``profile`` strategy), the exploration's candidates the best-ranked of them
+#: :mod:`eea.search.hypotheses`), the ``quick`` and ``medium`` case studies' self-model since
+#: 2026-12-02 (docs/main_job.md for ``medium``): the lean search's exploration, the
+#: estimation offering the check's 97 fault hypotheses about the design every generation (3 a
+#: round, their angles fitted by the ``profile`` strategy), the exploration's candidates the
+#: best-ranked of them
 #: (``exploration_diversity=0``), and the check given the angles the run fitted as its screen.
 #: About 83,000 simulations a run at ``quick`` against the lean search's 160,000; the truth on
 #: 20 of 20 held-out ``reversed_left_pectoral`` seeds, every faulty servo named on 28 of 28
@@ -180,11 +181,12 @@ PRESETS: dict[str, CaseStudyPreset] = {
     "smoke": CaseStudyPreset(
         budget="smoke", gait_population=6, gait_generations=2, gait_episodes=2, transfer_episodes=2,
     ),
-    # the paper's EEA populations and generations, 10 rounds; about 23 minutes on 2 idle cores with
-    # the lean self-model search (2026-12-02; 45-58 with the full search, the same verdicts on seeds 0-2)
+    # the paper's EEA populations and generations, 10 rounds; the self-model ranks the fault
+    # hypotheses (2026-12-02: 13-14 minutes on 2 idle cores on a fast day, 0.93x the lean search's
+    # case study on the same day; the same rows as the lean and the full search on seeds 0-2)
     "medium": CaseStudyPreset(
         budget="medium", gait_population=50, gait_generations=20, gait_episodes=3, transfer_episodes=10,
-        self_model_fields=dict(LEAN_SELF_MODEL_FIELDS),
+        self_model_fields=dict(HYPOTHESES_SELF_MODEL_FIELDS),
     ),
     # the paper's settings (section 4 and 5): hours per EEA run
     "paper": CaseStudyPreset(budget="paper", gait_population=150, gait_generations=100, gait_episodes=3,
@@ -258,7 +260,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
         self_model_fields: :class:`~eea.config.EEAConfig` settings of the self-model's run, by
             flat name (:data:`eea.config.FLAT_FIELDS`), over the preset's
             (:attr:`CaseStudyPreset.self_model_fields`: with the default method, ``quick`` runs
-            :data:`HYPOTHESES_SELF_MODEL_FIELDS` and ``medium`` :data:`LEAN_SELF_MODEL_FIELDS`)
+            :data:`HYPOTHESES_SELF_MODEL_FIELDS`, as ``medium`` does)
             and its method's and budget's, e.g.
             ``{"estimation_generations": 30}`` (default: none). The other rows keep theirs. Not
             one the case study sets itself (:data:`CASE_STUDY_FIELDS`); the report records the

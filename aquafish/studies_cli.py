@@ -174,9 +174,9 @@ def add_commands(sub) -> None:
     c.add_argument("--out", type=path, default="case_study_out",
                    help="output directory (finished steps are reused; default case_study_out)")
     c.add_argument("--self-model-fields", type=json_object, default=None, metavar="JSON",
-                   help="EEA settings of the self-model's run over the budget's own (with the default method, quick: "
-                        "aquafish.case_study.HYPOTHESES_SELF_MODEL_FIELDS, the ranked fault hypotheses; medium: "
-                        "LEAN_SELF_MODEL_FIELDS, the lean search) and its method's, as a "
+                   help="EEA settings of the self-model's run over the budget's own (with the default method, quick and "
+                        "medium: aquafish.case_study.HYPOTHESES_SELF_MODEL_FIELDS, the ranked fault hypotheses) and "
+                        "its method's, as a "
                         "JSON object of aquafish eea's flags by flat name, inline or as FILE.json, e.g. "
                         "'{\"estimation_generations\": 30}' (default: none; the other rows keep theirs); the report "
                         "records both")

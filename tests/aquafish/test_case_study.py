@@ -174,7 +174,7 @@ def test_the_quick_self_model_ranks_the_fault_hypotheses_under_the_callers_field
 
     quick, ranked, lean = PRESETS["quick"], dict(HYPOTHESES_SELF_MODEL_FIELDS), dict(LEAN_SELF_MODEL_FIELDS)
     assert own_self_model_fields(quick, None) == ranked
-    assert own_self_model_fields(PRESETS["medium"], None) == lean  # medium: the lean search, until measured
+    assert own_self_model_fields(PRESETS["medium"], None) == ranked
     assert own_self_model_fields(quick, {"estimation_generations": 30}) == {**ranked, "estimation_generations": 30}
     assert own_self_model_fields(quick, None, method="out_of_band", model_space="morphology",
                                  behaviour_summary="dft") == {}  # the preset's are the default method's
