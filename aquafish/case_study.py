@@ -160,8 +160,8 @@ LEAN_SELF_MODEL_FIELDS = MappingProxyType({"lineages": 1, "profile_refine": 0, "
 #: 2026-12-02 (docs/main_job.md for ``medium``): the lean search's exploration, the
 #: estimation offering the check's 97 fault hypotheses about the design every generation (3 a
 #: round, their angles fitted by the ``profile`` strategy), the exploration's candidates the
-#: best-ranked of them
-#: (``exploration_diversity=0``), and the check given the angles the run fitted as its screen.
+#: best-ranked of them (``exploration_diversity=0``), and the check given the angles the run
+#: fitted as its screen.
 #: About 83,000 simulations a run at ``quick`` against the lean search's 160,000; the truth on
 #: 20 of 20 held-out ``reversed_left_pectoral`` seeds, every faulty servo named on 28 of 28
 #: held-out sampled faults (docs/studies/recovery.md, "Ranking the fault hypotheses instead of
