@@ -25,14 +25,13 @@ from eea.behaviour import SUMMARIES
 from eea.config import ESTIMATION_SEARCHES, FIELD_HELP, FLAT_DEFAULTS, FLAT_FIELDS, MODEL_SPACE_NAMES, EEAConfig
 from eea.methods import BUDGETS, METHODS, budget_fields, method_fields
 from eea.inference import INFERENCE_NAMES
-from eea.inference.paper import OOB_DRAWS
 
 __all__ = ["add_commands", "add_config_flags", "config_fields", "config_flag_names", "config_from_args", "given_flags"]
 
 _SHORT_FLAGS = {"duration_s": ("--duration",)}
 #: The allowed values of the fields that take a name.
 _CHOICES = {"inference": INFERENCE_NAMES, "estimation_search": ESTIMATION_SEARCHES, "model_space": MODEL_SPACE_NAMES,
-            "behaviour_summary": SUMMARIES, "oob_draw": OOB_DRAWS}
+            "behaviour_summary": SUMMARIES}
 
 
 #: Flag parsers of fields whose value is not their default's type, and of the fields every

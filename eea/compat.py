@@ -7,7 +7,8 @@ Every allowance for an older run's files is here, and nowhere else in the packag
   every setting flat, by the names of the command-line flags, some of them as older versions
   wrote them; it becomes today's flat fields, which :meth:`eea.config.EEAConfig.from_dict`
   nests through the one mapping table (:data:`eea.config.FLAT_FIELDS`).
-* :data:`RETIRED_FIELDS`, :data:`RETIRED_VALUES` and :func:`strip_retired`: a ``config.json``
+* :data:`RETIRED_FIELDS`, :data:`RETIRED_VALUES` and :func:`strip_retired` (flat), and
+  :data:`RETIRED_SECTION_FIELDS` and :func:`strip_retired_sections` (nested): a ``config.json``
   written before a variant was retired holds the variant's switch.
   :func:`upgrade_flat_fields` drops such a field when it has its default (the run
   did not use the variant) and refuses the file otherwise (the run did: rerun it at the commit
@@ -28,8 +29,8 @@ from __future__ import annotations
 import io
 import pickle
 
-__all__ = ["MODULE_RENAMES", "RETIRED_FIELDS", "RETIRED_VALUES", "RenamingUnpickler", "loads", "strip_retired",
-           "upgrade_cma_search", "upgrade_estimation_state", "upgrade_flat_fields"]
+__all__ = ["MODULE_RENAMES", "RETIRED_FIELDS", "RETIRED_SECTION_FIELDS", "RETIRED_VALUES", "RenamingUnpickler",
+           "loads", "strip_retired", "strip_retired_sections", "upgrade_cma_search", "upgrade_estimation_state", "upgrade_flat_fields"]
 
 #: Fields of retired variants (docs/studies/retired_variants.md) and the default
 #: each had: a ``config.json`` written before holds them, and loads (:func:`strip_retired`)
@@ -40,12 +41,21 @@ RETIRED_FIELDS: dict[str, object] = {
     "profile_fine_steps": 0, "profile_polish": 0, "profile_scan": 0, "exploration_spread_weight": 1.0,
     "model_similarity": "paper", "oob_experiments": "newest",
     "cma_global_flip": 0,  # the global share started at the gain-flipped local best (measured at eac968c)
+    "oob_draw": "best",  # out-of-band's optAng scored by a random sample of the models (last ran at e5577a9)
 }
 
 #: Retired values of fields that stay, by field: a ``config.json`` holding one was written by
 #: a run of a retired variant (docs/studies/retired_variants.md) and does not load.
 RETIRED_VALUES: dict[str, tuple] = {
     "cma_flip_gains": (2,),  # the pectoral gains injected at their fault classes (last ran at eed7c8d)
+    "model_space": ("morphology_nonzero",),  # the grid one level up, no zero-size flipper (last ran at e5577a9)
+}
+
+#: Fields of retired variants inside a nested ``config.json``'s sections: by the section and the
+#: name of its variant (``inference``'s strategy), each field with the default it had. A
+#: ``config.json`` written before the field's retirement holds it (:func:`strip_retired_sections`).
+RETIRED_SECTION_FIELDS: dict[tuple[str, str], dict[str, object]] = {
+    ("inference", "out_of_band"): {"draw": "best"},  # the flat field oob_draw (last ran at e5577a9)
 }
 
 
@@ -67,6 +77,33 @@ def strip_retired(data: dict) -> dict:
             raise ValueError(f"EEAConfig.{name} = {data[name]!r}: this run used a retired variant "
                              f"(docs/studies/retired_variants.md names the commit that runs it)")
     return {k: v for k, v in data.items() if k not in RETIRED_FIELDS}
+
+
+def strip_retired_sections(data: dict) -> dict:
+    """A nested ``config.json`` (:meth:`eea.config.EEAConfig.to_dict`) without the fields of
+    :data:`RETIRED_SECTION_FIELDS` in its sections.
+
+    Raises:
+        ValueError: a retired field with another value than its default, or a run field with a
+            value of :data:`RETIRED_VALUES` (the run used a retired variant; rerun it at the
+            commit docs/studies/retired_variants.md names).
+    """
+    for name in set(data) & set(RETIRED_VALUES):
+        if data[name] in RETIRED_VALUES[name]:
+            raise ValueError(f"EEAConfig.{name} = {data[name]!r}: this run used a retired variant "
+                             f"(docs/studies/retired_variants.md names the commit that runs it)")
+    data = dict(data)
+    for (section, variant), retired in RETIRED_SECTION_FIELDS.items():
+        fields = data.get(section)
+        if not isinstance(fields, dict) or fields.get("name") != variant:
+            continue
+        for name in set(fields) & set(retired):
+            if fields[name] != retired[name]:
+                raise ValueError(f"EEAConfig.{section}.{name} = {fields[name]!r}: this run used a retired "
+                                 f"variant (docs/studies/retired_variants.md names the commit that runs it); "
+                                 f"only its default {retired[name]!r} loads")
+        data[section] = {k: v for k, v in fields.items() if k not in retired}
+    return data
 
 
 def upgrade_flat_fields(data: dict) -> dict:

@@ -42,7 +42,7 @@ from aquafish_gym import DT_S, SimParams, get_damage
 from aquafish_gym.params import DEFAULT_WATERLINE
 from aquafish_gym.checks import check_int
 from eea.behaviour import SUMMARIES
-from eea.compat import upgrade_flat_fields
+from eea.compat import strip_retired_sections, upgrade_flat_fields
 from eea.encoding import ACTION_BITS, MODEL_SPACES
 from eea.estimation import EstimationSettings
 from eea.evaluation import RuntimeSettings
@@ -114,7 +114,6 @@ FLAT_FIELDS: dict[str, tuple[str, str | None]] = {
     "oob_population": ("inference.population", "out_of_band"),
     "oob_generations": ("inference.generations", "out_of_band"),
     "oob_bits": ("inference.bits", "out_of_band"),
-    "oob_draw": ("inference.draw", "out_of_band"),
     "profile_proposals": ("inference.proposals", "profile"),
     "profile_initial": ("inference.initial", "profile"),
     "profile_refine": ("inference.refine", "profile"),
@@ -139,8 +138,7 @@ FIELD_HELP: dict[str, str] = {
                          "so a robot and its mirror image differ; not the paper's) or gyro_dft (the DFT magnitudes "
                          "of the angular rates, a gyroscope's signal, eq. 2 at MAX 1000; a reading of the paper)",
     "model_space": "what a self-model holds: morphology (the paper's 9 flipper dimensions, 45-bit genomes), "
-                   "morphology_nonzero (the same on a grid one level up, no zero-size flipper; a reading of the "
-                   "paper, GA and one lineage only) or "
+                   "or "
                    "morphology+servos (those and a gain per servo, pectorals in [-1, 1], caudal in [0, 1], 57-bit "
                    "genomes, OBJ_FIT over 12; eea.encoding; not the paper's)",
     "duration_s": "length of every experiment in seconds, a multiple of 0.01 s (paper: 1.28 ... 10.24)",
@@ -190,8 +188,6 @@ FIELD_HELP: dict[str, str] = {
     "oob_population": "out_of_band: candidate angle sets per inner GA generation",
     "oob_generations": "out_of_band: inner GA generations per inference",
     "oob_bits": "out_of_band: bits per angle in the inner GA genome (3 angles)",
-    "oob_draw": "out_of_band: which oob_sample models score candidate angles: best (the best distinct ones, the "
-                "default) or random (drawn from the population each inference; Figure 10's reading, in measurement)",
     "profile_proposals": "profile: perturbed angle sets tried per model, experiment and generation (not the paper's)",
     "profile_initial": "profile: random angle sets tried per model for a new experiment",
     "profile_refine": "profile: extra perturbation rounds of the angles of each contender, a model new this "
@@ -375,10 +371,6 @@ class EEAConfig:
         if flat.get("cma_flip_gains") and self.model_space != "morphology+servos":
             raise ValueError(f"EEAConfig.cma_flip_gains = 1 needs model_space='morphology+servos' (gains to flip), "
                              f"got {self.model_space!r}")
-        if self.model_space == "morphology_nonzero" and (flat["estimation_search"] != "ga" or flat["lineages"] != 1):
-            raise ValueError("EEAConfig.model_space='morphology_nonzero' (a variant of the paper's methods) runs with "
-                             f"estimation_search='ga' and lineages=1, got {flat['estimation_search']!r} and "
-                             f"{flat['lineages']}")
         share, population = flat.get("cma_global_share", 0), self.estimation.population
         if share and not 2 <= share <= population - 2:
             raise ValueError(f"EEAConfig.cma_global_share must be 0 or in [2, estimation_population - 2] "
@@ -459,6 +451,8 @@ class EEAConfig:
             raise ValueError(f"an EEAConfig dict must be a dict, got {type(data).__name__}")
         if not any(isinstance(value, Mapping) for value in data.values()):
             data = nest_flat(upgrade_flat_fields(data))  # written before the sections
+        else:
+            data = strip_retired_sections(dict(data))  # written before a variant was retired
         valid = (*_RUN_FIELDS, *SECTIONS, "inference")
         unknown = sorted(set(data) - set(valid))
         if unknown:

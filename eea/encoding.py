@@ -26,11 +26,6 @@ The two genomes use them as follows:
 Model spaces (``EEAConfig.model_space``, :data:`MODEL_SPACES`): what a model genome holds.
 
 * ``morphology`` (the paper's, the default): the 45-bit genome above, 9 flipper dimensions.
-* ``morphology_nonzero`` (a reading of the paper, in measurement): the paper's 45 bits on a
-  grid one level up, ``lo + (hi - lo) (k + 1) / 2**nbits``, so no flipper dimension is 0 (a
-  zero-size flipper makes its initial angle irrelevant, an attractor under unknown angles;
-  docs/studies.md) and the top of each range is a level. Every nonzero level of the paper's
-  grid is a level here, so every damage that keeps its flippers is an exact model.
 * ``morphology+servos`` (not the paper's): the same 45 bits followed by 12 bits of servo
   gains, 4 per servo in the order left pectoral, right pectoral, caudal
   (:data:`SERVO_GAIN_FIELDS`), 57 bits, 12 values. A gain multiplies the commanded speed
@@ -400,26 +395,12 @@ class ModelSpace:
     Get one with :func:`get_model_space` (by name) or :func:`model_space_of` (by genome width).
 
     Attributes:
-        name: ``"morphology"``, ``"morphology_nonzero"`` or ``"morphology+servos"``
-            (:data:`MODEL_SPACES`).
+        name: ``"morphology"`` or ``"morphology+servos"`` (:data:`MODEL_SPACES`).
         servos: whether the genome appends the 12 gain bits.
-        nonzero: whether the flipper dimensions sit on the grid one level up (no level 0; see
-            the module docstring).
     """
 
     name: str
     servos: bool
-    nonzero: bool = False
-
-    @property
-    def grid_bounds(self) -> np.ndarray:
-        """``(9, 2)`` the half-open ranges the flipper fields decode onto: ``MORPHOLOGY_BOUNDS``,
-        or with ``nonzero`` each moved up by one level (``(hi - lo) / 2**nbits``)."""
-        bounds = np.asarray(MORPHOLOGY_BOUNDS, dtype=np.float64)
-        if not self.nonzero:
-            return bounds
-        step = (bounds[:, 1] - bounds[:, 0]) / np.left_shift(1, np.asarray(MODEL_FIELD_BITS))
-        return bounds + step[:, None]
 
     @property
     def n_bits(self) -> int:
@@ -443,14 +424,14 @@ class ModelSpace:
 
     def decode(self, genomes) -> np.ndarray:
         """``(P, n)`` (or ``(n,)``) values of ``(P, n_bits)`` model genomes: the 9 dimensions
-        (:func:`decode_models`, on :attr:`grid_bounds`), then the 3 gains (:func:`decode_gains`)
+        (:func:`decode_models`), then the 3 gains (:func:`decode_gains`)
         with ``servos``.
 
         Raises:
             ValueError: a genome of another width, or an entry that is not 0 or 1.
         """
         if not self.servos:
-            return decode_fields(genomes, MODEL_FIELD_BITS, self.grid_bounds, half_open=True)
+            return decode_models(genomes)
         g = np.asarray(genomes)
         if g.ndim not in (1, 2) or g.shape[-1] != self.n_bits:
             raise ValueError(f"{self.name} genomes must have shape ({self.n_bits},) or (P, {self.n_bits}), "
@@ -461,37 +442,15 @@ class ModelSpace:
         """The nearest model genomes ``(P, n_bits)`` (or ``(n_bits,)``) of ``(P, n)`` values.
 
         Raises:
-            ValueError: values of another width, or a value outside its range or not finite
-                (with ``nonzero``: below the lowest level, e.g. a lost flipper's 0).
+            ValueError: values of another width, or a value outside its range or not finite.
         """
-        if self.nonzero:
-            self._check_nonzero_range(values)
         if not self.servos:
-            return encode_fields(values, MODEL_FIELD_BITS, self.grid_bounds, half_open=True)
+            return encode_models(values)
         v = np.asarray(values, dtype=np.float64)
         n = len(self.fields)
         if v.ndim not in (1, 2) or v.shape[-1] != n:
             raise ValueError(f"{self.name} values must have shape ({n},) or (P, {n}), got {v.shape}")
         return np.concatenate([encode_models(v[..., :9]), encode_gains(v[..., 9:])], axis=-1)
-
-    def _check_nonzero_range(self, values) -> None:
-        """Refuse, by name, a dimension below the nonzero grid's lowest level or above its
-        range's top (``encode_fields`` would read the grid's ranges, one level up, as the
-        allowed ones); other malformed values are left to ``encode_fields``."""
-        rows = np.atleast_2d(np.asarray(values, dtype=np.float64))
-        lowest, highest = self.grid_bounds[:, 0], np.asarray(MORPHOLOGY_BOUNDS, dtype=np.float64)[:, 1]
-        if rows.shape[-1:] != lowest.shape or not np.all(np.isfinite(rows)):
-            return
-        below = rows < lowest * (1 - _RANGE_TOLERANCE)
-        if np.any(below):
-            col = int(np.argwhere(below)[0, 1])
-            raise ValueError(f"{self.name} has no level below {float(lowest[col])!r} for {MORPHOLOGY_FIELDS[col]} "
-                             f"(a zero-size flipper is not a model of this space), got {float(rows[below].min())!r}")
-        above = rows > highest * (1 + _RANGE_TOLERANCE)
-        if np.any(above):
-            col = int(np.argwhere(above)[0, 1])
-            raise ValueError(f"{MORPHOLOGY_FIELDS[col]} = {float(rows[above][0])!r} is above its range's top "
-                             f"{float(highest[col])!r}")
 
     def morphologies(self, values) -> np.ndarray:
         """``(..., 9)`` the flipper dimensions of decoded values."""
@@ -518,7 +477,6 @@ class ModelSpace:
 
 #: The model spaces by name (``EEAConfig.model_space``); ``morphology`` is the paper's.
 MODEL_SPACES: dict[str, ModelSpace] = {s.name: s for s in (ModelSpace("morphology", False),
-                                                           ModelSpace("morphology_nonzero", False, nonzero=True),
                                                            ModelSpace("morphology+servos", True))}
 
 
@@ -538,8 +496,7 @@ def get_model_space(space) -> ModelSpace:
 
 def model_space_of(n_bits: int) -> ModelSpace:
     """The first model space whose genomes are ``n_bits`` long (45: morphology, 57:
-    morphology+servos). ``morphology_nonzero``'s genomes are 45 bits too: code that may meet
-    them takes its space from the run (``config.model_space``, ``search.model_space``) instead.
+    morphology+servos).
 
     Raises:
         ValueError: if no space has genomes of that length.

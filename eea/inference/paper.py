@@ -27,7 +27,7 @@ from eea.ga import BitGA, GASettings
 from eea.experiment import CAUDAL_LIMIT_RAD, PERIODS, Context, Experiment, with_newest_context
 from eea.inference.strategy import InferenceStrategy
 
-__all__ = ["OOB_DRAWS", "InBand", "InBandSettings", "Known", "KnownSettings", "NoInference", "NoneSettings",
+__all__ = ["InBand", "InBandSettings", "Known", "KnownSettings", "NoInference", "NoneSettings",
            "OutOfBand", "OutOfBandSettings"]
 
 
@@ -84,11 +84,6 @@ class InBandSettings:
         object.__setattr__(self, "widen", float(value))
 
 
-#: Which models score out-of-band's candidate angles (``EEAConfig.oob_draw``): the best distinct
-#: ones, or a random sample of the population's distinct models.
-OOB_DRAWS: tuple[str, ...] = ("best", "random")
-
-
 @dataclasses.dataclass(frozen=True)
 class OutOfBandSettings:
     """Out-of-band inference's settings (``config.inference`` with ``inference="out_of_band"``,
@@ -101,10 +96,6 @@ class OutOfBandSettings:
         population: candidate angle sets per inner GA generation, >= 1.
         generations: inner GA generations per inference, >= 1.
         bits: bits per angle of the inner GA's genome, in [2, 30].
-        draw: which models score the candidates (:data:`OOB_DRAWS`): ``"best"``, the ``sample``
-            best distinct models of the population (our reading of the paper); ``"random"``, a
-            random sample of ``sample`` of them, drawn afresh for every inference (Figure 10's
-            "a small sample of the models"; in measurement, docs/studies.md).
 
     Raises:
         ValueError: naming the field as ``EEAConfig.oob_<field>`` if one is out of range.
@@ -118,13 +109,10 @@ class OutOfBandSettings:
     population: int = 10
     generations: int = 10
     bits: int = 8
-    draw: str = "best"
 
     def __post_init__(self) -> None:
         for name, low in (("period", 1), ("sample", 1), ("population", 1), ("generations", 1), ("bits", 2)):
             check_int(f"EEAConfig.oob_{name}", getattr(self, name), low, 30 if name == "bits" else None)
-        if self.draw not in OOB_DRAWS:
-            raise ValueError(f"EEAConfig.oob_draw must be one of {', '.join(OOB_DRAWS)}, got {self.draw!r}")
 
 
 class Known(InferenceStrategy):
@@ -218,8 +206,7 @@ class OutOfBand(InferenceStrategy):
     experiment's three initial angles, encoded with ``bits`` bits each (pectorals on
     [0, 2 pi) in steps of 2 pi / 2**bits, caudal on the sweep). A candidate's fitness is
     the mean similarity (eq. 2) to the target's response of the ``sample`` best distinct
-    models when started from it (with ``draw="random"``, of ``sample`` distinct models drawn at
-    random from the population for each inference); every candidate generation is one batched
+    models when started from it; every candidate generation is one batched
     evaluation.
     From the second inference of a round on, the current angles seed the inner GA, so an
     inference never forgets a better earlier answer for the same models. The context is
@@ -232,13 +219,10 @@ class OutOfBand(InferenceStrategy):
     name = "out_of_band"
 
     def __init__(self, period: int = 35, sample: int = 5, population: int = 10, generations: int = 10,
-                 bits: int = 8, ga_options: dict | None = None, draw: str = "best") -> None:
+                 bits: int = 8, ga_options: dict | None = None) -> None:
         if min(period, sample, population, generations) < 1 or bits < 2:
             raise ValueError(f"OutOfBand needs period, sample, population, generations >= 1 and bits >= 2; "
                              f"got {period}, {sample}, {population}, {generations}, {bits}")
-        if draw not in OOB_DRAWS:
-            raise ValueError(f"OutOfBand draw must be one of {', '.join(OOB_DRAWS)}, got {draw!r}")
-        self.draw = draw
         self.period, self.sample, self.population = int(period), int(sample), int(population)
         self.generations, self.bits = int(generations), int(bits)
         self.ga_options = dict(ga_options or {})
@@ -257,7 +241,7 @@ class OutOfBand(InferenceStrategy):
         """
         ga = GASettings() if ga is None else ga
         return cls(settings.period, settings.sample, settings.population, settings.generations, settings.bits,
-                   ga.options(3 * settings.bits), settings.draw)
+                   ga.options(3 * settings.bits))
 
     def new_context(self, true_angles):
         return Context.exact(np.zeros(3))  # replaced by the first inference (generation 0)
@@ -269,12 +253,7 @@ class OutOfBand(InferenceStrategy):
         if generation % self.period:
             return experiments
         experiments = tuple(experiments)
-        if self.draw == "best":
-            models = ranked_genomes[: self.sample]
-        else:
-            n = len(ranked_genomes)
-            models = ranked_genomes[np.sort(rng.choice(n, min(self.sample, n), replace=False))]
-        best = self.infer_angles(models, experiments[-1:], evaluator, rng,
+        best = self.infer_angles(ranked_genomes[: self.sample], experiments[-1:], evaluator, rng,
                                  seed_current=generation > 0)  # the newest experiment: fresh at generation 0
         return experiments[:-1] + (experiments[-1].with_context(Context.exact(best[0])),)
 

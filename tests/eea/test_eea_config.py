@@ -49,7 +49,6 @@ def test_every_flat_name_has_help_and_a_default():
     ({"max_batch_robots": 0}, "EEAConfig.max_batch_robots must be an int >= 1"),
     ({"exploration_angles": 1}, "EEAConfig.exploration_angles must be 0"),
     ({"oob_period": 0}, "EEAConfig.oob_period must be an int >= 1"),
-    ({"oob_draw": "worst"}, "EEAConfig.oob_draw must be one of best, random, got 'worst'"),
     ({"estimation_search": "cma", "cma_sigma": 0.0}, r"EEAConfig.cma_sigma must be in \(0, 1\]"),
     ({"inference": "profile", "profile_library": -1}, "EEAConfig.profile_library must be an int >= 0"),
 ])
@@ -105,9 +104,6 @@ def test_a_flag_of_a_strategy_or_search_the_run_does_not_use_raises_unless_a_bud
     oob = F({"oob_period": 10})
     assert oob.replace(inference="in_band").inference == InBandSettings()
     assert oob.replace(oob_sample=2).inference == OutOfBandSettings(period=10, sample=2)
-    assert oob.replace(oob_draw="random").inference == OutOfBandSettings(period=10, draw="random")
-    assert EEAConfig.from_dict({**oob.to_dict(), "inference": {k: v for k, v in oob.to_dict()["inference"].items()
-                                                               if k != "draw"}}) == oob   # a record before draw
     with pytest.raises(ValueError, match="EEAConfig.oob_period needs inference='out_of_band', got 'none'"):
         oob.replace(inference="none", oob_period=12)
     assert dataclasses.replace(oob, inference=InBandSettings(k_best=2)).to_flat()["k_best"] == 2  # a whole section
@@ -174,6 +170,26 @@ def test_a_config_written_before_the_retirement_loads_unless_it_used_a_retired_v
     assert EEAConfig.from_dict({**servos, "cma_flip_gains": 1}).estimation.search.flip_gains == 1
     with pytest.raises(ValueError, match=r"EEAConfig.cma_global_flip = 1: this run used a retired variant"):
         EEAConfig.from_dict({**servos, "cma_flip_gains": 1, "cma_global_flip": 1})  # the global flip
+
+
+def test_a_nested_config_written_before_a_retirement_loads_unless_it_used_the_retired_variant():
+    """A ``config.json`` with sections (written since 2026-11-2x) holds out-of-band's ``draw``
+    from before its retirement: at its default ("best") the run is today's out-of-band, at
+    "random" it ran the retired variant; a run of the retired model space is refused by name."""
+    oob = F({"oob_period": 10})
+    written = oob.to_dict()
+    assert EEAConfig.from_dict({**written, "inference": {**written["inference"], "draw": "best"}}) == oob
+    with pytest.raises(ValueError, match=r"EEAConfig.inference.draw = 'random': this run used a retired variant"):
+        EEAConfig.from_dict({**written, "inference": {**written["inference"], "draw": "random"}})
+    known = F({"inference": "known"}).to_dict()                  # another strategy's section keeps its keys
+    with pytest.raises(ValueError, match=r"unknown keys \['draw'\] in EEAConfig.inference"):
+        EEAConfig.from_dict({**known, "inference": {**known["inference"], "draw": "best"}})
+    with pytest.raises(ValueError, match=r"EEAConfig.model_space = 'morphology_nonzero': this run used a retired"):
+        EEAConfig.from_dict({**written, "model_space": "morphology_nonzero"})
+    with pytest.raises(ValueError, match=r"EEAConfig.model_space = 'morphology_nonzero': this run used a retired"):
+        EEAConfig.from_dict({**FLAT_DEFAULTS, "model_space": "morphology_nonzero"})     # flat
+    with pytest.raises(ValueError, match="unknown EEAConfig keys"):
+        F({"oob_draw": "best"})                                   # a new config cannot set it
 
 
 #: One published config.json of each kind the loader must read (tests/data/published_configs/README.md).

@@ -116,30 +116,16 @@ def test_out_of_band_finds_the_angles_that_best_explain_the_target(make_experime
     assert np.any(np.all(np.abs(first - before.estimate()) < TWO_PI / 256, axis=1))  # seeded with current angles
 
 
-def test_out_of_band_random_draw_scores_with_a_fresh_sample_of_distinct_models(make_experiment):
-    """draw="random": each inference's models are ``sample`` distinct rows of the ranked models
-    drawn by the run's generator (not the best ``sample``), another draw the next inference."""
-    s = OutOfBand(period=1, sample=3, population=4, generations=1, draw="random")
+def test_out_of_band_scores_the_candidate_angles_with_the_best_sample_models(make_experiment):
+    """optAng's models are the ``sample`` best of the ranked models (all of them when fewer)."""
     models = np.eye(45, dtype=np.uint8)[:12]                          # 12 distinct models, row i has bit i
-    exps = s.begin_round([make_experiment(0, context=s.new_context(np.zeros(3)))])
     fake = PeakedEvaluator([1.0, 1.0, 0.0])
-    rng = np.random.default_rng(3)
-    drawn = []
-    for generation in range(4):
-        exps = s.before_generation(generation, models, exps, fake, rng)
-        sample = fake.calls[-1][0][:3]                                # the first candidate's 3 models
-        drawn.append(tuple(int(np.argmax(row)) for row in sample))
-    assert all(len(set(d)) == 3 and list(d) == sorted(d) for d in drawn)     # distinct, in rank order
-    assert drawn[0] != (0, 1, 2) and len(set(drawn)) > 1                   # not the best 3, not fixed
     best = OutOfBand(period=1, sample=3, population=4, generations=1)
-    best.before_generation(0, models, best.begin_round([make_experiment(0, context=best.new_context(np.zeros(3)))]),
-                           fake, np.random.default_rng(3))
-    np.testing.assert_array_equal(fake.calls[-1][0][:3], models[:3])       # the default: the best 3
-    few = OutOfBand(period=1, sample=3, population=4, generations=1, draw="random")
-    few.before_generation(0, models[:2], exps, fake, np.random.default_rng(0))
+    exps = best.begin_round([make_experiment(0, context=best.new_context(np.zeros(3)))])
+    best.before_generation(0, models, exps, fake, np.random.default_rng(3))
+    np.testing.assert_array_equal(fake.calls[-1][0][:3], models[:3])       # the best 3
+    best.before_generation(0, models[:2], exps, fake, np.random.default_rng(0))
     assert len(fake.calls[-1][0]) == 4 * 2                                  # fewer models than the sample: all
-    with pytest.raises(ValueError, match="draw must be one of best, random, got 'worst'"):
-        OutOfBand(draw="worst")
 
 
 class PeakPerExperiment:

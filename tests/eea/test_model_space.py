@@ -283,7 +283,7 @@ def test_model_space_config_round_trip_and_old_configs(tmp_path):
     assert EEAConfig.from_dict(old).model_space == "morphology" == EEAConfig().model_space
     assert not config.same_results_as(config.replace(model_space="morphology"))
     with pytest.raises(ValueError, match="unknown model_space 'servos'; valid names: morphology, "
-                                         "morphology_nonzero, morphology\\+servos"):
+                                         "morphology\\+servos"):
         EEAConfig(model_space="servos")
 
 
