@@ -22,7 +22,9 @@ DOCS = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
 HISTORICAL = {ROOT / "docs/studies/retired_variants.md"}
 #: Commits at which retired fields last ran, where not the retirement's 82b7524: a page that shows
 #: such a field's flag must name its commit.
-RETIRED_FIELD_COMMITS = {"cma_global_flip": "eac968c", "new_gait_start": "0661181"}
+RETIRED_FIELD_COMMITS = {"cma_global_flip": "eac968c", "new_gait_start": "0661181", "oob_draw": "e5577a9"}
+#: Retired values of flags that stay, and the commit they last ran at.
+RETIRED_FLAG_VALUES = {"--model-space morphology_nonzero": "e5577a9"}
 #: Retired flags of commands other than ``eea`` (their last commit is in RETIRED_FIELD_COMMITS).
 RETIRED_FLAGS = ("new_gait_start",)
 #: Retired sub-commands, by the commit they last ran at: a page that shows one must name it.
@@ -37,7 +39,11 @@ def _commands():
             for line in block.replace("\\\n", " ").splitlines():
                 line = line.split("#", 1)[0].strip()
                 retired = [f for f in (*RETIRED_FIELDS, *RETIRED_FLAGS) if f"--{f.replace('_', '-')} " in line + " "]
-                if retired:  # a retired variant's command: the page must name the commit it last ran at
+                values = [v for v in RETIRED_FLAG_VALUES if f"{v} " in line + " "]
+                if values:  # a retired value's command: the page must name the commit it last ran at
+                    for value in values:
+                        assert RETIRED_FLAG_VALUES[value] in path.read_text(), f"{path}: {line} uses {value}"
+                elif retired:  # a retired variant's command: the page must name the commit it last ran at
                     for field in retired:
                         commit = RETIRED_FIELD_COMMITS.get(field, "82b7524")
                         assert commit in path.read_text(), f"{path}: {line} uses retired {field}; name {commit}"
