@@ -30,7 +30,8 @@ import io
 import pickle
 
 __all__ = ["MODULE_RENAMES", "RETIRED_FIELDS", "RETIRED_SECTION_FIELDS", "RETIRED_VALUES", "RenamingUnpickler",
-           "loads", "strip_retired", "strip_retired_sections", "upgrade_cma_search", "upgrade_estimation_state", "upgrade_flat_fields"]
+           "loads", "strip_retired", "strip_retired_sections", "upgrade_cma_search", "upgrade_estimation_state",
+           "upgrade_flat_fields"]
 
 #: Fields of retired variants (docs/studies/retired_variants.md) and the default
 #: each had: a ``config.json`` written before holds them, and loads (:func:`strip_retired`)
@@ -72,11 +73,16 @@ def strip_retired(data: dict) -> dict:
             raise ValueError(f"EEAConfig.{name} = {data[name]!r}: this run used a retired variant "
                              f"(docs/studies/retired_variants.md names the commit that runs it); only its "
                              f"default {RETIRED_FIELDS[name]!r} loads")
+    _refuse_retired_values(data)
+    return {k: v for k, v in data.items() if k not in RETIRED_FIELDS}
+
+
+def _refuse_retired_values(data: dict) -> None:
+    """Raise ValueError if a field of ``data`` holds a value of :data:`RETIRED_VALUES`."""
     for name in set(data) & set(RETIRED_VALUES):
         if data[name] in RETIRED_VALUES[name]:
             raise ValueError(f"EEAConfig.{name} = {data[name]!r}: this run used a retired variant "
                              f"(docs/studies/retired_variants.md names the commit that runs it)")
-    return {k: v for k, v in data.items() if k not in RETIRED_FIELDS}
 
 
 def strip_retired_sections(data: dict) -> dict:
@@ -88,10 +94,7 @@ def strip_retired_sections(data: dict) -> dict:
             value of :data:`RETIRED_VALUES` (the run used a retired variant; rerun it at the
             commit docs/studies/retired_variants.md names).
     """
-    for name in set(data) & set(RETIRED_VALUES):
-        if data[name] in RETIRED_VALUES[name]:
-            raise ValueError(f"EEAConfig.{name} = {data[name]!r}: this run used a retired variant "
-                             f"(docs/studies/retired_variants.md names the commit that runs it)")
+    _refuse_retired_values(data)
     data = dict(data)
     for (section, variant), retired in RETIRED_SECTION_FIELDS.items():
         fields = data.get(section)

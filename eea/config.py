@@ -137,8 +137,7 @@ FIELD_HELP: dict[str, str] = {
     "behaviour_summary": "dft (the paper's DFT magnitudes), signed_dft (the zero-frequency term keeps its sign, "
                          "so a robot and its mirror image differ; not the paper's) or gyro_dft (the DFT magnitudes "
                          "of the angular rates, a gyroscope's signal, eq. 2 at MAX 1000; a reading of the paper)",
-    "model_space": "what a self-model holds: morphology (the paper's 9 flipper dimensions, 45-bit genomes), "
-                   "or "
+    "model_space": "what a self-model holds: morphology (the paper's 9 flipper dimensions, 45-bit genomes) or "
                    "morphology+servos (those and a gain per servo, pectorals in [-1, 1], caudal in [0, 1], 57-bit "
                    "genomes, OBJ_FIT over 12; eea.encoding; not the paper's)",
     "duration_s": "length of every experiment in seconds, a multiple of 0.01 s (paper: 1.28 ... 10.24)",
@@ -452,7 +451,7 @@ class EEAConfig:
         if not any(isinstance(value, Mapping) for value in data.values()):
             data = nest_flat(upgrade_flat_fields(data))  # written before the sections
         else:
-            data = strip_retired_sections(dict(data))  # written before a variant was retired
+            data = strip_retired_sections(data)  # written before a variant was retired
         valid = (*_RUN_FIELDS, *SECTIONS, "inference")
         unknown = sorted(set(data) - set(valid))
         if unknown:
