@@ -89,7 +89,7 @@ def add_commands(sub) -> None:
                         "the damage (the warm start's baseline)")
     m.add_argument("--self-model-fields", type=json_object, default=None, metavar="JSON",
                    help="EEA settings of the recovery's self-model search over the budget's (quick and medium: "
-                        "aquafish.mission.LEAN_RECOVERY_FIELDS, a lean search; the rest as the case study's), as "
+                        "aquafish.mission.RECOVERY_FIELDS, the ranked fault hypotheses; the rest as the case study's), as "
                         "aquafish case-study --self-model-fields (inline or FILE.json; default: none); both recorded "
                         "in mission.json")
     add_workers(m, None, "1")

@@ -294,7 +294,7 @@ def test_own_self_model_fields_reach_the_recovery_eea_and_bad_ones_are_refused_b
 
 def test_the_presets_recovery_fields_reach_the_recovery_eea_under_the_missions_own(prior_dir, tmp_path, monkeypatch):
     """A preset's recovery_fields set the recovery's search; a mission's own self_model_fields
-    go over them, field by field (quick and medium: the lean search of the mission tables)."""
+    go over them, field by field (quick and medium: the ranked fault hypotheses)."""
     import dataclasses
 
     import aquafish.mission as mission_module
@@ -322,13 +322,16 @@ def test_the_presets_recovery_fields_reach_the_recovery_eea_under_the_missions_o
         run_mission(ALL_SEIZED, tmp_path / "merged", preset="smoke", self_model=prior_dir,
                     self_model_fields={"elitism": 3}, video=False, oracle=False, progress=False)
     assert not (tmp_path / "merged").exists()
-    from aquafish.case_study import PRESETS, check_self_model_fields
-    for name in ("quick", "medium"):  # the lean search, valid settings at each preset's budget
+    from aquafish.case_study import HYPOTHESES_SELF_MODEL_FIELDS, LEAN_SELF_MODEL_FIELDS, PRESETS, check_self_model_fields
+    ranked = dict(HYPOTHESES_SELF_MODEL_FIELDS)
+    assert dict(mission_module.RECOVERY_FIELDS) == ranked
+    for name in ("quick", "medium"):  # the ranked hypotheses, valid settings at each preset's budget
         preset = mission_module.MISSION_PRESETS[name]
-        assert check_self_model_fields(preset.recovery_fields, PRESETS[preset.case_preset].budget) == \
-            dict(mission_module.LEAN_RECOVERY_FIELDS)
-        # the recovery's own settings replace the case study's (quick's rank the fault hypotheses)
-        assert mission_module.recovery_self_model_fields(preset, None) == dict(mission_module.LEAN_RECOVERY_FIELDS)
+        assert check_self_model_fields(preset.recovery_fields, PRESETS[preset.case_preset].budget) == ranked
+        # the recovery's own settings, not the case study's: a change of the case preset leaves them
+        case = dataclasses.replace(PRESETS[preset.case_preset], self_model_fields=dict(LEAN_SELF_MODEL_FIELDS))
+        monkeypatch.setitem(PRESETS, preset.case_preset, case)
+        assert mission_module.recovery_self_model_fields(preset, None) == ranked
 
 
 def test_the_new_gait_is_scored_along_the_missions_heading_from_the_presets_spread_starts(prior_dir, tmp_path,
