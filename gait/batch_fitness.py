@@ -21,6 +21,11 @@ one world) and genome j of the list always sits at the same place, ``j % G``, of
 the list (NEAT's order, fixed by the seed), never on how the list is split over processes:
 :class:`BatchEvaluator` hands each worker whole worlds, so any number of workers gives the
 same fitnesses, bit for bit.
+
+Worlds hold at most :data:`GENERATION_WORLD_ROBOTS` (32) robots, half the vector env's default:
+a `quick` generation (30 genomes x 2 starts) is two worlds, which two processes step at once
+(6.2x the single-env path's generations per second against 3.6x in one process;
+docs/performance.md), while in one process worlds of 30 and of 60 robots cost the same.
 """
 
 from __future__ import annotations
@@ -31,16 +36,20 @@ import numpy as np
 import aquafish_gym  # registers the AquaFish tasks  # noqa: F401
 from aquafish_gym.checks import check_int
 from aquafish_gym.rundir import spawn_pool
-from aquafish_gym.vector_env import MAX_WORLD_ROBOTS
 from gait.clock import CLOCK_DIM, clock_features
 from gait.fitness_task import FitnessTask, along_heading
 from gait.shared_pool import SharedPool
 from gait.envs import DEFAULT_ENV_ID
 
-__all__ = ["BatchEvaluator", "batch_fitness", "genomes_per_world"]
+__all__ = ["BatchEvaluator", "GENERATION_WORLD_ROBOTS", "batch_fitness", "genomes_per_world"]
+
+#: Most robots of one PyBullet world when a generation is scored (every ``max_world_robots``
+#: default of this module): small enough that a `quick` generation spans two worlds, one for
+#: each of two processes; large enough that a world's fixed cost stays small (module docstring).
+GENERATION_WORLD_ROBOTS = 32
 
 
-def genomes_per_world(task: FitnessTask, max_world_robots: int = MAX_WORLD_ROBOTS) -> int:
+def genomes_per_world(task: FitnessTask, max_world_robots: int = GENERATION_WORLD_ROBOTS) -> int:
     """Genomes whose ``task.episodes`` starts share one PyBullet world: ``max(1, max_world_robots // K)``.
 
     Raises:
@@ -50,7 +59,7 @@ def genomes_per_world(task: FitnessTask, max_world_robots: int = MAX_WORLD_ROBOT
     return max(1, int(max_world_robots) // task.episodes)
 
 
-def batch_fitness(genomes, config, task: FitnessTask, max_world_robots: int = MAX_WORLD_ROBOTS) -> np.ndarray:
+def batch_fitness(genomes, config, task: FitnessTask, max_world_robots: int = GENERATION_WORLD_ROBOTS) -> np.ndarray:
     """Fitness of each genome: the mean score over ``task``'s starts, all genomes in one vector env.
 
     Args:
@@ -163,7 +172,7 @@ class BatchEvaluator:
         ValueError: ``workers`` or ``max_world_robots`` not an integer >= 1.
     """
 
-    def __init__(self, task: FitnessTask, workers: int = 1, max_world_robots: int = MAX_WORLD_ROBOTS,
+    def __init__(self, task: FitnessTask, workers: int = 1, max_world_robots: int = GENERATION_WORLD_ROBOTS,
                  keep_fitness: bool = True, shared: SharedPool | None = None):
         self.task = task
         self.keep_fitness = bool(keep_fitness)

@@ -358,8 +358,9 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
             and ``.png``, ``run.json``, ``fitness_settings.json``, ``neat_config.ini`` and
             ``checkpoints/``; None: no files.
         workers: evaluation processes (default ``os.cpu_count()``); 1 evaluates in-process.
-            Batched, a generation smaller than two PyBullet worlds (64 robots each:
-            genomes x ``episodes_per_genome``) is evaluated in-process whatever ``workers``.
+            Batched, the generation's PyBullet worlds (at most
+            :data:`gait.batch_fitness.GENERATION_WORLD_ROBOTS` robots each: genomes x
+            ``episodes_per_genome``) are dealt to the processes; the same fitnesses, bit for bit.
         config_path: NEAT INI file (default ``gait/neat_config.ini``).
         resume: a checkpoint file to continue from (see :func:`latest_checkpoint`), in
             ``checkpoints/`` of a run directory whose ``fitness_settings.json`` matches the

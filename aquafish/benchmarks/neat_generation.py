@@ -9,10 +9,11 @@ episodes, healthy robot, seed 0) for ``--generations`` generations with each eva
   per episode (the code before the vector env, ``evolve_gait(batched=False)``), in-process
   and, for each ``W`` > 1 of ``--workers``, on ``W`` processes
   (:class:`gait.neat_progress.PoolEvaluator`);
-* ``batched``: :class:`gait.batch_fitness.BatchEvaluator` in-process (the default of
-  ``evolve_gait``; a generation of at most 64 robots is one world, in-process whatever
-  ``workers``): ``all genomes`` scores NEAT's elites again, as ``single`` does (the
-  batching's share alone), the default keeps their fitness.
+* ``batched``: :class:`gait.batch_fitness.BatchEvaluator` (the default of ``evolve_gait``;
+  worlds of at most :data:`gait.batch_fitness.GENERATION_WORLD_ROBOTS` robots) in-process:
+  ``all genomes`` scores NEAT's elites again, as ``single`` does (the batching's share alone),
+  the default keeps their fitness; and, for each ``W`` > 1 of ``--workers``, on ``W``
+  processes (the generation's worlds dealt to them; the same fitnesses, bit for bit).
 
 Runs are interleaved, ``--repeats`` times. It prints, per evaluator, the median over runs of
 the generations per wall second and the CPU seconds per generation of this process (the
@@ -116,6 +117,8 @@ def main(argv: list[str] | None = None, prog: str | None = None,
         modes[f"single, {w} processes"] = lambda w=w: PoolEvaluator(w, evaluate)
     modes["batched, all genomes"] = lambda: BatchEvaluator(task, keep_fitness=False)
     modes["batched (elites kept)"] = lambda: BatchEvaluator(task)
+    for w in sorted(set(args.workers) - {1}):
+        modes[f"batched, {w} processes"] = lambda w=w: BatchEvaluator(task, w)
     runs: dict[str, list[tuple[float, float]]] = {name: [] for name in modes}
     fitness: dict[str, np.ndarray] = {}
     for _ in range(args.repeats):

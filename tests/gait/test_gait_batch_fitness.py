@@ -103,6 +103,12 @@ def test_layout_and_bad_arguments():
     assert genomes_per_world(task, 64) == 21 and genomes_per_world(task, 2) == 1
     assert BatchEvaluator(task, max_world_robots=6).chunks(5) == [slice(0, 5)]        # one process
     assert BatchEvaluator(task, workers=2, max_world_robots=6).chunks(1) == [slice(0, 1)]
+    # the default world: a `quick` generation (30 genomes x 2 starts) is two worlds (16 and 14 genomes),
+    # one for each of two processes; the paper's (150 x 3) is 15 worlds of 10 genomes
+    quick = FitnessTask(as_robot("healthy"), 0, None, 1.0, episodes=2)
+    assert genomes_per_world(quick) == 16
+    assert BatchEvaluator(quick, workers=2).chunks(30) == [slice(0, 16), slice(16, 30)]
+    assert genomes_per_world(task) == 10 and BatchEvaluator(task, workers=2).chunks(150) == [slice(0, 80), slice(80, 150)]
     genomes, config = _genomes(2)
     with pytest.raises(ValueError, match="at least one genome"):
         batch_fitness([], config, task)
