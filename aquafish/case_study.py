@@ -10,7 +10,9 @@
 3. NEAT gaits are evolved for the healthy morphology, every EEA model (a
    ``morphology+servos`` model's gains become its robot's
    ``ServoFaults(speed_scale=gains)``: the gait is evolved on the model with its servos as
-   modelled), the true damaged robot (the oracle: what recovery could reach at best) and,
+   modelled), the true damaged robot (the oracle, :mod:`aquafish.oracle`: the best of three
+   runs with three times the gait budget and seeds no other row uses, so that no row equals it
+   by construction) and,
    with the same budget, the healthy robot with a damage preset drawn per episode
    (``robust``, ``damage="random"``: a damage-robust gait, which needs no self-model). With
    the ``[rl]`` extra, PPO policies are trained on the self-model (``ppo``) and on the healthy
@@ -56,6 +58,8 @@ import numpy as np
 
 import eea
 import gait
+from aquafish.oracle import (ORACLE_BUDGET_FACTOR, OracleGait, check_procedure_seed, neat_budget, oracle_jobs,
+                             ppo_budget, select_oracle)
 from aquafish_gym import DT_S, MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology, ServoFaults, get_damage
 from aquafish_gym.drawing import plot_morphologies
 from aquafish_gym.env import FRAME_SKIP
@@ -216,7 +220,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
                    episode_duration_s: float | None = None,
                    video: bool = True, workers: int | None = None, progress: bool = True,
                    shared_dir=None, all_rows: bool = True, triage_only: bool = False,
-                   self_model_fields: Mapping | None = None) -> dict:
+                   self_model_fields: Mapping | None = None, oracle_dir=None) -> dict:
     """Run the case study and write its report; return the report as a dict.
 
     Args:
@@ -265,6 +269,9 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
             ``{"estimation_generations": 30}`` (default: none). The other rows keep theirs. Not
             one the case study sets itself (:data:`CASE_STUDY_FIELDS`); the report records the
             preset's and these as ``self_model_fields``.
+        oracle_dir: where the oracle's runs (:mod:`aquafish.oracle`) are evolved, or loaded
+            when finished; default ``out_dir``. The oracle does not depend on ``seed``, so case
+            studies of one damage, preset and duration can share it (``aquafish recovery``).
 
     Raises:
         ValueError: unknown preset, damage, method or model space, a bad seed, duration or
@@ -281,7 +288,7 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
     settings = preset_settings(preset, episode_duration_s)
     resolved = get_damage(damage)
     damage, target = resolved.name, resolved.apply()  # canonical text: a JSON file is read once, recorded as its content
-    check_int("seed", seed, 0)
+    check_procedure_seed(seed)
     if workers is not None:
         check_int("workers", workers, 1)
     if triage_only and all_rows:
@@ -297,9 +304,10 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
                for key, (name, space, summary) in runs.items()}
     out = check_output_dir(out_dir)
     shared = None if shared_dir is None else check_output_dir(shared_dir, "shared_dir")
+    oracle = out if oracle_dir is None else check_output_dir(oracle_dir, "oracle_dir")
     with run_lock(out, command="case-study"):
         return _run_locked(preset, settings, damage, target, seed, out, method, model_space, video, workers,
-                           progress, runs, configs, shared, all_rows, triage_only, own)
+                           progress, runs, configs, shared, all_rows, triage_only, own, oracle)
 
 
 def check_self_model_fields(fields: Mapping | None, budget: str, method: str = DEFAULT_METHOD,
@@ -582,9 +590,9 @@ def _true_gains(damage: str) -> list[float]:
 def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int, out: Path,
                 method: str, model_space: str, video: bool, workers: int | None, progress: bool, runs: dict,
                 configs: dict, shared: Path | None = None, all_rows: bool = True,
-                triage_only: bool = False, own: dict | None = None) -> dict:
+                triage_only: bool = False, own: dict | None = None, oracle_dir: Path | None = None) -> dict:
     """The body of :func:`run_case_study`, under the lock of ``out`` (the rows of
-    :data:`SHARED_KEYS` in ``shared`` when given)."""
+    :data:`SHARED_KEYS` in ``shared`` when given, the oracle's runs in ``oracle_dir``)."""
     t0 = time.perf_counter()
     processes = workers if workers is not None else (os.cpu_count() or 1)  # of the gaits and the PPO rows
     triage_s = 0.0 if triage_only else _triage_seconds(out)  # a triage run before, whose gaits are reused
@@ -611,27 +619,51 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         # a shared gait may be being loaded by another case study at this moment: wait for it
         return _wait_if_busy(run) if base(key) is shared else run()
 
-    def evolve_all(natives: dict[str, Robot]) -> dict:
-        """Every row's gait, as one stage. With more than one worker all evolve at once on one
-        shared pool (a quick generation is one world, which alone keeps one core busy), with
-        the gaits they give one after the other."""
-        if processes == 1 or len(natives) == 1:
-            return {key: evolve(key, native, None) for key, native in natives.items()}
-        with SharedPool(processes) as pool:
-            return dict(zip(natives, pool.run_each([functools.partial(evolve, key, native, pool)
-                                                    for key, native in natives.items()])))
-
     target_robot = gait.as_robot(damage)
+    oracle_base = out if oracle_dir is None else oracle_dir
+    oracle: OracleGait | None = None
+
+    def evolve_all(natives: dict[str, Robot]) -> dict:
+        """Every row's gait and the oracle's runs (for the key ``true_damaged``: the best run,
+        :func:`aquafish.oracle.select_oracle`), as one stage. With more than one worker all
+        evolve at once on one shared pool (a quick generation is one world, which alone keeps
+        one core busy), with the gaits they give one after the other."""
+        nonlocal oracle
+        rows = {key: native for key, native in natives.items() if key != "true_damaged"}
+        runs = oracle_jobs(target_robot, oracle_base, generations=settings.gait_generations,
+                           population_size=settings.gait_population, episodes_per_genome=settings.gait_episodes,
+                           episode_duration_s=duration, workers=workers, progress=progress)
+        if oracle_base is not out:  # another case study may be loading the shared oracle
+            runs = [functools.partial(lambda job, pool: _wait_if_busy(lambda: job(pool)), job) for job in runs]
+        if processes == 1:
+            controllers = {key: evolve(key, native, None) for key, native in rows.items()}
+            found = [job(None) for job in runs]
+        else:
+            with SharedPool(processes) as pool:
+                done = pool.run_each([functools.partial(evolve, key, native, pool) for key, native in rows.items()]
+                                     + [functools.partial(job, pool) for job in runs])
+            controllers, found = dict(zip(rows, done[:len(rows)])), done[len(rows):]
+        oracle = select_oracle(found, target_robot, duration, generations=ORACLE_BUDGET_FACTOR * settings.gait_generations,
+                               population=settings.gait_population, starts=settings.gait_episodes)
+        return {**controllers, "true_damaged": oracle.controller}
+
+    def records(transfers: dict) -> dict:
+        """The report's controllers: distances, and each one's ``budget`` and ``seeds``."""
+        return {key: {"native_distance": t.native_distance, "target_distance": t.target_distance,
+                      "native_distances": t.native_distances.tolist(), "target_distances": t.target_distances.tolist(),
+                      **_provenance(key, settings, seed, oracle)}
+                for key, t in transfers.items()}
+
     if not all_rows:  # 1. triage: does the damage break the healthy gait at all?
-        natives = {"healthy": _shared_natives()["healthy"], "true_damaged": gait.as_robot(damage)}
+        natives = {"healthy": _shared_natives()["healthy"], "true_damaged": target_robot}
         controllers = timed("gaits", lambda: evolve_all(natives))
         transfers = {key: timed("transfer", lambda key=key: gait.score_transfer(
                          controllers[key], natives[key], target_robot, seed=seed,
                          episodes=settings.transfer_episodes, episode_duration_s=duration))
                      for key in controllers}
-        healthy, oracle = (transfers[k].target_distance for k in ("healthy", "true_damaged"))
-        if triage_only or not breaks(healthy, oracle):
-            return _write_triaged(out, preset, settings, damage, target, seed, method, model_space, transfers,
+        healthy, oracle_distance = (transfers[k].target_distance for k in ("healthy", "true_damaged"))
+        if triage_only or not breaks(healthy, oracle_distance):
+            return _write_triaged(out, preset, settings, damage, target, seed, method, model_space, records(transfers),
                                   stages, time.perf_counter() - t0, shared, own)
 
     # 2. self-model
@@ -687,11 +719,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
                                            titles=[f"({chr(97 + i)}) gait of {CONTROLLER_KEYS[key].removeprefix('the ')}"
                                                    for i, key in enumerate(transfers)]).name,
     }
-    controllers_report = {
-        key: {"native_distance": t.native_distance, "target_distance": t.target_distance,
-              "native_distances": t.native_distances.tolist(), "target_distances": t.target_distances.tolist()}
-        for key, t in transfers.items()
-    }
+    controllers_report = records(transfers)
     report = {
         "preset": preset, "damage": damage, "seed": seed, "method": method, "model_space": model_space,
         "self_model_fields": own or {}, "episode_duration_s": duration,
@@ -746,16 +774,25 @@ def _triage_seconds(out: Path) -> float:
     return float(report.get("wall_seconds", 0.0)) if isinstance(report, dict) and report.get("triaged") else 0.0
 
 
+def _provenance(key: str, settings: CaseStudyPreset, seed: int, oracle: OracleGait | None) -> dict:
+    """A controller's ``budget`` and ``seeds`` in the report: the oracle's record
+    (:meth:`aquafish.oracle.OracleGait.record`) for ``true_damaged``; a PPO row's timesteps; a NEAT
+    row's generations x population x starts; every row but the oracle made from ``seed``."""
+    if key == "true_damaged":
+        return oracle.record()
+    if key in ("ppo", "robust_ppo"):
+        return {"budget": ppo_budget(settings.rl_timesteps), "seeds": [seed]}
+    return {"budget": neat_budget(settings.gait_generations, settings.gait_population, settings.gait_episodes),
+            "seeds": [seed]}
+
+
 def _write_triaged(out: Path, preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int,
-                   method: str, model_space: str, transfers: dict, stages: dict, wall_seconds: float,
+                   method: str, model_space: str, controllers: dict, stages: dict, wall_seconds: float,
                    shared: Path | None, own: dict | None = None) -> dict:
     """The report of a case study stopped at its triage (``all_rows=False``): the healthy and the
-    oracle rows only, because the damage does not break the healthy gait or because the
-    triage was all that was asked (``triage_only``; ``verdict.breaks`` then says whether the
-    rest is to run)."""
-    controllers = {key: {"native_distance": t.native_distance, "target_distance": t.target_distance,
-                         "native_distances": t.native_distances.tolist(), "target_distances": t.target_distances.tolist()}
-                   for key, t in transfers.items()}
+    oracle rows only (``controllers``: their records), because the damage does not break the
+    healthy gait or because the triage was all that was asked (``triage_only``;
+    ``verdict.breaks`` then says whether the rest is to run)."""
     healthy, oracle = (controllers[k]["target_distance"] for k in ("healthy", "true_damaged"))
     share = healthy / oracle if oracle > 0 else None
     broken = breaks(healthy, oracle)

@@ -52,14 +52,19 @@ Heading: the mission's heading is the robot's initial forward direction (world +
 :data:`aquafish_gym.env.INITIAL_HEADING`); every speed is the displacement along it per second
 (units/s, 1 unit = 8 cm) over a span of the mission (:func:`span_speed`).
 
-The oracles (not the robot's: they know the damage; their compute is not the mission's):
-``oracle_speed`` is a gait evolved on the true damaged robot, scored 20 s from rest heading
-along the mission's heading (:func:`mission_oracle_speed`). Such a gait need not hold its
-heading for minutes, nor turn back to it after the stops, which the new gait must; so
-``oracle_in_window`` swims that gait, and the mission's own new-gait procedure (both kinds and
-the rehearsal) run on the true damaged robot, from the very state the new gait started from,
-over the span of ``speed_after`` (:func:`_oracles_in_window`): the yardstick that faces what the
-new gait faced.
+The yardsticks (not the robot's: they know the damage; their compute is not the mission's) never
+hold the mission's own procedure. The oracle gait is independent (:mod:`aquafish.oracle`: the
+best of three runs evolved on the true damaged robot with three times the gait budget and seeds
+the mission never uses); ``oracle_speed`` is its speed 20 s from rest along the heading, and
+``oracle_in_window`` its speed from the very state the new gait took over from, over the span of
+``speed_after``. From the bit-identical state at the onset, the mission also runs two
+counterfactuals to its end (``counterfactuals``): ``keep_old`` (no alarm: the old gait carries
+on) and ``oracle_at_alarm`` (the damage known at the alarm: the oracle gait from the alarm's
+state, no stop, no experiment). Each, and the mission, records ``net_displacement`` (units along
+the heading from the onset to the end: every stop is charged) and ``final_speed`` (units/s over
+the last :data:`FINAL_SPAN_S`, or the last third if shorter). A mission is ``recovered`` when its
+net displacement beats ``keep_old``'s and its final speed is at least
+:data:`RECOVERED_FINAL_SHARE` of ``oracle_at_alarm``'s (:func:`judge_recovery`).
 """
 
 from __future__ import annotations
@@ -83,6 +88,7 @@ import gait
 from aquafish.case_study import (DEFAULT_METHOD, DEFAULT_MODEL_SPACE, HYPOTHESES_SELF_MODEL_FIELDS, PRESETS,
                                  model_fields, model_robot, own_self_model_fields)
 from aquafish.mission_video import ANGLE_COLUMNS, write_mission_video
+from aquafish.oracle import check_procedure_seed, evolve_oracle
 from aquafish.monitor import CALIBRATION_FILE, DamageMonitor, MonitorCalibration, calibrate
 from aquafish_gym import ServoFaults, get_damage
 from aquafish_gym.checks import check_int
@@ -106,9 +112,10 @@ from gait.robots import Robot
 from gait.shared_pool import SharedPool
 
 __all__ = ["EXPERIMENTS_FILE", "MISSION_FILE", "MISSION_PRESETS", "NEW_GAIT_KINDS",
-           "ORACLE_NEW_GAIT_DIR", "PRIORS", "RECOVERED_DIR", "RECOVERY_FIELDS", "MissionPreset", "MissionTarget", "Prior", "load_prior",
+           "FINAL_SPAN_S", "ORACLE_DIR", "RECOVERED_FINAL_SHARE", "PRIORS", "RECOVERED_DIR", "RECOVERY_FIELDS", "MissionPreset", "MissionTarget", "Prior", "load_prior",
            "make_prior", "mission_oracle_speed", "mission_preset", "new_gait_kinds", "plot_timeline", "prepare_prior",
-           "run_mission", "span_speed", "stop_robot"]
+           "final_span_s", "final_speed", "judge_recovery", "net_displacement", "run_mission", "span_speed",
+           "stop_robot"]
 
 log = logging.getLogger(__name__)
 
@@ -117,9 +124,6 @@ MISSION_FILE, TRAJECTORY_FILE, TIMELINE_FILE = "mission.json", "trajectory.csv",
 #: genome and the robot, as a prior's), gait (``best_controller.json``, for ``aquafish transfer``)
 #: and the target experiments it made (:data:`EXPERIMENTS_FILE`).
 RECOVERED_DIR = "recovered"
-#: Where a mission keeps the oracle that evolves its new gait as the recovery does, on the true
-#: damaged robot (``best_controller.json``; ``mission.json``'s ``oracle_in_window``).
-ORACLE_NEW_GAIT_DIR = "oracle_new_gait"
 #: The recovery's target experiments, actions and IMU logs (:func:`eea.record.save_experiments`;
 #: :func:`eea.record.load_experiments` reads them back, to score models on them offline).
 EXPERIMENTS_FILE = "experiments.npz"
@@ -427,15 +431,24 @@ class _Mission:
         self.env._episodes = copy.deepcopy(snap.episodes)
         self.time_s, self.obs, self.damaged = snap.time_s, snap.obs.copy(), snap.damaged
 
-    def swim_from(self, snap: "_Snapshot", controller, end_s: float, phase: str) -> list[dict]:
+    def swim_from(self, snap: "_Snapshot", controller, end_s: float, phase: str,
+                  clock_origin_s: float | None = None) -> list[dict]:
         """Swim ``controller`` from ``snap`` until ``end_s`` (s); its timeline rows, the
-        snapshot's row first. The mission's own rows are left as they were."""
+        snapshot's row first. The mission's own rows are left as they were.
+
+        Args:
+            clock_origin_s: None: the controller starts afresh (reset, its clock 0 at the
+                snapshot), as a new gait does. A time (s): the controller goes on as it stood
+                (not reset: pass a copy made at the snapshot) with its clock counted from
+                there, as the gait that was swimming at the snapshot would."""
         rows, self.rows = self.rows, [dict(self.rows[snap.rows - 1])]
         try:
             self._restore(snap)
-            controller.reset()
+            if clock_origin_s is None:
+                controller.reset()
+            origin = snap.time_s if clock_origin_s is None else clock_origin_s
             while self.time_s < end_s - 1e-9:
-                self.step(controller.act(self.obs, self.time_s - snap.time_s), phase)
+                self.step(controller.act(self.obs, self.time_s - origin), phase)
             return self.rows
         finally:
             self.rows = rows
@@ -623,7 +636,8 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         video: write ``mission.mp4`` (or ``.gif``), drawn from the trajectory after the mission
             (:func:`aquafish.mission_video.write_mission_video`).
         oracle: evolve the oracle gaits on the true damaged robot for ``oracle_speed`` and
-            ``oracle_in_window`` (:func:`mission_oracle_speed`, :func:`_oracles_in_window`).
+            ``oracle_in_window`` and the ``counterfactuals`` (:func:`mission_oracle_speed`,
+            :func:`judge_recovery`).
         progress: progress bars.
 
     Returns:
@@ -635,7 +649,7 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
     """
     damage = get_damage(damage).name
     settings = mission_preset(preset)
-    check_int("seed", seed, 0)
+    check_procedure_seed(seed)
     onset_s = check_onset(onset_s)
     if isinstance(duration_s, bool) or not isinstance(duration_s, (int, float)) or not math.isfinite(duration_s) \
             or duration_s <= 0:
@@ -665,15 +679,23 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     controller.reset()
     recovery: dict = {}  # the recovery after the alarm: when, what it cost, the model it found
     snapshot, window, oracle_speed, takeover_yaw = None, None, None, 0.0
+    # the counterfactuals' starts: the first moment the damage is in force (with the old gait as it
+    # stood), and the alarm's moment (a false alarm's is no start: the damage is still to come)
+    onset_snap, old_gait, alarm_snap, counterfactuals, independent = None, None, None, None, None
     try:
         while mission.time_s < duration_s - 1e-9:
             phase = "gait" if not recovery else "new_gait"
             obs = mission.step(controller.act(mission.obs, mission.time_s - gait_start), phase)
+            if mission.damaged and onset_snap is None:
+                onset_snap, old_gait = mission.snapshot(), copy.deepcopy(controller)
+                obs = mission.obs
             if recovery or not monitor.update(obs, {"time_s": mission.time_s}):
                 continue
             # the alarm: stop, experiment where the robot is, rebuild the self-model, evolve a gait
             alarm_s = mission.time_s
             log.info("mission: alarm at %.1f s", alarm_s)
+            if mission.damaged:
+                alarm_snap = mission.snapshot()
             stop_robot(mission, settings.stop_max_s)
             config = _eea_config(settings, damage, seed, workers, own)
             records, target, new_model, check, eea_s = _recover_model(
@@ -704,10 +726,12 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         if after_start is not None and after_start >= rows[-1]["time_s"]:
             after_start = None  # the mission ended before it
         if oracle:
-            straight, oracle_speed = _straight_oracle(damage, settings, seed, out, workers, progress)
+            independent, oracle_speed = _straight_oracle(damage, settings, seed, out, workers, progress)
             if snapshot is not None and after_start is not None:
-                window = _oracles_in_window(mission, snapshot, after_start, straight, damage, prior, settings, seed,
-                                            out, workers, progress, duration_s, takeover_yaw)
+                window = _oracle_in_window(mission, snapshot, after_start, independent.controller, duration_s)
+            if onset_snap is not None:
+                counterfactuals = _counterfactuals(mission, onset_snap, old_gait, alarm_snap, independent.controller,
+                                                   duration_s)
     finally:
         mission.env.close()
 
@@ -739,6 +763,12 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         "speed_before": speed_before, "speed_damaged": speed_damaged, "speed_after": speed_after,
         "oracle_speed": oracle_speed,
         "oracle_in_window": window,
+        "oracle": None if independent is None else independent.record(),
+        "net_displacement": None if onset_snap is None else net_displacement(rows, onset_snap.time_s),
+        "final_speed": final_speed(rows, duration_s),
+        "counterfactuals": counterfactuals,
+        "recovered": None if counterfactuals is None else judge_recovery(
+            net_displacement(rows, onset_snap.time_s), final_speed(rows, duration_s), counterfactuals),
         "monitor": {"lower": prior.calibration.lower, "upper": prior.calibration.upper,
                     "window_s": prior.calibration.window_s},
         "self_model_before": _model_dict(prior.genome),
@@ -836,24 +866,103 @@ def _recover_model(mission: _Mission, genome: np.ndarray | None, config: EEAConf
 
 def mission_oracle_speed(damage: str, settings: MissionPreset, seed: int, out: Path, workers: int = 1,
                          progress: bool = False) -> float:
-    """The oracle's speed (units/s): a gait evolved on the true damaged robot ``damage`` with the
-    preset's NEAT budget (kept in ``out/oracle_gait``, reused when finished), its mean speed
-    along the heading on the damaged robot (distance / episode seconds, 20 s from rest at
-    ``quick``, over the case preset's transfer starts). ``mission.json``'s ``oracle_speed``.
+    """The oracle's speed (units/s): the independent oracle gait (:mod:`aquafish.oracle`: the best
+    of three runs evolved on the true damaged robot ``damage`` with three times the preset's NEAT
+    generations and seeds the mission never uses; kept in ``out/oracle``, reused when finished),
+    its mean speed along the heading on the damaged robot (distance / episode seconds, 20 s from
+    rest at ``quick``, over the case preset's transfer starts from ``seed``). ``mission.json``'s
+    ``oracle_speed``.
 
     Raises:
-        ValueError: an unknown damage, or an ``oracle_gait`` made with other settings.
+        ValueError: an unknown damage, or an oracle run made with other settings.
     """
     return _straight_oracle(damage, settings, seed, out, workers, progress)[1]
 
 
+#: Where a mission keeps its independent oracle's runs (:mod:`aquafish.oracle`).
+ORACLE_DIR = "oracle"
+
+
 def _straight_oracle(damage: str, settings: MissionPreset, seed: int, out: Path, workers: int, progress: bool):
-    """:func:`mission_oracle_speed`'s gait and speed."""
+    """:func:`mission_oracle_speed`'s :class:`~aquafish.oracle.OracleGait` and speed."""
     robot = gait.as_robot(damage)
-    controller = gait.evolve_or_load_gait(robot, out / "oracle_gait", **_gait_kwargs(settings, seed, workers, progress))
-    t = gait.score_transfer(controller, robot, robot, seed=seed, episodes=PRESETS[settings.case_preset].transfer_episodes,
+    case = PRESETS[settings.case_preset]
+    independent = evolve_oracle(robot, out / ORACLE_DIR, generations=case.gait_generations,
+                                population_size=case.gait_population, episodes_per_genome=case.gait_episodes,
+                                episode_duration_s=settings.gait_episode_s, workers=workers, progress=progress)
+    t = gait.score_transfer(independent.controller, robot, robot, seed=seed, episodes=case.transfer_episodes,
                             episode_duration_s=settings.gait_episode_s)
-    return controller, float(t.target_distance / settings.gait_episode_s)
+    return independent, float(t.target_distance / settings.gait_episode_s)
+
+
+# -- judging a mission against what else the robot could have done ------------------------------------------------
+
+#: The final speed is measured over the mission's last this many seconds, or its last third if
+#: that is shorter (:func:`final_speed`).
+FINAL_SPAN_S = 120.0
+#: A recovered mission's final speed is at least this share of ``oracle_at_alarm``'s.
+RECOVERED_FINAL_SHARE = 0.8
+
+
+def final_span_s(duration_s: float) -> float:
+    """Seconds at the mission's end that :func:`final_speed` spans: :data:`FINAL_SPAN_S`, or a
+    third of ``duration_s`` if that is shorter."""
+    return min(FINAL_SPAN_S, duration_s / 3.0)
+
+
+def net_displacement(rows: list[dict], onset_s: float) -> float:
+    """Units along the mission's heading from the trajectory sample nearest ``onset_s`` to the
+    last: what the robot made of the mission after the damage, every stop charged."""
+    t = np.array([r["time_s"] for r in rows])
+    i = int(np.argmin(np.abs(t - onset_s)))
+    a, b = (np.array([rows[k]["x"], rows[k]["y"], rows[k]["z"]]) for k in (i, -1))
+    return float((b - a) @ INITIAL_HEADING)
+
+
+def final_speed(rows: list[dict], duration_s: float) -> float | None:
+    """Units/s along the mission's heading over its last :func:`final_span_s` (:func:`span_speed`)."""
+    return span_speed(rows, duration_s - final_span_s(duration_s), duration_s)
+
+
+def judge_recovery(displacement: float, speed: float | None, counterfactuals: dict) -> bool | None:
+    """Whether a mission recovered: its net displacement beats ``keep_old``'s (carrying on with the
+    old gait) and its final speed is at least :data:`RECOVERED_FINAL_SHARE` of ``oracle_at_alarm``'s
+    (the damage known at the alarm, the independent oracle gait swum from there, no stop).
+
+    Args:
+        displacement: the mission's net displacement (units, :func:`net_displacement`).
+        speed: the mission's final speed (units/s, :func:`final_speed`).
+        counterfactuals: ``mission.json``'s ``counterfactuals``.
+
+    Returns:
+        None when there is no ``oracle_at_alarm`` (no alarm after the onset) or its final speed is
+        not forward (nothing to recover to), else the verdict.
+    """
+    oracle = counterfactuals.get("oracle_at_alarm")
+    if oracle is None or oracle["final_speed"] is None or not oracle["final_speed"] > 0:
+        return None
+    keep = counterfactuals["keep_old"]["net_displacement"]
+    return bool(displacement > keep and speed is not None and speed >= RECOVERED_FINAL_SHARE * oracle["final_speed"])
+
+
+def _counterfactuals(mission: _Mission, onset: _Snapshot, old_gait, alarm: _Snapshot | None, oracle_controller,
+                     duration_s: float) -> dict:
+    """``mission.json``'s ``counterfactuals``, over the mission's own span from the onset's
+    bit-identical state: ``keep_old`` (no alarm: the old gait, as it stood at the onset, swims on
+    to the end) and ``oracle_at_alarm`` (the damage known at the alarm: the independent oracle gait
+    from the alarm's state to the end, no stop, no experiment; None without an alarm after the
+    onset). Each: ``net_displacement`` (units from the onset's position to the end, along the
+    heading), ``final_speed`` (units/s, :func:`final_speed`) and ``start_s``."""
+    onset_s = onset.time_s
+    keep = mission.swim_from(onset, copy.deepcopy(old_gait), duration_s, "keep_old", clock_origin_s=0.0)
+    result = {"keep_old": {"start_s": onset_s, "net_displacement": net_displacement(keep, onset_s),
+                           "final_speed": final_speed(keep, duration_s)}, "oracle_at_alarm": None}
+    if alarm is not None:
+        swum = mission.swim_from(alarm, oracle_controller, duration_s, "oracle_at_alarm")
+        start, end = (np.array([r["x"], r["y"], r["z"]]) for r in (keep[0], swum[-1]))  # keep[0]: the onset's row
+        result["oracle_at_alarm"] = {"start_s": alarm.time_s, "net_displacement": float((end - start) @ INITIAL_HEADING),
+                                     "final_speed": final_speed(swum, duration_s)}
+    return result
 
 
 #: The kinds of new gait a recovery evolves and rehearses (:func:`_new_gait`), in the order a tie
@@ -933,23 +1042,11 @@ def _new_gait(robot: Robot, prior: Prior, settings: MissionPreset, seed: int, wo
                                        "kinds": record}
 
 
-def _oracles_in_window(mission: _Mission, snapshot: _Snapshot, after_s: float, straight, damage: str, prior: Prior,
-                       settings: MissionPreset, seed: int, out: Path, workers: int, progress: bool,
-                       duration_s: float, yaw_deg: float) -> dict:
-    """``mission.json``'s ``oracle_in_window``: oracle gaits swum on the damaged robot from where
-    and how it stood when the new gait took over (the same state, to the bit, that the new gait
-    swam on from), over the span ``speed_after`` is measured on, so that they face what the new
-    gait faced (the robot's heading after its stops, the turn back to the mission's heading,
-    minutes of swimming). Two oracles, each knowing the damage: the straight oracle
-    (:func:`mission_oracle_speed`'s gait, evolved 20 s from the heading; it need not hold the
-    heading for minutes) and the mission's own new-gait procedure (``procedure``: both kinds,
-    the rehearsal from ``yaw_deg`` included), run on the true damaged robot (:func:`_new_gait`,
-    kept in ``out/oracle_new_gait``): what the recovery gives with a perfect self-model.
-    ``best`` is the faster; ``after_s`` the span's start (s), as given."""
-    procedure = _new_gait(gait.as_robot(damage), prior, settings, seed, workers, progress, yaw_deg)[0]
-    (out / ORACLE_NEW_GAIT_DIR).mkdir(exist_ok=True)
-    procedure.save(out / ORACLE_NEW_GAIT_DIR / NEAT_CONTROLLER_FILE)
-    speeds = {name: span_speed(mission.swim_from(snapshot, controller, duration_s, "oracle"), after_s)
-              for name, controller in (("straight", straight), ("procedure", procedure))}
-    found = [v for v in speeds.values() if v is not None]
-    return {"after_s": after_s, **speeds, "best": max(found) if found else None}
+def _oracle_in_window(mission: _Mission, snapshot: _Snapshot, after_s: float, controller, duration_s: float) -> dict:
+    """``mission.json``'s ``oracle_in_window``: the independent oracle gait swum on the damaged
+    robot from where and how it stood when the new gait took over (the same state, to the bit,
+    that the new gait swam on from), over the span ``speed_after`` is measured on. The
+    mission's own new-gait procedure is no part of it (a yardstick never holds what it judges).
+    ``straight`` and ``best``: its speed (units/s); ``after_s`` the span's start (s), as given."""
+    speed = span_speed(mission.swim_from(snapshot, controller, duration_s, "oracle"), after_s)
+    return {"after_s": after_s, "straight": speed, "best": speed}

@@ -177,6 +177,14 @@ def shared_dir(out: Path, seed: int) -> Path:
     return Path(out) / "shared" / f"seed{seed}"
 
 
+def oracle_dir(out: Path, damage: str) -> Path:
+    """``OUT/oracles/<damage dir>``: the oracle of ``damage`` (:mod:`aquafish.oracle`), one for
+    every seed's cell, since it depends on no procedure seed."""
+    from aquafish.damage_table import gait_dir_name
+
+    return Path(out) / "oracles" / gait_dir_name(damage)
+
+
 def merge_manifest(out: Path, spec: RecoverySpec) -> RecoverySpec:
     """``spec`` merged into ``OUT/recovery.json`` (the damages and seeds run so far, and these),
     written atomically; the merged spec.
@@ -229,17 +237,32 @@ def _train_shared(preset: str, seed: int, shared: str, episode_duration_s: float
     return seed
 
 
+def _train_oracle(preset: str, damage: str, oracle: str, episode_duration_s: float, workers: int | None,
+                  progress: bool) -> str:
+    """Evolve (or find finished) the oracle of ``damage`` in ``oracle`` with the preset's gait
+    settings (:func:`aquafish.oracle.evolve_oracle`); return ``damage``."""
+    import gait
+    from aquafish.case_study import preset_settings
+    from aquafish.oracle import evolve_oracle
+
+    settings = preset_settings(preset, episode_duration_s)
+    evolve_oracle(gait.as_robot(damage), oracle, generations=settings.gait_generations,
+                  population_size=settings.gait_population, episodes_per_genome=settings.gait_episodes,
+                  episode_duration_s=settings.episode_duration_s, workers=workers, progress=progress)
+    return damage
+
+
 def _run_cell(preset: str, damage: str, seed: int, cell: str, shared: str, episode_duration_s: float,
               workers: int | None, progress: bool, all_rows: bool = False, triage_only: bool = False,
-              self_model_fields: dict | None = None) -> dict:
-    """Run one cell's case study (no video) with the shared rows of its seed; return its report
-    (``all_rows`` False: the other rows only where the damage breaks the healthy gait;
-    ``triage_only``: the healthy and oracle rows only, as ``run_case_study``)."""
+              self_model_fields: dict | None = None, oracle: str | None = None) -> dict:
+    """Run one cell's case study (no video) with the shared rows of its seed and the oracle of its
+    damage; return its report (``all_rows`` False: the other rows only where the damage breaks
+    the healthy gait; ``triage_only``: the healthy and oracle rows only, as ``run_case_study``)."""
     from aquafish.case_study import run_case_study
 
     return run_case_study(preset, damage, seed, cell, episode_duration_s=episode_duration_s, video=False,
                           workers=workers, progress=progress, shared_dir=shared, all_rows=all_rows,
-                          triage_only=triage_only, self_model_fields=self_model_fields)
+                          triage_only=triage_only, self_model_fields=self_model_fields, oracle_dir=oracle)
 
 
 def check_stale(report: dict | None, cell: str | os.PathLike) -> bool:
@@ -356,12 +379,23 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     for _ in _run_tasks(shared_tasks, backend, processes, address):
         bar.update()
     bar.close()
+    # the oracle of every damage with unfinished cells, once for all its seeds
+    damages = list(dict.fromkeys(damage for damage, _ in todo))
+    bar = progress_bar(len(damages), desc="oracles", unit="damage", disable=not progress or not damages)
+    oracle_tasks = [DirTask(_train_oracle, (spec.preset, damage, str(oracle_dir(out, damage)), duration, cell_workers,
+                                            inner_progress), outputs=(2,), label=f"oracle of {damage}")
+                    for damage in damages]
+    for _ in _run_tasks(oracle_tasks, backend, processes, address):
+        bar.update()
+    bar.close()
+
     def run_pass(stage: str, cells: list, triage_only: bool) -> None:
         bar = progress_bar(len(cells), desc=stage, unit="cell", disable=not progress or not cells)
         tasks = [DirTask(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)),
                                      str(shared_dir(out, seed)), duration, cell_workers, inner_progress,
-                                     all_rows and not triage_only, triage_only, spec.self_model_fields),
-                         outputs=(3,), inputs=(4,), label=f"{stage} of cell {damage} seed {seed}")
+                                     all_rows and not triage_only, triage_only, spec.self_model_fields,
+                                     str(oracle_dir(out, damage))),
+                         outputs=(3,), inputs=(4, 11), label=f"{stage} of cell {damage} seed {seed}")
                  for damage, seed in cells]
         for report in _run_tasks(tasks, backend, processes, address):
             reports[(report["damage"], report["seed"])] = report

@@ -43,6 +43,17 @@ def test_a_case_study_without_the_rl_extra_says_its_ppo_rows_are_left_out(tmp_pa
     monkeypatch.setattr("aquafish.case_study._rl_available", lambda: False)
     report = run_case_study("smoke", "left_pectoral_half", 0, tmp_path, workers=1, progress=False, video=False)
     assert not {"ppo", "robust_ppo"} & set(report["controllers"])
+    # the oracle is independent: seeds no other row's episodes meet, at least 3x the budget, best of 3 runs
+    oracle, rows = report["controllers"]["true_damaged"], report["controllers"]
+    starts = PRESETS["smoke"].gait_episodes
+    oracle_episodes = {s + k for s in oracle["seeds"] for k in range(oracle["budget"]["starts"])}
+    for key, row in rows.items():
+        if key != "true_damaged":
+            assert row["seeds"] == [0] and row["budget"]["starts"] == starts
+            assert not oracle_episodes & {s + k for s in row["seeds"] for k in range(starts)}, key
+            assert oracle["budget"]["episodes"] >= 3 * row["budget"]["episodes"], key
+    assert oracle["budget"]["runs"] >= 3 and len(oracle["seeds"]) == oracle["budget"]["runs"]
+    assert oracle["chosen"] == max(range(3), key=lambda i: (oracle["selection"]["distances"][i], -i))
     assert report["left_out"] and "aquafish[rl]" in report["left_out"][0]
     assert f"Left out: {report['left_out'][0]}." in (tmp_path / "report.md").read_text()
     assert "PPO rows are left out" in caplog.text

@@ -9,7 +9,7 @@ import pytest
 
 from aquafish.cli import main
 from aquafish.mission import (MISSION_PRESETS, NEW_GAIT_KINDS, STOP_ACTION, MissionTarget, _Mission, load_prior,
-                              make_prior, new_gait_kinds, run_mission, span_speed, stop_robot)
+                              judge_recovery, make_prior, new_gait_kinds, run_mission, span_speed, stop_robot)
 from aquafish.case_study import PRESETS
 from aquafish.mission_cli import PRESET_NAMES
 from gait import load_controller
@@ -69,9 +69,18 @@ def test_the_smoke_mission_writes_its_report_with_sane_relations(smoke_mission):
     # the oracles swum from where the new gait started, over speed_after's span
     window = report["oracle_in_window"]
     assert window["after_s"] == pytest.approx(report["recovered_s"] + MISSION_PRESETS["smoke"].warmup_s)
-    assert window["best"] == max(window["straight"], window["procedure"])
-    assert report["oracle_speed"] is not None
-    load_controller(out / "oracle_new_gait")
+    assert window["best"] == window["straight"] and "procedure" not in window   # no yardstick holds the procedure
+    assert report["oracle_speed"] is not None and report["oracle"]["budget"]["runs"] >= 3
+    assert min(report["oracle"]["seeds"]) > report["seed"] + 1000
+    # the counterfactuals from the onset: carrying on, and the oracle from the alarm
+    cf = report["counterfactuals"]
+    assert cf["keep_old"]["start_s"] == pytest.approx(report["damage_in_force_s"])
+    assert cf["oracle_at_alarm"]["start_s"] == pytest.approx(report["alarm_s"])
+    assert report["recovered"] == judge_recovery(report["net_displacement"], report["final_speed"], cf)
+    rows = [dict(zip(("time_s", "x", "y"), map(float, r.split(",")[:3])))
+            for r in (out / "trajectory.csv").read_text().splitlines()[1:]]
+    onset_row = min(rows, key=lambda r: abs(r["time_s"] - report["damage_in_force_s"]))
+    assert report["net_displacement"] == pytest.approx(rows[-1]["y"] - onset_row["y"], abs=1e-9)
     # the new gait is the rehearsal's choice: the candidate that swam furthest from the robot's yaw
     rehearsal, smoke = report["rehearsal"], MISSION_PRESETS["smoke"]
     assert rehearsal["start_yaw_deg"] == report["robot_yaw_at_new_gait_deg"]
@@ -458,3 +467,37 @@ def test_a_calibration_made_with_other_settings_is_made_anew(prior_dir):
     make_prior(prior_dir, _genome(), Robot(Morphology.healthy(), "none", "healthy"), "smoke", 0, workers=1,
                calibration_seeds=6, progress=False)  # back to the fixture's, for the other tests
     assert MonitorCalibration.load(path) == before
+
+
+def test_keep_old_from_the_onset_snapshot_repeats_the_mission_to_the_bit_and_a_new_gait_restarts_its_clock():
+    import copy
+
+    mission = _Mission("reversed_left_pectoral", 2.0, 10.0, 0)
+    swimming = _Sweep()
+    while not mission.damaged:
+        mission.step(swimming.act(mission.obs, mission.time_s), "gait")
+    onset, old_gait = mission.snapshot(), copy.deepcopy(swimming)
+    while mission.time_s < 6.0 - 1e-9:
+        mission.step(swimming.act(mission.obs, mission.time_s), "gait")
+    own = [(r["time_s"], r["x"], r["y"], r["yaw_deg"]) for r in mission.rows[onset.rows - 1:]]
+    kept = mission.swim_from(onset, old_gait, 6.0, "keep_old", clock_origin_s=0.0)
+    assert [(r["time_s"], r["x"], r["y"], r["yaw_deg"]) for r in kept] == own   # bit for bit
+    fresh = mission.swim_from(onset, _Sweep(), 6.0, "new_gait")   # its clock from 0 at the onset: another path
+    assert fresh[0]["y"] == kept[0]["y"] and fresh[-1]["y"] != kept[-1]["y"]
+
+
+def test_net_displacement_final_speed_and_the_recovery_verdict_by_hand():
+    from aquafish.mission import final_span_s, final_speed, judge_recovery, net_displacement
+
+    assert final_span_s(900.0) == 120.0 and final_span_s(300.0) == 100.0   # the last third when shorter
+    # along +y at 0.5 units/s from 30 s, having stood still before; x does not count
+    rows = [{"time_s": t / 10, "x": 0.3 * t, "y": max(0.0, 0.05 * (t - 300)), "z": 0.0} for t in range(0, 3001)]
+    assert net_displacement(rows, 30.0) == pytest.approx(0.5 * 270.0)
+    assert final_speed(rows, 300.0) == pytest.approx(0.5)
+    keep = {"keep_old": {"net_displacement": 100.0, "final_speed": 0.2}}
+    oracle = {"oracle_at_alarm": {"net_displacement": 150.0, "final_speed": 0.5}}
+    assert judge_recovery(120.0, 0.45, keep | oracle) is True     # beats carrying on, 90 % of the oracle
+    assert judge_recovery(99.0, 0.45, keep | oracle) is False     # carrying on went further
+    assert judge_recovery(120.0, 0.39, keep | oracle) is False    # below 80 % of the oracle's final speed
+    assert judge_recovery(120.0, 0.45, keep | {"oracle_at_alarm": None}) is None
+    assert judge_recovery(120.0, 0.45, keep | {"oracle_at_alarm": {"net_displacement": -1.0, "final_speed": -0.1}}) is None

@@ -8,7 +8,7 @@ import pytest
 from aquafish.case_study import BREAKS_SHARE, breaks, verdict
 from aquafish.cli import main
 from aquafish.recovery import (MANIFEST_FILE, cell_dir, check_spec, check_stale, faults_named, merge_manifest,
-                               render_summary, signs_right, summarize, summary_so_far)
+                               oracle_dir, render_summary, signs_right, summarize, summary_so_far)
 from aquafish_gym import MORPHOLOGY_FIELDS, Morphology
 from aquafish_gym.rundir import MismatchError
 
@@ -256,7 +256,9 @@ def test_a_cell_whose_damage_does_not_break_the_healthy_gait_stops_at_its_triage
     report = json.loads((cell / "report.json").read_text())
     assert report["triaged"] is True and report["models"] == {}
     assert set(report["controllers"]) == {"healthy", "true_damaged"}
-    assert sorted(p.name for p in cell.iterdir() if p.is_dir()) == ["gait_true_damaged"]  # no EEA run, no other gait
+    assert not [p.name for p in cell.iterdir() if p.is_dir()]  # no EEA run, no other gait: the oracle is the damage's
+    oracle_runs = oracle_dir(out, "reversed_left_pectoral")
+    assert sorted(p.name for p in oracle_runs.iterdir()) == [f"gait_oracle_run{i}" for i in range(3)]
     assert set(report["stage_seconds"]) == {"gaits", "transfer"}   # the gaits evolve as one stage
     summary = json.loads((out / "summary.json").read_text())
     assert summary["totals"]["breaking"] == 0 and summary["cells"][0]["shares"].keys() == {"healthy"}
@@ -264,14 +266,14 @@ def test_a_cell_whose_damage_does_not_break_the_healthy_gait_stops_at_its_triage
     assert summary["cells"][0]["shares"]["healthy"] == pytest.approx(healthy_share, rel=1e-12)
 
     # a rerun without --all-rows keeps the triaged cell; with it, the cell gets every row, its two gaits reused
-    stamp = (cell / "gait_true_damaged" / "run.json").stat().st_mtime_ns
+    stamp = (oracle_runs / "gait_oracle_run0" / "run.json").stat().st_mtime_ns
     assert main(argv) == 0
     assert json.loads((cell / "report.json").read_text())["triaged"] is True
     assert main([*argv, "--all-rows"]) == 0
     full = json.loads((cell / "report.json").read_text())
     assert "triaged" not in full and {"plain_eea", "self_model"} <= set(full["models"])
     assert full["controllers"]["true_damaged"] == report["controllers"]["true_damaged"]
-    assert (cell / "gait_true_damaged" / "run.json").stat().st_mtime_ns == stamp
+    assert (oracle_runs / "gait_oracle_run0" / "run.json").stat().st_mtime_ns == stamp
     assert {"eea_self_model", "gaits", "transfer"} <= set(full["stage_seconds"])
 
 
@@ -305,7 +307,7 @@ def test_every_cell_is_triaged_before_any_cell_runs_its_other_rows_and_a_broken_
     stop_at = {"sampled:5"}  # its rows fail once: the run is interrupted between the passes
 
     def fake_cell(preset, damage, seed, cell, shared, duration, workers, progress, all_rows, triage_only,
-                  self_model_fields=None):
+                  self_model_fields=None, oracle=None):
         calls.append(("triage" if triage_only else "rows", damage))
         path = Path(cell)
         path.mkdir(parents=True, exist_ok=True)
@@ -325,6 +327,7 @@ def test_every_cell_is_triaged_before_any_cell_runs_its_other_rows_and_a_broken_
 
     monkeypatch.setattr("aquafish.recovery._run_cell", fake_cell)
     monkeypatch.setattr("aquafish.recovery._train_shared", lambda preset, seed, *rest: seed)
+    monkeypatch.setattr("aquafish.recovery._train_oracle", lambda preset, damage, *rest: damage)
     damages = ["left_pectoral_half", "reversed_left_pectoral", "caudal_half", "sampled:5"]
     with pytest.raises(RuntimeError, match="interrupted"):
         run_recovery(tmp_path, preset="smoke", damages=damages, seeds=[0], progress=False)
@@ -375,16 +378,12 @@ def test_rows_to_run_and_triage_only_needs_all_rows_off(tmp_path):
 
 
 def test_a_triage_that_finds_the_damage_breaks_the_healthy_gait_says_so_and_that_the_rest_is_to_run(tmp_path):
-    from types import SimpleNamespace
-
-    import numpy as np
-
     from aquafish.case_study import _write_triaged, preset_settings
     from aquafish_gym import get_damage
 
     def scored(native, target):
-        return SimpleNamespace(native_distance=native, target_distance=target, native_distances=np.array([native]),
-                               target_distances=np.array([target]))
+        return {"native_distance": native, "target_distance": target, "native_distances": [native],
+                "target_distances": [target]}
 
     damage = get_damage("reversed_left_pectoral")
     transfers = {"healthy": scored(12.0, -1.5), "true_damaged": scored(10.0, 10.0)}
