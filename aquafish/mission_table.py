@@ -3,15 +3,18 @@
 A mission (:mod:`aquafish.mission`) answers for one damage and one seed. ``aquafish mission-table
 DIR ...`` reads finished missions (each ``DIR/mission.json``) and writes what a reader needs to
 judge the whole: one row per mission (damage, seed, search start, alarm delay, target
-experiments, compute, the four speeds, the share of the oracle after recovery, the gains found
-beside the truth) and the totals the goals are stated in:
+experiments, compute, the speeds, the net displacement and final speed beside the two
+counterfactuals', the gains found beside the truth) and the totals the goals are stated in:
 
 * an alarm within :data:`ALARM_WITHIN_S` of the damage (and none before it) on at least 95 %
   of missions;
-* after recovery, at least :data:`RECOVERED_SHARE` of the oracle gait's speed on the damaged
-  robot: the best oracle swum in the same window from the same state (``oracle_in_window``,
-  :mod:`aquafish.mission`) where the report has one, else the oracle's 20 s speed from the
-  heading (``oracle_speed``; reports made before the window's oracles);
+* **recovered** (``mission.json``'s ``recovered``, :func:`aquafish.mission.judge_recovery`): the
+  mission's net displacement from the onset beats ``keep_old``'s (the old gait carrying on)
+  and its final speed is at least 80 % of ``oracle_at_alarm``'s (the independent oracle gait
+  from the alarm's state); no yardstick holds the mission's own procedure;
+* beside it, the older measures: the speed after recovery against the oracle swum in the same
+  window from the same state (``recovered_in_window``) and against the oracle's 20 s speed from
+  rest (``recovered_20s``), each at :data:`RECOVERED_SHARE`;
 * from alarm to new gait, at most :data:`COMPUTE_BUDGET_S` seconds of compute.
 
 Speeds are displacement along the mission's heading per second (units/s, 1 unit = 8 cm), as
@@ -34,7 +37,7 @@ __all__ = ["ALARM_WITHIN_S", "COMPUTE_BUDGET_S", "RECOVERED_SHARE", "WINDOW_ORAC
 
 #: The alarm must come within this many seconds of the damage coming in force.
 ALARM_WITHIN_S = 10.0
-#: A recovered mission swims at least this share of the oracle gait's speed after recovery.
+#: The older measures: the speed after recovery is at least this share of the oracle gait's.
 RECOVERED_SHARE = 0.8
 #: The oracle in the window judges a mission only where it swims at least this share of the
 #: 20 s oracle's speed; else (no gait known turns the robot back within the window: the
@@ -103,11 +106,15 @@ def mission_row(report: dict) -> dict:
         window, units/s; None in a report without it) and ``window_share`` (``speed_after`` over
         it), ``gains`` (found) and
         ``true_gains`` (three each: left, right pectoral, caudal), ``signs_right`` (as
-        :func:`aquafish.recovery.signs_right`; None without a recovery) and the three verdicts
-        ``alarm_in_time``, ``recovered`` (by ``window_share`` where ``window_judges``: there is
-        an oracle in the window and it swims at least :data:`WINDOW_ORACLE_MIN_SHARE` of the
-        20 s oracle's speed; else by ``after_share``) and ``compute_in_budget``, and
-        ``recovered_20s`` (by ``after_share`` alone).
+        :func:`aquafish.recovery.signs_right`; None without a recovery); the counterfactuals'
+        measures: ``net_displacement`` and ``final_speed`` (the mission's), ``keep_old_net``,
+        ``keep_old_final``, ``oracle_at_alarm_net``, ``oracle_at_alarm_final`` (units, units/s;
+        None in a report made before them), ``beats_keep_old``, ``final_share`` (final speed over
+        ``oracle_at_alarm``'s) and ``recovered`` (``mission.json``'s; None without it); and the
+        verdicts ``alarm_in_time``, ``recovered_in_window`` (the older measure: by
+        ``window_share`` where ``window_judges``: there is an oracle in the window and it swims
+        at least :data:`WINDOW_ORACLE_MIN_SHARE` of the 20 s oracle's speed; else by
+        ``after_share``), ``recovered_20s`` (by ``after_share`` alone) and ``compute_in_budget``.
 
     Raises:
         ValueError: a report without the fields a mission writes (the message names the first).
@@ -140,7 +147,17 @@ def mission_row(report: dict) -> dict:
     morphology = {k: truth[k] for k in _MORPHOLOGY_KEYS if k in truth}
     row["signs_right"] = (signs_right({"self_model": found, "target": truth}, morphology) if found else None)
     row["alarm_in_time"] = delay is not None and delay <= ALARM_WITHIN_S
-    row["recovered"] = judged is not None and judged >= RECOVERED_SHARE
+    row["recovered_in_window"] = judged is not None and judged >= RECOVERED_SHARE
+    counterfactuals = report.get("counterfactuals") or {}
+    keep, at_alarm = counterfactuals.get("keep_old") or {}, counterfactuals.get("oracle_at_alarm") or {}
+    row["net_displacement"], row["final_speed"] = report.get("net_displacement"), report.get("final_speed")
+    row["keep_old_net"], row["keep_old_final"] = keep.get("net_displacement"), keep.get("final_speed")
+    row["oracle_at_alarm_net"] = at_alarm.get("net_displacement")
+    row["oracle_at_alarm_final"] = at_alarm.get("final_speed")
+    row["beats_keep_old"] = (None if row["net_displacement"] is None or row["keep_old_net"] is None
+                             else row["net_displacement"] > row["keep_old_net"])
+    row["final_share"] = _share(row["final_speed"], row["oracle_at_alarm_final"])
+    row["recovered"] = report.get("recovered")
     row["recovered_20s"] = share is not None and share >= RECOVERED_SHARE
     row["compute_in_budget"] = row["compute_s"] is not None and row["compute_s"] <= COMPUTE_BUDGET_S
     return row
@@ -152,7 +169,9 @@ def summarise_missions(reports: Sequence[dict]) -> dict:
     Returns:
         ``{"rows": [mission_row, ...], "totals": {...}}``: ``missions``, ``false_alarms``,
         ``alarm_in_time`` (missions with an alarm within :data:`ALARM_WITHIN_S` of the damage),
-        ``recovered`` (at least :data:`RECOVERED_SHARE` of the oracle after recovery, as
+        ``recovered`` (against the counterfactuals, among the missions judged so: ``judged``),
+        ``beats_keep_old`` and ``final_80`` (its two parts), ``recovered_in_window`` (the older
+        measure, at least :data:`RECOVERED_SHARE` of the oracle after recovery, as
         :func:`mission_row` judges it; among missions with an oracle speed: ``with_oracle``),
         ``recovered_20s`` (against the 20 s oracle alone), ``with_window`` (missions judged by
         the oracle in the window, ``window_judges``), ``signs_right`` (among missions whose
@@ -167,8 +186,12 @@ def summarise_missions(reports: Sequence[dict]) -> dict:
         "missions": len(rows),
         "false_alarms": sum(r["false_alarm"] for r in rows),
         "alarm_in_time": sum(r["alarm_in_time"] for r in rows),
+        "judged": sum(r["recovered"] is not None for r in rows),
+        "recovered": sum(bool(r["recovered"]) for r in rows),
+        "beats_keep_old": sum(bool(r["beats_keep_old"]) for r in rows),
+        "final_80": sum(r["final_share"] is not None and r["final_share"] >= 0.8 for r in rows),
         "with_oracle": sum(r["after_share"] is not None for r in rows),
-        "recovered": sum(r["recovered"] for r in rows),
+        "recovered_in_window": sum(r["recovered_in_window"] for r in rows),
         "recovered_20s": sum(r["recovered_20s"] for r in rows),
         "with_window": sum(r["window_judges"] for r in rows),
         "signs_judged": len(judged),
@@ -200,7 +223,9 @@ def format_table(summary: dict) -> str:
     """``summary`` (:func:`summarise_missions`) as a Markdown table and a line of totals."""
     from aquafish.case_study import format_self_model_fields
 
-    head = ("| damage | seed | EEA start | alarm after the damage (s) | experiments | compute (s) | speed before | "
+    head = ("| damage | seed | EEA start | alarm after the damage (s) | experiments | compute (s) | "
+            "net from the onset: mission | keep old | oracle at alarm | final speed: mission | keep old | "
+            "oracle at alarm | final / oracle at alarm | recovered | speed before | "
             "damaged | after | oracle (20 s) | after / oracle | oracle in window | after / oracle in window | "
             "gains found (L, R, C) | true | signs |")
     lines = [head, "|" + "---|" * head.count(" | ") + "---|"]
@@ -218,11 +243,15 @@ def format_table(summary: dict) -> str:
         alarm = "false alarm" if r["false_alarm"] else _num(r["alarm_delay_s"], 1)
         windowed = r["window_judges"]
         dagger = "" if windowed or r["oracle_in_window"] is None else " †"  # the window's oracle does not judge
-        share = _percent(r["after_share"], r["recovered"] and not windowed)
-        window_share = _percent(r["window_share"], r["recovered"] and windowed)
+        share = _percent(r["after_share"], r["recovered_in_window"] and not windowed)
+        window_share = _percent(r["window_share"], r["recovered_in_window"] and windowed)
+        recovered = {True: "**yes**", False: "no", None: "-"}[r["recovered"]]
         signs = {True: "✓", False: "✗", None: "-"}[r["signs_right"]]
         lines.append(f"| `{r['damage']}` | {r['seed']} | {start} | {alarm} | "
-                     f"{r['target_experiments']} | {_num(r['compute_s'], 0)} | {_num(r['speed_before'])} | "
+                     f"{r['target_experiments']} | {_num(r['compute_s'], 0)} | {_num(r['net_displacement'], 1)} | "
+                     f"{_num(r['keep_old_net'], 1)} | {_num(r['oracle_at_alarm_net'], 1)} | {_num(r['final_speed'])} | "
+                     f"{_num(r['keep_old_final'])} | {_num(r['oracle_at_alarm_final'])} | "
+                     f"{_percent(r['final_share'], False)} | {recovered} | {_num(r['speed_before'])} | "
                      f"{_num(r['speed_damaged'])} | {_num(r['speed_after'])} | {_num(r['oracle_speed'])} | {share} | "
                      f"{_num(r['oracle_in_window'])}{dagger} | {window_share} | {_gains(r['gains'])} | "
                      f"{_gains(r['true_gains'])} | {signs} |")
@@ -237,8 +266,11 @@ def format_table(summary: dict) -> str:
                       "oracle's speed (no gait known turns the robot back within the window); the 20 s oracle "
                       "judges the mission.", ""])
     lines.append(f"{t['missions']} missions: alarm within {ALARM_WITHIN_S:g} s of the damage on {t['alarm_in_time']}, "
-                 f"{t['false_alarms']} false alarms; recovered to {100 * RECOVERED_SHARE:.0f} % of the oracle on "
-                 f"{t['recovered']} of {t['with_oracle']} with an oracle (in the window where measured, on "
+                 f"{t['false_alarms']} false alarms; recovered (net displacement beyond keeping the old gait and a "
+                 f"final speed at least 80 % of the oracle's from the alarm) on {t['recovered']} of {t['judged']} "
+                 f"judged (beyond keeping the old gait on {t['beats_keep_old']}, 80 % of the oracle's final speed on "
+                 f"{t['final_80']}); the older measures: after recovery {100 * RECOVERED_SHARE:.0f} % of the oracle on "
+                 f"{t['recovered_in_window']} of {t['with_oracle']} with an oracle (in the window where measured, on "
                  f"{t['with_window']}; against the 20 s oracle alone on {t['recovered_20s']}); pectoral signs right on {t['signs_right']} of "
                  f"{t['signs_judged']}; compute within {COMPUTE_BUDGET_S:g} s on {t['compute_in_budget']} (median "
                  f"{_num(t['median_compute_s'], 0)} s); median alarm delay {_num(t['median_alarm_delay_s'], 1)} s.")

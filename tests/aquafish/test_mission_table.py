@@ -25,16 +25,16 @@ def test_a_row_measures_the_alarm_from_the_damage_in_force_and_the_speed_against
     row = mission_row(_report())
     assert row["alarm_delay_s"] == pytest.approx(32.2 - 30.06)
     assert row["after_share"] == 0.8                                         # 80 %: just recovered
-    assert row["alarm_in_time"] and row["recovered"] and row["compute_in_budget"] and row["signs_right"]
+    assert row["alarm_in_time"] and row["recovered_in_window"] and row["compute_in_budget"] and row["signs_right"]
     slow = mission_row(_report(alarm=40.1, after=0.79, compute=301.0, found=(1.0, 1.0, 1.0)))
     assert slow["alarm_delay_s"] == pytest.approx(10.04) and not slow["alarm_in_time"]
-    assert not slow["recovered"] and not slow["compute_in_budget"] and slow["signs_right"] is False
+    assert not slow["recovered_in_window"] and not slow["compute_in_budget"] and slow["signs_right"] is False
 
 
 def test_a_false_alarm_has_no_delay_and_a_missing_oracle_no_share():
     row = mission_row(_report(alarm=11.9, false_alarm=True, oracle=None))
     assert row["alarm_delay_s"] is None and not row["alarm_in_time"]
-    assert row["after_share"] is None and not row["recovered"]
+    assert row["after_share"] is None and not row["recovered_in_window"]
     assert mission_row(_report(oracle=-0.1))["after_share"] is None          # an oracle that does not swim forward
 
 
@@ -51,13 +51,13 @@ def test_totals_count_the_goals():
                _report(seed=2, alarm=12.0, false_alarm=True, oracle=None, compute=100.0)]
     t = summarise_missions(reports)["totals"]
     assert (t["missions"], t["false_alarms"], t["alarm_in_time"]) == (3, 1, 1)
-    assert (t["with_oracle"], t["recovered"]) == (2, 1)
+    assert (t["with_oracle"], t["recovered_in_window"]) == (2, 1)
     assert (t["signs_judged"], t["signs_right"], t["compute_in_budget"]) == (3, 2, 2)
     assert t["median_compute_s"] == 250.0
     assert t["median_alarm_delay_s"] == pytest.approx((32.2 - 30.06 + 45.0 - 30.06) / 2)
     table = format_table(summarise_missions(reports))
     assert table.count("\n| `reversed_left_pectoral` |") == 3 and "false alarm" in table and "80 % ✓" in table
-    assert "recovered to 80 % of the oracle on 1 of 2 with an oracle (in the window where measured, on 0; " \
+    assert "after recovery 80 % of the oracle on 1 of 2 with an oracle (in the window where measured, on 0; " \
            "against the 20 s oracle alone on 1)" in table
 
 
@@ -68,10 +68,10 @@ def test_the_oracle_in_the_window_judges_the_recovery_where_the_report_has_one()
                                                         "best": 0.6}}
     row = mission_row(report)
     assert row["after_share"] == 0.5 and row["window_share"] == pytest.approx(0.5 / 0.6)
-    assert row["recovered"] and not row["recovered_20s"]
-    assert not mission_row(report | {"speed_after": 0.47})["recovered"]  # 78 % of the window's oracle
+    assert row["recovered_in_window"] and not row["recovered_20s"]
+    assert not mission_row(report | {"speed_after": 0.47})["recovered_in_window"]  # 78 % of the window's oracle
     summary = summarise_missions([report, _report(seed=1, after=0.9)])
-    assert (summary["totals"]["recovered"], summary["totals"]["recovered_20s"], summary["totals"]["with_window"]) == (2, 1, 1)
+    assert (summary["totals"]["recovered_in_window"], summary["totals"]["recovered_20s"], summary["totals"]["with_window"]) == (2, 1, 1)
     table = format_table(summary)
     assert "| 1.000 | 50 % | 0.600 | 83 % ✓ |" in table and "| 1.000 | 90 % ✓ | - | - |" in table
 
@@ -83,9 +83,9 @@ def test_an_oracle_that_does_not_swim_in_the_window_leaves_the_judgement_to_the_
                                                                       "procedure": 0.009, "best": 0.009}}
     row = mission_row(report)
     assert row["window_share"] == pytest.approx(0.014 / 0.009) and not row["window_judges"]
-    assert not row["recovered"]
+    assert not row["recovered_in_window"]
     edge = report | {"oracle_in_window": {"best": 0.125}, "speed_after": 0.1}   # 25 % of the 20 s oracle: judges
-    assert mission_row(edge)["window_judges"] and mission_row(edge)["recovered"]
+    assert mission_row(edge)["window_judges"] and mission_row(edge)["recovered_in_window"]
     summary = summarise_missions([report])
     assert summary["totals"]["with_window"] == 0
     table = format_table(summary)
@@ -118,7 +118,7 @@ def test_the_command_prints_and_writes_the_table(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "2 missions: alarm within 10 s of the damage on 2" in out
     written = json.loads((tmp_path / "table" / "summary.json").read_text())
-    assert written["totals"]["recovered"] == 2 and len(written["rows"]) == 2
+    assert written["totals"]["recovered_in_window"] == 2 and len(written["rows"]) == 2
     assert (tmp_path / "table" / "summary.md").read_text() in out
     with pytest.raises(SystemExit) as exit_:                                     # fails safe, one line
         main(["mission-table", str(tmp_path / "nowhere")])
@@ -146,3 +146,20 @@ def test_an_earlier_versions_new_gait_started_one_way_is_marked_in_its_row():
     lines = format_table(summarise_missions(reports)).splitlines()
     assert "| warm |" in lines[2] and "| warm, gait from +y only |" in lines[3]
     assert "| warm, gait from the robot's heading |" in lines[4]
+
+
+def test_a_mission_is_judged_against_carrying_on_and_the_oracle_from_the_alarm():
+    cf = {"keep_old": {"start_s": 30.0, "net_displacement": 40.0, "final_speed": 0.1},
+          "oracle_at_alarm": {"start_s": 32.2, "net_displacement": 150.0, "final_speed": 0.6}}
+    report = _report() | {"net_displacement": 90.0, "final_speed": 0.5, "counterfactuals": cf, "recovered": True}
+    row = mission_row(report)
+    assert (row["keep_old_net"], row["oracle_at_alarm_net"], row["oracle_at_alarm_final"]) == (40.0, 150.0, 0.6)
+    assert row["beats_keep_old"] is True and row["final_share"] == pytest.approx(0.5 / 0.6) and row["recovered"]
+    lost = report | {"net_displacement": 30.0, "recovered": False}     # carrying on went further
+    old = _report()                                                     # a report made before the counterfactuals
+    totals = summarise_missions([report, lost, old])["totals"]
+    assert (totals["judged"], totals["recovered"], totals["beats_keep_old"], totals["final_80"]) == (2, 1, 1, 2)
+    assert mission_row(old)["recovered"] is None and mission_row(old)["beats_keep_old"] is None
+    text = format_table(summarise_missions([report, lost, old]))
+    assert "| 90.0 | 40.0 | 150.0 | 0.500 | 0.100 | 0.600 | 83 % | **yes** |" in text
+    assert "recovered (net displacement beyond keeping the old gait" in text and "on 1 of 2 judged" in text
