@@ -587,6 +587,20 @@ def _true_gains(damage: str) -> list[float]:
     return [0.0 if seized else float(g) for seized, g in zip(faults.seized, faults.speed_scale)]
 
 
+def _identification(models: dict, eea_results: dict, target: Morphology, damage: str) -> dict | None:
+    """The report's ``identification``: the self-model's strict judgement against the target
+    (:func:`eea.identification.identification` of the report's rounded dimensions and the
+    gains); None without a self-model or when it holds no servo gains (``morphology`` space)."""
+    from eea.identification import identification
+
+    gains = _model_gains(eea_results["self_model"]) if "self_model" in eea_results else None
+    if gains is None:
+        return None
+    dims, target_dims = _dims(models["self_model"]), _dims(target)
+    return identification([dims[f] for f in MORPHOLOGY_FIELDS] + gains,
+                          [target_dims[f] for f in MORPHOLOGY_FIELDS] + _true_gains(damage))
+
+
 def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Morphology, seed: int, out: Path,
                 method: str, model_space: str, video: bool, workers: int | None, progress: bool, runs: dict,
                 configs: dict, shared: Path | None = None, all_rows: bool = True,
@@ -746,6 +760,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
         "controllers": controllers_report,
         "left_out": [] if _rl_available() else [f"the two PPO rows (`ppo`, `robust_ppo`): {MISSING_RL}"],
         "verdict": verdict(controllers_report),
+        "identification": _identification(models, eea_results, target, damage),
         "figures": figures,
         "video": video_name,
         "wall_seconds": triage_s + time.perf_counter() - t0,

@@ -515,6 +515,30 @@ def faults_named(report: dict) -> bool | None:
     return servo_faults_named(_model_values(dims, gains), _model_values(target_dims, target_gains))
 
 
+def self_model_identification(report: dict) -> dict | None:
+    """The strict judgement of a cell's self-model (:func:`eea.identification.identification`:
+    every part's servo and flipper kinds the target's, so a healthy part held faulty is a miss;
+    the servo of a flipper the target lost is not judged).
+
+    Args:
+        report: a case-study report (``models.self_model``'s ``morphology`` and
+            ``servo_gains``, ``target_morphology``, ``target_servo_gains``).
+
+    Returns:
+        None when the cell has no self-model of servo gains (as :func:`faults_named`), else the
+        identification dict (``strict``, ``gain_abs_error``, ``morphology_abs_error``, ``parts``).
+    """
+    from eea.identification import identification
+
+    model = report.get("models", {}).get("self_model") or {}
+    parts = (model.get("morphology"), model.get("servo_gains"), report.get("target_morphology"),
+             report.get("target_servo_gains"))
+    if not all(parts):
+        return None
+    dims, gains, target_dims, target_gains = parts
+    return identification(_model_values(dims, gains), _model_values(target_dims, target_gains))
+
+
 def _model_values(dims: dict, gains: dict) -> list[float]:
     """A report's flipper dimensions and servo gains (dicts keyed by field) as the ``(12,)``
     ``morphology+servos`` values :mod:`eea.identification` judges."""
@@ -527,7 +551,9 @@ def cell_summary(report: dict) -> dict:
     """One cell of ``summary.json`` from its case study's report: ``damage``, ``seed``, ``breaks``,
     ``shares``, ``recovers`` (per row but ``healthy``: the verdict's test), ``gains`` (the
     self-model's and the target's servo gains), ``signs_right`` (:func:`signs_right`),
-    ``faults_named`` (:func:`faults_named`), ``check_procedure`` (the procedure of the check
+    ``faults_named`` (:func:`faults_named`, the lenient judgement), ``identification``
+    (:func:`self_model_identification`, the strict one; None without a self-model of servo
+    gains), ``check_procedure`` (the procedure of the check
     that made the self-model, :data:`eea.fault_check.FAULT_CHECK_PROCEDURE` when today's; ""
     for a report made before checks named theirs; None without a check), ``target_experiments``
     (per EEA model) and ``wall_seconds`` (of the case-study run that finished the cell).
@@ -545,6 +571,7 @@ def cell_summary(report: dict) -> dict:
         "recovers": {key: key in recovering for key in row_shares if key != "healthy"},
         "gains": gains, "signs_right": signs_right(gains, report.get("target_morphology")),
         "faults_named": faults_named(report),
+        "identification": self_model_identification(report),
         "check_procedure": _check_procedure(models.get("self_model")),
         "target_experiments": {key: m["target_experiments"] for key, m in models.items()},
         "wall_seconds": report["wall_seconds"],
@@ -564,13 +591,19 @@ def summarize(reports: Iterable[dict]) -> dict:
     the breaking cells that have the row it recovers in (``recovers``, ``of``, ``rate``: None
     without such a cell), ``identified``: in how many of the cells whose self-model's signs
     are judged (:func:`signs_right` not None) they are right (``right``, ``of``, ``rate``),
-    ``faults_named``: likewise for :func:`faults_named` (``named``, ``of``, ``rate``), and
-    ``check_procedures``: how many cells' self-models each check procedure made (a table
-    gathered over changes of the check says so).
+    ``faults_named``: likewise for :func:`faults_named` (``named``, ``of``, ``rate``; the lenient
+    judgement), ``strict_identification``: in how many of the cells with a self-model of servo
+    gains it identifies the target strictly (:func:`self_model_identification`: ``strict``,
+    ``of``, ``rate``), ``confusion``: their parts' classes, truth against model
+    (:func:`eea.identification.identification_confusion`, every class of
+    :data:`eea.identification.PART_CLASSES` in both), and ``check_procedures``: how many cells'
+    self-models each check procedure made (a table gathered over changes of the check says so).
 
     Raises:
         KeyError: a report lacks a field every case-study report has.
     """
+    from eea.identification import identification_confusion
+
     cells = [cell_summary(r) for r in reports]
     breaking = [c for c in cells if c["breaks"]]
     rows = {}
@@ -583,12 +616,18 @@ def summarize(reports: Iterable[dict]) -> dict:
     identified = {"right": sum(judged), "of": len(judged), "rate": sum(judged) / len(judged) if judged else None}
     named = [c["faults_named"] for c in cells if c.get("faults_named") is not None]
     faults = {"named": sum(named), "of": len(named), "rate": sum(named) / len(named) if named else None}
+    identifications = [c["identification"] for c in cells if c.get("identification") is not None]
+    strict = sum(i["strict"] for i in identifications)
+    strictly = {"strict": strict, "of": len(identifications),
+                "rate": strict / len(identifications) if identifications else None}
     procedures = {}
     for c in cells:
         if c["check_procedure"] is not None:
             procedures[c["check_procedure"]] = procedures.get(c["check_procedure"], 0) + 1
     return {"cells": cells, "totals": {"cells": len(cells), "breaking": len(breaking), "rows": rows,
                                        "identified": identified, "faults_named": faults,
+                                       "strict_identification": strictly,
+                                       "confusion": identification_confusion(identifications),
                                        "check_procedures": procedures}}
 
 
@@ -612,10 +651,27 @@ def _gains_text(cell: dict) -> str:
     return f"{pair} ({truth}){f' {RECOVERS_MARK}' if right else ''}"
 
 
+def _confusion_table(confusion: dict) -> list[str]:
+    """The lines of ``summary.md``'s confusion matrix (truth's class per row, the model's per
+    column, ``servo kind/flipper kind``), only the classes that occur; none when no part counts."""
+    rows = [r for r, cols in confusion.items() if any(cols.values())]
+    columns = [c for c in dict.fromkeys(c for cols in confusion.values() for c in cols)
+               if any(cols.get(c) for cols in confusion.values())]
+    if not rows:
+        return []
+    return ["", "The self-models' parts (servo kind/flipper kind), the truth's per row and the model's per column "
+                "(a lost flipper's servo is not judged: it counts as the truth's):", "",
+            "| truth ↓, model → | " + " | ".join(f"`{c}`" for c in columns) + " |",
+            "|---|" + "---|" * len(columns),
+            *(f"| `{r}` | " + " | ".join(str(confusion[r].get(c, 0)) for c in columns) + " |" for r in rows)]
+
+
 def render_summary(summary: dict) -> str:
     """``summary.md``: per damage and seed whether the damage breaks the healthy gait and each row's
     share of the oracle (marked where the row recovers), per damage on how many seeds it breaks
-    the healthy gait, then each row's recoveries among the breaking cells."""
+    the healthy gait, then each row's recoveries among the breaking cells, and how well the
+    self-models identify the faults (the pectoral signs, the lenient and the strict judgement,
+    the parts' confusion matrix)."""
     from aquafish.case_study import BREAKS_SHARE, RECOVERS_OVER_HEALTHY, RECOVERS_SHARE, format_self_model_fields
 
     s, totals = summary["settings"], summary["totals"]
@@ -648,7 +704,13 @@ def render_summary(summary: dict) -> str:
     named = totals.get("faults_named")
     if named and named["of"]:
         lines += ["", f"Faulty servos named, each with the sign of its gain: {named['named']} of the {named['of']} "
-                      "cells whose target has a faulty servo on a flipper it still has."]
+                      "cells whose target has a faulty servo on a flipper it still has (the lenient measure: a "
+                      "healthy servo held faulty is not counted)."]
+    strictly = totals.get("strict_identification")
+    if strictly and strictly["of"]:
+        lines += ["", "Identified strictly (every faulty part named with its kind, no healthy part held faulty): "
+                      f"{strictly['strict']} of {strictly['of']} cells."]
+        lines += _confusion_table(totals.get("confusion") or {})
     procedures = totals.get("check_procedures")
     if procedures:
         lines += ["", "Self-models checked against fault hypotheses by: " + "; ".join(
