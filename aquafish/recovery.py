@@ -14,6 +14,12 @@ healthy gait, the damage-robust gait and the damage-robust PPO policy) are train
 seed in ``OUT/shared/seed<S>`` (:func:`aquafish.case_study.train_shared_rows`) before that
 seed's cells, which load them from there (``run_case_study(shared_dir=...)``).
 
+The oracle of every damage (:mod:`aquafish.oracle`: the best of three gaits evolved on the
+true damaged robot with three times the gait budget and seeds no cell uses) is trained once, in
+``OUT/oracles/<damage>`` (:func:`oracle_dir`), before the cells, which load it from there (on
+Ray, as the shared rows travel: each cell task carries a copy of its damage's oracle). It does
+not depend on the cell's seed, so every seed of a damage is judged against the same yardstick.
+
 The cells run in two passes: first every new cell's **triage** (the healthy and the oracle
 gaits, scored on the damaged robot; ``run_case_study(triage_only=True)``), then the other
 rows of the cells whose damage breaks the healthy gait (every triaged cell with
