@@ -36,7 +36,8 @@ from aquafish.config_file import parse_command_line, write_record
 
 #: Modules that contribute sub-commands, in help order.
 COMMAND_MODULES = ("aquafish_gym.cli", "aquafish.bench_cli", "eea.cli", "gait.cli", "aquafish.studies_cli",
-                   "aquafish.recovery_cli", "aquafish.mission_cli", "aquafish.heldout_cli", "aquafish.doctor_cli")
+                   "aquafish.recovery_cli", "aquafish.mission_cli", "aquafish.heldout_cli", "aquafish.tables_cli",
+                   "aquafish.doctor_cli")
 
 #: Exit status of a command that failed safe (bad input, unusable file, busy directory).
 EXIT_ERROR = 2

@@ -9,7 +9,7 @@ import pytest
 
 from aquafish.cli import build_parser, main
 
-COMMANDS = ["swim", "envs", "bench", "eea", "gait", "transfer", "rl", "case-study", "study", "plot", "compare", "diagnose", "damages", "baselines", "recovery", "mission", "mission-table", "heldout", "doctor"]
+COMMANDS = ["swim", "envs", "bench", "eea", "gait", "transfer", "rl", "case-study", "study", "plot", "compare", "diagnose", "damages", "baselines", "recovery", "mission", "mission-table", "heldout", "tables", "doctor"]
 
 
 def test_every_command_is_registered_in_help_order():

@@ -51,6 +51,7 @@ NO_PROGRESS_DISPLAY = {
     "transfer": "a few episodes, prints one line per controller",
     "diagnose": "prints one table line per run as it is diagnosed",
     "plot": "draws a figure", "compare": "prints a table", "mission-table": "prints a table",
+    "tables": "prints tables or checks a page against them",
     "heldout": "chooses an action: its run action has --no-progress (tests/aquafish/test_heldout.py)",
 }
 #: Arguments a command needs to parse at all.
