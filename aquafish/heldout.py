@@ -334,7 +334,9 @@ def run_missions_set(entry: Mapping, out: Path, *, processes: int = 1, workers: 
                      progress: bool = True) -> str:
     """Run a missions set's missions one at a time into ``out/<mission_dir_name>``
     (:func:`aquafish.mission.run_mission`, no video), skipping those whose ``mission.json``
-    exists; write ``out/summary.md`` and ``out/summary.json``
+    exists, with one prior per seed (``out/priors/seed<S>``, :func:`aquafish.mission.prepare_prior`:
+    the robot's design) and one oracle per damage (``out/oracles/<damage>``; it depends on no
+    seed); write ``out/summary.md`` and ``out/summary.json``
     (:func:`aquafish.mission_table.summarise_missions`) and return the one-line result: the
     missions run, the alarms in time, the false alarms and the recoveries.
 
@@ -343,7 +345,7 @@ def run_missions_set(entry: Mapping, out: Path, *, processes: int = 1, workers: 
     """
     import json
 
-    from aquafish.mission import MISSION_FILE, run_mission
+    from aquafish.mission import MISSION_FILE, prepare_prior, run_mission
     from aquafish.mission_table import format_table, read_missions, summarise_missions
     from aquafish_gym.files import atomic_write
 
@@ -354,15 +356,19 @@ def run_missions_set(entry: Mapping, out: Path, *, processes: int = 1, workers: 
     for damage, seed in missions_of(entry):
         mission_dir = out / mission_dir_name(damage, seed)
         if not (mission_dir / MISSION_FILE).is_file():
+            prior = out / "priors" / f"seed{seed}"
+            prepare_prior(prior, s["preset"], seed, workers=workers, progress=progress)
             run_mission(damage, mission_dir, onset_s=s["onset_s"], duration_s=s["duration_s"], preset=s["preset"],
-                        seed=seed, workers=workers, video=False, progress=progress)
+                        seed=seed, self_model=prior, workers=workers, video=False, progress=progress,
+                        oracle_dir=out / "oracles" / damage.replace(":", "_"))
         dirs.append(mission_dir)
     summary = summarise_missions(read_missions(dirs))
     atomic_write(out / "summary.json", (json.dumps(summary, indent=1) + "\n").encode())
     atomic_write(out / "summary.md", format_table(summary).encode())
     t = summary["totals"]
     return (f"{t['missions']} missions run: alarm in time in {t['alarm_in_time']}, {t['false_alarms']} false "
-            f"alarms, recovered in {t['recovered']} of the {t['with_oracle']} with an oracle")
+            f"alarms, recovered in {t['recovered']} of the {t['judged']} judged (beyond keep_old in "
+            f"{t['beats_keep_old']}, 80 % of oracle_at_alarm's final speed in {t['final_80']})")
 
 
 def spend(name: str, out_dir: str | os.PathLike, registry_path: str | os.PathLike = REGISTRY_PATH, *,

@@ -608,7 +608,7 @@ def _write_trajectory(rows: list[dict], path: Path) -> None:
 def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: float = 300.0, preset: str = "quick",
                 seed: int = 0, self_model=None, prior_source: str = "design", workers: int | None = None,
                 warm_start: bool = True, self_model_fields: Mapping | None = None,
-                video: bool = True, oracle: bool = True,
+                video: bool = True, oracle: bool = True, oracle_dir=None,
                 progress: bool = True) -> dict:
     """Run a mission and write ``mission.json``, ``timeline.png``, ``trajectory.csv`` and a video in ``out_dir``.
 
@@ -638,6 +638,9 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         oracle: evolve the oracle gaits on the true damaged robot for ``oracle_speed`` and
             ``oracle_in_window`` and the ``counterfactuals`` (:func:`mission_oracle_speed`,
             :func:`judge_recovery`).
+        oracle_dir: where the oracle's runs are evolved, or loaded when finished (default
+            ``out_dir/oracle``); it depends on no mission seed, so the missions of one damage
+            and preset can share it.
         progress: progress bars.
 
     Returns:
@@ -662,16 +665,17 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
         raise ValueError(f"unknown prior {prior_source!r}; valid: {', '.join(PRIORS)}")
     own = recovery_self_model_fields(settings, self_model_fields)
     out = check_output_dir(out_dir)
+    oracle_base = out / ORACLE_DIR if oracle_dir is None else check_output_dir(oracle_dir, "oracle_dir")
     with run_lock(out, command="mission"):
         prior = load_prior(self_model) if self_model is not None else \
             prepare_prior(out / "self_model", preset, seed, prior=prior_source, workers=workers, progress=progress)
         return _run(prior, damage, onset_s, float(duration_s), settings, preset, seed, out, workers or 1, video,
-                    oracle, progress, bool(warm_start), own)
+                    oracle, progress, bool(warm_start), own, oracle_base)
 
 
 def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings: MissionPreset, preset: str, seed: int,
          out: Path, workers: int, video: bool, oracle: bool, progress: bool, warm: bool = True,
-         own: dict | None = None) -> dict:
+         own: dict | None = None, oracle_dir: Path | None = None) -> dict:
     mission = _Mission(damage, onset_s, duration_s, seed)
     monitor = DamageMonitor(prior.calibration)
     monitor.update(mission.obs, {"time_s": 0.0})
@@ -726,7 +730,8 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         if after_start is not None and after_start >= rows[-1]["time_s"]:
             after_start = None  # the mission ended before it
         if oracle:
-            independent, oracle_speed = _straight_oracle(damage, settings, seed, out, workers, progress)
+            independent, oracle_speed = _straight_oracle(damage, settings, seed, oracle_dir or out / ORACLE_DIR,
+                                                         workers, progress)
             if snapshot is not None and after_start is not None:
                 window = _oracle_in_window(mission, snapshot, after_start, independent.controller, duration_s)
             if onset_snap is not None:
@@ -864,11 +869,11 @@ def _recover_model(mission: _Mission, genome: np.ndarray | None, config: EEAConf
     return records, target, robot, check, time.perf_counter() - t0 - sim_wall
 
 
-def mission_oracle_speed(damage: str, settings: MissionPreset, seed: int, out: Path, workers: int = 1,
+def mission_oracle_speed(damage: str, settings: MissionPreset, seed: int, oracle_dir: Path, workers: int = 1,
                          progress: bool = False) -> float:
     """The oracle's speed (units/s): the independent oracle gait (:mod:`aquafish.oracle`: the best
     of three runs evolved on the true damaged robot ``damage`` with three times the preset's NEAT
-    generations and seeds the mission never uses; kept in ``out/oracle``, reused when finished),
+    generations and seeds the mission never uses; kept in ``oracle_dir``, reused when finished),
     its mean speed along the heading on the damaged robot (distance / episode seconds, 20 s from
     rest at ``quick``, over the case preset's transfer starts from ``seed``). ``mission.json``'s
     ``oracle_speed``.
@@ -876,18 +881,18 @@ def mission_oracle_speed(damage: str, settings: MissionPreset, seed: int, out: P
     Raises:
         ValueError: an unknown damage, or an oracle run made with other settings.
     """
-    return _straight_oracle(damage, settings, seed, out, workers, progress)[1]
+    return _straight_oracle(damage, settings, seed, Path(oracle_dir), workers, progress)[1]
 
 
 #: Where a mission keeps its independent oracle's runs (:mod:`aquafish.oracle`).
 ORACLE_DIR = "oracle"
 
 
-def _straight_oracle(damage: str, settings: MissionPreset, seed: int, out: Path, workers: int, progress: bool):
+def _straight_oracle(damage: str, settings: MissionPreset, seed: int, oracle_dir: Path, workers: int, progress: bool):
     """:func:`mission_oracle_speed`'s :class:`~aquafish.oracle.OracleGait` and speed."""
     robot = gait.as_robot(damage)
     case = PRESETS[settings.case_preset]
-    independent = evolve_oracle(robot, out / ORACLE_DIR, generations=case.gait_generations,
+    independent = evolve_oracle(robot, oracle_dir, generations=case.gait_generations,
                                 population_size=case.gait_population, episodes_per_genome=case.gait_episodes,
                                 episode_duration_s=settings.gait_episode_s, workers=workers, progress=progress)
     t = gait.score_transfer(independent.controller, robot, robot, seed=seed, episodes=case.transfer_episodes,

@@ -68,22 +68,28 @@ def test_the_committed_registry_validates_and_names_every_looked_at_set_validati
     for name, entry in sets.items():
         assert entry["reality_gap"] == "none", name
         heldout.check_runnable(entry)  # every set's settings are ones its runner takes
-    assert {n for n, e in sets.items() if e["status"] == "sealed"} >= {"benchmark_20s", "benchmark_60s", "missions"}
+    fresh = {"benchmark_20s", "benchmark_60s", "missions_development_damages", "missions_fresh_faults"}
+    assert fresh <= set(sets) and all(sets[n]["status"] in ("sealed", "spent") for n in fresh)
+    for name, entry in sets.items():
+        if entry["status"] == "spent":   # spent once, at a named commit, into a named directory
+            assert len(entry["commit"]) == 40 and entry["out"] and entry["result"], name
 
 
 def test_the_committed_registry_holds_the_sets_as_stated():
     sets = heldout.load_registry(REGISTRY)
-    b20, b60, missions = sets["benchmark_20s"], sets["benchmark_60s"], sets["missions"]
+    b20, b60 = sets["benchmark_20s"], sets["benchmark_60s"]
     presets = {"left_pectoral_half", "right_pectoral_half", "left_pectoral_missing", "caudal_half", "caudal_missing",
                "seized_left_pectoral", "weak_right_pectoral", "reversed_left_pectoral"}
     assert set(b20["damages"]) == presets | {f"sampled:{i}" for i in range(3000, 3008)}
     assert (b20["damages"], b20["seeds"]) == (b60["damages"], b60["seeds"]) and b20["seeds"] == [7000, 7001, 7002]
     assert (b20["settings"]["episode_duration_s"], b60["settings"]["episode_duration_s"]) == (20.0, 60.0)
-    pairs = heldout.missions_of(missions)
-    assert len(pairs) == len(set(pairs)) == 24
-    assert {s for d, s in pairs if d.startswith("sampled:31")} == {7200, 7201, 7202}
-    assert {s for d, s in pairs if not d.startswith("sampled:31")} == {7100, 7101, 7102}
-    assert missions["settings"] == {"preset": "quick", "onset_s": 30.0, "duration_s": 300.0}
+    development, fresh = (heldout.missions_of(sets[n]) for n in ("missions_development_damages", "missions_fresh_faults"))
+    assert len(set(development + fresh)) == len(development) + len(fresh) == 24
+    assert {d for d, _ in development} == {"reversed_left_pectoral", "sampled:5", "sampled:13", "sampled:67"}
+    assert {s for _, s in development} == {7100, 7101, 7102} and {s for _, s in fresh} == {7200, 7201, 7202}
+    assert {d for d, _ in fresh} == {f"sampled:{i}" for i in range(3100, 3104)}
+    for name in ("missions_development_damages", "missions_fresh_faults"):
+        assert sets[name]["settings"] == {"preset": "quick", "onset_s": 30.0, "duration_s": 300.0}
 
 
 def test_the_committed_registry_is_as_the_command_writes_it(tmp_path):
@@ -281,17 +287,22 @@ def test_a_missions_set_runs_each_mission_once_into_its_directory(tmp_path, monk
         (Path(out_dir) / aquafish.mission.MISSION_FILE).write_text("{}")
 
     monkeypatch.setattr(aquafish.mission, "run_mission", run_mission)
+    priors = []
+    monkeypatch.setattr(aquafish.mission, "prepare_prior", lambda d, preset, seed, **kw: priors.append((Path(d).name, seed)))
     monkeypatch.setattr(aquafish.mission_table, "read_missions", lambda dirs: [{} for _ in dirs])
     monkeypatch.setattr(aquafish.mission_table, "format_table", lambda summary: "table\n")
     monkeypatch.setattr(aquafish.mission_table, "summarise_missions", lambda reports: {"totals": {
-        "missions": len(reports), "alarm_in_time": 2, "false_alarms": 0, "recovered": 1, "with_oracle": 2}})
+        "missions": len(reports), "alarm_in_time": 2, "false_alarms": 0, "recovered": 1, "judged": 2,
+        "beats_keep_old": 1, "final_80": 2}})
     entry = heldout.check_set("x", _missions_set(missions=[["sampled:3", 2], ["caudal_half", 1]]))
     (tmp_path / "sampled_3_s2").mkdir()
     (tmp_path / "sampled_3_s2" / aquafish.mission.MISSION_FILE).write_text("{}")  # finished: not run again
     result = heldout.run_missions_set(entry, tmp_path, workers=1, progress=False)
     assert [(d, name) for d, name, _ in calls] == [("caudal_half", "caudal_half_s1")]
     assert calls[0][2] == {"onset_s": 3.0, "duration_s": 30.0, "preset": "smoke", "seed": 1, "workers": 1,
-                           "video": False, "progress": False}
+                           "video": False, "progress": False, "self_model": tmp_path / "priors" / "seed1",
+                           "oracle_dir": tmp_path / "oracles" / "caudal_half"}   # a prior per seed, an oracle per damage
+    assert priors == [("seed1", 1)]
     assert result.startswith("2 missions run") and (tmp_path / "summary.md").read_text() == "table\n"
     with pytest.raises(ValueError, match="--processes must be 1"):
         heldout.check_runnable(entry, processes=2)
