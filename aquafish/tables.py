@@ -520,7 +520,7 @@ def _study_cell(summary, base, row: StudyRow, first: bool) -> str:
 
 
 def study_table(columns: Sequence[StudyColumn], root: Path, rows: Sequence[StudyRow] = (), first: str = "method",
-                rounds: int | None = None) -> str:
+                rounds: int | None = None, reference: tuple[str, str] | None = None) -> str:
     """The final OBJ_FIT of EEA variants: a row per variant, a column per damage.
 
     Each column's variants are summarised at one round by
@@ -535,10 +535,14 @@ def study_table(columns: Sequence[StudyColumn], root: Path, rows: Sequence[Study
         rows: one variant each.
         first: the header of the row titles' column.
         rounds: the round compared; None: the shortest planned run of each column's variants.
+        reference: a last column of published values: its title and a JSON record (relative to
+            ``root``) whose ``objective_fitness`` maps a variant to its text (a row whose variant
+            it lacks is left empty), e.g. the paper's values read off its figures.
 
     Raises:
         ValueError: no column or row, a variant or baseline a column lacks, run directories
-            missing or without finished runs, a row whose seeds differ between columns.
+            missing or without finished runs, a row whose seeds differ between columns, a
+            reference record that cannot be read.
     """
     from eea.analysis.compare import compare_variants
     from eea.analysis.plot import find_runs
@@ -562,7 +566,16 @@ def study_table(columns: Sequence[StudyColumn], root: Path, rows: Sequence[Study
         cells = [_study_cell(s[row.variant], s[c.baseline], row, i == 0)
                  for i, (s, c) in enumerate(zip(summaries, columns))]
         body.append([_fill(row.title, seeds=seeds.pop()), *cells])
-    return _table([first, *(c.title for c in columns)], body)
+    if reference is None:
+        return _table([first, *(c.title for c in columns)], body)
+    title, path = reference
+    try:
+        published = json.loads((root / path).read_text())["objective_fitness"]
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise ValueError(f"{path}: not a reference record with objective_fitness ({err})") from None
+    for line, row in zip(body, rows):
+        line.append(str(published.get(row.variant, "")))
+    return _table([first, *(c.title for c in columns), title], body)
 
 
 #: The surface swimmer's self-modeling runs (``reduced`` budget): variant -> run directories,
@@ -616,7 +629,7 @@ TABLES: dict[str, TableSpec] = {
         StudyRow("`out_of_band`, seeds {seeds}", "out_of_band"),
         StudyRow("**best method** (`profile_lineages`), seeds {seeds}", "profile_lineages", p=True, count=True,
                  bold=True),
-    ))),
+    ), reference=("paper", "docs/results/paper_reference.json"))),
 }
 
 

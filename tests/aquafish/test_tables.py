@@ -140,3 +140,19 @@ def test_printing_a_table_gives_its_markers(capsys):
     out = capsys.readouterr().out
     assert out.startswith("<!-- table: recovery -->\n\n| gait of |") and out.rstrip().endswith("<!-- /table -->")
 
+
+
+def test_the_obj_fit_table_ends_with_the_papers_values_from_their_record_and_a_missing_record_is_named():
+    from functools import partial
+
+    from aquafish.tables import TABLES, study_table
+
+    spec = TABLES["obj_fit"]
+    rows = spec.render.keywords["rows"]
+    lines = spec.table(ROOT).splitlines()
+    published = json.loads((ROOT / "docs/results/paper_reference.json").read_text())["objective_fitness"]
+    assert lines[0].endswith("| paper |")
+    for line, row in zip(lines[2:], rows):
+        assert line.endswith(f"| {published.get(row.variant, '')} |".replace("|  |", "| |"))
+    with pytest.raises(ValueError, match="no_such.json"):
+        partial(study_table, rows=rows, reference=("paper", "no_such.json"))(spec.records, ROOT)
