@@ -377,36 +377,37 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     alone = backend == "local" and processes == 1  # one cell at a time, in this process
     cell_workers, inner_progress = (workers, progress) if alone else (1, False)
     duration = spec.episode_duration_s
+    def run_stage(desc: str, unit: str, tasks: list) -> Iterator:
+        """The values of ``tasks`` as they finish, counted on a progress bar."""
+        bar = progress_bar(len(tasks), desc=desc, unit=unit, disable=not progress or not tasks)
+        for value in _run_tasks(tasks, backend, processes, address):
+            yield value
+            bar.update()
+        bar.close()
+
     seeds = sorted({seed for _, seed in todo})
-    bar = progress_bar(len(seeds), desc="shared rows", unit="seed", disable=not progress or not seeds)
     shared_tasks = [DirTask(_train_shared, (spec.preset, seed, str(shared_dir(out, seed)), duration, cell_workers,
                                             inner_progress), outputs=(2,), label=f"shared rows of seed {seed}")
                     for seed in seeds]
-    for _ in _run_tasks(shared_tasks, backend, processes, address):
-        bar.update()
-    bar.close()
+    for _ in run_stage("shared rows", "seed", shared_tasks):
+        pass
     # the oracle of every damage with unfinished cells, once for all its seeds
     damages = list(dict.fromkeys(damage for damage, _ in todo))
-    bar = progress_bar(len(damages), desc="oracles", unit="damage", disable=not progress or not damages)
     oracle_tasks = [DirTask(_train_oracle, (spec.preset, damage, str(oracle_dir(out, damage)), duration, cell_workers,
                                             inner_progress), outputs=(2,), label=f"oracle of {damage}")
                     for damage in damages]
-    for _ in _run_tasks(oracle_tasks, backend, processes, address):
-        bar.update()
-    bar.close()
+    for _ in run_stage("oracles", "damage", oracle_tasks):
+        pass
 
     def run_pass(stage: str, cells: list, triage_only: bool) -> None:
-        bar = progress_bar(len(cells), desc=stage, unit="cell", disable=not progress or not cells)
         tasks = [DirTask(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)),
                                      str(shared_dir(out, seed)), duration, cell_workers, inner_progress,
                                      all_rows and not triage_only, triage_only, spec.self_model_fields,
                                      str(oracle_dir(out, damage))),
                          outputs=(3,), inputs=(4, 11), label=f"{stage} of cell {damage} seed {seed}")
                  for damage, seed in cells]
-        for report in _run_tasks(tasks, backend, processes, address):
+        for report in run_stage(stage, "cell", tasks):
             reports[(report["damage"], report["seed"])] = report
-            bar.update()
-        bar.close()
 
     # 1. triage every new cell (the healthy and oracle rows); 2. the other rows where they are due,
     # seed by seed (every damage of a seed before the next seed): a run stopped part-way leaves a
@@ -512,13 +513,8 @@ def faults_named(report: dict) -> bool | None:
     """
     from eea.identification import servo_faults_named
 
-    model = report.get("models", {}).get("self_model") or {}
-    parts = (model.get("morphology"), model.get("servo_gains"), report.get("target_morphology"),
-             report.get("target_servo_gains"))
-    if not all(parts):
-        return None
-    dims, gains, target_dims, target_gains = parts
-    return servo_faults_named(_model_values(dims, gains), _model_values(target_dims, target_gains))
+    values = _self_model_and_truth(report)
+    return None if values is None else servo_faults_named(*values)
 
 
 def self_model_identification(report: dict) -> dict | None:
@@ -536,13 +532,20 @@ def self_model_identification(report: dict) -> dict | None:
     """
     from eea.identification import identification
 
+    values = _self_model_and_truth(report)
+    return None if values is None else identification(*values)
+
+
+def _self_model_and_truth(report: dict) -> tuple[list[float], list[float]] | None:
+    """A report's self-model and target as ``(12,)`` ``morphology+servos`` values (None when the
+    report has no self-model of servo gains)."""
     model = report.get("models", {}).get("self_model") or {}
     parts = (model.get("morphology"), model.get("servo_gains"), report.get("target_morphology"),
              report.get("target_servo_gains"))
     if not all(parts):
         return None
     dims, gains, target_dims, target_gains = parts
-    return identification(_model_values(dims, gains), _model_values(target_dims, target_gains))
+    return _model_values(dims, gains), _model_values(target_dims, target_gains)
 
 
 def _model_values(dims: dict, gains: dict) -> list[float]:
