@@ -86,8 +86,17 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: The longest error line: a longer message (a value quoted whole) keeps its start and its end
+#: (what to do), the middle cut.
+MAX_MESSAGE_CHARS = 1000
+
+
 def _one_line(text: str) -> str:
-    return " ".join(str(text).split())
+    line = " ".join(str(text).split())
+    if len(line) <= MAX_MESSAGE_CHARS:
+        return line
+    keep = (MAX_MESSAGE_CHARS - 40) // 2
+    return f"{line[:keep]} ... ({len(line) - 2 * keep} characters cut) ... {line[-keep:]}"
 
 
 def describe_error(err: BaseException) -> str:
@@ -110,6 +119,18 @@ def describe_error(err: BaseException) -> str:
         return _one_line(f"a file is truncated or corrupt ({type(err).__name__}: {err}); run again with --debug to "
                          "see which")
     return _one_line(str(err) or type(err).__name__)
+
+
+def how_to_continue(args: argparse.Namespace) -> str:
+    """What the line after an interrupt tells to do: ``run the same command to continue``, or what
+    the command's handler says (its ``how_to_continue(args)`` attribute: ``aquafish gait``, whose
+    directory holds checkpoints, continues with ``--resume latest``)."""
+    hint = getattr(getattr(args, "func", None), "how_to_continue", None)
+    try:
+        text = hint(args) if hint is not None else None
+    except Exception:  # noqa: BLE001  (a hint must not hide the interrupt)
+        text = None
+    return text or "run the same command to continue"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -142,8 +163,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         if debug:
             raise
-        parser.exit(130, f"aquafish {args.command}: interrupted; finished work is kept, run the same command "
-                         "to continue\n")
+        parser.exit(130, f"aquafish {args.command}: interrupted; finished work is kept, {how_to_continue(args)}\n")
     except EXPECTED_ERRORS as err:
         if debug:
             raise

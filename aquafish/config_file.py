@@ -20,9 +20,11 @@ override the file, and a value from the file counts as given (``aquafish eea``'s
 a relative path is relative to the current directory, not to the file.
 
 A bad file is one line, ``aquafish COMMAND: error: config file run.toml: ...``, exit status 2:
-unreadable, not TOML (the line), a table (the file is flat), an unknown key (the closest or the
-valid ones), an old name of a flag (the canonical one), ``config`` itself, or a value its flag
-refuses (the flag's own message). After the command succeeds, its output directory gets
+unreadable (a FIFO, a device or a file over :data:`~aquafish_gym.files.MAX_INPUT_BYTES` too,
+:func:`aquafish_gym.files.read_input`), not TOML (the line), nested, a table (the file is
+flat), an unknown key (the closest or the valid ones), an old name of a flag (the canonical
+one), ``config`` itself, or a value its flag refuses (the flag's own message); ``--config``
+given twice is refused too. After the command succeeds, its output directory gets
 :data:`RECORD_FILE`: the file's content, the command line and every flag's effective value.
 
 This is command-line plumbing (:func:`aquafish.cli.main` calls :func:`parse_command_line` and
@@ -36,10 +38,13 @@ import dataclasses
 import difflib
 import json
 import os
+import sys
 import tomllib
 from pathlib import Path
 
 from aquafish_gym.argtypes import is_comma_separated
+from aquafish_gym.checks import short_repr
+from aquafish_gym.files import InputFileError, read_input
 
 __all__ = ["RECORD_FILE", "ConfigFileError", "LoadedConfig", "config_argv", "config_keys", "parse_command_line",
            "read_config", "write_record"]
@@ -126,7 +131,8 @@ def read_config(path: str | os.PathLike) -> dict:
         ``{key: value}`` as in the file (its keys as written).
 
     Raises:
-        ConfigFileError: the file cannot be read, is no UTF-8 TOML (the message says where), or
+        ConfigFileError: the file cannot be read (no regular file, or too large:
+            :func:`aquafish_gym.files.read_input`), is no UTF-8 TOML (the message says where), or
             holds a table (``[section]`` or ``key = {...}``; the file is flat), or is an ``.ini``
             file (NEAT's, which ``aquafish gait`` takes as ``--neat-config``).
     """
@@ -135,14 +141,23 @@ def read_config(path: str | os.PathLike) -> dict:
         raise ConfigFileError(f"{where}: an INI file; --config takes a TOML file of the command's flags "
                               "(NEAT's INI file is aquafish gait --neat-config)")
     try:
-        with open(path, "rb") as file:
-            values = tomllib.load(file)
+        values = tomllib.loads(read_input(path).decode("utf-8"))
+    except InputFileError as err:
+        raise ConfigFileError(f"{where}: cannot read it: it {err.problem}") from None
     except OSError as err:
         raise ConfigFileError(f"{where}: cannot read it: {err.strerror or err}") from None
     except UnicodeDecodeError:
         raise ConfigFileError(f"{where}: not UTF-8 text; a config file is TOML") from None
     except tomllib.TOMLDecodeError as err:
         raise ConfigFileError(f"{where}: not valid TOML: {err}") from None
+    except RecursionError:
+        raise ConfigFileError(f"{where}: nested too deeply (arrays or tables); the file is flat: one key = value "
+                              "line per flag") from None
+    except ValueError as err:  # tomllib lets int() refuse an integer of more than 4300 digits
+        if "digits" in str(err):
+            raise ConfigFileError(f"{where}: holds an integer of more than {sys.get_int_max_str_digits()} digits, "
+                                  "more than any setting needs") from None
+        raise ConfigFileError(f"{where}: not valid TOML: {short_repr(str(err))}") from None
     for key, value in values.items():
         if isinstance(value, dict) or (isinstance(value, list) and any(isinstance(v, (dict, list)) for v in value)):
             raise ConfigFileError(f"{where}: key {key!r} holds a table or nested list; the file is flat: one "
@@ -271,7 +286,8 @@ def parse_command_line(parser: argparse.ArgumentParser,
 
     Raises:
         SystemExit: status 2 after one line on standard error, ``aquafish COMMAND: error: ...``,
-            for a bad config file (:class:`ConfigFileError`'s message) or command line;
+            for a bad config file (:class:`ConfigFileError`'s message), ``--config`` given more
+            than once (the last file would replace the others) or a bad command line;
             status 0 after ``--help``.
     """
     argv = list(argv)
@@ -288,11 +304,15 @@ def parse_command_line(parser: argparse.ArgumentParser,
             command.error(f"write {full} in full to give a config file, not {name}")
     # only --config, spelt in full: the rest is parsed once, with the file's flags
     pre = argparse.ArgumentParser(add_help=False, allow_abbrev=False, exit_on_error=False)
-    pre.add_argument(*action.option_strings, dest="config_file", default=None)
+    pre.add_argument(*action.option_strings, dest="config_file", action="append", default=None)
     try:
-        path = pre.parse_known_args(given)[0].config_file
+        paths = pre.parse_known_args(given)[0].config_file
     except argparse.ArgumentError as err:
         command.error(str(err))
+    if paths is not None and len(paths) > 1:  # the last would silently replace the others
+        command.error(f"{full} is given {len(paths)} times ({', '.join(map(short_repr, paths))}); give one config "
+                      "file (merge them into one, or give the other settings as flags)")
+    path = None if paths is None else paths[0]
     if path is None:
         args = parser.parse_args(argv)
         if args.config_file is not None:  # not expected: every spelling argparse takes for --config is caught above

@@ -230,14 +230,18 @@ class MonitorCalibration:
         """Read a calibration :meth:`save` wrote (a file, or a directory holding :data:`CALIBRATION_FILE`).
 
         Raises:
-            OSError: the file cannot be read; ValueError: not valid JSON or not a calibration.
+            OSError: the file cannot be read; ValueError: not valid JSON or not a calibration, no
+                regular file, too large or nested too deeply
+                (:func:`aquafish_gym.files.read_input`, :func:`aquafish_gym.files.parse_json`).
         """
+        from aquafish_gym.files import parse_json, read_input
+
         path = Path(path)
         if path.is_dir():
             path = path / CALIBRATION_FILE
         try:
-            data = json.loads(path.read_text())
-        except json.JSONDecodeError as exc:
+            data = parse_json(read_input(path), source=path)
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise ValueError(f"{path} is not valid JSON: {exc}") from None
         return cls.from_dict(data)
 

@@ -2,12 +2,40 @@
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
 
-__all__ = ["DuplicateKeyError", "check_int", "check_seconds", "check_weight", "check_yaw_deg", "json_loads_unique_keys"]
+__all__ = ["DuplicateKeyError", "MESSAGE_VALUE_CHARS", "check_int", "check_seconds", "check_weight", "check_yaw_deg",
+           "json_loads_unique_keys", "short_repr"]
+
+#: The most characters of a value that a message quotes (:func:`short_repr`).
+MESSAGE_VALUE_CHARS = 80
+
+
+def short_repr(value, limit: int = MESSAGE_VALUE_CHARS) -> str:
+    """``repr(value)`` for a message, at most about ``limit`` characters: a longer one keeps its
+    start and says how long it was (``[1, 1, 1, 1, ... (2000000 items)]``, ``'1111... (5000
+    characters)'``), so that a huge value never fills a message.
+
+    Args:
+        value: anything; a ``str`` is quoted as ``repr`` quotes it.
+        limit: the characters of ``repr`` kept.
+
+    Returns:
+        The text.
+    """
+    if isinstance(value, str) and len(value) > limit:
+        return repr(value[:limit]) + f"... ({len(value)} characters)"
+    sized = isinstance(value, (list, tuple, dict, set, frozenset))
+    if sized and len(value) > limit:  # not repr'd whole
+        head = list(value.items() if isinstance(value, dict) else value)[:limit]
+        text = repr(dict(head) if isinstance(value, dict) else head)
+    else:
+        text = repr(value)
+    if len(text) <= limit:
+        return text
+    return text[:limit] + "..." + (f" ({len(value)} item{'s' * (len(value) != 1)})" if sized else "")
 
 
 def check_int(name: str, value, minimum: int | None = None, maximum: int | None = None) -> int:
@@ -84,12 +112,17 @@ class DuplicateKeyError(ValueError):
 
 
 def json_loads_unique_keys(text: str):
-    """``json.loads(text)``, refusing an object that gives a key twice.
+    """``json.loads(text)``, refusing an object that gives a key twice, JSON nested too deeply
+    and an integer too long to convert (:func:`aquafish_gym.files.parse_json`).
 
     Raises:
         DuplicateKeyError: ``"key '<key>' given twice"``.
+        aquafish_gym.files.InputFileError: nested more than
+            :data:`~aquafish_gym.files.MAX_JSON_DEPTH` deep, or an integer too long (a
+            ``ValueError`` whose message is the problem alone).
         json.JSONDecodeError: ``text`` is not valid JSON.
     """
+    from aquafish_gym.files import parse_json
 
     def pairs(items):
         seen = set()
@@ -99,4 +132,4 @@ def json_loads_unique_keys(text: str):
             seen.add(key)
         return dict(items)
 
-    return json.loads(text, object_pairs_hook=pairs)
+    return parse_json(text, object_pairs_hook=pairs)

@@ -21,11 +21,11 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 
-from aquafish_gym.checks import DuplicateKeyError, json_loads_unique_keys
+from aquafish_gym.checks import DuplicateKeyError, json_loads_unique_keys, short_repr
+from aquafish_gym.files import InputFileError, read_input
 from aquafish_gym.morphology import MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology
 
 __all__ = ["FAULT_KEYS", "SAMPLED_KINDS", "SAMPLED_PREFIX", "Fault", "FaultDraw", "draw_faults", "fault_from_file",
@@ -38,6 +38,8 @@ SAMPLED_PREFIX = "sampled:"
 _SERVOS = ("left pectoral", "right pectoral", "caudal")
 _HEALTHY = dict(zip(MORPHOLOGY_FIELDS, Morphology.healthy().to_array().tolist()))
 _PREFIX = "damage fault: "
+#: The most digits of a ``sampled:SEED``'s SEED (Python converts no longer integer text).
+MAX_SAMPLED_SEED_DIGITS = 4300
 
 
 def _error(message: str) -> ValueError:
@@ -47,9 +49,15 @@ def _error(message: str) -> ValueError:
 def _number(value, where: str, allowed: str) -> float:
     """A finite JSON number (not a bool), as a float; -0.0 becomes 0.0."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        got = json.dumps(value) if _jsonable(value) else repr(value)
+        got = _json_short(value) if _jsonable(value) else short_repr(value)
         raise _error(f"{where} must be a number in {allowed}, got {got}")
     return float(value) + 0.0
+
+
+def _json_short(value, limit: int = 80) -> str:
+    """``value`` as JSON for a message, at most about ``limit`` characters."""
+    text = json.dumps(value)
+    return text if len(text) <= limit else text[:limit] + f"... ({len(text)} characters)"
 
 
 def _jsonable(value) -> bool:
@@ -93,10 +101,11 @@ class Fault:
     def __post_init__(self) -> None:
         scale = dict(self.scale) if not isinstance(self.scale, dict) else self.scale
         if not isinstance(self.scale, dict) and len(scale) != len(self.scale):
-            raise _error(f"scale names a field twice: {self.scale!r}")
+            raise _error(f"scale names a field twice: {short_repr(self.scale)}")
         for field in scale:
             if field not in MORPHOLOGY_FIELDS:
-                raise _error(f"scale: unknown morphology field {field!r}; fields: {', '.join(MORPHOLOGY_FIELDS)}")
+                raise _error(f"scale: unknown morphology field {short_repr(field)}; "
+                             f"fields: {', '.join(MORPHOLOGY_FIELDS)}")
         factors = {}
         for field in MORPHOLOGY_FIELDS:
             if field in scale:
@@ -111,15 +120,15 @@ class Fault:
         object.__setattr__(self, "scale", tuple(factors.items()))
         seized = self.seized
         if not isinstance(seized, (list, tuple)) or len(seized) != 3:
-            raise _error(f"seized must be 3 booleans (left pectoral, right pectoral, caudal), got {seized!r}")
+            raise _error(f"seized must be 3 booleans (left pectoral, right pectoral, caudal), got {short_repr(seized)}")
         for i, s in enumerate(seized):
             if not isinstance(s, (bool, np.bool_)):
-                raise _error(f"seized[{i}] must be true or false, got {s!r}")
+                raise _error(f"seized[{i}] must be true or false, got {short_repr(s)}")
         object.__setattr__(self, "seized", tuple(bool(s) for s in seized))
         gains = self.gains
         if not isinstance(gains, (list, tuple)) or len(gains) != 3:
             raise _error(f"gains must be 3 numbers (left pectoral, right pectoral in [-1, 1]; caudal in [0, 1]), "
-                         f"got {gains!r}")
+                         f"got {short_repr(gains)}")
         values = []
         for i, g in enumerate(gains):
             lo = -1.0 if i < 2 else 0.0
@@ -142,10 +151,10 @@ class Fault:
                          f"got {type(data).__name__}")
         for key in data:
             if key not in FAULT_KEYS:
-                raise _error(f"unknown key {key!r}; allowed: {', '.join(FAULT_KEYS)}")
+                raise _error(f"unknown key {short_repr(key)}; allowed: {', '.join(FAULT_KEYS)}")
         scale = data.get("scale", {})
         if not isinstance(scale, dict):
-            raise _error(f"scale must be an object of morphology field -> factor >= 0, got {scale!r}")
+            raise _error(f"scale must be an object of morphology field -> factor >= 0, got {short_repr(scale)}")
         return cls(scale=tuple(scale.items()), seized=data.get("seized", (False, False, False)),
                    gains=data.get("gains", (1.0, 1.0, 1.0)))
 
@@ -161,6 +170,8 @@ class Fault:
             data = json_loads_unique_keys(text)
         except DuplicateKeyError as err:
             raise _error(str(err)) from None
+        except InputFileError as err:  # nested too deeply, an integer too long
+            raise _error(f"{source + ': ' if source else ''}the JSON {err.problem}") from None
         except json.JSONDecodeError as err:
             raise _error(f"{source + ': ' if source else ''}not valid JSON ({err})") from None
         return cls.from_dict(data)
@@ -211,15 +222,22 @@ class Fault:
 
 
 def fault_from_file(path) -> Fault:
-    """Read a JSON fault from ``path`` (a file name ending in ``.json``).
+    """Read a JSON fault from ``path`` (a file name ending in ``.json``): a regular file of at most
+    :data:`~aquafish_gym.files.MAX_INPUT_BYTES` (:func:`aquafish_gym.files.read_input`; a FIFO
+    or a device is refused unread).
 
     Raises:
-        ValueError: the file cannot be read, or its content as :meth:`Fault.from_json`.
+        ValueError: the file cannot be read, is no regular file or too large, or its content as
+            :meth:`Fault.from_json`.
     """
     try:
-        text = Path(path).read_text()
-    except (OSError, UnicodeDecodeError) as err:
-        raise _error(f"cannot read {path}: {getattr(err, 'strerror', None) or err}") from None
+        text = read_input(path).decode("utf-8")
+    except InputFileError as err:
+        raise _error(f"cannot read {err}") from None
+    except UnicodeDecodeError:
+        raise _error(f"cannot read {path}: it is not UTF-8 text; a fault is JSON") from None
+    except OSError as err:
+        raise _error(f"cannot read {path}: {err.strerror or err}") from None
     return Fault.from_json(text, str(path))
 
 
@@ -229,9 +247,12 @@ def parse_sampled_seed(text: str) -> int:
     Raises:
         ValueError: SEED is not an int >= 0.
     """
-    seed = text[len(SAMPLED_PREFIX):] if text.startswith(SAMPLED_PREFIX) else text
-    if not seed.strip().isdigit():
-        raise _error(f"sampled:SEED needs an int SEED >= 0, got {text!r}")
+    seed = (text[len(SAMPLED_PREFIX):] if text.startswith(SAMPLED_PREFIX) else text).strip()
+    if not (seed.isascii() and seed.isdigit()):  # "²".isdigit() is True, and int() refuses it
+        raise _error(f"sampled:SEED needs an int SEED >= 0, got {short_repr(text)} (SEED in the digits 0-9)")
+    if len(seed.lstrip("0")) > MAX_SAMPLED_SEED_DIGITS:
+        raise _error(f"sampled:SEED needs an int SEED >= 0 of at most {MAX_SAMPLED_SEED_DIGITS} digits, got one of "
+                     f"{len(seed.lstrip('0'))} digits")
     return int(seed)
 
 

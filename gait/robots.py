@@ -19,6 +19,7 @@ import numpy as np
 
 from aquafish_gym import DAMAGES, MORPHOLOGY_FIELDS, Morphology, ServoFaults, get_damage
 from aquafish_gym.faults import SAMPLED_PREFIX
+from aquafish_gym.files import parse_json, read_input
 
 #: The ``damage`` of a :class:`Robot` that draws a damage preset per episode (AquaFish-v0's
 #: damage randomisation): a robot trained on it is the damage-robust policy's.
@@ -171,10 +172,13 @@ def _morphology_from(value, source: str) -> Morphology:
 
 
 def _robot_from_file(path: Path) -> Robot:
-    text = path.read_text()
+    try:
+        text = read_input(path).decode("utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not UTF-8 text") from None
     if path.suffix.lower() == ".json":
         try:
-            data = json.loads(text)
+            data = parse_json(text, source=path)
         except json.JSONDecodeError as err:
             raise ValueError(f"{path}: not valid JSON ({err})") from None
         if isinstance(data, dict) and "morphology" in data:
