@@ -24,6 +24,7 @@ from __future__ import annotations
 import collections
 import importlib.util
 import json
+import math
 import os
 import pickle
 import tempfile
@@ -34,7 +35,7 @@ from typing import Any, Protocol, runtime_checkable
 import neat
 import numpy as np
 
-from aquafish_gym.files import atomic_write
+from aquafish_gym.files import MAX_INPUT_BYTES, InputFileError, atomic_write, parse_json
 from aquafish_gym.rundir import FileError, read_json
 from gait.clock import CLOCK_DIM, CLOCK_PERIOD_S, OBS_DIM, ClockObservation, check_clock_period, with_clock
 from gait.envs import DEFAULT_ENV_ID, make_env
@@ -49,6 +50,13 @@ PICKLE_REFUSED = ("pickled controllers are not loaded, because unpickling runs c
                   "yourself once in Python: import pickle; pickle.load(open('best_controller.pkl', 'rb'))"
                   ".save('best_controller.json') (docs/gaits.md)")
 SB3_MODEL_FILE = "model.zip"
+#: The most nodes and connections a saved NEAT genome may have (:meth:`NEATController.from_dict`):
+#: a gait evolves tens of them; neat-python builds a network in time that grows with nodes
+#: squared times connections, so a crafted genome of 300,000 nodes would run for hours.
+MAX_GENOME_NODES, MAX_GENOME_CONNECTIONS = 500, 5000
+#: The most bytes an SB3 ``model.zip`` may unpack to, summed over its entries as its directory
+#: declares them (checked before any entry is read; a policy of this project is well under a megabyte).
+MAX_SB3_UNPACKED_BYTES = 256 * 2**20
 #: SB3 algorithms that :func:`load_controller` and :mod:`gait.rl` know: stable-baselines3's PPO
 #: and SAC, and sb3-contrib's ``RecurrentPPO`` (an LSTM policy, which can tell a damage from
 #: the robot's response within an episode).
@@ -243,8 +251,13 @@ class NEATController:
         """Rebuild a controller from :meth:`to_dict`'s data: the same network, bit for bit.
 
         Raises:
-            ValueError: another format or version, a missing or mistyped field, or a NEAT
-                config neat-python rejects.
+            ValueError: another format or version, a missing or mistyped field, a NEAT
+                config neat-python rejects, more than :data:`MAX_GENOME_NODES` nodes or
+                :data:`MAX_GENOME_CONNECTIONS` connections (checked before any gene is
+                read), a gene value that is not finite, an activation or aggregation
+                function neat-python does not know, or a connection from or to a node the
+                genome does not have; the message names the field
+                (``genome.nodes[3].activation``).
         """
         if not isinstance(data, dict) or data.get("format") != NEAT_CONTROLLER_FORMAT:
             raise ValueError(f"not a saved NEAT controller (format must be {NEAT_CONTROLLER_FORMAT!r})")
@@ -257,16 +270,28 @@ class NEATController:
                 raise ValueError(f"num_inputs {data['num_inputs']} differs from the config's "
                                  f"{config.genome_config.num_inputs}")
             g = data["genome"]
+            nodes, connections = _gene_list(g, "nodes", MAX_GENOME_NODES), _gene_list(g, "connections",
+                                                                                     MAX_GENOME_CONNECTIONS)
             genome = config.genome_type(int(g["key"]))
             genome.fitness = g["fitness"]
-            for node in g["nodes"]:
-                genome.nodes[int(node["key"])] = _gene(config.genome_config.node_gene_type(int(node["key"])), node)
-            for conn in g["connections"]:
+            gc = config.genome_config
+            for i, node in enumerate(nodes):
+                gene = _gene(gc.node_gene_type(int(node["key"])), node, f"genome.nodes[{i}]")
+                for name, functions in (("activation", gc.activation_defs),
+                                        ("aggregation", gc.aggregation_function_defs)):
+                    if not functions.is_valid(getattr(gene, name)):
+                        raise ValueError(f"genome.nodes[{i}].{name}: unknown {name} function "
+                                         f"{_short(getattr(gene, name))}")
+                genome.nodes[gene.key] = gene
+            sources = set(gc.input_keys) | set(genome.nodes)
+            for i, conn in enumerate(connections):
                 key = tuple(int(k) for k in conn["key"])
                 if len(key) != 2:
-                    raise ValueError(f"connection key {conn['key']!r} is not [in, out]")
-                gene = config.genome_config.connection_gene_type(key, innovation=int(conn["innovation"]))
-                genome.connections[key] = _gene(gene, conn)
+                    raise ValueError(f"genome.connections[{i}].key: {_short(conn['key'])} is not [in, out]")
+                if key[0] not in sources or key[1] not in genome.nodes:
+                    raise ValueError(f"genome.connections[{i}].key: {list(key)} joins a node the genome does not have")
+                gene = gc.connection_gene_type(key, innovation=int(conn["innovation"]))
+                genome.connections[key] = _gene(gene, conn, f"genome.connections[{i}]")
             return cls(genome, config, data["clock_period_s"])
         except (KeyError, TypeError, AttributeError, AssertionError) as err:
             raise ValueError(f"a field is missing or mistyped ({type(err).__name__}: {err})") from None
@@ -314,14 +339,39 @@ def _config_from_text(text: str) -> neat.Config:
             raise ValueError(f"its NEAT config is not valid ({type(err).__name__}: {err})") from None
 
 
-def _gene(gene, fields: dict[str, Any]):
-    """Set every gene attribute of ``gene`` from ``fields`` (checked types); return ``gene``."""
+def _short(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else text[:80] + "..."
+
+
+def _gene_list(genome: dict[str, Any], name: str, most: int) -> list:
+    """``genome[name]``, a list of at most ``most`` genes (refused before any is read)."""
+    genes = genome[name]
+    if not isinstance(genes, list):
+        raise ValueError(f"genome.{name} must be a list of genes, got {type(genes).__name__}")
+    if len(genes) > most:
+        raise ValueError(f"genome.{name} has {len(genes)} genes; a saved gait has at most {most} (gaits evolve tens)")
+    return genes
+
+
+def _gene(gene, fields: dict[str, Any], where: str = "gene"):
+    """Set every gene attribute of ``gene`` from ``fields`` (checked types, finite numbers); return ``gene``.
+
+    Raises:
+        ValueError: a value of the wrong type or not finite, naming ``where`` and the attribute.
+    """
+    if not isinstance(fields, dict):
+        raise ValueError(f"{where} must be a JSON object, got {type(fields).__name__}")
     for attr in gene._gene_attributes:
+        if attr.name not in fields:
+            raise ValueError(f"{where}.{attr.name} is missing")
         value = fields[attr.name]
         kind = {"FloatAttribute": (int, float), "BoolAttribute": bool, "StringAttribute": str}.get(
             type(attr).__name__, object)
         if isinstance(value, bool) and kind != bool or not isinstance(value, kind):
-            raise TypeError(f"gene {fields.get('key')!r}: {attr.name} = {value!r}")
+            raise ValueError(f"{where}.{attr.name}: {_short(value)} is not a {type(attr).__name__[:-9].lower()}")
+        if kind == (int, float) and not math.isfinite(value):
+            raise ValueError(f"{where}.{attr.name}: {value!r} is not a finite number")
         setattr(gene, attr.name, float(value) if kind == (int, float) else value)
     return gene
 
@@ -381,13 +431,35 @@ class SB3PolicyController:
             meta: the sidecar ``model.json`` (:func:`sb3_sidecar`) as a dict (default ``{}``).
 
         Raises:
-            ValueError: an unknown algorithm; :class:`~aquafish_gym.rundir.FileError` if the
-                zip's ``data`` is not JSON or holds a pickled entry this cannot rebuild.
+            ValueError: an unknown algorithm; :class:`~aquafish_gym.rundir.FileError` (one
+                line naming the file and the field) if the zip's entries declare more than
+                :data:`MAX_SB3_UNPACKED_BYTES` (checked before any is unpacked), its ``data``
+                is not JSON or holds a pickled entry this cannot rebuild, it was saved with
+                another policy class or observation shape than ``meta`` names, its
+                ``policy_kwargs`` are not the policy's, its weights do not fit, or a weight
+                is not finite.
             MissingExtraError: stable-baselines3 is not installed (the ``[rl]`` extra).
         """
         algo_cls = sb3_algorithm(algo)
         custom = _sb3_custom_objects(Path(path), algo_cls, algo, meta or {})
-        return cls(algo_cls.load(str(path), device="cpu", custom_objects=custom), clock_period_s, deterministic)
+        try:
+            model = algo_cls.load(str(path), device="cpu", custom_objects=custom)
+        except (TypeError, AttributeError, RuntimeError, AssertionError, KeyError, IndexError, ValueError) as err:
+            if isinstance(err, FileError):
+                raise
+            # what the checks of _sb3_custom_objects cannot see: weights of another shape (net_arch,
+            # the task's observation), a setting SB3 refuses
+            what = " ".join(" ".join(str(err).split()).split(":", 1)[-1].split()) or type(err).__name__
+            raise FileError(path, f"cannot be loaded as the {algo} model that {sb3_sidecar(path).name} describes "
+                                  f"(algo, env_id, fingerprint.hyperparams.policy; its data's policy_kwargs): "
+                                  f"{type(err).__name__}: {what[:240]}",
+                            "give a model.zip with the model.json that `aquafish rl` wrote beside it") from None
+        bad = next((name for name, weights in model.policy.state_dict().items()
+                    if weights.is_floating_point() and not bool(weights.isfinite().all())), None)
+        if bad is not None:
+            raise FileError(path, f"policy.pth: the weights {bad} are not all finite (NaN or infinite)",
+                            "give a model.zip written by `aquafish rl`")
+        return cls(model, clock_period_s, deterministic)
 
     def __repr__(self) -> str:
         return f"SB3PolicyController({type(self.model).__name__}, clock {self.clock_period_s} s)"
@@ -458,7 +530,10 @@ def _sb3_custom_objects(path: Path, algo_cls, algo: str, meta: dict[str, Any]) -
 
     try:
         with zipfile.ZipFile(path) as archive:
-            data = json.loads(archive.read("data").decode())
+            _check_unpacked_sizes(path, archive)
+            data = parse_json(archive.read("data"), source=path)
+    except InputFileError as err:
+        raise FileError(path, f"is not a readable SB3 model: its data {err.problem}") from None
     except (KeyError, UnicodeDecodeError, json.JSONDecodeError, zipfile.BadZipFile, EOFError) as err:
         raise FileError(path, f"is not a readable SB3 model: no valid data JSON ({type(err).__name__}: {err})") \
             from None
@@ -468,8 +543,11 @@ def _sb3_custom_objects(path: Path, algo_cls, algo: str, meta: dict[str, Any]) -
     fingerprint = meta.get("fingerprint") if isinstance(meta.get("fingerprint"), dict) else {}
     hp = fingerprint.get("hyperparams") if isinstance(fingerprint.get("hyperparams"), dict) else {}
     policy = hp.get("policy", "MlpLstmPolicy" if algo == "recurrent_ppo" else "MlpPolicy")
-    if policy not in algo_cls.policy_aliases:
-        raise FileError(sb3_sidecar(path), f"names the policy {policy!r}, which {algo} does not know")
+    if not isinstance(policy, str) or policy not in algo_cls.policy_aliases:
+        raise FileError(sb3_sidecar(path), f"fingerprint.hyperparams.policy: {_short(policy)} is no policy {algo} "
+                                           f"knows ({', '.join(algo_cls.policy_aliases)})", "give the model.json that "
+                                           "`aquafish rl` wrote beside the model")
+    _check_policy(path, data, algo, policy, algo_cls.policy_aliases[policy])
 
     def constant(value, default: float):
         return FloatSchedule(float(value) if isinstance(value, (int, float)) and not isinstance(value, bool)
@@ -481,6 +559,13 @@ def _sb3_custom_objects(path: Path, algo_cls, algo: str, meta: dict[str, Any]) -
         spaces = {"observation_space": env.observation_space, "action_space": env.action_space}
     finally:
         env.close()
+    for key, space in spaces.items():  # the shapes SB3 saved readable beside the pickled spaces
+        shape = data[key].get("_shape") if isinstance(data.get(key), dict) else None
+        if isinstance(shape, list) and shape != list(space.shape):
+            raise FileError(path, f"data.{key}: its shape {_short(shape)} is not the {list(space.shape)} of the task "
+                                  f"{meta.get('env_id', DEFAULT_ENV_ID)} with the clock that {sb3_sidecar(path).name} "
+                                  "names (env_id)", "give a model.zip with the model.json that `aquafish rl` wrote "
+                                                    "beside it")
     window = data.get("_stats_window_size", 100) if isinstance(data.get("_stats_window_size"), int) else 100
     safe = {**spaces, "policy_class": algo_cls.policy_aliases[policy],
             "lr_schedule": constant(data.get("learning_rate"), 3e-4),
@@ -494,6 +579,68 @@ def _sb3_custom_objects(path: Path, algo_cls, algo: str, meta: dict[str, Any]) -
         raise FileError(path, f"holds pickled entries {unknown} in its data, which are not loaded (unpickling runs "
                               "code)", "train the model again with `aquafish rl`")
     return {k: safe[k] for k in serialized}
+
+
+def _check_unpacked_sizes(path: Path, archive: zipfile.ZipFile) -> None:
+    """Refuse a zip whose entries unpack to more than :data:`MAX_SB3_UNPACKED_BYTES` together, or
+    whose ``data`` entry is larger than an input file may be, before any entry is read.
+
+    ``zipfile`` never unpacks more than an entry's declared size (a lie is a CRC or length
+    error), so the declared sizes bound what reading the zip can take.
+    """
+    infos = archive.infolist()
+    total = sum(info.file_size for info in infos)
+    if total > MAX_SB3_UNPACKED_BYTES:
+        raise FileError(path, f"is not a usable SB3 model: its {len(infos)} entries unpack to {total:,} bytes, more "
+                              f"than the {MAX_SB3_UNPACKED_BYTES:,} a policy of this project can take (a zip bomb?); "
+                              "it was not unpacked", "give a model.zip written by `aquafish rl`")
+    data = next((info for info in infos if info.filename == "data"), None)
+    if data is not None and data.file_size > MAX_INPUT_BYTES:
+        raise FileError(path, f"is not a usable SB3 model: its data entry unpacks to {data.file_size:,} bytes, more "
+                              f"than {MAX_INPUT_BYTES:,}; it was not unpacked",
+                        "give a model.zip written by `aquafish rl`")
+
+
+#: The widest layer and the most layers a saved policy's ``net_arch`` may have.
+_NET_ARCH_WIDTH, _NET_ARCH_LAYERS = 65536, 64
+
+
+def _check_policy(path: Path, data: dict[str, Any], algo: str, policy: str, policy_cls) -> None:
+    """Refuse an SB3 model whose data does not fit the algorithm and policy its ``model.json``
+    names, naming the field: the policy class it was saved with (readable beside the pickle),
+    and its ``policy_kwargs`` (keys the policy takes, a ``net_arch`` of positive widths)."""
+    fix = "give a model.zip with the model.json that `aquafish rl` wrote beside it"
+    saved = data.get("policy_class")
+    if isinstance(saved, dict) and isinstance(saved.get("__module__"), str) and isinstance(saved.get("__init__"), str):
+        name = saved["__init__"].removeprefix("<function ").split(".__init__", 1)[0]
+        if (saved["__module__"], name) != (policy_cls.__module__, policy_cls.__qualname__):
+            raise FileError(path, f"data.policy_class: it holds a {saved['__module__'][:80]}.{name[:80]} policy, "
+                                  f"not the {policy_cls.__module__}.{policy_cls.__qualname__} of {algo} {policy} that "
+                                  f"{sb3_sidecar(path).name} names (algo, fingerprint.hyperparams.policy)", fix)
+    kwargs = data.get("policy_kwargs", {})
+    if kwargs is None or (isinstance(kwargs, dict) and ":serialized:" in kwargs):
+        return  # none, or pickled (refused unread by the caller)
+    if not isinstance(kwargs, dict):
+        raise FileError(path, f"data.policy_kwargs: {_short(kwargs)} is not a JSON object", fix)
+    import inspect
+
+    taken = set(inspect.signature(policy_cls.__init__).parameters) - {"self", "observation_space", "action_space",
+                                                                     "lr_schedule"}
+    for key, value in kwargs.items():
+        if key not in taken:
+            raise FileError(path, f"data.policy_kwargs.{key[:80]}: not a setting of {algo} {policy}", fix)
+        if key.endswith(("_fn", "_class")):  # a class or function: SB3 pickles those, so plain JSON is no class
+            raise FileError(path, f"data.policy_kwargs.{key}: {_short(value)} is not a class SB3 saved", fix)
+    arch = kwargs.get("net_arch")
+    if arch is None:
+        return
+    nets = arch if isinstance(arch, dict) else {"": arch}
+    for net, widths in nets.items():
+        where = f"data.policy_kwargs.net_arch{'.' + str(net)[:80] if net else ''}"
+        if not isinstance(widths, list) or len(widths) > _NET_ARCH_LAYERS or not all(
+                isinstance(w, int) and not isinstance(w, bool) and 1 <= w <= _NET_ARCH_WIDTH for w in widths):
+            raise FileError(path, f"{where}: {_short(widths)} is not a list of at most {_NET_ARCH_LAYERS} layer widths "
+                                  f"in [1, {_NET_ARCH_WIDTH}]", fix)
 
 
 def sb3_sidecar(model_path) -> Path:
