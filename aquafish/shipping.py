@@ -44,7 +44,7 @@ from aquafish import backends
 from aquafish_gym.files import atomic_write
 from aquafish_gym.rundir import LOCK_FILE, FileError
 
-__all__ = ["DirTask", "pack_dir", "run_dir_tasks", "unpack_dir"]
+__all__ = ["DirTask", "SCRATCH_PREFIX", "pack_dir", "remove_stale_scratch", "run_dir_tasks", "unpack_dir"]
 
 _log = logging.getLogger(__name__)
 
@@ -53,6 +53,9 @@ _TEMPORARY = re.compile(r"^\..+\.[a-z0-9_]{8}\.tmp$")
 #: The hidden siblings :func:`unpack_dir` writes (``.NAME.PID.XXXXXXXX.part``) or moves a
 #: replaced directory to (``.old``) before it removes it.
 _SIBLING = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.[a-z0-9_]{8}\.(?:part|old)$")
+#: The start of a Ray task's temporary directory (:func:`_in_scratch`), followed by its worker's pid.
+SCRATCH_PREFIX = "aquafish-task-"
+_SCRATCH = re.compile(rf"^{SCRATCH_PREFIX}(?P<pid>\d+)-[a-z0-9_]{{8}}$")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -246,7 +249,9 @@ def _in_scratch(index: int, fn: Callable, args: tuple, dirs: dict[int, dict[str,
 
     Each argument ``i`` of ``dirs`` (the driver sends only the directory's last name, never its
     path) is replaced by a directory of that name in a new temporary directory, holding the files
-    ``dirs[i]`` (the driver's so far); the temporary directory is removed at the end.
+    ``dirs[i]`` (the driver's so far); the temporary directory is removed at the end. Its name
+    carries this worker's pid (``aquafish-task-PID-XXXXXXXX``): one left by a worker that was
+    killed is removed by the next task on the node (:func:`remove_stale_scratch`).
 
     Returns:
         ``(index, value, {i: files of the output directory i}, {i: the temporary path argument i
@@ -256,7 +261,8 @@ def _in_scratch(index: int, fn: Callable, args: tuple, dirs: dict[int, dict[str,
         _Failed: ``fn`` raised an exception (carried with ``index`` and the temporary paths).
     """
     attempt = _attempt()
-    with tempfile.TemporaryDirectory(prefix="aquafish-task-") as root:
+    remove_stale_scratch()
+    with tempfile.TemporaryDirectory(prefix=f"{SCRATCH_PREFIX}{os.getpid()}-") as root:
         args = list(args)
         scratch = {}
         for i, files in dirs.items():
@@ -273,6 +279,53 @@ def _in_scratch(index: int, fn: Callable, args: tuple, dirs: dict[int, dict[str,
         except Exception as err:
             raise _Failed(err, index, scratch) from None
         return index, value, {i: pack_dir(scratch[i]) for i in outputs}, scratch, attempt
+
+
+def remove_stale_scratch(directory: str | os.PathLike | None = None) -> list[Path]:
+    """Remove the temporary directories of Ray tasks whose worker is gone.
+
+    A task's temporary directory (:func:`_in_scratch`, ``aquafish-task-PID-XXXXXXXX`` in the
+    system's temporary folder) is removed when the task ends; a worker killed with its run
+    (``kill -9`` of the command, a lost node) leaves it. Every task and every Ray run of
+    :func:`run_dir_tasks` first removes those of this user whose pid runs no process on this
+    machine; a directory whose pid runs (another task) is left alone.
+
+    Args:
+        directory: where to look (default: ``tempfile.gettempdir()``).
+
+    Returns:
+        The directories removed.
+    """
+    root = Path(directory if directory is not None else tempfile.gettempdir())
+    removed = []
+    try:
+        entries = list(os.scandir(root))
+    except OSError:
+        return removed
+    for entry in entries:
+        found = _SCRATCH.match(entry.name)
+        try:
+            if not found or not entry.is_dir(follow_symlinks=False) \
+                    or entry.stat(follow_symlinks=False).st_uid != os.getuid():
+                continue
+        except OSError:
+            continue
+        if _running(int(found["pid"])):
+            continue
+        shutil.rmtree(entry.path, ignore_errors=True)
+        removed.append(Path(entry.path))
+    return removed
+
+
+def _running(pid: int) -> bool:
+    """Whether a process ``pid`` runs on this machine."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True  # someone else's process (or not a pid to test): leave its directory
+    return True
 
 
 def _names_only(task: DirTask) -> tuple:
@@ -307,6 +360,7 @@ def run_dir_tasks(tasks: list[DirTask], *, backend: str = "local", processes: in
         yield from backends.run_tasks([(t.fn, t.args) for t in tasks], backend=backend, processes=processes,
                                       address=address)
         return
+    remove_stale_scratch()  # a killed Ray run's on this machine (its workers were killed with it)
     shipped = [(_in_scratch, (i, t.fn, _names_only(t), {j: pack_dir(t.args[j]) for j in (*t.outputs, *t.inputs)},
                               t.outputs)) for i, t in enumerate(tasks)]
     results = backends.run_tasks(shipped, backend="ray", address=address, labels=[t.label for t in tasks])

@@ -12,8 +12,10 @@ Hyperparameters come from ``gait/rl_hyperparams.yml`` (RL Zoo conventions).
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import json
+import os
 import time
 from pathlib import Path
 from typing import Any, Callable
@@ -22,7 +24,7 @@ import numpy as np
 import yaml
 
 from aquafish_gym.checks import check_int
-from aquafish_gym.files import atomic_write
+from aquafish_gym.files import atomic_write, read_input
 from aquafish_gym.rundir import MismatchError, check_fingerprint, check_output_dir, read_json, run_lock
 from gait.clock import CLOCK_PERIOD_S, ClockObservation, check_clock_period
 from gait.controller import (SB3_ALGOS, SB3_MODEL_FILE, SB3PolicyController, require_rl, sb3_algorithm,
@@ -52,9 +54,13 @@ def read_hyperparams_section(algo: str, path=None, env_id: str = DEFAULT_ENV_ID)
     if not path.is_file():
         raise ValueError(f"no hyperparameter file {path}")
     try:
-        data = yaml.safe_load(path.read_text()) or {}
+        data = yaml.safe_load(read_input(path).decode("utf-8")) or {}
     except yaml.YAMLError as err:
         raise ValueError(f"{path}: not valid YAML ({' '.join(str(err).split())})") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not UTF-8 text; a hyperparameter file is YAML") from None
+    except RecursionError:
+        raise ValueError(f"{path}: nested too deeply; a hyperparameter file is a few levels of mappings") from None
     try:
         section = data[algo][env_id]
     except (KeyError, TypeError):
@@ -280,16 +286,21 @@ def _train(algo_cls, algo, robot, n_timesteps, seed, out_dir, hp, hyperparams_pa
     # DummyVecEnv stack) would join this run's learning curve: this run rewrites the log
     for stale in (out_dir / "monitor").glob("*monitor.csv"):
         stale.unlink()
+    from gait.sb3_vec_env import MONITOR_FILE
+
     # the n_envs sub-envs are robots of one PyBullet world (gait.sb3_vec_env), not n_envs single envs
-    venv = make_clock_vec_env(robot, n_envs, seed=seed, monitor_dir=out_dir / "monitor",
-                              episode_duration_s=episode_duration_s, clock_period_s=clock_period_s, env_id=env_id)
-    model = algo_cls(policy, venv, seed=seed, device="cpu", verbose=verbose, **hp)
-    start = time.perf_counter()
-    model.learn(total_timesteps=int(n_timesteps),  # the bar counts the whole rollouts SB3 trains
-                callback=training_bar(timesteps_to_train(model, n_timesteps), _bar_label(algo, robot, env_id),
-                                      disable=not progress))
-    wall_time_s = time.perf_counter() - start
-    venv.close()
+    with _naming_the_monitor_file(out_dir / "monitor" / MONITOR_FILE):
+        venv = make_clock_vec_env(robot, n_envs, seed=seed, monitor_dir=out_dir / "monitor",
+                                  episode_duration_s=episode_duration_s, clock_period_s=clock_period_s, env_id=env_id)
+        model = algo_cls(policy, venv, seed=seed, device="cpu", verbose=verbose, **hp)
+        if hp.get("tensorboard_log") is None:
+            model.set_logger(quiet_logger(verbose))
+        start = time.perf_counter()
+        model.learn(total_timesteps=int(n_timesteps),  # the bar counts the whole rollouts SB3 trains
+                    callback=training_bar(timesteps_to_train(model, n_timesteps), _bar_label(algo, robot, env_id),
+                                          disable=not progress))
+        wall_time_s = time.perf_counter() - start
+        venv.close()
     model_path = out_dir / SB3_MODEL_FILE
     model.save(model_path)
 
@@ -309,6 +320,39 @@ def _train(algo_cls, algo, robot, n_timesteps, seed, out_dir, hp, hyperparams_pa
         plot_learning_curve(curve, out_dir / "learning_curve.png", title=f"{algo.upper()} on {robot.label}")
     atomic_write(sb3_sidecar(model_path), json.dumps(meta, indent=1).encode())  # last: marks a finished run
     return model_path
+
+
+def quiet_logger(verbose: int = 0):
+    """SB3's logger of a training without TensorBoard, made here so that SB3 makes no directory.
+
+    Left to itself, ``learn()`` configures a logger that creates an empty ``SB3-<date>``
+    directory in the system's temporary folder at every training (even with ``verbose=0``,
+    when it writes nothing). This one writes what SB3's would (``verbose`` >= 1: the training
+    table to standard output; 0: nothing) and has no folder.
+
+    Args:
+        verbose: SB3's verbosity.
+
+    Returns:
+        A ``stable_baselines3.common.logger.Logger`` for ``model.set_logger``.
+    """
+    import sys
+
+    from stable_baselines3.common.logger import HumanOutputFormat, Logger
+
+    return Logger(folder=None, output_formats=[HumanOutputFormat(sys.stdout)] if verbose >= 1 else [])
+
+
+@contextlib.contextmanager
+def _naming_the_monitor_file(path: Path):
+    """Name ``path`` in an ``OSError`` that names no file: SB3's ``VecMonitor`` writes its episode
+    log itself, and a full disk while it writes would otherwise be reported without it."""
+    try:
+        yield
+    except OSError as err:
+        if err.filename is not None:
+            raise
+        raise OSError(err.errno, err.strerror or str(err), os.fspath(path)) from err
 
 
 def train_or_load_rl(algo: str, morphology, timesteps: int | None, seed: int, out_dir, **kwargs: Any) -> Path:
