@@ -21,8 +21,8 @@ from typing import Callable, Iterator
 
 from aquafish_gym.rundir import spawn_pool
 
-__all__ = ["BACKENDS", "CLUSTER_EXTRA_INSTALL", "MAX_RETRIES", "RAY_TOKEN_HELP", "ClusterError", "check_backend",
-           "connect_ray", "run_tasks"]
+__all__ = ["BACKENDS", "CLUSTER_EXTRA_INSTALL", "MAX_RETRIES", "RAY_TOKEN_HELP", "ClusterError", "check_address",
+           "check_backend", "connect_ray", "run_tasks"]
 
 #: The backends a batch of tasks can run on.
 BACKENDS = ("local", "ray")
@@ -44,15 +44,52 @@ class ClusterError(ValueError):
     or the cluster refuses this client (its token). The message says what to do."""
 
 
-def check_backend(backend: str) -> str:
-    """``backend`` if it is one of :data:`BACKENDS`.
+def check_backend(backend: str, address: str | None = None) -> str:
+    """``backend`` if it is one of :data:`BACKENDS`, and ``address`` only with ``"ray"``.
+
+    Args:
+        backend: the backend asked for.
+        address: the Ray cluster's address asked for (``--address``), or None.
 
     Raises:
-        ValueError: any other name, naming the allowed ones.
+        ValueError: any other name, naming the allowed ones; an ``address`` with the local
+            backend, which would ignore it.
     """
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if address is not None and backend != "ray":
+        raise ValueError(f"--address {_shown(address)} names a Ray cluster, which --backend {backend} does not use "
+                         "(it would be ignored); give --backend ray to run on that cluster, or leave --address out")
     return backend
+
+
+def _shown(text: str) -> str:
+    """``text`` for a message: at most 80 characters, quoted when empty or not printable."""
+    text = str(text)
+    short = text if len(text) <= 80 else text[:80] + "..."
+    return short if short and short.isprintable() and " " not in short else repr(short)
+
+
+def check_address(address: str, source: str = "--address") -> str:
+    """``address`` if it has the form of a Ray address: ``auto``, ``local``, ``HOST:PORT`` (PORT
+    in 1-65535; the head's GCS port, 6379 unless it was started with another) or
+    ``ray://HOST:PORT`` (Ray Client).
+
+    Args:
+        address: the address.
+        source: where it came from, for the message (``--address`` or ``RAY_ADDRESS``).
+
+    Raises:
+        ClusterError: one line naming ``source``, the address and the forms allowed.
+    """
+    text = address.removeprefix("ray://")
+    host, _, port = text.rpartition(":")
+    if address in ("auto", "local") or (host.strip("[]") and port.isascii() and port.isdigit()
+                                        and 1 <= int(port) <= 65535 and "/" not in text and text.isprintable()):
+        return address
+    raise ClusterError(f"{source} {_shown(address)} is not a Ray cluster address: give 'auto' (the cluster started on "
+                       "this machine), HOST:PORT (the head's GCS port, 6379 by default) or ray://HOST:PORT (Ray "
+                       "Client)")
 
 
 def run_tasks(tasks: list[tuple[Callable, tuple]], *, backend: str = "local", processes: int = 1,
@@ -150,21 +187,27 @@ def connect_ray(address: str | None = None):
     address (``ray://``) is passed to ``ray.init`` unchecked.
 
     Raises:
-        ClusterError: Ray is not installed (the message names the ``[cluster]`` extra), nothing
-            answers at the address, the cluster refuses this client (the message says which
-            variables to set), or ``ray.init`` fails.
+        ClusterError: one line that names where the address came from (``--address``, or the
+            environment's ``RAY_ADDRESS``): Ray is not installed (the message names the
+            ``[cluster]`` extra), the address has no form of a Ray address
+            (:func:`check_address`), nothing answers at it, the cluster refuses this client
+            (the message says which variables to set), or ``ray.init`` fails.
     """
     ray = _import_ray()
     if ray.is_initialized():
         return ray
+    source = "--address" if address is not None else "RAY_ADDRESS"  # Ray reads RAY_ADDRESS without --address
     target = address if address is not None else os.environ.get("RAY_ADDRESS")
-    if target and not target.startswith("ray://"):
-        _check_cluster(target)
+    if target is not None and (address is not None or target):
+        check_address(target, source)
+    if target and not target.startswith("ray://") and target != "local":
+        _check_cluster(target, source)
     try:
         ray.init(address=address, include_dashboard=False, log_to_driver=False)
-    except (ConnectionError, RuntimeError, ray.exceptions.RayError) as err:
-        where = f"at --address {address}" if address else f"at RAY_ADDRESS {target}" if target else "(a new local one)"
-        raise ClusterError(f"cannot connect to the Ray cluster {where}: {str(err).splitlines()[0]}") from err
+    except Exception as err:  # noqa: BLE001  (Ray raises ValueError, ConnectionError, RuntimeError, its own)
+        where = f"at {source} {_shown(target)}" if target else "(a new local one)"
+        reason = " ".join(str(err).split()) or type(err).__name__
+        raise ClusterError(f"cannot connect to the Ray cluster {where}: {reason[:300]}") from err
     return ray
 
 
@@ -189,9 +232,10 @@ def _quiet_stderr_fd():
         os.close(saved)
 
 
-def _check_cluster(address: str) -> None:
+def _check_cluster(address: str, source: str = "--address") -> None:
     """Fail at once, with what to do, if nothing listens at ``address`` or its cluster refuses this
-    client's token (:func:`connect_ray`); other problems are left to ``ray.init``."""
+    client's token (:func:`connect_ray`); other problems are left to ``ray.init``. ``source`` names
+    where the address came from in the message (``--address`` or ``RAY_ADDRESS``)."""
     from ray._private.services import canonicalize_bootstrap_address
     from ray._raylet import GcsClient
     from ray.exceptions import AuthenticationError
@@ -205,8 +249,8 @@ def _check_cluster(address: str) -> None:
     try:
         socket.create_connection((host, port), timeout=1).close()
     except OSError as err:
-        raise ClusterError(f"no Ray cluster answers at --address {address} ({gcs}: {err.strerror or err}); start "
-                           "one with `ray start --head`, or check the address") from None
+        raise ClusterError(f"no Ray cluster answers at {source} {_shown(address)} ({gcs}: {err.strerror or err}); "
+                           "start one with `ray start --head`, or check the address") from None
     if address == "auto" and "RAY_AUTH_MODE" not in os.environ and _ray_token_available():
         return  # ray.init turns token authentication on by itself for a local cluster found so
     try:
@@ -217,6 +261,6 @@ def _check_cluster(address: str) -> None:
         problem = ("refused this client's token (RAY_AUTH_MODE=token): the token is missing or not the cluster's"
                    if mode.lower() == "token" else
                    "requires token authentication (Ray's InvalidAuthToken) and this client sends no token")
-        raise ClusterError(f"the Ray cluster at --address {address} {problem}; {RAY_TOKEN_HELP}") from None
+        raise ClusterError(f"the Ray cluster at {source} {_shown(address)} {problem}; {RAY_TOKEN_HELP}") from None
     except Exception:  # noqa: BLE001  (anything else: ray.init reports it)
         return
