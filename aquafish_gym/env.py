@@ -615,8 +615,12 @@ class AquaFishEnv(gym.Env, EzPickle):
         Entries beyond +-1 by float32 round-off (1e-6) are clipped; nothing else is.
 
         Raises:
-            ValueError: wrong shape, or an entry not finite or outside [-1, 1] (named).
+            ValueError: wrong shape, complex entries (NumPy would drop their imaginary parts), or
+                an entry not finite or outside [-1, 1] (named).
         """
+        if np.iscomplexobj(actions):
+            raise ValueError(f"action entries must be real numbers in [-1, 1], got complex numbers "
+                             f"({np.asarray(actions).dtype}, shape {np.shape(actions)})")
         arr = np.asarray(actions, dtype=np.float64)
         shape = (3,) if n is None else (n, 3)
         if arr.shape != shape:

@@ -22,13 +22,17 @@ from aquafish_gym.heading import HeadingEnv
 from aquafish_gym.simulator import BatchWorld
 from aquafish_gym.station_keeping import StationKeepingEnv
 
-__all__ = ["AquaFishVectorEnv", "HeadingVectorEnv", "MAX_WORLD_ROBOTS", "StationKeepingVectorEnv"]
+__all__ = ["AquaFishVectorEnv", "HeadingVectorEnv", "MAX_NUM_ENVS", "MAX_WORLD_ROBOTS", "StationKeepingVectorEnv"]
 
 #: Default largest number of robots in one PyBullet world: PyBullet's cost per robot grows
 #: with the world's size (docs/performance.md), so more sub-envs are split over several worlds.
 #: 64, as the EEA's ``max_batch_robots``: 256 sub-envs stepped 1.6x faster as four worlds of
 #: 64 than as one world of 256 (2026-11-25, shared machine).
 MAX_WORLD_ROBOTS = 64
+#: The most sub-envs one vector env takes: each is a robot with its own episode state (about
+#: 4 kB before its world is built, far more in PyBullet), so a million would take minutes and
+#: gigabytes before the first step; a gait's population, a PPO run's envs, an EEA batch are far fewer.
+MAX_NUM_ENVS = 100_000
 
 _DOC = """N sub-envs of ``{env_id}`` stepped together as N robots of one PyBullet world.
 
@@ -87,7 +91,7 @@ _DOC = """N sub-envs of ``{env_id}`` stepped together as N robots of one PyBulle
     ## Arguments
     | Parameter          | Default | Description                                        |
     |--------------------|---------|----------------------------------------------------|
-    | `num_envs`         | 1       | number of sub-envs N (>= 1)                        |
+    | `num_envs`         | 1       | number of sub-envs N (1 to {max_envs})             |
     | `max_world_robots` | {max_robots}     | most robots in one PyBullet world (>= 1)           |
     | every argument of ``{env_id}`` | | the same for every sub-env, except ``render_mode``, which must be None (no rendering) |
 
@@ -95,12 +99,13 @@ _DOC = """N sub-envs of ``{env_id}`` stepped together as N robots of one PyBulle
     rewards (N,), terminated (N,), truncated (N,), info)``.
 
     Raises:
-        ValueError: ``num_envs`` or ``max_world_robots`` not an integer >= 1, a
+        ValueError: ``num_envs`` not an integer in [1, {max_envs}] (refused before any sub-env is
+            made), ``max_world_robots`` not an integer >= 1, a
             ``render_mode``, any argument the single env refuses; in ``reset``: seeds that
             are not None, an int or N of them, a partial ``reset_mask``, bad ``options``;
             in ``step``: actions not of shape ``(N, 3)``, not finite or outside [-1, 1]
             (naming the sub-env).
-        RuntimeError: ``step`` before ``reset``.
+        RuntimeError: ``step`` before ``reset``, or after ``close`` (``reset`` starts new worlds).
     """
 
 
@@ -110,7 +115,7 @@ class AquaFishVectorEnv(VectorEnv):
 
     def __init__(self, num_envs: int = 1, *, max_world_robots: int = MAX_WORLD_ROBOTS, **kwargs: Any):
         env_id = self.task_class.env_id
-        check_int(f"num_envs (sub-envs of {env_id})", num_envs, 1)
+        check_int(f"num_envs (sub-envs of {env_id})", num_envs, 1, MAX_NUM_ENVS)
         check_int("max_world_robots (robots in one PyBullet world)", max_world_robots, 1)
         if kwargs.get("render_mode") is not None:
             raise ValueError(f"the vector env of {env_id} does not render: render_mode must be None, got "
@@ -132,6 +137,7 @@ class AquaFishVectorEnv(VectorEnv):
         self._worlds: list[BatchWorld] = []
         self._episodes: Episodes | None = None
         self._autoreset = False
+        self._closed = False
 
     @property
     def worlds(self) -> list[BatchWorld]:
@@ -194,6 +200,7 @@ class AquaFishVectorEnv(VectorEnv):
         state = BodyState.of(self._worlds)
         self._episodes = Episodes.stack(self.envs, state.position)
         self._autoreset = False
+        self._closed = self.closed = False  # reset after close(): these worlds are closed by the next close()
         obs, info = self.task._reset_results(state, self._episodes)
         return obs, self._vector_info(info)
 
@@ -230,8 +237,11 @@ class AquaFishVectorEnv(VectorEnv):
         Raises:
             ValueError: ``actions`` not of shape ``(N, 3)``, or an entry not finite or
                 outside [-1, 1] (the message names the sub-env).
-            RuntimeError: before ``reset``.
+            RuntimeError: before ``reset``, or after ``close`` (until a ``reset``).
         """
+        if self._closed:
+            raise RuntimeError(f"step() of a closed {type(self).__name__}: its worlds are gone; call reset() to start "
+                               "new ones, or make a new vector env")
         if self._episodes is None:
             raise RuntimeError("call reset() before step()")
         actions = self.task.check_actions(actions, self.num_envs)
@@ -256,6 +266,8 @@ class AquaFishVectorEnv(VectorEnv):
         for world in self._worlds:
             world.close()
         self._worlds = []
+        self._episodes = None
+        self._closed = True
 
 
 class StationKeepingVectorEnv(AquaFishVectorEnv):
@@ -275,4 +287,4 @@ _OBS = {
 for _cls, (_dim, _text) in _OBS.items():
     _task = _cls.task_class
     _cls.__doc__ = _DOC.format(env_id=_task.env_id, module=_task.__module__, task=_task.__name__, obs_dim=_dim,
-                               obs_text=_text, max_robots=MAX_WORLD_ROBOTS)
+                               obs_text=_text, max_robots=MAX_WORLD_ROBOTS, max_envs=MAX_NUM_ENVS)
