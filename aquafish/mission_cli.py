@@ -7,8 +7,9 @@ import argparse
 import json
 from pathlib import Path
 
-from aquafish_gym.argtypes import (add_alias, add_config_option, add_no_progress, add_workers, int_at_least, json_object,
-                                   path, positive_float)
+from aquafish.studies_cli import PROCEDURE_SEED_LIMIT
+from aquafish_gym.argtypes import (add_alias, add_config_option, add_no_progress, add_workers, json_object,
+                                   path, positive_float, seed_below)
 
 #: The mission budgets (:data:`aquafish.mission.MISSION_PRESETS`; not imported here, to keep the
 #: command line light: a test checks they agree). Each is the case-study budget of the same name
@@ -48,15 +49,21 @@ def _mission(args: argparse.Namespace) -> int:
 def _mission_table(args: argparse.Namespace) -> int:
     from aquafish.mission_table import format_table, read_missions, summarise_missions
     from aquafish_gym.files import atomic_write
+    from aquafish_gym.rundir import check_output_dir, run_lock
 
-    summary = summarise_missions(read_missions(args.missions))
-    table = format_table(summary)
-    print(table, end="")
-    if args.out is not None:
-        args.out.mkdir(parents=True, exist_ok=True)
+    if args.out is None:
+        print(format_table(summarise_missions(read_missions(args.missions))), end="")
+        return 0
+    # a directory of its own, as every command's, claimed before the missions are read: another
+    # command's (a recovery benchmark, whose summary files have the same names) or one inside
+    # another command's run directory is refused
+    with run_lock(check_output_dir(args.out), command="mission-table"):
+        summary = summarise_missions(read_missions(args.missions))
+        table = format_table(summary)
         atomic_write(args.out / "summary.json", (json.dumps(summary, indent=1) + "\n").encode())
         atomic_write(args.out / "summary.md", table.encode())
-        print(f"wrote {args.out / 'summary.md'} and summary.json ({summary['totals']['missions']} missions)")
+    print(table, end="")
+    print(f"wrote {args.out / 'summary.md'} and summary.json ({summary['totals']['missions']} missions)")
     return 0
 
 
@@ -76,11 +83,13 @@ def add_commands(sub) -> None:
                                      "gait evolution get the aquafish case-study --budget of the same name; it also "
                                      "sets the gait episodes' length and the monitor's calibration (default: quick)"),
               "--preset")
-    m.add_argument("--seed", type=int_at_least(0), default=0, help="seed (default 0)")
+    m.add_argument("--seed", type=seed_below(PROCEDURE_SEED_LIMIT), default=0,
+                   help=f"seed (default 0; below {PROCEDURE_SEED_LIMIT:,}, the oracle's seeds lie above)")
     m.add_argument("--out", required=True, type=path, help="mission directory")
     m.add_argument("--self-model", type=path, default=None, metavar="DIR",
                    help="reuse the self-model, gait and monitor calibration in DIR (an earlier mission's "
-                        "OUT/self_model); default: make them in OUT/self_model")
+                        "OUT/self_model; read as data: its JSON files, never a pickle); default: make them in "
+                        "OUT/self_model")
     m.add_argument("--prior", choices=["design", "eea"], default="design",
                    help="without --self-model, the self-model before the damage: the robot's design (default) or one "
                         "the EEA builds on the healthy robot first (at quick it can get a servo sign wrong)")

@@ -31,8 +31,10 @@ from pathlib import Path
 from typing import Sequence
 
 from aquafish.recovery import signs_right
+from aquafish_gym.files import InputFileError, parse_json, read_input
 
-__all__ = ["ALARM_WITHIN_S", "COMPUTE_BUDGET_S", "RECOVERED_SHARE", "WINDOW_ORACLE_MIN_SHARE", "format_table",
+__all__ = ["ALARM_WITHIN_S", "COMPUTE_BUDGET_S", "RECOVERED_SHARE", "WINDOW_ORACLE_MIN_SHARE", "check_report",
+           "format_table",
            "mission_row", "read_missions", "summarise_missions"]
 
 #: The alarm must come within this many seconds of the damage coming in force.
@@ -55,7 +57,9 @@ def read_missions(directories: Sequence[str | os.PathLike]) -> list[dict]:
 
     Raises:
         ValueError: no directory given, a directory given twice, or one without a readable
-            ``mission.json`` (the message names it: a mission still running has none yet).
+            ``mission.json`` (the message names it: a mission still running has none yet), or
+            whose ``mission.json`` is no mission report (:func:`check_report`: the file and the
+            field named).
     """
     if not directories:
         raise ValueError("give at least one mission directory (an aquafish mission --out)")
@@ -68,12 +72,95 @@ def read_missions(directories: Sequence[str | os.PathLike]) -> list[dict]:
             raise ValueError(f"{d}: given twice")
         seen.add(key)
         try:
-            reports.append(json.loads(path.read_text()))
+            report = parse_json(read_input(path), source=path)  # a regular file, bounded, not nested too deep
+        except InputFileError as err:
+            raise ValueError(f"{err}; give a mission directory") from None
         except FileNotFoundError:
             raise ValueError(f"{d}: no mission.json (not a mission directory, or the mission has not finished)") from None
-        except (OSError, json.JSONDecodeError) as err:
+        except (OSError, json.JSONDecodeError, UnicodeDecodeError) as err:
             raise ValueError(f"{path}: cannot be read as a mission report ({err})") from None
+        try:
+            check_report(report)
+        except ValueError as err:
+            raise ValueError(f"{path}: {err}") from None
+        reports.append(report)
     return reports
+
+
+def _shown(value) -> str:
+    text = "NaN" if isinstance(value, float) and math.isnan(value) else json.dumps(value, default=str)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _number(value) -> bool:
+    """A finite real number (not a bool)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _check_numbers(record: dict, keys, where: str = "", required: bool = False) -> None:
+    for key in keys:
+        if key not in record:
+            if required:
+                raise ValueError(f"not a mission report: no {where}{key!r} field")
+            continue
+        value = record[key]
+        if value is not None and not _number(value):
+            raise ValueError(f"not a mission report: field {where}{key!r} must be a finite number or null, got "
+                             f"{_shown(value)}")
+
+
+def _check_mapping(record: dict, key: str, where: str = "") -> dict:
+    value = record.get(key)
+    if value is not None and not isinstance(value, dict):
+        raise ValueError(f"not a mission report: field {where}{key!r} must be a JSON object or null, got "
+                         f"{_shown(value)}")
+    return value or {}
+
+
+def check_report(report) -> None:
+    """Check that ``report`` has the shape of a ``mission.json``: the fields :func:`mission_row`
+    reads, each of its type; every distance, speed and time a finite number or null (NaN is
+    refused, not counted).
+
+    Raises:
+        ValueError: one line naming the first field that is missing or of the wrong shape.
+    """
+    if not isinstance(report, dict):
+        raise ValueError(f"not a mission report: holds a JSON {type(report).__name__}, not an object")
+    for key in ("damage", "seed", "warm_start", "false_alarm", "target_experiments", "compute_seconds", "onset_s",
+                "alarm_s", "speed_before", "speed_damaged", "speed_after", "oracle_speed", "true_model"):
+        if key not in report:
+            raise ValueError(f"not a mission report: no {key!r} field")
+    kinds = {"damage": (str, "a string"), "warm_start": (bool, "true or false"), "false_alarm": (bool, "true or false")}
+    for key, (kind, text) in kinds.items():
+        if not isinstance(report[key], kind):
+            raise ValueError(f"not a mission report: field {key!r} must be {text}, got {_shown(report[key])}")
+    for key in ("seed", "target_experiments"):
+        value = report[key]
+        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+            raise ValueError(f"not a mission report: field {key!r} must be an int >= 0, got {_shown(value)}")
+    if report.get("recovered") is not None and not isinstance(report["recovered"], bool):
+        raise ValueError(f"not a mission report: field 'recovered' must be true, false or null, got "
+                         f"{_shown(report['recovered'])}")
+    if "new_gait_start" in report and report["new_gait_start"] not in ("mission_heading", "robot_heading"):
+        raise ValueError(f"not a mission report: field 'new_gait_start' must be \"mission_heading\" or "
+                         f"\"robot_heading\", got {_shown(report['new_gait_start'])}")
+    _check_numbers(report, ("onset_s", "damage_in_force_s", "alarm_s", "compute_seconds", "speed_before",
+                            "speed_damaged", "speed_after", "oracle_speed", "net_displacement", "final_speed"))
+    _check_numbers(_check_mapping(report, "oracle_in_window"), ("best",), "oracle_in_window.")
+    _check_mapping(report, "self_model_fields")
+    truth = _check_mapping(report, "true_model")
+    if not truth:
+        raise ValueError(f"not a mission report: field 'true_model' must be a JSON object of the true gains, got "
+                         f"{_shown(report['true_model'])}")
+    _check_numbers(truth, _GAINS, "true_model.", required=True)
+    _check_numbers(truth, _MORPHOLOGY_KEYS, "true_model.")
+    if _check_mapping(report, "self_model_after"):
+        _check_numbers(report["self_model_after"], _GAINS, "self_model_after.", required=True)
+    counterfactuals = _check_mapping(report, "counterfactuals")
+    for name in ("keep_old", "oracle_at_alarm"):
+        _check_numbers(_check_mapping(counterfactuals, name, "counterfactuals."), ("net_displacement", "final_speed"),
+                       f"counterfactuals.{name}.")
 
 
 def _share(after, oracle) -> float | None:
@@ -117,8 +204,10 @@ def mission_row(report: dict) -> dict:
         ``after_share``), ``recovered_20s`` (by ``after_share`` alone) and ``compute_in_budget``.
 
     Raises:
-        ValueError: a report without the fields a mission writes (the message names the first).
+        ValueError: a report without the fields a mission writes or with one of the wrong shape
+            (:func:`check_report`; the message names the first).
     """
+    check_report(report)
     try:
         onset = report.get("damage_in_force_s", report["onset_s"])
         alarm, false_alarm = report["alarm_s"], bool(report["false_alarm"])

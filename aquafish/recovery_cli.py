@@ -6,9 +6,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from aquafish.studies_cli import CASE_STUDY_BUDGETS
+from aquafish.studies_cli import CASE_STUDY_BUDGETS, PROCEDURE_SEED_LIMIT
 from aquafish_gym.argtypes import (add_alias, add_config_option, add_episode_duration, add_no_progress, add_processes,
-                                   add_workers, csv_list, damage_list, int_at_least, json_object, path)
+                                   add_workers, csv_list, damage_list, json_object, path, seed_below)
 
 
 def _recovery(args: argparse.Namespace) -> int:
@@ -39,7 +39,8 @@ def add_commands(sub) -> None:
     r.add_argument("--damages", type=damage_list, default=None,
                    help="comma-separated damages (default: every preset but none): preset names, JSON faults "
                         "inline or as FILE.json (keys scale, seized, gains), sampled:SEED")
-    r.add_argument("--seeds", type=csv_list(int_at_least(0)), default=(0,), help="comma-separated case-study seeds (default 0)")
+    r.add_argument("--seeds", type=csv_list(seed_below(PROCEDURE_SEED_LIMIT)), default=(0,),
+                   help=f"comma-separated case-study seeds (default 0; each below {PROCEDURE_SEED_LIMIT:,})")
     add_alias(r, r.add_argument("--budget", default="quick", choices=CASE_STUDY_BUDGETS,
                                 help="the budget of every cell's case study, as aquafish case-study --budget: "
                                      "smoke, quick, medium or paper (default: quick)"),

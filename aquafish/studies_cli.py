@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from aquafish_gym.argtypes import (add_alias, add_config_option, add_episode_duration, add_no_progress, add_processes,
-                                   add_workers, csv_list, damage_list, int_at_least, json_object, path)
+                                   add_workers, csv_list, damage_list, int_at_least, json_object, path, seed_below)
 from aquafish_gym.rundir import check_output_dir, check_output_file, run_lock
 from eea.cli import add_config_flags, config_fields, config_flag_names, given_flags
 from eea import INFERENCE_NAMES
@@ -17,6 +17,9 @@ from eea.methods import BEST_METHOD, METHODS, PAPER_METHODS
 #: The case-study budgets (:data:`aquafish.case_study.PRESETS`, spelled out: importing it here
 #: would cost every command its imports; tests/aquafish/test_cli_flags.py checks they agree).
 CASE_STUDY_BUDGETS = ("smoke", "quick", "medium", "paper")
+#: The seeds of a procedure (case study, recovery cell, mission): below
+#: :data:`aquafish.oracle.PROCEDURE_SEED_LIMIT` (spelled out for the same reason; a test checks it).
+PROCEDURE_SEED_LIMIT = 1_000_000
 #: ``--budget`` of the commands that run case studies (case-study, recovery).
 CASE_STUDY_BUDGET_HELP = ("the case study's budget (aquafish.case_study.PRESETS): smoke (a pipeline check), quick "
                           "(~15 min on 2 cores), medium (~1 h) or paper (the paper's settings); its EEA runs get the "
@@ -170,7 +173,7 @@ def add_commands(sub) -> None:
     c.add_argument("--damage", default="left_pectoral_half",
                    help="damage of the target robot: a preset name (aquafish damages --list), a JSON fault inline or "
                         "as FILE.json (keys scale, seized, gains) or sampled:SEED (default left_pectoral_half)")
-    c.add_argument("--seed", type=int_at_least(0), default=0, help="seeds every run (default 0)")
+    c.add_argument("--seed", type=seed_below(PROCEDURE_SEED_LIMIT), default=0, help="seeds every run (default 0)")
     c.add_argument("--out", type=path, default="case_study_out",
                    help="output directory (finished steps are reused; default case_study_out)")
     c.add_argument("--self-model-fields", type=json_object, default=None, metavar="JSON",
@@ -192,7 +195,7 @@ def add_commands(sub) -> None:
     s.add_argument("--durations", type=csv_list(float), default=(1.28, 2.56, 5.12, 10.24), help="experiment durations (s)")
     s.add_argument("--replicates", type=int_at_least(1), default=25,
                    help="seeds S..S+N-1 per (condition, duration), S the --first-seed")
-    s.add_argument("--first-seed", type=int_at_least(0), default=0,
+    s.add_argument("--first-seed", type=seed_below(), default=0,
                    help="the first seed S (default 0); shards of one study's seeds can share its --out one "
                         "after the other (a running study locks its --out; shards at once need an --out each, "
                         "which aquafish compare joins under one label)")
@@ -235,7 +238,8 @@ def add_commands(sub) -> None:
                                         "closest to the truth (best OBJ) and how many beat the final model "
                                         "(better); the median angle error of the run's final inferred angles and "
                                         "of the truth's own fitted ones (err run, err floor; degrees) (eea.analysis.diagnosis)")
-    d.add_argument("dirs", nargs="+", help="study or run directories (searched recursively)")
+    d.add_argument("dirs", nargs="+", help="study or run directories (searched recursively; read as data: config.json, "
+                                           "rounds.csv and run_data.npz, never a checkpoint)")
     add_workers(d, 1, note="the simulations that diagnose each run")
     d.add_argument("--profile-generations", type=int_at_least(1), default=40,
                    help="generations of the per-model angle fit of both models (eea.inference.profile.Profile.fit; default: 40)")
@@ -259,8 +263,8 @@ def add_commands(sub) -> None:
     t.add_argument("--population-size", type=int_at_least(2), default=50, help="NEAT genomes per generation (default 50)")
     t.add_argument("--episodes-per-genome", type=int_at_least(1), default=2, help="training starts per genome (default 2)")
     t.add_argument("--starts", type=int_at_least(1), default=10, help="fresh starts per gait and robot (default 10)")
-    t.add_argument("--seed", type=int_at_least(0), default=0, help="NEAT seed and first training start (default 0)")
-    t.add_argument("--eval-seed", type=int_at_least(0), default=1000, help="seed of the first fresh start (default 1000)")
+    t.add_argument("--seed", type=seed_below(), default=0, help="NEAT seed and first training start (default 0)")
+    t.add_argument("--eval-seed", type=seed_below(), default=1000, help="seed of the first fresh start (default 1000)")
     add_workers(t, 1, note="each gait's NEAT evaluations")
     t.add_argument("--verbose", action="store_true", help="NEAT's per-generation report")
     add_no_progress(t, "generation")
@@ -276,8 +280,8 @@ def add_commands(sub) -> None:
     b.add_argument("--neat-episodes", type=int_at_least(1), default=3, help="NEAT training starts per genome (default 3)")
     b.add_argument("--ppo-timesteps", type=int_at_least(0), default=100_000, help="PPO env steps per task; 0: no PPO (default 1e5; more than 0 needs the [rl] extra)")
     b.add_argument("--starts", type=int_at_least(1), default=10, help="fresh starts per task and learner (default 10)")
-    b.add_argument("--seed", type=int_at_least(0), default=0, help="training seed (default 0)")
-    b.add_argument("--eval-seed", type=int_at_least(0), default=1000, help="seed of the first fresh start (default 1000)")
+    b.add_argument("--seed", type=seed_below(), default=0, help="training seed (default 0)")
+    b.add_argument("--eval-seed", type=seed_below(), default=1000, help="seed of the first fresh start (default 1000)")
     add_workers(b, 1, note="each NEAT run's evaluations")
     add_no_progress(b, "generation or training chunk")
     add_config_option(b)

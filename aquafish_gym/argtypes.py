@@ -9,11 +9,12 @@ import json
 import math
 from pathlib import Path
 
-from aquafish_gym.checks import DuplicateKeyError, json_loads_unique_keys
+from aquafish_gym.checks import DuplicateKeyError, json_loads_unique_keys, short_repr
+from aquafish_gym.files import InputFileError, read_input
 
 __all__ = ["CONFIG_HELP", "EPISODE_DURATION_HELP", "PROCESSES_HELP", "WORKERS_HELP", "add_alias", "add_config_option",
            "add_episode_duration", "add_no_progress", "add_processes", "add_workers", "csv_list", "damage_list",
-           "int_at_least", "is_comma_separated", "json_object", "path", "positive_float"]
+           "int_at_least", "is_comma_separated", "json_object", "path", "positive_float", "SEED_LIMIT", "seed_below"]
 
 #: How every command's ``--workers`` help begins: processes that evaluate in parallel within one
 #: run (a run's population, a case study's steps); ``--processes`` is the other count.
@@ -33,19 +34,48 @@ def int_at_least(minimum: int):
         try:
             value = int(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"must be an int >= {minimum}, got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"must be an int >= {minimum}, got {short_repr(text)}") from None
         if value < minimum:
-            raise argparse.ArgumentTypeError(f"must be an int >= {minimum}, got {text!r}")
+            raise argparse.ArgumentTypeError(f"must be an int >= {minimum}, got {short_repr(text)}")
         return value
 
     parse.__name__ = f"int >= {minimum}"
     return parse
 
 
+#: Seeds a command takes: ``0 .. SEED_LIMIT - 1``, the range of NumPy's and Python's global
+#: generators, which a gait, a PPO policy and their episodes are seeded with.
+SEED_LIMIT = 2**32
+
+
+def seed_below(limit: int = SEED_LIMIT):
+    """An argparse ``type``: a seed, an integer in ``[0, limit)`` (default :data:`SEED_LIMIT`; a
+    procedure's seeds, case study, benchmark cell and mission, lie below
+    :data:`aquafish.oracle.PROCEDURE_SEED_LIMIT`), refused while the command line is parsed
+    (``argument --seed: must be an int >= 0 and <= 4294967295, got '4294967296'``), not inside NumPy."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or not 0 <= value < limit:
+            shown = text if len(text) <= 40 else text[:37] + "..."
+            raise argparse.ArgumentTypeError(f"must be an int >= 0 and <= {limit - 1}, got {shown!r}")
+        return value
+
+    parse.__name__ = "seed"  # one type on every command (tests/aquafish/test_cli_flags.py); the limit is its own
+    parse.limit = limit
+    return parse
+
+
 def path(text: str) -> Path:
-    """An argparse ``type``: a non-empty path (``Path("")`` would mean the current directory)."""
+    """An argparse ``type``: a non-empty path (``Path("")`` would mean the current directory)
+    without a NUL byte (which no file name holds; a config file can write one)."""
     if not text.strip():
         raise argparse.ArgumentTypeError("is empty; give a path")
+    if "\0" in text:
+        raise argparse.ArgumentTypeError(f"holds a NUL byte, which no file name can: {short_repr(text)}")
     return Path(text)
 
 
@@ -54,9 +84,9 @@ def positive_float(text: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {short_repr(text)}") from None
     if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {short_repr(text)}")
     return value
 
 
@@ -67,17 +97,23 @@ def json_object(text: str) -> dict:
     source = text
     if text.strip().endswith(".json") and not text.lstrip().startswith("{"):
         try:
-            source = Path(text).read_text()
+            source = read_input(Path(text)).decode("utf-8")
+        except InputFileError as err:
+            raise argparse.ArgumentTypeError(f"cannot read {err}") from None
+        except UnicodeDecodeError:
+            raise argparse.ArgumentTypeError(f"cannot read {text}: it is not UTF-8 text") from None
         except OSError as err:
             raise argparse.ArgumentTypeError(f"cannot read {text}: {err.strerror or err}") from None
     try:
         value = json_loads_unique_keys(source)
     except DuplicateKeyError as err:
         raise argparse.ArgumentTypeError(str(err)) from None
+    except InputFileError as err:  # nested too deeply, an integer too long
+        raise argparse.ArgumentTypeError(f"{text + ': ' if source is not text else ''}the JSON {err}") from None
     except json.JSONDecodeError as err:
-        raise argparse.ArgumentTypeError(f"is not valid JSON ({err}): {text!r}") from None
+        raise argparse.ArgumentTypeError(f"is not valid JSON ({err}): {short_repr(text)}") from None
     if not isinstance(value, dict):
-        raise argparse.ArgumentTypeError(f"must be a JSON object ({{\"name\": value, ...}}), got {text!r}")
+        raise argparse.ArgumentTypeError(f"must be a JSON object ({{\"name\": value, ...}}), got {short_repr(text)}")
     return value
 
 
@@ -91,7 +127,7 @@ def waterline(text: str) -> float | None:
     try:
         return float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a height in units or 'deep', got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected a height in units or 'deep', got {short_repr(text)}") from None
 
 
 def csv_list(kind=str, choices=None):
@@ -102,14 +138,17 @@ def csv_list(kind=str, choices=None):
         try:
             values = tuple(kind(v.strip()) for v in text.split(",") if v.strip())
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected comma-separated {kind.__name__} values, got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"expected comma-separated {kind.__name__} values, "
+                                             f"got {short_repr(text)}") from None
         if not values:
-            raise argparse.ArgumentTypeError(f"expected at least one comma-separated {kind.__name__} value, got {text!r}")
+            raise argparse.ArgumentTypeError(f"expected at least one comma-separated {kind.__name__} value, "
+                                             f"got {short_repr(text)}")
         if kind is float and not all(math.isfinite(v) for v in values):
-            raise argparse.ArgumentTypeError(f"expected finite numbers, got {text!r}")
+            raise argparse.ArgumentTypeError(f"expected finite numbers, got {short_repr(text)}")
         unknown = [v for v in values if choices is not None and v not in choices]
         if unknown:
-            raise argparse.ArgumentTypeError(f"unknown {', '.join(map(repr, unknown))}; valid: {', '.join(choices)}")
+            raise argparse.ArgumentTypeError(f"unknown {', '.join(map(short_repr, unknown))}; "
+                                             f"valid: {', '.join(choices)}")
         return values
 
     parse.__name__ = f"comma-separated {kind.__name__} list"
@@ -136,7 +175,7 @@ def damage_list(text: str) -> tuple[str, ...]:
     values.append(text[start:])
     values = tuple(v.strip() for v in values if v.strip())
     if not values:
-        raise argparse.ArgumentTypeError(f"expected at least one comma-separated damage, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected at least one comma-separated damage, got {short_repr(text)}")
     return values
 
 

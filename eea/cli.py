@@ -36,7 +36,7 @@ _CHOICES = {"inference": INFERENCE_NAMES, "estimation_search": ESTIMATION_SEARCH
 
 #: Flag parsers of fields whose value is not their default's type, and of the fields every
 #: command's flag of the same name parses alike (``--seed``, ``--workers``).
-_TYPES = {"waterline": argtypes.waterline, "seed": argtypes.int_at_least(0), "workers": argtypes.int_at_least(1)}
+_TYPES = {"waterline": argtypes.waterline, "seed": argtypes.seed_below(), "workers": argtypes.int_at_least(1)}
 #: Help of the flags every command shares, where the field's own help says it otherwise.
 _HELP = {"workers": f"{argtypes.WORKERS_HELP} (simulations; 1 = serial; never changes results)"}
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from aquafish_gym.argtypes import (add_alias, add_config_option, add_episode_duration, add_no_progress, add_workers,
-                                   int_at_least, path)
+                                   int_at_least, path, seed_below)
 from aquafish_gym.rundir import check_output_dir
 
 #: gait.controller.SB3_ALGOS, spelled out: importing gait here would cost every command 0.6 s
@@ -33,7 +33,7 @@ def add_commands(subparsers) -> None:
     p.add_argument("--damage", default="none", help=DAMAGE_HELP)
     p.add_argument("--generations", type=int_at_least(1), default=30, help="total generations (default 30)")
     p.add_argument("--population-size", type=int_at_least(2), default=None, help="genomes per generation (default: the config's, 50)")
-    p.add_argument("--seed", type=int_at_least(0), default=0, help="seeds NEAT and the fitness episode's initial flipper angles (default 0)")
+    p.add_argument("--seed", type=seed_below(), default=0, help="seeds NEAT and the fitness episode's initial flipper angles (default 0)")
     p.add_argument("--out", type=path, default=Path("runs/gait"), help="output directory (default runs/gait)")
     add_workers(p, os.cpu_count(), "all cores")
     p.add_argument("--neat-config", type=path, default=None,
@@ -62,7 +62,7 @@ def add_commands(subparsers) -> None:
                         "each; no controller file runs code when loaded (pickles are refused)")
     p.add_argument("--native", nargs="+", default=["healthy"], help=f"each controller's own robot: {ROBOT_HELP}; one, or one per controller")
     p.add_argument("--target", required=True, help=f"robot to transfer to: {ROBOT_HELP}")
-    p.add_argument("--seed", type=int_at_least(0), default=0, help="seed of the first episode: draws the initial angles (default 0, as `aquafish gait`)")
+    p.add_argument("--seed", type=seed_below(), default=0, help="seed of the first episode: draws the initial angles (default 0, as `aquafish gait`)")
     p.add_argument("--episodes", type=int_at_least(1), default=1,
                    help="paired episodes per robot (seeds seed, seed+1, ...); distances are their means (default 1)")
     p.add_argument("--initial-angles", default=None, help="3 comma-separated angles (rad): left, right pectoral, caudal")
@@ -78,7 +78,7 @@ def add_commands(subparsers) -> None:
     p.add_argument("--morphology", default="healthy", help=f"robot: {ROBOT_HELP} (default healthy)")
     p.add_argument("--damage", default="none", help=DAMAGE_HELP)
     p.add_argument("--timesteps", type=int_at_least(1), default=None, help="env steps of 0.1 s (default: the YAML's n_timesteps)")
-    p.add_argument("--seed", type=int_at_least(0), default=0, help="training seed (default 0)")
+    p.add_argument("--seed", type=seed_below(), default=0, help="training seed (default 0)")
     p.add_argument("--out", type=path, default=Path("runs/rl"), help="output directory (default runs/rl)")
     p.add_argument("--hyperparams", type=path, default=None, help="RL-Zoo-style YAML (default gait/rl_hyperparams.yml)")
     add_episode_duration(p, 20.0, "20", note="each training episode")
@@ -104,6 +104,19 @@ def run_gait(args: argparse.Namespace) -> int:
     print(f"best {score} in {args.episode_duration_s:g} s on {result.robot.label}; {result.generations} generations, "
           f"{result.wall_time_s:.0f} s wall; wrote {args.out}")
     return 0
+
+
+def _how_to_continue_gait(args: argparse.Namespace) -> str:
+    """How an interrupted ``aquafish gait`` continues: a run with a checkpoint only with ``--resume
+    latest`` (the same command without it is refused, so as not to overwrite the run)."""
+    from gait.neat_evolution import CHECKPOINT_DIR, CHECKPOINT_PREFIX
+
+    if args.resume != "latest" and any((Path(args.out) / CHECKPOINT_DIR).glob(CHECKPOINT_PREFIX + "*")):
+        return "run the same command with --resume latest to continue"
+    return "run the same command to continue"
+
+
+run_gait.how_to_continue = _how_to_continue_gait
 
 
 def _angles(text: str | None):

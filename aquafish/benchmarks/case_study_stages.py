@@ -20,7 +20,7 @@ import platform
 from pathlib import Path
 
 from aquafish.benchmarks import add_budget
-from aquafish_gym.argtypes import int_at_least, path
+from aquafish_gym.argtypes import path, seed_below
 
 __all__ = ["main", "stage_table"]
 
@@ -54,11 +54,12 @@ def main(argv: list[str] | None = None, prog: str | None = None,
     ``aquafish bench`` passes its own (one-line usage errors, see :mod:`aquafish.bench_cli`).
     """
     from aquafish.case_study import run_case_study
+    from aquafish.oracle import PROCEDURE_SEED_LIMIT
 
     parser = parser_class(prog=prog, description=__doc__.splitlines()[0])
     add_budget(parser, "the case study's budget")
     parser.add_argument("--damage", default="reversed_left_pectoral")
-    parser.add_argument("--seed", type=int_at_least(0), default=0)
+    parser.add_argument("--seed", type=seed_below(PROCEDURE_SEED_LIMIT), default=0)
     parser.add_argument("--out", type=path, help="case-study directory (a fresh one times every stage)")
     parser.add_argument("--report", help="tabulate this report.json instead of running a case study")
     args = parser.parse_args(argv)

@@ -25,8 +25,8 @@ CANONICAL = {
     "--out": ("out", "path", None),
     "--workers": ("workers", "int >= 1", WORKERS_HELP),
     "--processes": ("processes", "int >= 1", PROCESSES_HELP),
-    "--seed": ("seed", "int >= 0", None),
-    "--seeds": ("seeds", "comma-separated int >= 0 list", None),
+    "--seed": ("seed", "seed", None),  # aquafish_gym.argtypes.seed_below: below 2**32, or a procedure's limit
+    "--seeds": ("seeds", "comma-separated seed list", None),
     "--budget": ("budget", None, None),  # a name among choices (test_budget_names_...)
     "--episode-duration-s": ("episode_duration_s", "positive_float", EPISODE_DURATION_HELP),
     "--no-progress": ("no_progress", None, "no progress (default: a bar on a terminal, one line per "),
