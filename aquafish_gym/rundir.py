@@ -37,6 +37,7 @@ import os
 import pickle
 import re
 import signal
+import stat
 import sys
 import threading
 import time
@@ -51,9 +52,10 @@ except ImportError:  # not POSIX: no lock (the project's machines are Linux)
     fcntl = None  # type: ignore[assignment]
 
 __all__ = ["BusyError", "COMMAND_FILE", "FileError", "LOCK_FILE", "MismatchError", "available_memory", "check_fingerprint",
-           "command_of",
+           "check_not_nested", "command_of",
            "check_memory", "check_output_dir", "check_output_file", "die_with_parent", "differences",
-           "format_bytes", "read_json", "read_pickle", "run_lock", "spawn_pool"]
+           "format_bytes", "make_subdir", "pickles_refused", "read_json", "read_pickle", "refuse_pickles", "run_lock",
+           "spawn_pool"]
 
 #: The lock file :func:`run_lock` keeps in a run directory (it holds the writer's pid).
 LOCK_FILE = ".aquafish.lock"
@@ -63,7 +65,8 @@ COMMAND_FILE = ".aquafish-command"
 #: a manifest that only that command writes.
 LEGACY_MANIFESTS = {"config.json": "eea", "state.pkl": "eea", "study.json": "study",
                     "fitness_settings.json": "gait", "run.json": "gait", "model.json": "rl",
-                    "report.json": "case-study", "damage_table.json": "damages", "task_table.json": "baselines"}
+                    "report.json": "case-study", "damage_table.json": "damages", "task_table.json": "baselines",
+                    "recovery.json": "recovery", "mission.json": "mission"}
 
 
 class FileError(ValueError):
@@ -197,7 +200,7 @@ def check_output_file(path: str | os.PathLike, flag: str = "--out") -> Path:
 
 # -- the lock --------------------------------------------------------------------------------------
 
-_HELD: dict[str, list] = {}  # real path of a lock file -> [fd, depth, pid] held by this process
+_HELD: dict[str, list] = {}  # real path of a lock file -> [fd, depth, pid, absolute directory] held by this process
 _HELD_GUARD = threading.Lock()
 
 
@@ -219,12 +222,20 @@ def run_lock(directory: str | os.PathLike, flag: str = "--out", *, name: str = L
     * a directory made by another command (:data:`COMMAND_FILE`, or for a directory written
       before that file existed, one of :data:`LEGACY_MANIFESTS`) is refused by name; one
       without a command is claimed for ``command``;
+    * a directory inside another command's run directory is refused before anything is
+      created (:func:`check_not_nested`), unless that command is this process or one of its
+      parents, writing its own sub-directories;
     * the temporary files of :func:`aquafish_gym.files.atomic_write` that a killed writer left
       in it or below it are removed (those of a process still running are kept).
 
     If the block raises and the directory was created here and holds nothing but the lock's
     own files, it is removed again, with the parents created for it: a command refused
     before it wrote anything leaves nothing behind.
+
+    A directory below one this process holds locked (a case study's EEA run, a mission's
+    ``self_model/gait``, a recovery cell run in process) is a sub-directory of that run: it is
+    made by :func:`make_subdir`, so that no component of it below the locked run directory is a
+    symbolic link or leads outside it.
 
     Args:
         directory: the run directory.
@@ -237,13 +248,19 @@ def run_lock(directory: str | os.PathLike, flag: str = "--out", *, name: str = L
         ``directory`` as a ``Path``.
 
     Raises:
-        BusyError: another process holds the lock (the message names its pid).
-        MismatchError: the directory was made by another command than ``command``.
-        FileError: the lock file is a symbolic link.
+        BusyError: another process holds the lock (the message names its pid), or the lock of
+            a run directory ``directory`` lies in (:func:`check_not_nested`).
+        MismatchError: the directory was made by another command than ``command``, or lies in
+            the run directory of a command that is not running.
+        FileError: the lock file is a symbolic link, or a sub-directory of a locked run is
+            one (:func:`make_subdir`).
         OSError: the directory or the lock file cannot be created.
     """
     directory = Path(directory)
-    created = _make_dirs(directory)
+    check_not_nested(directory, flag)
+    parent = _held_parent(directory)
+    created = _make_dirs(directory) if parent is None else \
+        _make_subdirs(parent, Path(os.path.abspath(directory)).relative_to(parent).parts)[1]
     try:
         with _locked(directory, flag, name):
             if command is not None:
@@ -252,6 +269,73 @@ def run_lock(directory: str | os.PathLike, flag: str = "--out", *, name: str = L
     except BaseException:
         _remove_if_unused(created)
         raise
+
+
+def check_not_nested(directory: str | os.PathLike, flag: str = "--out") -> None:
+    """Refuse a ``directory`` that lies inside another command's run directory.
+
+    The parents of ``directory`` (of its real path: a symbolic link does not hide them) are
+    walked up to the nearest run directory: one with a held :data:`LOCK_FILE`, a
+    :data:`COMMAND_FILE` or one of the :data:`LEGACY_MANIFESTS`. That run directory is fine when
+    its lock is held by this process or one of its parents (a command writing its own
+    sub-directories, in process or in the pool workers it started); otherwise a command would
+    write into a directory it did not make (``aquafish eea --out MISSION/self_model``), or into
+    one another process is writing (a case study in a running benchmark's cell).
+
+    Raises:
+        BusyError: the run directory's lock is held by another process (its pid named).
+        MismatchError: the run directory was made by a command that is not running.
+    """
+    target = Path(os.path.abspath(directory))
+    existing = _first_existing(target)
+    real = Path(os.path.realpath(existing))
+    for parent in ([real] if existing != target else []) + list(real.parents):
+        holder = _lock_holder(parent / LOCK_FILE)
+        if holder == "own":
+            return
+        if holder is not None:
+            raise BusyError(f"{flag} {directory} lies inside {parent}, which another aquafish process{holder} is "
+                            f"writing; wait for it to finish or use an {flag} outside it")
+        made_by = command_of(parent)
+        if made_by is not None:
+            raise MismatchError(f"{flag} {directory} lies inside {parent}, the run directory of `aquafish {made_by}`; "
+                                f"use an {flag} outside it (a command never writes into another command's directory)")
+
+
+def _lock_holder(lock: Path) -> str | None:
+    """Who holds the lock file ``lock``: ``"own"`` (this process or one of its parents), the
+    text `` (pid N)`` for another process, or None (no lock file, or one nobody holds)."""
+    if fcntl is None or os.path.islink(lock) or not os.path.isfile(lock):
+        return None
+    try:
+        fd = os.open(lock, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+    except OSError:
+        return None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except OSError:
+            text = os.pread(fd, 32, 0).decode(errors="replace").strip()
+            if text.isdigit() and int(text) in _lineage():
+                return "own"
+            return f" (pid {text})" if text.isdigit() else ""
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return None
+    finally:
+        os.close(fd)
+
+
+def _lineage() -> set[int]:
+    """This process's pid and its parents' (read from ``/proc``; elsewhere the direct parent only)."""
+    pids, pid = {os.getpid()}, os.getppid()
+    while pid > 1 and pid not in pids:
+        pids.add(pid)
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                pid = int(f.read().rsplit(")", 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            break
+    return pids
 
 
 def _make_dirs(directory: Path) -> list[Path]:
@@ -279,6 +363,76 @@ def _make_dirs(directory: Path) -> list[Path]:
     return created[::-1]
 
 
+def make_subdir(parent: str | os.PathLike, *names: str) -> Path:
+    """The sub-directory ``parent/NAME/...`` of a run directory, each missing component created,
+    never through a link.
+
+    Every component below ``parent`` must be a directory of its own: a symbolic link (to a
+    directory or dangling), a file, or a component that resolves outside ``parent`` is refused,
+    so a link planted in a run directory can never send a run's writes elsewhere. ``parent``
+    itself (the ``--out`` the user gave) may be a link. Every run creates its sub-directories
+    through this (a lock below a locked run directory does it too: :func:`run_lock`).
+
+    Args:
+        parent: the run directory (it exists).
+        names: the relative path below it, as one or more names (``"cells", "caudal_half",
+            "seed0"``; ``"a/b"`` is two names).
+
+    Returns:
+        ``parent/NAME/...`` as a ``Path``.
+
+    Raises:
+        FileError: (a ``ValueError``) naming the component: a symbolic link, not a directory, or
+            outside ``parent``; or a name that is absolute, empty, ``.`` or ``..``.
+        OSError: a component cannot be created.
+    """
+    return _make_subdirs(Path(parent), names)[0]
+
+
+def _make_subdirs(parent: Path, names) -> tuple[Path, list[Path]]:
+    """:func:`make_subdir`; also the directories this call created, deepest first."""
+    parts = [part for name in names for part in str(name).split("/")]
+    if not parts or any(part in ("", ".", "..") for part in parts) or str(names[0]).startswith("/"):
+        raise FileError(parent / "/".join(map(str, names)), "is not a sub-directory name of the run directory "
+                        f"{parent}", "this is a bug; nothing was written")
+    root = os.path.realpath(parent)
+    path, created = parent, []
+    try:
+        for part in parts:
+            path = path / part
+            try:
+                path.mkdir()
+                created.append(path)
+            except FileExistsError:
+                pass
+            mode = os.lstat(path).st_mode
+            if stat.S_ISLNK(mode):
+                raise FileError(path, f"is a symbolic link (to {os.readlink(path)}) inside the run directory "
+                                      f"{parent}; a run never writes through a link",
+                                "remove the link, or use another --out")
+            if not stat.S_ISDIR(mode):
+                raise FileError(path, f"is a file inside the run directory {parent}, where a run keeps a directory",
+                                "remove it, or use another --out")
+        real = os.path.realpath(path)
+        if os.path.commonpath([real, root]) != root:
+            raise FileError(path, f"resolves to {real}, outside the run directory {parent}",
+                            "remove what leads there, or use another --out")
+    except BaseException:
+        _remove_if_unused(created[::-1])
+        raise
+    return path, created[::-1]
+
+
+def _held_parent(directory: Path) -> Path | None:
+    """The deepest directory this process holds locked (:func:`run_lock`) that ``directory`` lies
+    strictly below (lexically, on absolute paths), or None."""
+    path = os.path.abspath(directory)
+    with _HELD_GUARD:
+        held = [h[3] for h in _HELD.values() if h[2] == os.getpid()]
+    below = [h for h in held if path != h and path.startswith(h.rstrip(os.sep) + os.sep)]
+    return Path(max(below, key=len)) if below else None
+
+
 def _remove_if_unused(created: list[Path]) -> None:
     """Remove the directories of ``created`` (deepest first) that hold nothing but the lock's files;
     stop at the first that holds anything else."""
@@ -304,7 +458,7 @@ def _locked(directory: Path, flag: str, name: str) -> Iterator[None]:
         if held is not None and held[2] == os.getpid():
             held[1] += 1
         else:
-            _HELD[key] = [_acquire(key, directory, flag), 1, os.getpid()]
+            _HELD[key] = [_acquire(key, directory, flag), 1, os.getpid(), os.path.abspath(directory)]
             _remove_stale_temporaries(directory)
     try:
         yield
@@ -473,19 +627,58 @@ _PICKLE_ERRORS = (pickle.UnpicklingError, EOFError, AttributeError, ImportError,
 def read_json(path: str | os.PathLike, kind: type | None = dict) -> Any:
     """The JSON content of ``path``, checked to be a ``kind`` (default a JSON object).
 
+    The file is read by :func:`aquafish_gym.files.read_input` and parsed by
+    :func:`aquafish_gym.files.parse_json`: only a regular file of at most
+    :data:`~aquafish_gym.files.MAX_INPUT_BYTES`, nested at most
+    :data:`~aquafish_gym.files.MAX_JSON_DEPTH` deep.
+
     Raises:
-        FileError: the file is not valid UTF-8 JSON (truncated or garbled) or not a ``kind``.
+        FileError: the file is not valid UTF-8 JSON (truncated or garbled), not a ``kind``, no
+            regular file, too large, or nested too deeply.
         OSError: the file cannot be read.
     """
+    from aquafish_gym.files import InputFileError, parse_json, read_input
+
     path = Path(path)
     try:
-        data = json.loads(path.read_bytes().decode("utf-8"))
+        data = parse_json(read_input(path))
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise FileError(path, f"is not valid JSON ({err})") from None
+    except InputFileError as err:
+        raise FileError(path, err.problem, "give the right file") from None
     if kind is not None and not isinstance(data, kind):
         raise FileError(path, f"holds a JSON {type(data).__name__}, expected a JSON "
                               f"{'object' if kind is dict else kind.__name__}")
     return data
+
+
+_REFUSING: list[str] = []  # why pickles are refused now (refuse_pickles), innermost last
+_REFUSING_GUARD = threading.Lock()
+
+
+@contextlib.contextmanager
+def refuse_pickles(why: str) -> Iterator[None]:
+    """While the block runs, :func:`read_pickle` refuses every file unread, in every thread of
+    this process: for work on a directory the command did not make (a finished benchmark cell
+    checked again, a run being diagnosed), whose pickles may come from anyone.
+
+    Args:
+        why: the reason the refusal gives (``"the finished cell ... is read as data"``).
+    """
+    with _REFUSING_GUARD:
+        _REFUSING.append(why)
+    try:
+        yield
+    finally:
+        with _REFUSING_GUARD:
+            _REFUSING.remove(why)
+
+
+def pickles_refused() -> str | None:
+    """Why :func:`read_pickle` refuses every file now (:func:`refuse_pickles`), or None: a reader
+    that can do without a pickle (from the run's data) asks this first."""
+    with _REFUSING_GUARD:
+        return _REFUSING[-1] if _REFUSING else None
 
 
 def read_pickle(path: str | os.PathLike, *, gzipped: bool = False, what: str = "checkpoint",
@@ -495,13 +688,18 @@ def read_pickle(path: str | os.PathLike, *, gzipped: bool = False, what: str = "
     Only for the project's own files: unpickling runs code, so never point it at a file from
     an untrusted source. ``what`` names the kind of file and ``fix`` the remedy in the message;
     ``unpickler`` reads it (a subclass may map renamed modules in ``find_class``, as
-    :class:`eea.compat.RenamingUnpickler` does).
+    :class:`eea.compat.RenamingUnpickler` does). Inside :func:`refuse_pickles` nothing is read.
 
     Raises:
-        FileError: the file is truncated, garbled, or pickles classes that do not exist.
+        FileError: the file is truncated, garbled, or pickles classes that do not exist; or
+            :func:`refuse_pickles` is in force (the file is not opened).
         OSError: the file cannot be read.
     """
     path = Path(path)
+    why = pickles_refused()
+    if why is not None:
+        raise FileError(path, f"is a {what}, a pickle, which runs code when loaded, and {why}: it is refused unread",
+                        "run the command that made the directory in it, if you made it yourself")
     opener = gzip.open if gzipped else open
     try:
         with opener(path, "rb") as f:
@@ -523,7 +721,8 @@ def die_with_parent(parent_pid: int) -> None:
     (``prctl(PR_SET_PDEATHSIG)``); elsewhere a daemon thread polls the parent's pid every
     second. A parent that died before this ran is caught too. Ctrl-C (``SIGINT``, which the
     terminal sends to the parent and its workers alike) ends the worker at once and quietly:
-    the parent reports the interrupt, in one line. On Linux "parent" is the thread that
+    the parent reports the interrupt, in one line; a worker of a parent that ignores ``SIGINT``
+    ignores it too (it inherits that). On Linux "parent" is the thread that
     started the worker: start a pool's workers from a thread that outlives them (a
     ``ProcessPoolExecutor`` starts them in the thread that submits; ``spawn_pool(n,
     start_now=True)`` from the thread that owns the pool). Pass ``os.getpid()`` of the process
@@ -531,7 +730,10 @@ def die_with_parent(parent_pid: int) -> None:
 
         ProcessPoolExecutor(n, initializer=die_with_parent, initargs=(os.getpid(),))
     """
-    signal.signal(signal.SIGINT, _exit_quietly)
+    if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:
+        signal.signal(signal.SIGINT, _exit_quietly)
+    # else the parent ignores SIGINT (``trap '' INT``, a background job of a script): the worker,
+    # which inherited that, ignores it too, rather than die while its parent goes on without it
     if sys.platform.startswith("linux"):
         try:
             libc = ctypes.CDLL(None, use_errno=True)
