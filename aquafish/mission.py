@@ -5,7 +5,7 @@ Before the mission (:func:`prepare_prior`, reused from ``--self-model DIR``): th
 robot's self-model (its design by default; or, with ``prior_source="eea"``, the case study's
 self-model EEA, :func:`aquafish.case_study.model_fields`, at the preset's budget on damage
 ``none``), its NEAT gait evolved on the self-model robot
-(the run directory keeps its checkpoints, so the final population is kept) and the damage
+(the run directory keeps its final population as data, ``final_population.json``) and the damage
 monitor's calibration of that gait on the self-model (:mod:`aquafish.monitor`, saved beside
 the self-model as ``monitor_calibration.json``). That is all the robot knows: the only prior.
 
@@ -75,6 +75,7 @@ import functools
 import json
 import logging
 import math
+import os
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -95,7 +96,7 @@ from aquafish_gym.checks import check_int
 from aquafish_gym.env import FRAME_SKIP, INITIAL_HEADING, check_onset
 from aquafish_gym.files import atomic_write
 from aquafish_gym.params import DT_S
-from aquafish_gym.rundir import check_output_dir, run_lock
+from aquafish_gym.rundir import FileError, check_fingerprint, check_output_dir, make_subdir, read_json, run_lock
 from aquafish_gym.simulator import AT_REST, WorldState
 from eea import EEAConfig
 from eea.encoding import get_model_space
@@ -106,13 +107,15 @@ from eea.record import save_experiments
 from eea.round import RoundParts, run_round
 from eea.search.lineages import make_estimation, warm_start
 from gait.controller import NEAT_CONTROLLER_FILE
-from gait.neat_evolution import GaitResult, evolve_from_population
+from gait.neat_evolution import GaitResult, evolve_from_population, write_population_file
+from gait.population_file import POPULATION_FILE
 from gait.rehearsal import Rehearsal, rehearse
 from gait.robots import Robot
 from gait.shared_pool import SharedPool
 
 __all__ = ["EXPERIMENTS_FILE", "MISSION_FILE", "MISSION_PRESETS", "NEW_GAIT_KINDS",
-           "FINAL_SPAN_S", "ORACLE_DIR", "RECOVERED_FINAL_SHARE", "PRIORS", "RECOVERED_DIR", "RECOVERY_FIELDS", "MissionPreset", "MissionTarget", "Prior", "load_prior",
+           "FINAL_SPAN_S", "MISSION_STEP_BYTES", "ORACLE_DIR", "RECOVERED_FINAL_SHARE", "PRIORS", "RECOVERED_DIR",
+           "RECOVERY_FIELDS", "SETTINGS_FILE", "check_mission_size", "mission_settings", "MissionPreset", "MissionTarget", "Prior", "load_prior",
            "make_prior", "mission_oracle_speed", "mission_preset", "new_gait_kinds", "plot_timeline", "prepare_prior",
            "final_span_s", "final_speed", "judge_recovery", "net_displacement", "run_mission", "span_speed",
            "stop_robot"]
@@ -269,7 +272,7 @@ class Prior:
 
     @property
     def gait_dir(self) -> Path:
-        """The gait's NEAT run directory (its ``checkpoints/`` hold the final population)."""
+        """The gait's NEAT run directory (its ``final_population.json`` holds the final population)."""
         return self.directory / "gait"
 
 
@@ -326,6 +329,9 @@ def make_prior(directory, genome, robot: Robot, preset: str = "quick", seed: int
     # as the case study's
     gait.evolve_or_load_gait(robot, out / "gait", **_gait_kwargs(settings, seed, workers, progress),
                              spread_headings=True)
+    # the final population as data (a run made before the file existed: from its checkpoint, in the
+    # directory this command made): a mission's new gaits start from it, never from a pickle
+    write_population_file(out / "gait")
     n = calibration_seeds or settings.calibration_seeds
     wanted = (n, settings.calibration_episode_s, settings.window_s, settings.warmup_s)
     saved = MonitorCalibration.load(out / CALIBRATION_FILE) if (out / CALIBRATION_FILE).is_file() else None
@@ -342,19 +348,21 @@ def make_prior(directory, genome, robot: Robot, preset: str = "quick", seed: int
 def load_prior(directory) -> Prior:
     """The :class:`Prior` :func:`prepare_prior` left in ``directory``.
 
+    ``directory`` is an input (``--self-model DIR``, possibly received from someone else): only
+    its data files are read (``self_model.json``, the gait's ``best_controller.json`` and
+    ``final_population.json``, ``monitor_calibration.json``); nothing in it is unpickled, and
+    its NEAT checkpoints are never read.
+
     Raises:
         ValueError: a missing or unfinished part (named).
     """
     d = Path(directory)
-    for part in ("self_model.json", "gait/best_controller.json", "gait/run.json", CALIBRATION_FILE):
+    for part in ("self_model.json", "gait/best_controller.json", "gait/run.json", f"gait/{POPULATION_FILE}",
+                 CALIBRATION_FILE):
         if not (d / part).is_file():
             raise ValueError(f"--self-model {d} holds no finished self-model: {part} is missing (make one with "
                              "aquafish mission without --self-model, whose OUT/self_model it writes)")
-    data = json.loads((d / "self_model.json").read_text())
-    genome = np.asarray(data["genome"], dtype=np.uint8)
-    if genome.shape != (get_model_space("morphology+servos").n_bits,):
-        raise ValueError(f"--self-model {d}: self_model.json must hold a morphology+servos model genome")
-    robot = Robot.from_dict(data["robot"])
+    genome, robot = _read_self_model(d / "self_model.json")
     return Prior(d, genome, robot, gait.load_controller(d / "gait" / "best_controller.json"), MonitorCalibration.load(d))
 
 
@@ -646,9 +654,16 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
     Returns:
         The report written as ``mission.json``.
 
+    ``out_dir/mission_settings.json`` (:data:`SETTINGS_FILE`, :func:`mission_settings`) records
+    the settings before any work: a rerun with the same settings runs the mission again (its
+    prior reused), one with other settings is refused.
+
     Raises:
-        ValueError: a bad setting (named), an unusable directory, or a ``self_model`` that holds
-            no finished self-model.
+        ValueError: a bad setting (named), a mission whose memory cannot fit
+            (:func:`check_mission_size`), an unusable directory, or a ``self_model`` that holds
+            no finished self-model, all before anything is written.
+        aquafish_gym.rundir.MismatchError: ``out_dir`` holds a mission of other settings (the
+            fields named), or another command's output.
     """
     damage = get_damage(damage).name
     settings = mission_preset(preset)
@@ -664,13 +679,85 @@ def run_mission(damage: str, out_dir, *, onset_s: float = 30.0, duration_s: floa
     if prior_source not in PRIORS:
         raise ValueError(f"unknown prior {prior_source!r}; valid: {', '.join(PRIORS)}")
     own = recovery_self_model_fields(settings, self_model_fields)
+    check_mission_size(settings, damage, seed, float(duration_s), workers, own,
+                       prior_source if self_model is None else None)
     out = check_output_dir(out_dir)
     oracle_base = out / ORACLE_DIR if oracle_dir is None else check_output_dir(oracle_dir, "oracle_dir")
+    wanted = mission_settings(damage, seed, preset, onset_s, float(duration_s), bool(warm_start), own, bool(oracle),
+                              prior_source, self_model)
     with run_lock(out, command="mission"):
+        _check_settings(out, wanted)
+        atomic_write(out / SETTINGS_FILE, (json.dumps(wanted, indent=2) + "\n").encode())
         prior = load_prior(self_model) if self_model is not None else \
             prepare_prior(out / "self_model", preset, seed, prior=prior_source, workers=workers, progress=progress)
         return _run(prior, damage, onset_s, float(duration_s), settings, preset, seed, out, workers or 1, video,
                     oracle, progress, bool(warm_start), own, oracle_base)
+
+
+#: A mission directory's manifest: the settings that define its results (:func:`mission_settings`).
+SETTINGS_FILE = "mission_settings.json"
+#: Memory a mission keeps per control step (0.1 s) of its ``duration_s``: the trajectory's rows
+#: (about 700 bytes each) of the mission and of the swims that judge it (``keep_old``,
+#: ``oracle_at_alarm``, the oracle in the window), its CSV and the timeline's arrays.
+MISSION_STEP_BYTES = 5_000
+
+
+def check_mission_size(settings: MissionPreset, damage: str, seed: int, duration_s: float, workers: int | None,
+                       own: dict, prior_source: str | None = None) -> None:
+    """Refuse, before anything is written, a mission whose memory cannot fit: its ``duration_s``
+    (:data:`MISSION_STEP_BYTES` per control step) and its EEA runs, the recovery's with the
+    mission's own self-model settings ``own`` and, with ``prior_source="eea"``, the prior's
+    (:func:`eea.run.check_run_memory`, as ``aquafish eea`` refuses them).
+
+    Raises:
+        ValueError: the estimate exceeds the available memory (the setting named).
+    """
+    from aquafish_gym.rundir import check_memory
+    from eea.run import check_run_memory
+
+    check_memory(f"--duration-s {duration_s:g}", duration_s / CONTROL_S * MISSION_STEP_BYTES,
+                 "give a shorter --duration-s")
+    try:
+        check_run_memory(_eea_config(settings, damage, seed, workers, own))
+    except ValueError as err:
+        raise ValueError(f"--self-model-fields: the recovery's self-model search with {err}") from None
+    if prior_source == "eea":
+        check_run_memory(_eea_config(settings, "none", seed, workers))
+
+
+def mission_settings(damage: str, seed: int, preset: str, onset_s: float, duration_s: float, warm_start: bool,
+                     own: Mapping, oracle: bool, prior_source: str, self_model=None) -> dict:
+    """The manifest of a mission directory (:data:`SETTINGS_FILE`): the settings that define its
+    results. The prior is ``prior_source`` (``design``, ``eea``) or, with ``self_model``, that
+    directory (its real path); workers, video and progress change no result and are not in it."""
+    return {"damage": damage, "seed": int(seed), "preset": preset, "onset_s": float(onset_s),
+            "duration_s": float(duration_s), "warm_start": bool(warm_start), "self_model_fields": dict(own),
+            "oracle": bool(oracle), "prior_source": None if self_model is not None else prior_source,
+            "self_model": None if self_model is None else os.path.realpath(self_model)}
+
+
+def _check_settings(out: Path, wanted: dict) -> None:
+    """Refuse a mission directory that holds a mission of other settings: its manifest's, or for a
+    mission written before the manifest, its ``mission.json``'s (the fields it records).
+
+    Raises:
+        MismatchError: the fields that differ named.
+        FileError: the manifest or report is not a JSON object.
+    """
+    if (out / SETTINGS_FILE).is_file():
+        recorded = read_json(out / SETTINGS_FILE)
+    elif (out / MISSION_FILE).is_file():
+        report = read_json(out / MISSION_FILE)
+        recorded = {k: report[k] for k in ("damage", "seed", "preset", "onset_s", "duration_s", "warm_start",
+                                           "self_model_fields") if k in report}
+    else:
+        return
+
+    def flat(values: dict) -> dict:
+        return {k: json.dumps(v, sort_keys=True) if k == "self_model_fields" else v for k, v in values.items()}
+
+    check_fingerprint(out, flat(recorded), flat(wanted),
+                      "use another --out, or the settings it was run with (the same settings run the mission again)")
 
 
 def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings: MissionPreset, preset: str, seed: int,
@@ -785,10 +872,10 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         "files": {"timeline": TIMELINE_FILE, "trajectory": TRAJECTORY_FILE},
     }
     if recovery:  # what the robot knows after the recovery: its new self-model and gait
-        (out / RECOVERED_DIR).mkdir(exist_ok=True)
-        _write_self_model(out / RECOVERED_DIR, new_genome, new_model)
-        controller.save(out / RECOVERED_DIR / NEAT_CONTROLLER_FILE)
-        save_experiments(out / RECOVERED_DIR / EXPERIMENTS_FILE, experiments)
+        recovered = make_subdir(out, RECOVERED_DIR)  # never through a link planted in the mission directory
+        _write_self_model(recovered, new_genome, new_model)
+        controller.save(recovered / NEAT_CONTROLLER_FILE)
+        save_experiments(recovered / EXPERIMENTS_FILE, experiments)
         report["files"]["recovered"] = RECOVERED_DIR
         report["files"]["experiments"] = f"{RECOVERED_DIR}/{EXPERIMENTS_FILE}"
     _write_trajectory(rows, out / TRAJECTORY_FILE)
@@ -796,6 +883,34 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     report["files"]["video"] = write_mission_video(rows, report, out / "mission", *sizes).name if video else None
     atomic_write(out / MISSION_FILE, (json.dumps(report, indent=2) + "\n").encode())
     return report
+
+
+def _read_self_model(path: Path) -> tuple[np.ndarray, Robot]:
+    """The genome and robot of a ``self_model.json`` (:func:`_write_self_model`), checked field by
+    field: the file may come from anyone (``--self-model DIR``).
+
+    Raises:
+        FileError: (a ``ValueError``) not a JSON object, or ``genome`` that is not the
+            ``morphology+servos`` genome's bits (0 or 1), or ``robot`` that is not a robot (the
+            file and the field named).
+    """
+    fix = "make one with aquafish mission without --self-model, whose OUT/self_model it writes"
+    data = read_json(path)
+    bits = get_model_space("morphology+servos").n_bits
+    genome = data.get("genome")
+    if not (isinstance(genome, list) and len(genome) == bits
+            and all(type(b) is int and b in (0, 1) for b in genome)):  # noqa: E721 (no bools, no floats)
+        shown = json.dumps(genome)
+        raise FileError(path, f"field 'genome' must be the {bits} bits (0 or 1) of a morphology+servos model genome, "
+                              f"got {shown if len(shown) <= 40 else shown[:37] + '...'}", fix)
+    try:
+        if not isinstance(data.get("robot"), dict):
+            raise TypeError(f"a JSON object, got {type(data.get('robot')).__name__}")
+        robot = Robot.from_dict(data["robot"])
+    except (KeyError, TypeError, ValueError, AttributeError) as err:
+        problem = f"no field {err.args[0]!r}" if isinstance(err, KeyError) else str(err).splitlines()[0][:200]
+        raise FileError(path, f"field 'robot' is not a robot ({problem})", fix) from None
+    return np.asarray(genome, dtype=np.uint8), robot
 
 
 def _write_self_model(directory: Path, genome: np.ndarray, robot: Robot) -> None:
@@ -1004,7 +1119,7 @@ def new_gait_kinds(robot: Robot, prior: Prior, settings: MissionPreset, seed: in
 
     Raises:
         ValueError: as :func:`gait.neat_evolution.evolve_from_population` and
-            :func:`gait.rehearsal.rehearse` raise (e.g. no checkpoint in the prior's gait).
+            :func:`gait.rehearsal.rehearse` raise (e.g. no population file in the prior's gait).
     """
     case = PRESETS[settings.case_preset]
     yaws = settings.new_gait_start_yaws_deg

@@ -5,9 +5,10 @@ seed, in ``OUT/cells/<damage>/seed<S>`` (``<damage>``: a preset's name, ``sample
 ``fault_`` and a short hash of a JSON fault; :func:`aquafish.damage_table.gait_dir_name`). A
 cell whose ``report.json`` exists is finished and read back, never run again, unless its
 self-model was checked against fault hypotheses by an earlier procedure than today's and its
-EEA checkpoint is there (:func:`check_stale`): then its case study runs again, makes today's
-check on the same experiments and retrains only the gaits of a self-model that changed. An
-interrupted cell resumes from its finished steps.
+EEA runs' data are there (:func:`check_stale`): then its case study runs again, makes today's
+check on the same experiments, read as data (no pickle of a finished cell is ever loaded), and
+retrains only the gaits of a self-model that changed. An interrupted cell resumes from its
+finished steps.
 
 The rows that do not depend on the damage (:data:`aquafish.case_study.SHARED_KEYS`: the
 healthy gait, the damage-robust gait and the damage-robust PPO policy) are trained once per
@@ -60,6 +61,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -70,7 +72,8 @@ from aquafish.shipping import DirTask
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
-from aquafish_gym.rundir import FileError, check_fingerprint, check_output_dir, read_json, run_lock
+from aquafish_gym.rundir import (FileError, check_fingerprint, check_output_dir, make_subdir, read_json, refuse_pickles,
+                                 run_lock)
 
 #: The rows of the summary, in column order (``report.json`` controller keys; the oracle,
 #: ``true_damaged``, is what every share is taken of).
@@ -132,21 +135,25 @@ def check_spec(preset: str, damages: Iterable[str] | None, seeds: Iterable[int],
 
     Raises:
         ValueError: an unknown preset, an unknown or empty damage (``none``), an invalid fault, a
-            damage given twice, no seeds, a seed that is no int >= 0 or is given twice, a bad
-            duration, or self-model fields ``run_case_study`` refuses.
+            damage given twice (also under two texts of one fault, :func:`fault_key`: both named),
+            no seeds, a seed that is no int in ``[0, PROCEDURE_SEED_LIMIT)``
+            (:func:`aquafish.oracle.check_procedure_seed`) or is given twice, a bad duration, or
+            self-model fields ``run_case_study`` refuses.
     """
     from aquafish.case_study import own_self_model_fields, preset_settings
     from aquafish.damage_table import check_damages
+    from aquafish.oracle import check_procedure_seed
 
     settings = preset_settings(preset, episode_duration_s)
     own = own_self_model_fields(settings, self_model_fields)  # with the preset's own (quick: the ranked fault hypotheses)
     names = check_damages(None if damages is None else list(damages))
     _check_unique("damage", names)
+    check_one_fault_one_cell(names)
     seeds = list(seeds)
     if not seeds:
         raise ValueError("give at least one seed")
     for seed in seeds:
-        check_int("seed", seed, 0)
+        check_procedure_seed(seed)
     _check_unique("seed", seeds)
     return RecoverySpec(preset, settings.episode_duration_s, tuple(names), tuple(sorted(seeds)), own)
 
@@ -162,6 +169,48 @@ def fingerprint(recorded: dict, settings: dict) -> tuple[dict, dict]:
     held = {k: recorded.get(k, {}) if k == "self_model_fields" else recorded[k] for k in settings
             if k in recorded or k == "self_model_fields"}
     return flat(held), flat(settings)
+
+
+def fault_key(damage: str) -> tuple:
+    """What a damage (canonical text) does to the robot: its damaged morphology and its servo
+    faults. Every text of one fault has the same key (``sampled:3`` and the JSON it draws,
+    ``reversed_left_pectoral`` and ``{"gains":[-1.0,1.0,1.0]}``)."""
+    from aquafish_gym import get_damage
+
+    resolved = get_damage(damage)
+    return tuple(resolved.apply().to_array().tolist()), resolved.faults
+
+
+def check_one_fault_one_cell(damages: Iterable[str], held: Iterable[str] = (), where: str | None = None) -> None:
+    """Refuse one fault under two texts (``sampled:3`` and the JSON it draws, a preset and its
+    JSON): it would be two cells, run twice and counted twice. Two ``sampled:SEED`` texts whose
+    draws happen to be equal are two draws of the distribution, each a cell of its own.
+
+    Args:
+        damages: the damages asked for (canonical texts).
+        held: the damages the benchmark holds already (its manifest's), each under its own text.
+        where: the manifest that holds ``held`` (for the message).
+
+    Raises:
+        ValueError: two texts of one fault (:func:`fault_key`), not both draws, both named.
+    """
+    from aquafish_gym.faults import SAMPLED_PREFIX
+
+    held = list(held)
+    seen: dict[tuple, list[str]] = {}
+    for damage in [*held, *damages]:
+        texts = seen.setdefault(fault_key(damage), [])
+        first = next((t for t in texts if t != damage
+                      and not (t.startswith(SAMPLED_PREFIX) and damage.startswith(SAMPLED_PREFIX))), None)
+        if first is not None and damage not in held:
+            if first in held:
+                raise ValueError(f"damage {damage} is the fault {first}, which {where} holds under that name; give it "
+                                 f"as {first} (one fault is one cell)")
+            raise ValueError(f"damages given more than once: {first} and {damage} are one fault (one fault is one "
+                             "cell); give it once")
+        if first is not None:
+            raise ValueError(f"{first} and {damage} are one fault")
+        texts.append(damage)
 
 
 def _check_unique(what: str, values: list) -> None:
@@ -191,23 +240,104 @@ def oracle_dir(out: Path, damage: str) -> Path:
     return Path(out) / "oracles" / gait_dir_name(damage)
 
 
+def _check_subdir(out: Path, path: Path) -> None:
+    """Make the parents of the task directory ``path`` below ``out`` and check ``path`` itself if
+    it is there (:func:`aquafish_gym.rundir.make_subdir`: a symbolic link, or a component that
+    leads outside ``out``, is refused naming it)."""
+    parts = path.relative_to(out).parts
+    make_subdir(out, *parts[:-1])
+    if os.path.lexists(path):
+        make_subdir(out, *parts)
+
+
+def _shown(value) -> str:
+    text = json.dumps(value, default=str)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def read_manifest(out: Path) -> tuple[dict, RecoverySpec]:
+    """``OUT/recovery.json`` as recorded and as a :class:`RecoverySpec`, every field checked before
+    any of it is used (a benchmark directory may come from anyone): ``preset`` a case-study
+    preset, ``episode_duration_s`` a positive finite number, ``damages`` a list of damages each
+    written as its canonical text (:func:`aquafish_gym.get_damage`'s ``name``: so no text names a
+    file, or a directory outside ``OUT``), no fault twice, ``seeds`` a list of distinct ints in
+    ``[0, PROCEDURE_SEED_LIMIT)``, ``self_model_fields`` (optional) a JSON object.
+
+    Raises:
+        FileError: (a ``ValueError``) the file is not such a manifest: one line naming it and the field.
+    """
+    from aquafish.case_study import PRESETS
+    from aquafish.oracle import PROCEDURE_SEED_LIMIT
+    from aquafish_gym import DAMAGES, get_damage
+    from aquafish_gym.faults import SAMPLED_PREFIX
+
+    path = Path(out) / MANIFEST_FILE
+    recorded = read_json(path)
+
+    def refuse(field: str, problem: str) -> FileError:
+        return FileError(path, f"is not a recovery manifest: field {field!r} {problem}",
+                         "restore it from a copy, or use another --out")
+
+    preset = recorded.get("preset")
+    if not isinstance(preset, str) or preset not in PRESETS:
+        raise refuse("preset", f"must be one of {', '.join(sorted(PRESETS))}, got {_shown(preset)}")
+    duration = recorded.get("episode_duration_s")
+    if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not math.isfinite(duration) \
+            or duration <= 0:
+        raise refuse("episode_duration_s", f"must be a positive number of seconds, got {_shown(duration)}")
+    damages = recorded.get("damages")
+    if not isinstance(damages, list) or not damages:
+        raise refuse("damages", f"must be a non-empty list of damages, got {_shown(damages)}")
+    for i, damage in enumerate(damages):
+        if not isinstance(damage, str) or not (damage in DAMAGES or damage.startswith((SAMPLED_PREFIX, "{"))):
+            raise refuse(f"damages[{i}]", f"must be a damage's canonical text (a preset name, sampled:SEED or a JSON "
+                                          f"fault), got {_shown(damage)}")
+        try:
+            name = get_damage(damage).name
+        except ValueError as err:
+            raise refuse(f"damages[{i}]", f"is no damage ({str(err).splitlines()[0][:120]})") from None
+        if name != damage or name in ("none", "{}"):
+            raise refuse(f"damages[{i}]", f"must be a damage's canonical text ({_shown(name)}), got {_shown(damage)}")
+    if len(set(damages)) != len(damages):
+        raise refuse("damages", f"names {next(d for d in damages if damages.count(d) > 1)} twice")
+    try:
+        check_one_fault_one_cell(damages)
+    except ValueError as err:
+        raise refuse("damages", f"holds one fault twice ({err})") from None
+    seeds = recorded.get("seeds")
+    if not isinstance(seeds, list) or not seeds:
+        raise refuse("seeds", f"must be a non-empty list of seeds, got {_shown(seeds)}")
+    for i, seed in enumerate(seeds):
+        if type(seed) is not int or not 0 <= seed < PROCEDURE_SEED_LIMIT:
+            raise refuse(f"seeds[{i}]", f"must be an int in [0, {PROCEDURE_SEED_LIMIT - 1}], got {_shown(seed)}")
+    if len(set(seeds)) != len(seeds):
+        raise refuse("seeds", f"names {next(s for s in seeds if seeds.count(s) > 1)} twice")
+    fields = recorded.get("self_model_fields", {})
+    if not isinstance(fields, dict):
+        raise refuse("self_model_fields", f"must be a JSON object, got {_shown(fields)}")
+    return recorded, RecoverySpec(preset, float(duration), tuple(damages), tuple(seeds), dict(fields))
+
+
 def merge_manifest(out: Path, spec: RecoverySpec) -> RecoverySpec:
     """``spec`` merged into ``OUT/recovery.json`` (the damages and seeds run so far, and these),
     written atomically; the merged spec.
 
     Raises:
         MismatchError: the manifest records another preset or duration (the fields named).
-        FileError: the manifest is corrupt.
+        FileError: the manifest is corrupt or not a recovery manifest (:func:`read_manifest`).
+        ValueError: a damage of ``spec`` that the manifest holds under another text
+            (:func:`check_one_fault_one_cell`).
     """
     path = Path(out) / MANIFEST_FILE
     merged = spec
     if path.is_file():
-        recorded = read_json(path)
+        recorded, held = read_manifest(out)
         check_fingerprint(out, *fingerprint(recorded, spec.settings()),
                           "use another --out, or the --budget, --episode-duration-s and --self-model-fields it was "
                           "run with")
-        damages = tuple(dict.fromkeys([*recorded.get("damages", []), *spec.damages]))
-        seeds = tuple(sorted({*recorded.get("seeds", []), *spec.seeds}))
+        check_one_fault_one_cell(spec.damages, held.damages, str(path))
+        damages = tuple(dict.fromkeys([*held.damages, *spec.damages]))
+        seeds = tuple(sorted({*held.seeds, *spec.seeds}))
         merged = dataclasses.replace(spec, damages=damages, seeds=seeds)
     atomic_write(path, json.dumps(merged.to_dict(), indent=2).encode())
     return merged
@@ -227,7 +357,32 @@ def read_cell(out: Path, damage: str, seed: int, spec: RecoverySpec) -> dict | N
     wanted = {**spec.settings(), "damage": damage, "seed": seed}
     check_fingerprint(path.parent, *fingerprint(report, wanted),
                       "remove the cell's directory to run it again")
+    _check_report(path, report)
     return report
+
+
+def _check_report(path: Path, report: dict) -> None:
+    """Refuse a cell's report that the summary cannot count: every row's ``target_distance`` a
+    finite number (NaN is refused, not counted) and the fields :func:`cell_summary` reads.
+
+    Raises:
+        FileError: naming the file and what is wrong.
+    """
+    fix = "remove the cell's directory to run it again"
+    controllers = report.get("controllers")
+    if not isinstance(controllers, dict) or not isinstance(controllers.get("true_damaged"), dict):
+        raise FileError(path, "is not a case-study report: field 'controllers' must be a JSON object with the "
+                              "oracle's row 'true_damaged'", fix)
+    for key, row in controllers.items():
+        value = row.get("target_distance") if isinstance(row, dict) else None
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise FileError(path, f"is not a case-study report: field 'controllers.{key}.target_distance' must be a "
+                                  f"finite number, got {_shown(value)}", fix)
+    try:
+        cell_summary(report)
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as err:
+        raise FileError(path, f"is not a case-study report ({type(err).__name__}: "
+                              f"{str(err).splitlines()[0][:120] if str(err) else ''})", fix) from None
 
 
 # -- the tasks (top-level, so that process pools and Ray can ship them) ------------------------------
@@ -260,35 +415,45 @@ def _train_oracle(preset: str, damage: str, oracle: str, episode_duration_s: flo
 
 def _run_cell(preset: str, damage: str, seed: int, cell: str, shared: str, episode_duration_s: float,
               workers: int | None, progress: bool, all_rows: bool = False, triage_only: bool = False,
-              self_model_fields: dict | None = None, oracle: str | None = None) -> dict:
+              self_model_fields: dict | None = None, oracle: str | None = None, recheck: bool = False) -> dict:
     """Run one cell's case study (no video) with the shared rows of its seed and the oracle of its
     damage; return its report (``all_rows`` False: the other rows only where the damage breaks
-    the healthy gait; ``triage_only``: the healthy and oracle rows only, as ``run_case_study``)."""
+    the healthy gait; ``triage_only``: the healthy and oracle rows only, as ``run_case_study``).
+    ``recheck``: the cell is finished and checked again (:func:`check_stale`); it is read as data,
+    and any pickle it would load is refused unread (:func:`aquafish_gym.rundir.refuse_pickles`)."""
     from aquafish.case_study import run_case_study
 
-    return run_case_study(preset, damage, seed, cell, episode_duration_s=episode_duration_s, video=False,
-                          workers=workers, progress=progress, shared_dir=shared, all_rows=all_rows,
-                          triage_only=triage_only, self_model_fields=self_model_fields, oracle_dir=oracle)
+    def run() -> dict:
+        return run_case_study(preset, damage, seed, cell, episode_duration_s=episode_duration_s, video=False,
+                              workers=workers, progress=progress, shared_dir=shared, all_rows=all_rows,
+                              triage_only=triage_only, self_model_fields=self_model_fields, oracle_dir=oracle)
+
+    if not recheck:
+        return run()
+    with refuse_pickles(f"the finished cell {cell} is checked again from its data"):
+        return run()
 
 
 def check_stale(report: dict | None, cell: str | os.PathLike) -> bool:
     """Whether a finished cell's self-model was checked against fault hypotheses by another
     procedure than today's (:data:`eea.fault_check.FAULT_CHECK_PROCEDURE`; a report made before
-    checks named theirs counts as another) and its EEA run's checkpoint is in ``cell``, so that
-    running the cell again makes today's check on the run's own experiments. False without a
-    report, without a check (a triaged cell, a ``morphology`` self-model), or without the
-    checkpoint (a cell copied from published results: it is read back as it is, and the
-    summary names its check's procedure)."""
+    checks named theirs counts as another) and every EEA run of the cell has its data
+    (:data:`eea.checkpoint.RUN_DATA_FILE`), so that running the cell again makes today's check
+    on the run's own experiments, read as data: a finished cell's checkpoints are never
+    unpickled (:func:`_run_cell`'s ``recheck``), whoever made the benchmark directory. False
+    without a report, without a check (a triaged cell, a ``morphology`` self-model), or without
+    the data (a cell copied from published results, or made before the data file existed: it is
+    read back as it is, and the summary names its check's procedure)."""
     from aquafish.case_study import eea_dir_name
-    from eea.checkpoint import STATE_FILE
+    from eea.checkpoint import RUN_DATA_FILE
     from eea.fault_check import FAULT_CHECK_PROCEDURE
 
-    model = ((report or {}).get("models") or {}).get("self_model") or {}
-    check = model.get("fault_check")
+    models = (report or {}).get("models") or {}
+    check = (models.get("self_model") or {}).get("fault_check")
     if check is None or check.get("procedure", "") == FAULT_CHECK_PROCEDURE:
         return False
-    run = Path(cell) / eea_dir_name(model["method"], model["model_space"], model["behaviour_summary"])
-    return (run / STATE_FILE).is_file()
+    runs = [Path(cell) / eea_dir_name(m["method"], m["model_space"], m["behaviour_summary"]) for m in models.values()]
+    return all((run / RUN_DATA_FILE).is_file() for run in runs)
 
 
 def rows_to_run(report: dict | None, all_rows: bool = False) -> bool:
@@ -347,23 +512,37 @@ def run_recovery(out_dir, *, preset: str = "quick", damages: Iterable[str] | Non
             benchmark directory keeps one value (another is a :class:`~aquafish_gym.rundir.MismatchError`).
 
     Raises:
-        ValueError: bad settings (:func:`check_spec`, ``processes``, ``workers``, ``backend``) or an
-            ``out_dir`` that cannot be written, checked before anything is created; another
-            process writing ``out_dir`` (:class:`~aquafish_gym.rundir.BusyError`); a manifest or a
-            finished cell made with other settings (:class:`~aquafish_gym.rundir.MismatchError`,
-            naming the fields); a cell's own error.
+        ValueError: bad settings (:func:`check_spec`, ``processes``, ``workers``, ``backend``, an
+            ``address`` without ``backend="ray"``) or an ``out_dir`` that cannot be written, checked
+            before anything is created; another process writing ``out_dir``
+            (:class:`~aquafish_gym.rundir.BusyError`); a manifest or a finished cell made with other
+            settings (:class:`~aquafish_gym.rundir.MismatchError`, naming the fields); a cell's own
+            error.
         aquafish.backends.ClusterError: ``backend="ray"`` without Ray or without a reachable cluster.
     """
     spec = check_spec(preset, damages, seeds, episode_duration_s, self_model_fields)
-    backends.check_backend(backend)
+    backends.check_backend(backend, address)
     check_int("processes", processes, 1)
     if workers is not None:
         check_int("workers", workers, 1)
+    _check_sizes(spec, workers if backend == "local" and processes == 1 else processes)
     out = check_output_dir(out_dir)
     if backend == "ray":
         backends.connect_ray(address)
     with run_lock(out, command="recovery"):
         return _run_locked(spec, out, processes, workers, backend, address, progress, all_rows)
+
+
+def _check_sizes(spec: RecoverySpec, workers: int | None) -> None:
+    """Refuse, before anything is written, a benchmark whose cells would fail or run out of memory
+    part-way (:func:`aquafish.case_study.check_sizes`: episodes too short for PPO, gaits or the
+    self-model's EEA run, with the spec's own self-model settings, that cannot fit)."""
+    from aquafish.case_study import DEFAULT_METHOD, check_sizes, model_fields, preset_settings
+    from eea import EEAConfig
+
+    settings = preset_settings(spec.preset, spec.episode_duration_s)
+    check_sizes(settings, {"self_model": EEAConfig.from_method(DEFAULT_METHOD, settings.budget,
+                                                               **model_fields(own=spec.self_model_fields))}, workers)
 
 
 def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | None, backend: str,
@@ -374,6 +553,9 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
     stale = {cell for cell in spec.cells() if check_stale(reports[cell], cell_dir(out, *cell))}
     todo = [cell for cell in spec.cells() if reports[cell] is None or rows_to_run(reports[cell], all_rows)
             or cell in stale]
+    for damage, seed in todo:  # where the tasks write: never through a link planted in OUT, whichever backend
+        for path in (shared_dir(out, seed), oracle_dir(out, damage), cell_dir(out, damage, seed)):
+            _check_subdir(out, path)
     alone = backend == "local" and processes == 1  # one cell at a time, in this process
     cell_workers, inner_progress = (workers, progress) if alone else (1, False)
     duration = spec.episode_duration_s
@@ -403,7 +585,7 @@ def _run_locked(spec: RecoverySpec, out: Path, processes: int, workers: int | No
         tasks = [DirTask(_run_cell, (spec.preset, damage, seed, str(cell_dir(out, damage, seed)),
                                      str(shared_dir(out, seed)), duration, cell_workers, inner_progress,
                                      all_rows and not triage_only, triage_only, spec.self_model_fields,
-                                     str(oracle_dir(out, damage))),
+                                     str(oracle_dir(out, damage)), (damage, seed) in stale and not triage_only),
                          outputs=(3,), inputs=(4, 11), label=f"{stage} of cell {damage} seed {seed}")
                  for damage, seed in cells]
         for report in run_stage(stage, "cell", tasks):
@@ -443,13 +625,7 @@ def summary_so_far(out_dir) -> dict:
     if not (out / MANIFEST_FILE).is_file():
         raise ValueError(f"{out} holds no recovery benchmark (no {MANIFEST_FILE}); give the --out of an "
                          "aquafish recovery run")
-    recorded = read_json(out / MANIFEST_FILE)
-    try:
-        manifest = RecoverySpec(recorded["preset"], float(recorded["episode_duration_s"]),
-                                tuple(recorded["damages"]), tuple(int(s) for s in recorded["seeds"]),
-                                dict(recorded.get("self_model_fields", {})))
-    except (KeyError, TypeError, ValueError) as err:
-        raise FileError(out / MANIFEST_FILE, f"is not a recovery manifest ({type(err).__name__}: {err})") from None
+    manifest = read_manifest(out)[1]
     return _summary(manifest, {cell: read_cell(out, *cell, manifest) for cell in manifest.cells()})
 
 

@@ -28,7 +28,7 @@ from aquafish.shipping import DirTask, run_dir_tasks
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
-from aquafish_gym.rundir import FileError, check_output_dir, read_json, run_lock
+from aquafish_gym.rundir import FileError, check_output_dir, make_subdir, read_json, run_lock
 from eea.checkpoint import STATE_FILE
 from eea.compat import upgrade_flat_fields
 from eea.config import FLAT_DEFAULTS, EEAConfig, nest_flat
@@ -183,9 +183,9 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
             with the best final objective fitness per condition among the runs finished so far.
 
     Raises:
-        ValueError: unknown backend, ``processes`` < 1, ``out_dir`` cannot be written
-            (checked before anything is created), another process is running a study there
-            (:class:`~aquafish_gym.rundir.BusyError`), a file in it is corrupt, or
+        ValueError: unknown backend, an ``address`` without ``backend="ray"``, ``processes`` < 1,
+            ``out_dir`` cannot be written (checked before anything is created), another process
+            is running a study there (:class:`~aquafish_gym.rundir.BusyError`), a file in it is corrupt, or
             ``study.json`` exists with a different spec (other seeds of the same spec are the
             same study: new seeds extend it, and ``study.json`` records the union of its seeds).
         aquafish.backends.ClusterError: ``backend="ray"`` without the ``[cluster]`` extra, or a cluster that
@@ -194,7 +194,7 @@ def run_study(spec: StudySpec, out_dir, *, backend: str = "local", address: str 
         ValueError: a run raised one (e.g. a corrupt file in its directory): the run's own
             error, also from a Ray task (not Ray's ``RayTaskError`` around it).
     """
-    backends.check_backend(backend)
+    backends.check_backend(backend, address)
     if processes is not None:
         check_int("--processes", processes, 1)
     out_dir = check_output_dir(out_dir)
@@ -224,6 +224,8 @@ def _run_study_locked(spec: StudySpec, out_dir: Path, backend: str, address: str
             bar.set_postfix_str(", ".join(f"{c} {v:.3f}" for c, v in best.items()))
         bar.update()
 
+    for _, d in todo:  # the runs' directories, made here: never through a link planted in the study's
+        make_subdir(out_dir, *d.relative_to(out_dir).parts)
     tasks = [DirTask(_run_one, (c.to_dict(), str(d)), outputs=(1,), label=f"run {d.relative_to(out_dir)}")
              for c, d in todo]
     for run_dir in run_dir_tasks(tasks, backend=backend, processes=processes or os.cpu_count() or 1, address=address):

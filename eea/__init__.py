@@ -27,7 +27,7 @@ The layout (``tests/eea/test_layering.py`` checks it)::
                                defaults (4); named methods and budgets
       run.py                   ``run(config, out_dir)``: a resumable run of rounds
       record.py                rounds.csv / config.json written and read back (``load_result``)
-      checkpoint.py            the run's state.pkl
+      checkpoint.py            the run's state.pkl, and its run_data.npz (no pickle)
       compat.py                what lets runs written by earlier versions load: flat configs,
                                retired fields, moved modules, older checkpoints' states
       replay.py, cli.py        a finished run's experiments rebuilt; the ``aquafish eea`` command

@@ -455,20 +455,28 @@ def save_experiments(path: str | os.PathLike, experiments) -> None:
     Raises:
         ValueError: ``experiments`` is empty or its IMU logs differ in length.
     """
-    experiments = tuple(experiments)
-    if not experiments:
-        raise ValueError("no experiments to save")
-    if len({e.imu_log.shape for e in experiments}) != 1:
-        raise ValueError("experiments of different lengths cannot share one file: "
-                         f"IMU logs {sorted({e.imu_log.shape for e in experiments})}")
-    states = [e.state_dict() for e in experiments]  # the experiment's own plain-data form
-    arrays = {**{name: np.array([state[name] for state in states])
-                 for name in ("index", "action", "imu_log", "summary", "true_angles", "start_motion")},
-              **{f"context_{key}": np.array([state["context"][key] for state in states])
-                 for key in ("starts", "widths", "confidence")}}
     buffer = io.BytesIO()
-    np.savez(buffer, **arrays)
+    np.savez(buffer, **experiment_arrays(tuple(e.state_dict() for e in experiments)))
     atomic_write(Path(path), buffer.getvalue())
+
+
+def experiment_arrays(states) -> dict[str, np.ndarray]:
+    """The arrays of :func:`save_experiments` from the experiments' state dicts
+    (:meth:`eea.experiment.Experiment.state_dict`).
+
+    Raises:
+        ValueError: ``states`` is empty or its IMU logs differ in length.
+    """
+    states = tuple(states)
+    if not states:
+        raise ValueError("no experiments to save")
+    shapes = {np.shape(state["imu_log"]) for state in states}
+    if len(shapes) != 1:
+        raise ValueError(f"experiments of different lengths cannot share one file: IMU logs {sorted(shapes)}")
+    return {**{name: np.array([state[name] for state in states])
+               for name in ("index", "action", "imu_log", "summary", "true_angles", "start_motion")},
+            **{f"context_{key}": np.array([state["context"][key] for state in states])
+               for key in ("starts", "widths", "confidence")}}
 
 
 def load_experiments(path: str | os.PathLike) -> tuple[Experiment, ...]:
@@ -482,16 +490,27 @@ def load_experiments(path: str | os.PathLike) -> tuple[Experiment, ...]:
     path = Path(path)
     try:
         with np.load(path, allow_pickle=False) as data:
-            arrays = {name: data[name] for name in _EXPERIMENT_ARRAYS}
-            motion = data["start_motion"] if "start_motion" in data.files else np.tile(AT_REST, (len(arrays["index"]), 1))
-        rows = zip(*(arrays[name] for name in _EXPERIMENT_ARRAYS), motion, strict=True)
-        return tuple(Experiment.from_state_dict({
-            "index": i, "action": a, "imu_log": log, "summary": summ, "true_angles": true,
-            "context": {"starts": starts.tolist(), "widths": widths.tolist(), "confidence": float(c)},
-            "start_motion": m})
-            for i, a, log, summ, true, starts, widths, c, m in rows)
+            return experiments_from_arrays(data)
     except FileNotFoundError:
         raise FileError(path, "does not exist", "give the experiments file a run wrote") from None
     except (OSError, KeyError, ValueError, TypeError) as err:
         raise FileError(path, f"is not an experiments file ({type(err).__name__}: {err})",
                         "give the experiments file a run wrote") from None
+
+
+def experiments_from_arrays(data) -> tuple[Experiment, ...]:
+    """The experiments of :func:`experiment_arrays`' arrays (``data``: a mapping or an open
+    ``np.load`` of them; without ``start_motion``, every experiment starts at rest).
+
+    Raises:
+        KeyError, ValueError, TypeError: an array is missing or they do not fit together.
+    """
+    arrays = {name: data[name] for name in _EXPERIMENT_ARRAYS}
+    files = data.files if hasattr(data, "files") else list(data)
+    motion = data["start_motion"] if "start_motion" in files else np.tile(AT_REST, (len(arrays["index"]), 1))
+    rows = zip(*(arrays[name] for name in _EXPERIMENT_ARRAYS), motion, strict=True)
+    return tuple(Experiment.from_state_dict({
+        "index": i, "action": a, "imu_log": log, "summary": summ, "true_angles": true,
+        "context": {"starts": starts.tolist(), "widths": widths.tolist(), "confidence": float(c)},
+        "start_motion": m})
+        for i, a, log, summ, true, starts, widths, c, m in rows)

@@ -12,9 +12,12 @@
         check         the final model against fault hypotheses about the design
                       (:mod:`eea.fault_check`) -> fault_check.json, the run's self-model
 
-and writes ``DIR/config.json``, ``DIR/rounds.csv`` and the checkpoint ``DIR/state.pkl``
-(see :mod:`eea.record`, :mod:`eea.checkpoint`), a run with lineages ``DIR/lineages.csv``
-(:func:`eea.record.write_lineages`) and a ``morphology+servos`` run ``DIR/fault_check.json``.
+and writes ``DIR/config.json``, ``DIR/rounds.csv``, the checkpoint ``DIR/state.pkl`` and its
+data ``DIR/run_data.npz`` (see :mod:`eea.record`, :mod:`eea.checkpoint`), a run with lineages
+``DIR/lineages.csv`` (:func:`eea.record.write_lineages`) and a ``morphology+servos`` run
+``DIR/fault_check.json``. Where pickles are refused (:func:`aquafish_gym.rundir.refuse_pickles`:
+a finished benchmark cell checked again, a directory the command did not make), a finished run
+is read from its data alone, its check against fault hypotheses made from it too.
 The round itself is :func:`eea.round.run_round`. All randomness comes from one
 ``numpy.random.Generator`` seeded with ``config.seed``, so the same config gives the same
 rounds. Resumable: running the same command again after an interruption continues from the
@@ -30,13 +33,14 @@ from pathlib import Path
 import numpy as np
 
 from aquafish_gym.progress import progress_bar
-from aquafish_gym.rundir import FileError, MismatchError, check_fingerprint, check_memory, check_output_dir, run_lock
-from eea.checkpoint import STATE_FILE, RunState, load_state, save_state
+from aquafish_gym.rundir import (FileError, MismatchError, check_fingerprint, check_memory, check_output_dir,
+                                 differences, pickles_refused, run_lock)
+from eea.checkpoint import STATE_FILE, RunState, load_run_data, load_state, save_run_data, save_state
 from eea.config import FLAT_FIELDS, EEAConfig
 from eea.evaluation import Evaluator
 from eea.experiment import Experiment
 from eea.fault_check import check_final_model, search_screen, write_fault_check
-from eea.search.lineages import Lineages, estimation_from_state
+from eea.search.lineages import Lineages, estimation_from_state, make_strategy
 from eea.record import (ROUNDS_FILE, RunResult, read_config, read_rounds, round_row, write_config, write_lineages,
                         write_rounds)
 from eea.round import RoundParts, run_round
@@ -131,9 +135,49 @@ def run(config: EEAConfig, out_dir: str | os.PathLike, *, progress: bool = True)
         return _run_locked(config, out, progress)
 
 
+def _finished_from_data(config: EEAConfig, out: Path, existing: EEAConfig | None) -> RunResult | None:
+    """A run in ``out`` that is finished for ``config`` (no round to run), from its data alone
+    (``run_data.npz``, ``rounds.csv``): its result, the check against fault hypotheses made
+    first if it is due, with nothing unpickled (the same check, to the bit, as from the
+    checkpoint: the data holds the checkpoint's experiments, estimation cache and inference
+    state). None when the data does not show a finished run (no data file yet, a damaged one or
+    another run's, rounds.csv out of step with it, more rounds asked): the checkpoint resumes,
+    repairs, extends or refuses it then (and where pickles are refused, that is refused).
+    """
+    if existing is None:
+        return None
+    try:
+        data = load_run_data(out)
+        rows = read_rounds(out, config.model_space)
+    except FileError:
+        return None  # the checkpoint repairs them
+    if data is None or data.rounds_done < config.rounds or len(rows) != data.rounds_done \
+            or differences(EEAConfig.from_dict(data.config).result_fields(), config.result_fields()):
+        return None  # unfinished, out of step, or another run's: the checkpoint's path (which names the fields)
+    if config.rounds >= existing.rounds:
+        write_config(out, config)
+    else:  # fewer rounds asked than planned: the run's record keeps its plan
+        config = config.replace(rounds=max(config.rounds, data.rounds_done))
+    result = RunResult(out, config, rows)
+    if result.model_space.servos and result.finished and result.fault_check is None:
+        with Evaluator.for_config(config) as evaluator:
+            if data.evaluator:
+                evaluator.load_state_dict(data.evaluator)
+            strategy = make_strategy(config.inference, config.ga, config.estimation.lineages)
+            strategy.load_state_dict(data.inference)
+            screen = search_screen(config, strategy, result.best_model, len(data.experiments))
+            write_fault_check(out, check_final_model(result.best_model, data.experiments, evaluator, data.rounds_done,
+                                                     screen_angles=screen))
+    return result
+
+
 def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
     existing = read_config(out)
     _check_manifest(out, config, existing)  # before the checkpoint is unpickled
+    if pickles_refused():  # a directory this command did not make: its checkpoint is never unpickled
+        finished = _finished_from_data(config, out, existing)
+        if finished is not None:
+            return finished
     state = load_state(out)
     _check_checkpoint(out, config, state)
     _check_resumable(out, state)
@@ -149,6 +193,8 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
     else:
         estimation, experiments, state = None, (), RunState(config.to_dict())
     _write_records(out, state.rows, estimation, config.model_space)  # repairs a kill between checkpoint and csv
+    if state.rounds_done:  # and between the checkpoint and its data (or a run made before the data file)
+        save_run_data(out, state)
     bar = progress_bar(config.rounds, initial=min(state.rounds_done, config.rounds), unit="round",
                        desc=f"eea {config.inference.name} seed {config.seed}", disable=not progress)
 
@@ -179,6 +225,7 @@ def _run_locked(config: EEAConfig, out: Path, progress: bool) -> RunResult:
                              wall_seconds=wall, rows=(*state.rows, row))
             save_state(out, state)
             _write_records(out, state.rows, parts.estimation, config.model_space)
+            save_run_data(out, state)
             bar.set_postfix_str(f"obj {row['objective_fitness']:.3f}")
             bar.update(1)
         result = RunResult(out, config, list(state.rows))

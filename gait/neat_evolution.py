@@ -47,14 +47,15 @@ import neat
 import numpy as np
 
 from aquafish_gym.checks import check_int, check_seconds
-from aquafish_gym.files import atomic_write
+from aquafish_gym.files import atomic_write, read_input
 from aquafish_gym.rundir import (FileError, MismatchError, check_fingerprint, check_memory, check_output_dir,
-                                 read_json, read_pickle, run_lock)
+                                 make_subdir, read_json, read_pickle, run_lock)
 from gait.clock import CLOCK_DIM, CLOCK_PERIOD_S, check_clock_period
 from gait.controller import NEAT_CONTROLLER_FILE, NEATController, load_controller
 from gait.batch_fitness import BatchEvaluator
 from gait.neat_progress import GenerationBar, PoolEvaluator, QuietCheckpointer
 from gait.plots import plot_fitness_history
+from gait.population_file import POPULATION_FILE, load_population, save_population
 from gait.rehearsal import TopGenomes
 from gait.robots import Robot, as_robot
 from gait.fitness_task import FitnessTask, evaluate_genome
@@ -118,6 +119,7 @@ def load_neat_config(path=None, *, population_size: int | None = None) -> neat.C
     path = Path(path) if path is not None else DEFAULT_CONFIG
     if not path.is_file():
         raise ValueError(f"no NEAT config file {path}")
+    read_input(path)  # a regular file of a bounded size (refused, naming it, before neat-python reads it)
     try:
         config = neat.Config(neat.DefaultGenome, neat.DefaultReproduction, neat.DefaultSpeciesSet,
                              neat.DefaultStagnation, str(path))
@@ -324,7 +326,7 @@ def _attach_reporters(population: neat.Population, task: FitnessTask, out_dir: P
     ``fitness_settings.json`` (the run's fingerprint)."""
     history, best, best_fitness = _previous_run(out_dir, population.generation) if resuming else ([], None, -np.inf)
     if out_dir is not None:
-        (out_dir / CHECKPOINT_DIR).mkdir(parents=True, exist_ok=True)
+        make_subdir(out_dir, CHECKPOINT_DIR)  # never through a link planted in the run directory
         atomic_write(out_dir / SETTINGS_FILE,
                      json.dumps(getattr(population.config, FINGERPRINT_ATTR), indent=1).encode())
     recorder = HistoryReporter(task, out_dir, history, best, best_fitness)
@@ -333,7 +335,8 @@ def _attach_reporters(population: neat.Population, task: FitnessTask, out_dir: P
     population.add_reporter(recorder)
     if out_dir is None:
         return recorder, None
-    checkpointer = QuietCheckpointer(checkpoint_every, None, str(out_dir / CHECKPOINT_DIR / CHECKPOINT_PREFIX))
+    checkpointer = QuietCheckpointer(checkpoint_every, None, str(out_dir / CHECKPOINT_DIR / CHECKPOINT_PREFIX),
+                                     population_file=out_dir / POPULATION_FILE)
     checkpointer.last_generation_checkpoint = population.generation
     population.add_reporter(checkpointer)
     return recorder, checkpointer
@@ -355,8 +358,9 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
         population_size: genomes per generation (default: the config's ``pop_size``, 50).
         seed: seeds NEAT (Python ``random``), NumPy, and the fitness episode's initial angles.
         out_dir: writes ``best_controller.json``, ``best_genome.txt``, ``fitness_history.json``
-            and ``.png``, ``run.json``, ``fitness_settings.json``, ``neat_config.ini`` and
-            ``checkpoints/``; None: no files.
+            and ``.png``, ``run.json``, ``fitness_settings.json``, ``neat_config.ini``,
+            ``checkpoints/`` and, with every checkpoint, ``final_population.json`` (its
+            population as data, :mod:`gait.population_file`); None: no files.
         workers: evaluation processes (default ``os.cpu_count()``); 1 evaluates in-process.
             Batched, the generation's PyBullet worlds (at most
             :data:`gait.batch_fitness.GENERATION_WORLD_ROBOTS` robots each: genomes x
@@ -424,7 +428,9 @@ def evolve_gait(morphology=None, *, damage: str = "none", generations: int = 30,
         population = _restore(resume, population_size, _settings(task))
         config_text = None
     else:
-        config_text = Path(config_path or DEFAULT_CONFIG).read_text()
+        # as Path.read_text() reads it (universal newlines), within read_input's bounds
+        config_text = read_input(Path(config_path or DEFAULT_CONFIG)).decode("utf-8").replace("\r\n", "\n") \
+            .replace("\r", "\n")
         set_num_inputs(config, num_inputs)
         population = neat.Population(config, seed=seed)
     setattr(population.config, FINGERPRINT_ATTR, _settings(task) | {"population_size": population.config.pop_size})
@@ -467,10 +473,21 @@ def _make_task(robot: Robot, seed: int, initial_angles, episode_duration_s, cloc
 
 
 def _check_gait_memory(population_size: int, task: FitnessTask, workers: int) -> None:
-    """Refuse a population or an episode that cannot fit in memory (estimate: :data:`GENOME_BYTES`
-    per genome, :data:`STEP_BYTES` per simulated step and worker)."""
-    steps = task.episode_duration_s / 0.01
-    check_memory(f"a population of {population_size} genomes and {task.episode_duration_s:g} s episodes on "
+    """Refuse a population or an episode that cannot fit in memory (:func:`check_gait_memory`)."""
+    check_gait_memory(population_size, task.episode_duration_s, workers)
+
+
+def check_gait_memory(population_size: int, episode_duration_s: float, workers: int) -> None:
+    """Refuse, up front, a gait evolution whose population or episodes cannot fit in memory
+    (estimate: :data:`GENOME_BYTES` per genome, :data:`STEP_BYTES` per simulated step and
+    worker); :func:`evolve_gait` checks its own, and a command that evolves gaits later (a case
+    study, a recovery benchmark) checks them before it writes anything.
+
+    Raises:
+        ValueError: the estimate exceeds the available memory (the message gives both).
+    """
+    steps = episode_duration_s / 0.01
+    check_memory(f"a population of {population_size} genomes and {episode_duration_s:g} s episodes on "
                  f"{workers} workers", GENOME_BYTES * population_size + STEP_BYTES * steps * workers,
                  "lower --population-size or --episode-duration-s")
 
@@ -541,6 +558,9 @@ def _finish(population: neat.Population, task: FitnessTask, out_dir: Path | None
                         task.seed, best_rollout.initial_angles, population.generation,
                         recorder.history[-1]["wall_time_s"], out_dir)
     if out_dir is not None:
+        if not (out_dir / POPULATION_FILE).is_file():  # written with the final checkpoint; a run killed before it
+            save_population(out_dir / POPULATION_FILE, population.config, population.population, population.species,
+                            population.generation)
         _write_outputs(result, task, population.config)
     return result
 
@@ -550,16 +570,19 @@ def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: in
                            progress: bool = False, start_yaws_deg: tuple[float, ...] | None = None,
                            keep_top: int = 0, shared: SharedPool | None = None) -> GaitResult:
     """Evolve a gait on ``robot`` for ``generations`` more generations, starting from the final
-    NEAT population of the run in ``gait_dir`` (its latest checkpoint: genomes, species and
-    innovation state carry over; every genome is evaluated anew on ``robot``). A damaged
-    robot's new gait starts from what the healthy robot's evolution found (the mission's
-    recovery) instead of from scratch.
+    NEAT population of the run in ``gait_dir`` (its ``final_population.json``,
+    :mod:`gait.population_file`: genomes, species and innovation state carry over, as from its
+    final checkpoint; every genome is evaluated anew on ``robot``). A damaged robot's new gait
+    starts from what the healthy robot's evolution found (the mission's recovery) instead of
+    from scratch. Nothing in ``gait_dir`` is unpickled: it may be a directory received from
+    anyone.
 
     Args:
         robot: the robot the gait is evolved on (a :class:`~gait.robots.Robot`).
-        gait_dir: a finished or interrupted run directory of :func:`evolve_gait`; its
-            checkpoint is unpickled, so it must be a directory you trust like code.
-        generations: generations to run beyond the checkpoint's (>= 1).
+        gait_dir: a finished run directory of :func:`evolve_gait` (its population file; a run
+            made before the file existed gets it from :func:`write_population_file`, in the
+            directory that made it).
+        generations: generations to run beyond the population's (>= 1).
         seed: the fitness task's seed, as :func:`evolve_gait`.
         episode_duration_s: simulated seconds of every episode, as :func:`evolve_gait`.
         episodes_per_genome: episodes a genome is scored on, as :func:`evolve_gait`.
@@ -577,15 +600,15 @@ def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: in
         The :class:`GaitResult`; nothing is written (``out_dir`` is None).
 
     Raises:
-        ValueError: no checkpoint in ``gait_dir``, ``generations`` < 1, ``keep_top`` < 0, or a
-            bad task setting.
+        ValueError: no population file in ``gait_dir``, or one that is not a population
+            (:class:`~aquafish_gym.rundir.FileError`, naming it), ``generations`` < 1,
+            ``keep_top`` < 0, or a bad task setting.
     """
     generations = check_int("generations", generations, 1)
     keep_top = check_int("keep_top", keep_top, 0)
     task = _make_task(as_robot(robot), seed, None, episode_duration_s, CLOCK_PERIOD_S, episodes_per_genome,
                       DEFAULT_ENV_ID, start_yaws_deg=start_yaws_deg)
-    path = latest_checkpoint(gait_dir)
-    population = neat.Checkpointer.restore_checkpoint(str(path))
+    population = load_population(Path(gait_dir) / POPULATION_FILE)
     population.reporters = neat.reporting.ReporterSet()
     for genome in population.population.values():
         genome.fitness = None  # its fitness was on the old robot: the evaluator keeps a fitness it finds
@@ -601,6 +624,32 @@ def evolve_from_population(robot: Robot, gait_dir, generations: int, *, seed: in
         result.candidates = [task.controller(genome, population.config) for genome in top.kept.values()]
         result.candidate_generations = [top.generations[key] for key in top.kept]
     return result
+
+
+def write_population_file(out_dir) -> Path:
+    """``out_dir/final_population.json`` of the finished gait run in ``out_dir``, written from its
+    final checkpoint if the run was made before it wrote the file (:mod:`gait.population_file`).
+
+    The checkpoint is a pickle: call this only on a run directory your own command made (a
+    mission's ``self_model/gait``), never on one you received; it is read as a resume reads it
+    (:func:`_restore`: only from ``checkpoints/`` beside the run's manifest).
+
+    Raises:
+        ValueError: no checkpoint or manifest in ``out_dir``; a damaged checkpoint
+            (:class:`~aquafish_gym.rundir.FileError`).
+    """
+    out_dir = Path(out_dir)
+    path = out_dir / POPULATION_FILE
+    if path.is_file():
+        return path
+    with run_lock(out_dir, command="gait"):
+        if not (out_dir / SETTINGS_FILE).is_file():
+            raise ValueError(f"{out_dir} holds no gait run ({SETTINGS_FILE} is missing)")
+        recorded = read_json(out_dir / SETTINGS_FILE)
+        population = _restore(latest_checkpoint(out_dir), None,
+                              {k: v for k, v in recorded.items() if k != "population_size"})
+        save_population(path, population.config, population.population, population.species, population.generation)
+    return path
 
 
 def evolve_or_load_gait(morphology, out_dir, **kwargs) -> NEATController:

@@ -67,10 +67,22 @@ class QuietCheckpointer(neat.Checkpointer):
     population, species_set, random state)``, read by ``neat.Checkpointer.restore_checkpoint``),
     but is compressed in memory and written with :func:`aquafish_gym.files.atomic_write`, so a
     kill while saving leaves the previous checkpoints and no truncated one.
+
+    With ``population_file``, the same population is written there as data first
+    (:func:`gait.population_file.save_population`): what another run starts from, read without
+    unpickling.
     """
+
+    def __init__(self, *args, population_file=None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.population_file = population_file
 
     def save_checkpoint(self, config, population, species_set, generation):
         """Write ``PREFIX<generation>`` atomically (see the class)."""
+        if self.population_file is not None:  # before the pickle, which uses up a species key
+            from gait.population_file import save_population
+
+            save_population(self.population_file, config, population, species_set, generation)
         buffer = io.BytesIO()
         with gzip.GzipFile(fileobj=buffer, mode="wb", compresslevel=5, mtime=0) as f:
             pickle.dump((generation, config, population, species_set, random.getstate()), f,

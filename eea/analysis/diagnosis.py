@@ -14,11 +14,13 @@ same experiments separates three failures:
 
 "The angles the run would give" the truth are the inferred ones for the paper's strategies
 and the truth's own fitted angles for ``profile``. :func:`diagnose_run` computes these
-MOD_FIT numbers (eq. 3) from a run's checkpoint, under the true angles too; for ``profile``
+MOD_FIT numbers (eq. 3) from a run's data, under the true angles too; for ``profile``
 also the truth under the angles it would start from if proposed now
 (:meth:`eea.inference.profile.Profile.starting_angles`) and, with ``refine`` R > 0, after R
-rounds of contender refinement. A search failure is split without a simulation from the
-models the run scored (:meth:`eea.evaluation.Evaluator.scored_models`): never near the truth,
+rounds of contender refinement. A run is read as data only (``config.json``, ``rounds.csv``
+and ``run_data.npz``, :func:`eea.checkpoint.load_run_data`): its checkpoint, a pickle, is
+never loaded, so a run directory received from anyone can be diagnosed. A search failure is
+split without a simulation from the models the run scored (:meth:`eea.evaluation.Evaluator.scored_models`): never near the truth,
 or ``better_seen`` > 0 scored models with a higher OBJ_FIT (eq. 4) than the final one. A run
 whose final model is the truth gets the verdict ``found``. ``aquafish diagnose DIR...`` prints
 them per run; docs/studies.md, "Tools for studies", explains the columns.
@@ -42,14 +44,13 @@ from pathlib import Path
 
 import numpy as np
 
-from aquafish_gym.rundir import check_fingerprint
-from eea.checkpoint import STATE_FILE, load_state
+from aquafish_gym.rundir import check_fingerprint, refuse_pickles
+from eea.checkpoint import RUN_DATA_FILE, load_run_data
 from eea.config import EEAConfig
 from eea.encoding import get_model_space
 from eea.fitness import model_fitness_from_similarities, objective_fitness
 from eea.evaluation import Evaluator
-from eea.experiment import Experiment, angle_errors_deg
-from eea.search.lineages import chosen_inference_state
+from eea.experiment import angle_errors_deg
 from eea.inference.profile import Profile
 from eea.record import CONFIG_FILE, load_result
 
@@ -137,7 +138,8 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
     run's checkpoint; ``2 E (proposals + 1) + refine proposals E`` more with ``refine``.
 
     Args:
-        out_dir: an EEA run directory with a checkpoint (``state.pkl``).
+        out_dir: an EEA run directory with its data (``run_data.npz``, written with every
+            checkpoint).
         workers: simulation processes.
         profile_generations: generations of the per-model angle fit, >= 1.
         seed: seeds the angle fit (and the random angles of a ``profile`` run's proposed
@@ -150,31 +152,42 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
 
     Raises:
         ValueError: if ``out_dir`` is not a run directory or has no finished round, or
-            ``profile_generations < 1`` or ``refine < 0``.
+            ``profile_generations < 1`` or ``refine < 0``; its data file is missing, damaged, of
+            another run or out of step with its ``rounds.csv`` (:class:`~aquafish_gym.rundir.FileError`
+            or :class:`~aquafish_gym.rundir.MismatchError`, naming it).
     """
     if refine < 0:
         raise ValueError(f"refine must be >= 0, got {refine}")
+    with refuse_pickles(f"{out_dir} is diagnosed as data"):
+        return _diagnose(out_dir, workers, profile_generations, seed, refine)
+
+
+def _diagnose(out_dir, workers: int, profile_generations: int, seed: int, refine: int) -> RunDiagnosis:
     result = load_result(out_dir)
-    state = load_state(out_dir)
+    data = load_run_data(out_dir)
     if not result.rounds:
         raise ValueError(f"{out_dir} has no finished round to diagnose")
-    if state is None:
-        raise ValueError(f"{out_dir} has no checkpoint ({STATE_FILE}): diagnose needs the run's experiments, which "
-                         f"only the checkpoint holds (rounds.csv alone is not enough); diagnose the run directory "
-                         "that wrote it")
-    # through from_dict: a checkpoint written before the sections holds a flat config (eea.compat)
-    check_fingerprint(Path(out_dir) / STATE_FILE, EEAConfig.from_dict(state.config).result_fields(),
-                      result.config.result_fields(),
-                      f"its {CONFIG_FILE} does not describe the checkpoint (edited, or copied from another run); "
+    path = Path(out_dir) / RUN_DATA_FILE
+    if data is None:
+        raise ValueError(f"{out_dir} has no {RUN_DATA_FILE}: diagnose reads a run's experiments from it, as data "
+                         "(never from the checkpoint state.pkl, a pickle); run the command that made the run again "
+                         "(`aquafish eea`, `study` or `case-study`, the same settings) to write it from its checkpoint")
+    # through from_dict: a run written before the sections holds a flat config (eea.compat)
+    check_fingerprint(path, EEAConfig.from_dict(data.config).result_fields(), result.config.result_fields(),
+                      f"its {CONFIG_FILE} does not describe the run's data (edited, or copied from another run); "
                       "restore the run's own config.json")
-    experiments = [Experiment.from_state_dict(e) for e in state.experiments]
+    if data.rounds_done != len(result.rounds):
+        raise ValueError(f"{path} holds {data.rounds_done} rounds, {Path(out_dir) / 'rounds.csv'} "
+                         f"{len(result.rounds)}: run the command that made the run again (`aquafish eea`, `study` or "
+                         "`case-study`, the same settings) to bring them in step")
+    experiments = list(data.experiments)
     inferred = np.stack([e.context.estimate() for e in experiments])[None]   # (1, E, 3)
     true = np.stack([e.true_angles for e in experiments])[None]
     space = result.model_space
     final = space.encode(result.best_model[None])
     true_dims = result.true_model
     truth = space.encode(true_dims[None])
-    seen = _seen(state.evaluator, result.config.steps, true_dims, result.best_model, space)
+    seen = _seen(data.evaluator, result.config.steps, true_dims, result.best_model, space)
     with Evaluator(result.config.steps, workers=workers, max_batch_robots=result.config.runtime.max_batch_robots,
                    params=result.config.sim_params, model_space=space,
                    summary=result.config.behaviour_summary) as ev:
@@ -185,8 +198,8 @@ def diagnose_run(out_dir: str | os.PathLike, workers: int = 1, *, profile_genera
         both = np.concatenate([final, truth])
         distinct = both[:1] if (both[0] == both[1]).all() else both  # the run may have found the truth
         proposed = refined = None
-        if result.config.inference.name == "profile" and state.inference:
-            inference = chosen_inference_state(state.estimation, state.inference)  # a lineage run: the chosen's
+        if result.config.inference.name == "profile" and data.inference:
+            inference = data.chosen_inference  # a lineage run: the chosen lineage's
             remembered = Profile.from_settings(result.config.inference)  # the run's inherit rule
             remembered.load_state_dict(inference)
             proposed = fit(truth, remembered.starting_angles(truth, len(experiments), np.random.default_rng(seed)))

@@ -195,10 +195,10 @@ def test_corrupt_run_files_name_the_file(case, copy, capsys):
         path.write_text(broken)
     else:
         fails_safe(_eea(run), capsys, path)
-    if target != "state.pkl":
+    if target != "state.pkl":  # diagnose reads the run as data (run_data.npz), never its checkpoint
         fails_safe(["plot", run, "--output", run / "p.png"], capsys, path)
         fails_safe(["compare", f"a={run}"], capsys, path)
-    fails_safe(["diagnose", run], capsys, path)
+        fails_safe(["diagnose", run], capsys, path)
 
 
 def test_truncated_neat_checkpoint_and_garbled_json_of_a_gait_run(copy, capsys):
@@ -235,7 +235,7 @@ def test_edited_damage_in_config_json_is_refused_by_resume_and_diagnose(copy, ca
     config["damage"] = "caudal_half"
     (run / "config.json").write_text(json.dumps(config))
     fails_safe(_eea(run, "--damage", "caudal_half"), capsys, "state.pkl", "damage")
-    fails_safe(["diagnose", run], capsys, "state.pkl", "damage")
+    fails_safe(["diagnose", run], capsys, "run_data.npz", "damage")
 
 
 def test_a_state_pkl_copied_from_another_run_is_refused(made, copy, capsys):
@@ -503,10 +503,10 @@ def test_rounds_csv_rows_are_finite_unique_and_consecutive(edit, names, copy, ca
 
 # -- 11. misleading messages --------------------------------------------------------------------------------
 
-def test_diagnose_names_a_missing_state_pkl(copy, capsys):
+def test_diagnose_names_a_missing_run_data_file(copy, capsys):
     run = copy("runs/seed0")
-    (run / "state.pkl").unlink()
-    line = fails_safe(["diagnose", run], capsys, "state.pkl", "no checkpoint")
+    (run / "run_data.npz").unlink()
+    line = fails_safe(["diagnose", run], capsys, "run_data.npz", "`aquafish eea`")
     assert "no finished round" not in line
 
 

@@ -307,7 +307,7 @@ def test_every_cell_is_triaged_before_any_cell_runs_its_other_rows_and_a_broken_
     stop_at = {"sampled:5"}  # its rows fail once: the run is interrupted between the passes
 
     def fake_cell(preset, damage, seed, cell, shared, duration, workers, progress, all_rows, triage_only,
-                  self_model_fields=None, oracle=None):
+                  self_model_fields=None, oracle=None, recheck=False):
         calls.append(("triage" if triage_only else "rows", damage))
         path = Path(cell)
         path.mkdir(parents=True, exist_ok=True)

@@ -48,7 +48,7 @@ def test_run_writes_config_and_one_row_per_round(tmp_path, tiny_config):
     assert loaded.rounds == rows and loaded.config == config and loaded.finished
     np.testing.assert_array_equal(loaded.best_morphology.to_array(), [rows[-1][c] for c in MODEL_COLUMNS])
     # no temp files left; the run directory records the command that made it
-    assert sorted(os.listdir(tmp_path)) == [COMMAND_FILE, "config.json", "rounds.csv", "state.pkl"]
+    assert sorted(os.listdir(tmp_path)) == [COMMAND_FILE, "config.json", "rounds.csv", "run_data.npz", "state.pkl"]
     assert (tmp_path / COMMAND_FILE).read_text() == "eea\n"
 
 @pytest.mark.parametrize("inference", ["none", "out_of_band", "in_band"])

@@ -194,7 +194,7 @@ def test_a_neat_checkpoint_is_unpickled_only_in_a_run_directory_whose_manifest_m
 
 
 def test_evolve_from_population_continues_a_runs_final_population_on_another_robot(tmp_path):
-    """The checkpoint's generation count carries on (1 + 1 = 2), the fitness is the new robot's
+    """The final population's generation count carries on (1 + 1 = 2), the fitness is the new robot's
     (every restored genome scored anew: the best fitness is the best controller's distance on
     the new robot, not a fitness it kept from the old one), nothing is written."""
     from gait import evolve_from_population, evolve_gait, rollout
@@ -214,7 +214,7 @@ def test_evolve_from_population_continues_a_runs_final_population_on_another_rob
     assert sorted(p.name for p in (tmp_path / "run").rglob("*")) == before
     with pytest.raises(ValueError, match="generations"):
         evolve_from_population(damaged, tmp_path / "run", 0, **kw)
-    with pytest.raises(ValueError, match="checkpoint"):
+    with pytest.raises(ValueError, match="final_population.json: does not exist"):  # read as data, never a checkpoint
         evolve_from_population(damaged, tmp_path / "empty", 1, **kw)
 
 
