@@ -302,12 +302,46 @@ def run_case_study(preset: str, damage: str, seed: int, out_dir, *, method: str 
                                           **model_fields(name, space, summary, own if key == "self_model" else None),
                                           **({"workers": workers} if workers else {}))
                for key, (name, space, summary) in runs.items()}
+    check_sizes(settings, configs, workers)
     out = check_output_dir(out_dir)
     shared = None if shared_dir is None else check_output_dir(shared_dir, "shared_dir")
     oracle = out if oracle_dir is None else check_output_dir(oracle_dir, "oracle_dir")
     with run_lock(out, command="case-study"):
         return _run_locked(preset, settings, damage, target, seed, out, method, model_space, video, workers,
                            progress, runs, configs, shared, all_rows, triage_only, own, oracle)
+
+
+def check_sizes(settings: CaseStudyPreset, configs: Mapping[str, EEAConfig], workers: int | None = None) -> None:
+    """Refuse, before anything is written, a case study (or a recovery benchmark's cells) that
+    would fail or run out of memory part-way: episodes too short for a PPO row to train a single
+    step (with the ``[rl]`` extra), gaits whose population and episodes cannot fit
+    (:func:`gait.neat_evolution.check_gait_memory`, as ``aquafish gait`` refuses them) and EEA
+    runs that cannot (:func:`eea.run.check_run_memory`, as ``aquafish eea`` refuses them; e.g.
+    ``--self-model-fields`` with a population of 10**9).
+
+    Args:
+        settings: the preset, with the episode duration asked for.
+        configs: the EEA runs' configs by row (``self_model``'s holds ``--self-model-fields``).
+        workers: the evaluation processes of each gait (None: every core).
+
+    Raises:
+        ValueError: one line naming the setting.
+    """
+    from eea.run import check_run_memory
+    from gait.neat_evolution import check_gait_memory
+
+    if _rl_available() and settings.rl_timesteps < 1:
+        raise ValueError(f"--episode-duration-s {settings.episode_duration_s:g} is shorter than half a control step "
+                         f"({DT_S * FRAME_SKIP:g} s), so the PPO rows would train for 0 steps; give more than "
+                         f"{DT_S * FRAME_SKIP / 2:g}")
+    check_gait_memory(settings.gait_population, settings.episode_duration_s, workers or os.cpu_count() or 1)
+    for key, config in configs.items():
+        try:
+            check_run_memory(config)
+        except ValueError as err:
+            if key != "self_model":
+                raise
+            raise ValueError(f"--self-model-fields: the self-model's EEA run with {err}") from None
 
 
 def check_self_model_fields(fields: Mapping | None, budget: str, method: str = DEFAULT_METHOD,
