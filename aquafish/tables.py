@@ -601,15 +601,11 @@ def _surface_column(title: str, key: str) -> StudyColumn:
 #: The README's tables by name (the name of their markers).
 TABLES: dict[str, TableSpec] = {
     "recovery": TableSpec(records=(
-        RecoveryColumn("{duration} s, {breaking} of {cells} cells break",
-                       "docs/results/recovery_quick_20s_today/summary.json",
-                       cells="docs/results/recovery_quick_20s/summary.json"),
-        RecoveryColumn("{duration} s, held-out faults ({damages}), {breaking} of {cells} break",
-                       "docs/results/recovery_heldout_20s_check/summary.json",
-                       cells="docs/results/recovery_heldout_20s/summary.json"),
-        RecoveryColumn("{duration} s, {breaking} of {cells} cells break",
-                       "docs/results/recovery_quick_60s/summary.json"),
-    ), render=partial(recovery_table, rows=RECOVERY_ROWS)),
+        RecoveryColumn("{duration} s, sealed set `benchmark_20s`: {breaking} of {cells} cells break",
+                       "docs/results/heldout/benchmark_20s/summary.json"),
+    ), render=partial(recovery_table, rows=(*RECOVERY_ROWS, (
+        "self-model identified strictly (every part's fault kind right, no healthy part held faulty)",
+        "strict_identification")))),
     "mission": TableSpec(records=(
         MissionColumn("development ({missions} missions)", ("docs/results/missions_hyp/warm_*_s[0-2].json",),
                       idle=(("{0[compute_s]:.1f} s idle (`{0[damage]}` {0[seed]}; the search before it: "
