@@ -59,8 +59,9 @@ ALGORITHM = CORE | SEARCH | INFERENCE
 ALLOWED_EXTRA = {("search.lineages", "eea.record")}
 #: Modules inside a subpackage that a core module may import directly.
 CORE_DEEP_IMPORTS = {("round", "eea.search.lineages")}
-#: Front ends that may import eea.analysis, lazily.
-FRONT_ENDS = {"eea/cli.py", "aquafish/studies_cli.py"}
+#: Front ends that may import eea.analysis, lazily (the README tables render study records as
+#: ``aquafish compare`` does).
+FRONT_ENDS = {"eea/cli.py", "aquafish/studies_cli.py", "aquafish/tables.py"}  # tables: the README's study table
 #: Folders of scripts (not modules of the packages), which may import eea.analysis at the top.
 SCRIPTS = ("examples", "docs/studies/probes")
 
