@@ -30,6 +30,7 @@ import statistics
 from pathlib import Path
 from typing import Sequence
 
+from aquafish.mission import RECOVERED_FINAL_SHARE
 from aquafish.recovery import signs_right
 from aquafish_gym.files import InputFileError, parse_json, read_input
 
@@ -259,7 +260,8 @@ def summarise_missions(reports: Sequence[dict]) -> dict:
         ``{"rows": [mission_row, ...], "totals": {...}}``: ``missions``, ``false_alarms``,
         ``alarm_in_time`` (missions with an alarm within :data:`ALARM_WITHIN_S` of the damage),
         ``recovered`` (against the counterfactuals, among the missions judged so: ``judged``),
-        ``beats_keep_old`` and ``final_80`` (its two parts), ``recovered_in_window`` (the older
+        ``beats_keep_old`` and ``final_80`` (its two parts, among the missions with the
+        counterfactuals: ``with_counterfactuals``), ``recovered_in_window`` (the older
         measure, at least :data:`RECOVERED_SHARE` of the oracle after recovery, as
         :func:`mission_row` judges it; among missions with an oracle speed: ``with_oracle``),
         ``recovered_20s`` (against the 20 s oracle alone), ``with_window`` (missions judged by
@@ -277,8 +279,9 @@ def summarise_missions(reports: Sequence[dict]) -> dict:
         "alarm_in_time": sum(r["alarm_in_time"] for r in rows),
         "judged": sum(r["recovered"] is not None for r in rows),
         "recovered": sum(bool(r["recovered"]) for r in rows),
+        "with_counterfactuals": sum(r["beats_keep_old"] is not None for r in rows),
         "beats_keep_old": sum(bool(r["beats_keep_old"]) for r in rows),
-        "final_80": sum(r["final_share"] is not None and r["final_share"] >= 0.8 for r in rows),
+        "final_80": sum(r["final_share"] is not None and r["final_share"] >= RECOVERED_FINAL_SHARE for r in rows),
         "with_oracle": sum(r["after_share"] is not None for r in rows),
         "recovered_in_window": sum(r["recovered_in_window"] for r in rows),
         "recovered_20s": sum(r["recovered_20s"] for r in rows),

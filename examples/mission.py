@@ -33,8 +33,13 @@ def main(argv=None) -> None:  # under the __main__ guard: evaluation may spawn w
     for key in ("onset_s", "alarm_s", "recovered_s", "target_experiments", "compute_seconds", "speed_before",
                 "speed_damaged", "speed_after", "oracle_speed"):
         print(f"{key:>18}: {report[key]}")
-    window = report["oracle_in_window"] or {}  # the oracles swum from the new gait's start, over the same span
+    window = report["oracle_in_window"] or {}  # the oracle swum from the new gait's start, over the same span
     print(f"{'oracle_in_window':>18}: {window.get('best')}")
+    # 3. judged against what else the robot could have done, from the onset's state to the end (units along the heading)
+    print(f"{'net_displacement':>18}: {report['net_displacement']}")
+    for name, alternative in (report["counterfactuals"] or {}).items():  # keep_old, oracle_at_alarm
+        print(f"{name:>18}: {alternative}")
+    print(f"{'recovered':>18}: {report['recovered']}")
 
 
 if __name__ == "__main__":
