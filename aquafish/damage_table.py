@@ -38,6 +38,7 @@ from aquafish_gym.checks import check_int
 from aquafish_gym import DAMAGES, get_damage
 from aquafish_gym.faults import SAMPLED_PREFIX, sampled_fault
 from aquafish_gym.files import atomic_write
+from aquafish_gym.rundir import run_lock
 from gait.neat_evolution import evolve_or_load_gait
 from gait.rollout import rollout
 
@@ -176,6 +177,14 @@ def damage_table(out, *, damages=None, budget: GaitBudget = GaitBudget(), starts
         ValueError: an unknown damage name, ``"none"`` or a fault that is no damage, an invalid
             fault (:func:`~aquafish_gym.get_damage`'s message) or ``starts`` < 1.
     """
+    with run_lock(out, command="damages"):  # the library call holds its directory as the command does
+        return _damage_table_locked(out, damages=damages, budget=budget, starts=starts, eval_seed=eval_seed,
+                                    verbose=verbose, progress=progress)
+
+
+def _damage_table_locked(out, *, damages=None, budget: GaitBudget = GaitBudget(), starts: int = 10,
+                         eval_seed: int = 1000, verbose: bool = False, progress: bool = True) -> list[dict[str, Any]]:
+    """The body of :func:`damage_table`, under the lock of ``out``."""
     names = check_damages(damages)
     check_int("starts", starts, 1)
     out = Path(out)

@@ -613,12 +613,10 @@ TABLES: dict[str, TableSpec] = {
         "self-model identified strictly (every part's fault kind right, no healthy part held faulty)",
         "strict_identification")))),
     "mission": TableSpec(records=(
-        MissionColumn("development ({missions} missions)", ("docs/results/missions_hyp/warm_*_s[0-2].json",),
-                      idle=(("{0[compute_s]:.1f} s idle (`{0[damage]}` {0[seed]}; the search before it: "
-                             "{1[compute_s]:.1f} s in the same session)",
-                             ("docs/results/missions_idle/idle_w2_hypotheses_rlp_s0.json",
-                              "docs/results/missions_idle/idle_w2_lean_b4374ff_rlp_s0.json")),)),
-        MissionColumn("held out ({missions})", ("docs/results/missions_hyp/warm_sampled10*_s500*.json",)),
+        MissionColumn("sealed set `missions_development_damages` ({missions} missions)",
+                      ("docs/results/heldout/missions_development_damages/*.json",)),
+        MissionColumn("validation, before the counterfactuals ({missions})",
+                      ("docs/results/missions_hyp/warm_*_s[0-2].json", "docs/results/missions_hyp/warm_sampled10*_s500*.json")),
     ), render=partial(mission_table, rows=MISSION_ROWS)),
     "obj_fit": TableSpec(records=(
         _surface_column("`left_pectoral_half`", "lph"),

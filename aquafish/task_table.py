@@ -27,7 +27,7 @@ import numpy as np
 from aquafish_gym import ENV_IDS
 from aquafish_gym.checks import check_int
 from aquafish_gym.files import atomic_write
-from aquafish_gym.rundir import read_json
+from aquafish_gym.rundir import read_json, run_lock
 from gait.controller import RandomController, load_controller, require_rl, sb3_sidecar
 from gait.neat_evolution import RUN_FILE, evolve_or_load_gait
 from gait.rl import train_or_load_rl
@@ -114,6 +114,14 @@ def task_table(out, *, env_ids=None, budget: BaselineBudget = BaselineBudget(), 
             :class:`~gait.controller.MissingExtraError` if ``ppo_timesteps`` > 0 without the
             ``[rl]`` extra (before anything is trained or written).
     """
+    with run_lock(out, command="baselines"):  # the library call holds its directory as the command does
+        return _task_table_locked(out, env_ids=env_ids, budget=budget, starts=starts, eval_seed=eval_seed,
+                                  progress=progress)
+
+
+def _task_table_locked(out, *, env_ids=None, budget: BaselineBudget = BaselineBudget(), starts: int = 10,
+                       eval_seed: int = 1000, progress: bool = True) -> list[dict[str, Any]]:
+    """The body of :func:`task_table`, under the lock of ``out``."""
     env_ids = list(ENV_IDS) if env_ids is None else [check_env_id(e) for e in env_ids]
     check_int("starts", starts, 1)
     out = Path(out)

@@ -3,8 +3,7 @@
     python examples/damage_recovery.py [--budget quick] [--damage NAME] [--episode-duration-s 60] [--out DIR]
 
 The steps of ``aquafish case-study`` (which also writes the report, figures and PPO rows) with a preset's budget. The
-self-model holds a gain per servo (its gait's robot has them as ``ServoFaults``); ``robust``: random damages; the
-oracle, every share's yardstick, is independent (aquafish.oracle: 3 runs, 3x the budget, seeds no other gait uses).
+self-model holds a gain per servo (its gait's robot has them as ``ServoFaults``); ``robust``: random damages.
 """
 
 import argparse
@@ -38,26 +37,19 @@ def main(argv=None) -> None:  # a function under the __main__ guard: worker proc
         result = eea.load_result(args.out / f"eea_{key}")  # self_model: what the check against fault hypotheses kept
         gains = tuple(result.self_model[9:])  # the 3 servo gains after the 9 dimensions (none in "morphology")
         robots[key] = gait.Robot(result.self_model_morphology, faults=ServoFaults(speed_scale=gains) if gains else None)
-    robots["true_damaged"] = target = gait.as_robot(args.damage)  # the oracle's robot: the damaged robot itself
-
+    target = gait.as_robot(args.damage)  # the damaged robot: the oracle gait's robot too
     # 2. a NEAT gait per robot, one budget; the oracle: the best of 3 runs on the damaged robot, 3x the generations
-    controllers, distances = {}, {}
-    for key, robot in robots.items():
-        if key == "true_damaged":
-            controllers[key] = evolve_oracle(robot, args.out / f"oracle_{seconds:g}s", generations=s.gait_generations,
-                                             population_size=s.gait_population, episodes_per_genome=s.gait_episodes,
-                                             episode_duration_s=seconds, workers=workers).controller
-        else:
-            controllers[key] = gait.evolve_or_load_gait(
-                robot, args.out / f"gait_{key}_{seconds:g}s", generations=s.gait_generations, workers=workers,
-                seed=seed, population_size=s.gait_population, episodes_per_genome=s.gait_episodes,
-                episode_duration_s=seconds)
-        # 3. each swims on its robot and on the damaged one, from the same starts
-        t = gait.score_transfer(controllers[key], robot, target, seed=seed, episodes=s.transfer_episodes,
-                                episode_duration_s=seconds)
-        distances[key] = {"target_distance": t.target_distance}
+    kw = dict(population_size=s.gait_population, episodes_per_genome=s.gait_episodes, episode_duration_s=seconds,
+              generations=s.gait_generations, workers=workers)
+    controllers = {key: gait.evolve_or_load_gait(robot, args.out / f"gait_{key}_{seconds:g}s", seed=seed, **kw)
+                   for key, robot in robots.items()}
+    controllers["true_damaged"] = evolve_oracle(target, args.out / f"oracle_{seconds:g}s", **kw).controller
+    robots["true_damaged"] = target  # 3. each swims on its robot and on the damaged one, from the same starts
+    transfers = {key: gait.score_transfer(controllers[key], robot, target, seed=seed, episodes=s.transfer_episodes,
+                                          episode_duration_s=seconds) for key, robot in robots.items()}
+    for key, t in transfers.items():
         print(f"{key:>12}: {t.native_distance:6.2f} units on its robot, {t.target_distance:6.2f} on the damaged robot")
-    print(verdict(distances)["line"])
+    print(verdict({key: {"target_distance": t.target_distance} for key, t in transfers.items()})["line"])
     # 4. the damaged robot from above under three of the gaits (mp4, or a GIF without imageio-ffmpeg)
     video = record_video({k: controllers[k] for k in ("healthy", "self_model", "true_damaged")}, target,
                          args.out / "recovery", seed=seed, episode_duration_s=seconds)

@@ -161,8 +161,8 @@ def test_eea_values_from_a_file_count_as_given(tmp_path, monkeypatch):
     ("zzz = 1\n", ["unknown key 'zzz' for aquafish case-study", "valid keys: budget, method,", "no_progress"]),
     ("preset = \"smoke\"\n", ["key 'preset' is another name of 'budget'; write budget"]),
     ("no_video = true\n", ["key 'no_video' is another name of 'video'; write video = true or false"]),
-    ("seed = -1\n", ["key 'seed': argument --seed: must be an int >= 0, got '-1'"]),
-    ("seed = 1.5\n", ["key 'seed': argument --seed: must be an int >= 0, got '1.5'"]),
+    ("seed = -1\n", ["key 'seed': argument --seed: must be an int >= 0 and <= 999999, got '-1'"]),
+    ("seed = 1.5\n", ["key 'seed': argument --seed: must be an int >= 0 and <= 999999, got '1.5'"]),
     ("budget = \"fastest\"\n", ["key 'budget': argument --budget: invalid choice: 'fastest'"]),
     ("seed = true\n", ["key 'seed': --seed takes a value, not true or false"]),
     ("no_progress = \"yes\"\n", ["key 'no_progress': --no-progress is a switch: give true or false, got a string "
