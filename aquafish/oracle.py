@@ -174,7 +174,8 @@ def evolve_oracle(robot: Robot, oracle_dir, *, generations: int, population_size
         oracle_dir: where the runs are kept (:func:`oracle_run_dir` each).
         generations: the *procedure's* NEAT generations; each run evolves
             :data:`ORACLE_BUDGET_FACTOR` times as many.
-        population_size, episodes_per_genome: as the procedure's gaits.
+        population_size: NEAT's population, as the procedure's gaits'.
+        episodes_per_genome: starts per genome evaluation, as the procedure's gaits'.
         episode_duration_s: simulated seconds of every episode.
         workers: evaluation processes (default: all cores); with more than one, the runs
             evolve at once on one :class:`~gait.shared_pool.SharedPool`.
