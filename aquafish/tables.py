@@ -615,6 +615,8 @@ TABLES: dict[str, TableSpec] = {
     "mission": TableSpec(records=(
         MissionColumn("sealed set `missions_development_damages` ({missions} missions)",
                       ("docs/results/heldout/missions_development_damages/*.json",)),
+        MissionColumn("sealed set `missions_fresh_faults` ({missions})",
+                      ("docs/results/heldout/missions_fresh_faults/*.json",)),
         MissionColumn("validation, before the counterfactuals ({missions})",
                       ("docs/results/missions_hyp/warm_*_s[0-2].json", "docs/results/missions_hyp/warm_sampled10*_s500*.json")),
     ), render=partial(mission_table, rows=MISSION_ROWS)),
