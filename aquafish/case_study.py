@@ -175,7 +175,7 @@ HYPOTHESES_SELF_MODEL_FIELDS = MappingProxyType({**LEAN_SELF_MODEL_FIELDS, "esti
                                                  "estimation_generations": 3, "exploration_diversity": 0})
 
 PRESETS: dict[str, CaseStudyPreset] = {
-    # 3-4 minutes on 2 idle cores (2026-12-02; 5.5 the day before, on a slower day of the machine):
+    # about 4.3 minutes on 2 idle cores, the independent oracle's 3 runs included (`make demo`):
     # the self-model ranks the fault hypotheses, PPO's cheaper updates
     "quick": CaseStudyPreset(
         budget="quick", gait_population=30, gait_generations=12, gait_episodes=2, transfer_episodes=5,
