@@ -22,7 +22,7 @@ CASE_STUDY_BUDGETS = ("smoke", "quick", "medium", "paper")
 PROCEDURE_SEED_LIMIT = 1_000_000
 #: ``--budget`` of the commands that run case studies (case-study, recovery).
 CASE_STUDY_BUDGET_HELP = ("the case study's budget (aquafish.case_study.PRESETS): smoke (a pipeline check), quick "
-                          "(~15 min on 2 cores), medium (~1 h) or paper (the paper's settings); its EEA runs get the "
+                          "(~4-5 min on 2 cores), medium (over 15 min) or paper (the paper's settings); its EEA runs get the "
                           "aquafish eea --budget of the same name")
 
 #: EEA settings that are no flags of ``aquafish study``: the study sets them per run
