@@ -58,8 +58,8 @@ import numpy as np
 
 import eea
 import gait
-from aquafish.oracle import (ORACLE_BUDGET_FACTOR, OracleGait, check_procedure_seed, neat_budget, oracle_jobs,
-                             ppo_budget, select_oracle)
+from aquafish.oracle import (OracleGait, check_procedure_seed, neat_budget, oracle_jobs, ppo_budget,
+                             select_oracle)
 from aquafish_gym import DT_S, MORPHOLOGY_BOUNDS, MORPHOLOGY_FIELDS, Morphology, ServoFaults, get_damage
 from aquafish_gym.drawing import plot_morphologies
 from aquafish_gym.env import FRAME_SKIP
@@ -691,7 +691,7 @@ def _run_locked(preset: str, settings: CaseStudyPreset, damage: str, target: Mor
                 done = pool.run_each([functools.partial(evolve, key, native, pool) for key, native in rows.items()]
                                      + [functools.partial(job, pool) for job in runs])
             controllers, found = dict(zip(rows, done[:len(rows)])), done[len(rows):]
-        oracle = select_oracle(found, target_robot, duration, generations=ORACLE_BUDGET_FACTOR * settings.gait_generations,
+        oracle = select_oracle(found, target_robot, duration, generations=settings.gait_generations,
                                population=settings.gait_population, starts=settings.gait_episodes)
         return {**controllers, "true_damaged": oracle.controller}
 

@@ -564,8 +564,13 @@ def span_speed(rows: list[dict], start_s: float, end_s: float | None = None) -> 
     i, j = int(np.argmin(np.abs(t - start_s))), int(np.argmin(np.abs(t - end_s)))
     if t[j] - t[i] < CONTROL_S - 1e-9:
         return None
-    pos = np.array([[rows[k]["x"], rows[k]["y"], rows[k]["z"]] for k in (i, j)])
-    return float((pos[1] - pos[0]) @ INITIAL_HEADING / (t[j] - t[i]))
+    return _along_heading(rows[i], rows[j]) / float(t[j] - t[i])
+
+
+def _along_heading(start: dict, end: dict) -> float:
+    """Units along the mission's heading from the trajectory row ``start`` to ``end``."""
+    a, b = (np.array([r["x"], r["y"], r["z"]]) for r in (start, end))
+    return float((b - a) @ INITIAL_HEADING)
 
 
 def plot_timeline(rows: list[dict], report: dict, path) -> Path:
@@ -761,8 +766,8 @@ def _check_settings(out: Path, wanted: dict) -> None:
 
 
 def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings: MissionPreset, preset: str, seed: int,
-         out: Path, workers: int, video: bool, oracle: bool, progress: bool, warm: bool = True,
-         own: dict | None = None, oracle_dir: Path | None = None) -> dict:
+         out: Path, workers: int, video: bool, oracle: bool, progress: bool, warm: bool,
+         own: dict | None, oracle_dir: Path) -> dict:
     mission = _Mission(damage, onset_s, duration_s, seed)
     monitor = DamageMonitor(prior.calibration)
     monitor.update(mission.obs, {"time_s": 0.0})
@@ -817,8 +822,7 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         if after_start is not None and after_start >= rows[-1]["time_s"]:
             after_start = None  # the mission ended before it
         if oracle:
-            independent, oracle_speed = _straight_oracle(damage, settings, seed, oracle_dir or out / ORACLE_DIR,
-                                                         workers, progress)
+            independent, oracle_speed = _straight_oracle(damage, settings, seed, oracle_dir, workers, progress)
             if snapshot is not None and after_start is not None:
                 window = _oracle_in_window(mission, snapshot, after_start, independent.controller, duration_s)
             if onset_snap is not None:
@@ -832,6 +836,8 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
     speed_before = span_speed(rows, max(settings.warmup_s, healthy_end - settings.speed_span_s), healthy_end)
     speed_damaged = span_speed(rows, onset_s, alarm_s)
     speed_after = None if after_start is None else span_speed(rows, after_start)
+    displacement = None if onset_snap is None else net_displacement(rows, onset_snap.time_s)
+    ending = final_speed(rows, duration_s)
     space = get_model_space("morphology+servos")
     report = {
         "damage": damage, "seed": seed, "preset": preset, "duration_s": duration_s,
@@ -856,11 +862,9 @@ def _run(prior: Prior, damage: str, onset_s: float, duration_s: float, settings:
         "oracle_speed": oracle_speed,
         "oracle_in_window": window,
         "oracle": None if independent is None else independent.record(),
-        "net_displacement": None if onset_snap is None else net_displacement(rows, onset_snap.time_s),
-        "final_speed": final_speed(rows, duration_s),
+        "net_displacement": displacement, "final_speed": ending,
         "counterfactuals": counterfactuals,
-        "recovered": None if counterfactuals is None else judge_recovery(
-            net_displacement(rows, onset_snap.time_s), final_speed(rows, duration_s), counterfactuals),
+        "recovered": None if counterfactuals is None else judge_recovery(displacement, ending, counterfactuals),
         "monitor": {"lower": prior.calibration.lower, "upper": prior.calibration.upper,
                     "window_s": prior.calibration.window_s},
         "self_model_before": _model_dict(prior.genome),
@@ -1034,9 +1038,7 @@ def net_displacement(rows: list[dict], onset_s: float) -> float:
     """Units along the mission's heading from the trajectory sample nearest ``onset_s`` to the
     last: what the robot made of the mission after the damage, every stop charged."""
     t = np.array([r["time_s"] for r in rows])
-    i = int(np.argmin(np.abs(t - onset_s)))
-    a, b = (np.array([rows[k]["x"], rows[k]["y"], rows[k]["z"]]) for k in (i, -1))
-    return float((b - a) @ INITIAL_HEADING)
+    return _along_heading(rows[int(np.argmin(np.abs(t - onset_s)))], rows[-1])
 
 
 def final_speed(rows: list[dict], duration_s: float) -> float | None:
@@ -1074,13 +1076,13 @@ def _counterfactuals(mission: _Mission, onset: _Snapshot, old_gait, alarm: _Snap
     onset). Each: ``net_displacement`` (units from the onset's position to the end, along the
     heading), ``final_speed`` (units/s, :func:`final_speed`) and ``start_s``."""
     onset_s = onset.time_s
-    keep = mission.swim_from(onset, copy.deepcopy(old_gait), duration_s, "keep_old", clock_origin_s=0.0)
+    keep = mission.swim_from(onset, old_gait, duration_s, "keep_old", clock_origin_s=0.0)
     result = {"keep_old": {"start_s": onset_s, "net_displacement": net_displacement(keep, onset_s),
                            "final_speed": final_speed(keep, duration_s)}, "oracle_at_alarm": None}
     if alarm is not None:
         swum = mission.swim_from(alarm, oracle_controller, duration_s, "oracle_at_alarm")
-        start, end = (np.array([r["x"], r["y"], r["z"]]) for r in (keep[0], swum[-1]))  # keep[0]: the onset's row
-        result["oracle_at_alarm"] = {"start_s": alarm.time_s, "net_displacement": float((end - start) @ INITIAL_HEADING),
+        result["oracle_at_alarm"] = {"start_s": alarm.time_s,  # from the onset's row, keep_old's first
+                                     "net_displacement": _along_heading(keep[0], swum[-1]),
                                      "final_speed": final_speed(swum, duration_s)}
     return result
 

@@ -127,6 +127,15 @@ def select_oracle(controllers, robot: Robot, episode_duration_s: float, *, gener
     over the selection starts (:data:`SELECTION_SEED`, :data:`SELECTION_EPISODES`); a tie goes to
     the first run.
 
+    Args:
+        controllers: each run's best controller (:func:`oracle_jobs`' results).
+        robot: the true damaged target.
+        episode_duration_s: simulated seconds of every selection episode.
+        generations: the *procedure's* NEAT generations; the record's budget is the runs':
+            :data:`ORACLE_BUDGET_FACTOR` times as many.
+        population: NEAT's population of every run.
+        starts: starts per genome evaluation of every run.
+
     Raises:
         ValueError: not one controller per :func:`oracle_seeds` run.
     """
@@ -138,7 +147,8 @@ def select_oracle(controllers, robot: Robot, episode_duration_s: float, *, gener
                       for c in controllers)
     chosen = int(np.argmax(distances))
     return OracleGait(controllers[chosen], chosen, tuple(oracle_seeds()),
-                      neat_budget(generations, population, starts), distances, episode_duration_s)
+                      neat_budget(ORACLE_BUDGET_FACTOR * generations, population, starts), distances,
+                      episode_duration_s)
 
 
 def oracle_jobs(robot: Robot, oracle_dir, *, generations: int, population_size: int, episodes_per_genome: int,
@@ -194,5 +204,5 @@ def evolve_oracle(robot: Robot, oracle_dir, *, generations: int, population_size
     else:
         with SharedPool(processes) as shared:
             controllers = shared.run_each([functools.partial(job, shared) for job in jobs])
-    return select_oracle(controllers, robot, episode_duration_s, generations=ORACLE_BUDGET_FACTOR * generations,
+    return select_oracle(controllers, robot, episode_duration_s, generations=generations,
                          population=population_size, starts=episodes_per_genome)
