@@ -54,7 +54,8 @@ _MORPHOLOGY_KEYS = ("left_pectoral_x", "left_pectoral_y", "right_pectoral_x", "r
 
 
 def read_missions(directories: Sequence[str | os.PathLike]) -> list[dict]:
-    """The ``mission.json`` report of every directory, in the order given.
+    """The ``mission.json`` report of every directory, in the order given. An entry that is a file
+    is read as a mission report itself (``docs/results`` keeps reports as ``<name>.json``).
 
     Raises:
         ValueError: no directory given, a directory given twice, or one without a readable
@@ -67,7 +68,7 @@ def read_missions(directories: Sequence[str | os.PathLike]) -> list[dict]:
     seen: set[Path] = set()
     reports = []
     for d in directories:
-        path = Path(d) / "mission.json"
+        path = Path(d) if Path(d).is_file() else Path(d) / "mission.json"
         key = path.resolve()
         if key in seen:
             raise ValueError(f"{d}: given twice")

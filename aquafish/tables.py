@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import dataclasses
 import glob
-import json
 import re
 import statistics
 from functools import partial
@@ -52,6 +51,7 @@ from aquafish.mission import RECOVERED_FINAL_SHARE
 from aquafish.mission_table import ALARM_WITHIN_S, COMPUTE_BUDGET_S, RECOVERED_SHARE, mission_row, read_missions, \
     summarise_missions
 from aquafish.recovery import ROWS
+from aquafish_gym.rundir import read_json
 
 __all__ = ["ALARM_GOAL", "MISSION_FIELDS", "MISSION_ROWS", "NEAR_TRUTH", "RECOVERY_ROWS", "TABLES", "MissionColumn",
            "MissionRow", "RecoveryColumn", "StudyColumn", "StudyRow", "TableSpec", "check_page", "find_tables",
@@ -99,13 +99,14 @@ class TableSpec:
 
 
 def _read_json(root: Path, relative: str) -> dict:
-    path = root / relative
+    """The JSON object of the record ``root/relative`` (:func:`aquafish_gym.rundir.read_json`: a regular
+    file, bounded; a :class:`~aquafish_gym.rundir.FileError`, a ``ValueError``, names a bad one)."""
     try:
-        return json.loads(path.read_text())
+        return read_json(root / relative)
     except FileNotFoundError:
         raise ValueError(f"{relative}: no such record under {root}") from None
-    except (OSError, json.JSONDecodeError) as err:
-        raise ValueError(f"{relative}: cannot be read as JSON ({err})") from None
+    except OSError as err:
+        raise ValueError(f"{relative}: cannot be read ({err})") from None
 
 
 def _fill(template: str, **fields) -> str:
@@ -373,19 +374,9 @@ def _mission_paths(root: Path, entries: Sequence[str]) -> list[Path]:
 
 
 def _read_reports(root: Path, entries: Sequence[str]) -> list[dict]:
-    """The reports of :func:`_mission_paths` (a directory's by :func:`aquafish.mission_table.read_missions`)."""
-    paths = _mission_paths(root, entries)
-    if len({p.resolve() for p in paths}) != len(paths):
-        raise ValueError(f"{', '.join(entries)}: a mission is named twice")
-    directories = [p for p in paths if p.is_dir()]
-    reports = dict(zip(directories, read_missions(directories))) if directories else {}
-    for p in paths:
-        if p not in reports:
-            try:
-                reports[p] = json.loads(p.read_text())
-            except (OSError, json.JSONDecodeError) as err:
-                raise ValueError(f"{p}: cannot be read as a mission report ({err})") from None
-    return [reports[p] for p in paths]
+    """The reports of :func:`_mission_paths`, read and checked by :func:`aquafish.mission_table.read_missions`
+    (a mission named twice refused)."""
+    return read_missions(_mission_paths(root, entries))
 
 
 def _simulations(report: dict) -> int | None:
@@ -575,10 +566,9 @@ def study_table(columns: Sequence[StudyColumn], root: Path, rows: Sequence[Study
     if reference is None:
         return _table([first, *(c.title for c in columns)], body)
     title, path = reference
-    try:
-        published = json.loads((root / path).read_text())["objective_fitness"]
-    except (OSError, ValueError, KeyError, TypeError) as err:
-        raise ValueError(f"{path}: not a reference record with objective_fitness ({err})") from None
+    published = _read_json(root, path).get("objective_fitness")
+    if not isinstance(published, dict):
+        raise ValueError(f"{path}: not a reference record: no objective_fitness object")
     for line, row in zip(body, rows):
         line.append(str(published.get(row.variant, "")))
     return _table([first, *(c.title for c in columns), title], body)
