@@ -92,7 +92,7 @@ from aquafish.mission_video import ANGLE_COLUMNS, write_mission_video
 from aquafish.oracle import check_procedure_seed, evolve_oracle
 from aquafish.monitor import CALIBRATION_FILE, DamageMonitor, MonitorCalibration, calibrate
 from aquafish_gym import ServoFaults, get_damage
-from aquafish_gym.checks import check_int
+from aquafish_gym.checks import check_int, short_json
 from aquafish_gym.env import FRAME_SKIP, INITIAL_HEADING, check_onset
 from aquafish_gym.files import atomic_write
 from aquafish_gym.params import DT_S
@@ -904,9 +904,8 @@ def _read_self_model(path: Path) -> tuple[np.ndarray, Robot]:
     genome = data.get("genome")
     if not (isinstance(genome, list) and len(genome) == bits
             and all(type(b) is int and b in (0, 1) for b in genome)):  # noqa: E721 (no bools, no floats)
-        shown = json.dumps(genome)
         raise FileError(path, f"field 'genome' must be the {bits} bits (0 or 1) of a morphology+servos model genome, "
-                              f"got {shown if len(shown) <= 40 else shown[:37] + '...'}", fix)
+                              f"got {short_json(genome, 40)}", fix)
     try:
         if not isinstance(data.get("robot"), dict):
             raise TypeError(f"a JSON object, got {type(data.get('robot')).__name__}")

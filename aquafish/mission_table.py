@@ -32,6 +32,7 @@ from typing import Sequence
 
 from aquafish.mission import RECOVERED_FINAL_SHARE
 from aquafish.recovery import signs_right
+from aquafish_gym.checks import short_json
 from aquafish_gym.files import InputFileError, parse_json, read_input
 
 __all__ = ["ALARM_WITHIN_S", "COMPUTE_BUDGET_S", "RECOVERED_SHARE", "WINDOW_ORACLE_MIN_SHARE", "check_report",
@@ -90,8 +91,8 @@ def read_missions(directories: Sequence[str | os.PathLike]) -> list[dict]:
 
 
 def _shown(value) -> str:
-    text = "NaN" if isinstance(value, float) and math.isnan(value) else json.dumps(value, default=str)
-    return text if len(text) <= 40 else text[:37] + "..."
+    """A report's value in a message (:func:`aquafish_gym.checks.short_json`)."""
+    return short_json(value, 40)
 
 
 def _number(value) -> bool:

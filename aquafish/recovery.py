@@ -69,7 +69,7 @@ from typing import Iterable, Iterator
 
 from aquafish import backends
 from aquafish.shipping import DirTask
-from aquafish_gym.checks import check_int
+from aquafish_gym.checks import check_int, short_json
 from aquafish_gym.files import atomic_write
 from aquafish_gym.progress import progress_bar
 from aquafish_gym.rundir import (FileError, check_fingerprint, check_output_dir, make_subdir, read_json, refuse_pickles,
@@ -251,8 +251,8 @@ def _check_subdir(out: Path, path: Path) -> None:
 
 
 def _shown(value) -> str:
-    text = json.dumps(value, default=str)
-    return text if len(text) <= 60 else text[:57] + "..."
+    """A manifest's or report's value in a message (:func:`aquafish_gym.checks.short_json`)."""
+    return short_json(value, 60)
 
 
 def read_manifest(out: Path) -> tuple[dict, RecoverySpec]:

@@ -7,10 +7,28 @@ import math
 import numpy as np
 
 __all__ = ["DuplicateKeyError", "MESSAGE_VALUE_CHARS", "check_int", "check_seconds", "check_weight", "check_yaw_deg",
-           "json_loads_unique_keys", "short_repr"]
+           "json_loads_unique_keys", "short_json", "short_repr"]
 
 #: The most characters of a value that a message quotes (:func:`short_repr`).
 MESSAGE_VALUE_CHARS = 80
+
+
+def short_json(value, limit: int = MESSAGE_VALUE_CHARS) -> str:
+    """``value`` as JSON text for a message about a JSON file's field (``null``, ``true``,
+    ``"abc"``, ``NaN``; what JSON cannot hold as its ``str``), at most ``limit`` characters: a
+    longer text keeps its first ``limit - 3`` and ends in ``...``.
+
+    Args:
+        value: a value read from a JSON file.
+        limit: the characters kept (>= 4).
+
+    Returns:
+        The text.
+    """
+    import json
+
+    text = json.dumps(value, default=str)
+    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 def short_repr(value, limit: int = MESSAGE_VALUE_CHARS) -> str:

@@ -55,3 +55,12 @@ def test_check_seconds_takes_positive_finite_numbers_and_names_the_rest():
     for bad in (0, -1.0, float("nan"), float("inf"), True, "3", None):
         with pytest.raises(ValueError, match=r"d must be a positive number of seconds, got"):
             check_seconds("d", bad)
+
+
+def test_short_json_quotes_a_json_field_as_json_and_cuts_a_long_one():
+    from aquafish_gym.checks import short_json
+
+    assert [short_json(v, 40) for v in (None, True, "abc", float("nan"), {"a": [1]})] == \
+        ["null", "true", '"abc"', "NaN", '{"a": [1]}']
+    long = short_json(list(range(100)), 40)
+    assert len(long) == 40 and long.startswith("[0, 1, 2") and long.endswith("...")
